@@ -1,0 +1,168 @@
+"""Write one level of one building as a self-contained binary glTF (``.glb``) with pygltflib.
+
+Input: the building's parts in the **local East/Up/North frame** (metres, x = East, y = Up,
+z = North, triangles wound so ``(b - a) x (c - a)`` points outward; see ``exporter/model.py``).
+
+Output frame, **glTF**: +X = West, +Y = Up, +Z = North. glTF is right-handed with counter-clockwise
+front faces, so the writer negates X of positions and normals and reverses every triangle: the
+exact inverse of what glTFast does on import (negate X, reverse winding), so the building arrives
+in Unity as x = East, y = Up, z = North with outward faces still outward.
+
+One mesh, one primitive per part (one material each), one node, ``"scene": 0`` (glTFast's editor
+importer only creates a main object when the file names a default scene). Textures are embedded
+as they are given (JPEG/PNG bytes, no re-encoding).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pygltflib
+from pygltflib import GLTF2
+
+from .model import Part
+
+GLTF_MIMES = ("image/jpeg", "image/png")
+
+
+def local_to_gltf_positions(positions: np.ndarray) -> np.ndarray:
+    """(n, 3) local East/Up/North metres -> (n, 3) glTF (West, Up, North) metres, float32."""
+    out = np.array(positions, dtype=np.float32, copy=True).reshape(-1, 3)
+    out[:, 0] *= -1.0
+    return out
+
+
+def local_to_gltf_triangles(triangles: np.ndarray) -> np.ndarray:
+    """Reverse each triangle (a, b, c) -> (a, c, b): negating X is a reflection, which would
+    otherwise turn every face inside out."""
+    triangles = np.asarray(triangles).reshape(-1, 3)
+    return triangles[:, [0, 2, 1]]
+
+
+def vertex_normals(positions: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Area-weighted unit vertex normals (n, 3) float32 in the frame of ``positions``; vertices with
+    no area around them get +Y (up) so the glTF stays valid (unit-length normals)."""
+    positions = np.asarray(positions, dtype=np.float64)
+    normals = np.zeros_like(positions)
+    if len(triangles):
+        a, b, c = (positions[triangles[:, i]] for i in range(3))
+        face = np.cross(b - a, c - a)  # length = 2 x area: area weighting for free
+        for i in range(3):
+            np.add.at(normals, triangles[:, i], face)
+    return _unit_or_up(normals)
+
+
+def _unit_or_up(vectors: np.ndarray) -> np.ndarray:
+    vectors = np.asarray(vectors, dtype=np.float64).reshape(-1, 3)
+    length = np.linalg.norm(vectors, axis=1)
+    good = np.isfinite(length) & (length > 1e-12)
+    out = np.zeros_like(vectors)
+    out[good] = vectors[good] / length[good, None]
+    out[~good] = (0.0, 1.0, 0.0)
+    return out.astype(np.float32)
+
+
+class _GlbBuilder:
+    """Accumulates buffer views and accessors into one binary chunk (4-byte aligned)."""
+
+    def __init__(self) -> None:
+        self.gltf = GLTF2(asset=pygltflib.Asset(version="2.0", generator="vworld-lod"))
+        self.blob = bytearray()
+
+    def _view(self, data: bytes, target: int | None = None) -> int:
+        while len(self.blob) % 4:
+            self.blob.append(0)
+        view = pygltflib.BufferView(buffer=0, byteOffset=len(self.blob), byteLength=len(data))
+        if target is not None:
+            view.target = target
+        self.blob += data
+        self.gltf.bufferViews.append(view)
+        return len(self.gltf.bufferViews) - 1
+
+    def accessor(self, array: np.ndarray, component: int, kind: str, target: int | None, with_bounds: bool = False) -> int:
+        view = self._view(array.tobytes(), target)
+        accessor = pygltflib.Accessor(bufferView=view, componentType=component, count=int(len(array)), type=kind)
+        if with_bounds:
+            accessor.min = [float(v) for v in array.min(axis=0)]
+            accessor.max = [float(v) for v in array.max(axis=0)]
+        self.gltf.accessors.append(accessor)
+        return len(self.gltf.accessors) - 1
+
+    def image(self, data: bytes, mime: str, name: str) -> int:
+        view = self._view(data)
+        self.gltf.images.append(pygltflib.Image(bufferView=view, mimeType=mime, name=name or None))
+        return len(self.gltf.images) - 1
+
+
+def glb_bytes(parts: list[Part], name: str) -> bytes:
+    """Encode ``parts`` (local East/Up/North, outward winding) as a self-contained GLB.
+
+    Parts without triangles are left out; a level must keep at least one triangle overall (the
+    pipeline guarantees it). Textures must already be JPEG or PNG (the texture stage converts).
+    """
+    builder = _GlbBuilder()
+    gltf = builder.gltf
+    sampler_index = None
+    primitives = []
+    texture_of_image: dict[int, int] = {}
+    for part_index, part in enumerate(parts):
+        if part.triangle_count == 0:
+            continue
+        positions = local_to_gltf_positions(part.positions)
+        normals_local = part.normals if part.normals is not None and len(part.normals) == len(part.positions) else vertex_normals(part.positions, part.triangles)
+        normals = _unit_or_up(normals_local)
+        normals[:, 0] *= -1.0
+        triangles = local_to_gltf_triangles(part.triangles)
+        index_type = pygltflib.UNSIGNED_SHORT if len(positions) <= 65535 else pygltflib.UNSIGNED_INT
+        indices = triangles.astype(np.uint16 if index_type == pygltflib.UNSIGNED_SHORT else np.uint32).reshape(-1)
+
+        attributes = pygltflib.Attributes(
+            POSITION=builder.accessor(positions, pygltflib.FLOAT, pygltflib.VEC3, pygltflib.ARRAY_BUFFER, with_bounds=True),
+            NORMAL=builder.accessor(normals, pygltflib.FLOAT, pygltflib.VEC3, pygltflib.ARRAY_BUFFER),
+        )
+        material = pygltflib.Material(
+            name=part.name or f"part{part_index}",
+            pbrMetallicRoughness=pygltflib.PbrMetallicRoughness(
+                baseColorFactor=[float(c) for c in part.color], metallicFactor=0.0, roughnessFactor=1.0
+            ),
+            # Floorless buildings are open at the bottom, but their faces are wound outward: single
+            # sided is right (and halves fill cost); the open bottom is never seen from outside.
+            doubleSided=False,
+        )
+        if len(part.color) == 4 and part.color[3] < 1.0:
+            material.alphaMode = pygltflib.BLEND
+        has_texture = part.texture is not None and part.uvs is not None and len(part.uvs) == len(part.positions)
+        if has_texture:
+            if part.texture.mime not in GLTF_MIMES:
+                raise ValueError(f"texture {part.texture.name!r} is {part.texture.mime}; glTF needs image/jpeg or image/png")
+            uvs = np.ascontiguousarray(part.uvs, dtype=np.float32)
+            attributes.TEXCOORD_0 = builder.accessor(uvs, pygltflib.FLOAT, pygltflib.VEC2, pygltflib.ARRAY_BUFFER)
+            if sampler_index is None:
+                gltf.samplers.append(pygltflib.Sampler(magFilter=pygltflib.LINEAR, minFilter=pygltflib.LINEAR_MIPMAP_LINEAR, wrapS=pygltflib.REPEAT, wrapT=pygltflib.REPEAT))
+                sampler_index = 0
+            key = id(part.texture)
+            if key not in texture_of_image:
+                image = builder.image(part.texture.data, part.texture.mime, part.texture.name)
+                gltf.textures.append(pygltflib.Texture(sampler=sampler_index, source=image))
+                texture_of_image[key] = len(gltf.textures) - 1
+            material.pbrMetallicRoughness.baseColorTexture = pygltflib.TextureInfo(index=texture_of_image[key])
+            if part.texture.mime == "image/png" and material.alphaMode is None:
+                material.alphaMode = pygltflib.MASK  # transparent atlas pixels cut out, not blended
+        gltf.materials.append(material)
+        primitives.append(
+            pygltflib.Primitive(
+                attributes=attributes,
+                indices=builder.accessor(indices, index_type, pygltflib.SCALAR, pygltflib.ELEMENT_ARRAY_BUFFER),
+                material=len(gltf.materials) - 1,
+                mode=pygltflib.TRIANGLES,
+            )
+        )
+    if not primitives:
+        raise ValueError(f"{name}: nothing to write (no triangles)")
+    gltf.meshes.append(pygltflib.Mesh(name=name, primitives=primitives))
+    gltf.nodes.append(pygltflib.Node(name=name, mesh=0))
+    gltf.scenes.append(pygltflib.Scene(name=name, nodes=[0]))
+    gltf.scene = 0
+    while len(builder.blob) % 4:
+        builder.blob.append(0)
+    gltf.buffers.append(pygltflib.Buffer(byteLength=len(builder.blob)))
+    gltf.set_binary_blob(bytes(builder.blob))
+    return b"".join(gltf.save_to_bytes())

@@ -1,0 +1,146 @@
+"""The tile manifest (``lod_manifest.json``): what Unity's LODGroup builder reads.
+
+Plain dict assembly from already-computed building records; the JSON Schema beside this module
+(``schema/lod_manifest.schema.json``) is the contract, and :func:`validate_manifest` checks a
+manifest against it (used by the tests; the exporter builds manifests that satisfy it by design).
+
+Frames: ``tile.placement`` and ``buildings[].placement`` are in the paper's Unity globe frame
+(Unity units); ``buildings[].relative_placement`` is in the tile's East/Up/North frame (metres).
+"""
+from __future__ import annotations
+
+import json
+import math
+from importlib import resources
+from typing import Iterable, Optional
+
+from . import __version__
+from .config import Config
+from .model import Skipped, TileId
+
+FORMAT = "vworld-lod-manifest"
+VERSION = "1.0"
+MANIFEST_NAME = "lod_manifest.json"
+
+
+def load_schema() -> dict:
+    return json.loads(resources.files("exporter").joinpath("schema/lod_manifest.schema.json").read_text(encoding="utf-8"))
+
+
+def validate_manifest(manifest: dict) -> None:
+    """Raise ``jsonschema.ValidationError`` when ``manifest`` breaks the schema (needs jsonschema)."""
+    import jsonschema
+
+    jsonschema.validate(manifest, load_schema())
+
+
+def _mean(values: list[float]) -> float:
+    return float(sum(values) / len(values)) if values else 0.0
+
+
+def summarize_levels(buildings: list[dict], level_count: int) -> list[dict]:
+    """Per LoD: mean triangles, ratio of the mean to LOD0's mean (the paper's Table III), texture
+    pixels, and mean/min/max of every numeric quality metric."""
+    levels = []
+    lod0_mean = None
+    for level in range(level_count):
+        lods = [b["lods"][level] for b in buildings if len(b["lods"]) > level]
+        triangles = [lod["triangles"] for lod in lods]
+        mean_triangles = _mean(triangles)
+        if level == 0:
+            lod0_mean = mean_triangles
+        entry = {
+            "level": level,
+            "mean_triangles": round(mean_triangles, 4),
+            "ratio_to_lod0": round(mean_triangles / lod0_mean, 6) if lod0_mean else 0.0,
+            "total_triangles": int(sum(triangles)),
+            "mean_texture_pixels": round(_mean([lod["texture_size"][0] * lod["texture_size"][1] for lod in lods]), 2),
+        }
+        metrics: dict[str, list[float]] = {}
+        for lod in lods:
+            for key, value in (lod.get("quality") or {}).items():
+                if isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
+                    metrics.setdefault(key, []).append(float(value))
+        if metrics:
+            entry["quality_mean"] = {k: round(_mean(v), 6) for k, v in sorted(metrics.items())}
+            entry["quality_min"] = {k: round(min(v), 6) for k, v in sorted(metrics.items())}
+            entry["quality_max"] = {k: round(max(v), 6) for k, v in sorted(metrics.items())}
+        levels.append(entry)
+    return levels
+
+
+def skipped_entry(item: Skipped) -> dict:
+    entry = {"source": item.source, "reason": item.reason}
+    if item.id is not None:
+        entry["id"] = str(item.id)
+    return entry
+
+
+def build_manifest(
+    tile: TileId,
+    bounds: tuple,
+    tile_center: dict,
+    tile_placement: dict,
+    config: Config,
+    buildings: Iterable[dict],
+    skipped: Iterable[Skipped],
+) -> dict:
+    """Assemble the manifest of one tile.
+
+    ``bounds`` is (west, south, east, north) in degrees; ``tile_center`` a ``{lon, lat, elev}``
+    dict; ``tile_placement`` the tile root's Unity-globe placement dict; ``buildings`` the records
+    made by the pipeline (schema ``$defs/building``), written in id order.
+    """
+    buildings = sorted(buildings, key=lambda b: b["id"])
+    skipped = [skipped_entry(s) for s in skipped]
+    west, south, east, north = bounds
+    return {
+        "format": FORMAT,
+        "version": VERSION,
+        "generator": {"name": "vworld-lod", "version": __version__},
+        "config": config.to_dict(),
+        "tile": {
+            "level": tile.level,
+            "idx": tile.idx,
+            "idy": tile.idy,
+            "name": tile.name,
+            "bounds": {"west": west, "south": south, "east": east, "north": north},
+            "center": tile_center,
+            "placement": tile_placement,
+        },
+        "globe": {
+            "earth_radius_m": config.globe.earth_radius,
+            "unity_radius": config.globe.unity_radius,
+            "handedness": "left",
+            "up": "y",
+            "placement": config.globe.placement,
+        },
+        "lod_group": {
+            "screen_relative_heights": [spec.transition for spec in config.lods],
+            "fade_mode": config.unity.fade_mode,
+            "animate_cross_fading": config.unity.animate_cross_fading,
+            "fade_transition_width": config.unity.fade_transition_width,
+            "terrain_levels": config.terrain_levels(),
+        },
+        "buildings": buildings,
+        "skipped": skipped,
+        "summary": {
+            "buildings": len(buildings),
+            "skipped": len(skipped),
+            "levels": summarize_levels(buildings, len(config.lods)),
+        },
+    }
+
+
+def dumps(manifest: dict) -> str:
+    return json.dumps(manifest, indent=1, ensure_ascii=False, allow_nan=False) + "\n"
+
+
+def read_manifest(path) -> Optional[dict]:
+    """The manifest at ``path``, or None when absent or unreadable (a previous run's output)."""
+    try:
+        with open(path, encoding="utf-8") as handle:
+            data = json.load(handle)
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) and data.get("format") == FORMAT else None
