@@ -19,7 +19,7 @@ lat 37.5665, is tile IDX 279418, IDY 116113 at level 15); the VWorld paper's Tab
 Edge rules:
 - lon = 180 belongs to the last column and lat = 90 to the last row (a closed east/north edge
   instead of a column or row past the end of the grid).
-- A coordinate within ``BORDER_TOLERANCE`` tile widths of a tile border counts as on the border
+- A coordinate within ``BORDER_TOLERANCE`` degrees of a tile border counts as on the border
   (so ``idx * unit - 180`` computed with a rounding error still lands in tile ``idx``).
 - Longitudes in (180, 360] or [-360, -180) are wrapped (0..360 data); other longitudes outside
   [-180, 180], latitudes outside [-90, 90] and non-finite values raise ``ValueError``, which callers turn into an error naming their file.
@@ -33,7 +33,10 @@ from .model import TileId
 
 BUILDING_LEVEL = 15  # VWorld's building tiles (bridges and large facilities: 14)
 LEVEL0_DEG = 36.0  # level 0 tile side, degrees
-BORDER_TOLERANCE = 1e-9  # tile widths: at level 15 about 1e-12 degrees, well under a micrometre
+# Degrees (about 11 micrometres on the ground). Absolute rather than per tile width so a point
+# snapped onto a border at one level is snapped onto it at every finer level (parent(tile_of(.., L))
+# == tile_of(.., L - 1) holds exactly).
+BORDER_TOLERANCE = 1e-10
 
 
 def tile_size_deg(level: int) -> float:
@@ -53,8 +56,8 @@ def tile_of(lon: float, lat: float, level: int = BUILDING_LEVEL) -> TileId:
     lon, lat = _check_lonlat(lon, lat)
     unit = tile_size_deg(level)
     columns, rows = grid_shape(level)
-    idx = _cell((lon + 180.0) / unit, columns)
-    idy = _cell((lat + 90.0) / unit, rows)
+    idx = _cell(lon + 180.0, unit, columns)
+    idy = _cell(lat + 90.0, unit, rows)
     return TileId(level, idx, idy)
 
 
@@ -146,13 +149,13 @@ def check_tile(
 
 # --------------------------------------------------------------------------- checks and helpers
 
-def _cell(position: float, count: int) -> int:
-    """Index of the cell holding ``position`` (in cell widths from the grid origin), clamped to
-    ``[0, count - 1]``; positions within BORDER_TOLERANCE of a border snap onto it."""
-    nearest = round(position)
-    if abs(position - nearest) <= BORDER_TOLERANCE:
-        position = nearest
-    return min(max(int(math.floor(position)), 0), count - 1)
+def _cell(offset: float, unit: float, count: int) -> int:
+    """Index of the cell of width ``unit`` holding ``offset`` (degrees from the grid origin),
+    clamped to ``[0, count - 1]``; offsets within BORDER_TOLERANCE of a border snap onto it."""
+    nearest = round(offset / unit)
+    if abs(offset - nearest * unit) <= BORDER_TOLERANCE:  # nearest * unit is exact: unit = 9 * 2**k
+        return min(max(nearest, 0), count - 1)
+    return min(max(int(math.floor(offset / unit)), 0), count - 1)
 
 
 def _check_level(level: int) -> None:
