@@ -1,0 +1,184 @@
+"""The ``vworld-lod`` command line: export, init-config, inspect, report.
+
+Exit codes: 0 success; 2 unusable input or config (one line on stderr naming the file and the
+problem); 130 interrupted (whatever was written is complete; re-running resumes).
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import sys
+import time
+from pathlib import Path
+from typing import Optional, TextIO
+
+from . import __version__
+from .config import default_config_yaml, load_config
+from .errors import ReadError, VWorldLodError
+
+
+class ProgressPrinter:
+    """Buildings done / total with rate and ETA: a redrawn bar on a terminal, a plain line every
+    few seconds otherwise (logs, CI)."""
+
+    def __init__(self, stream: TextIO, interval_s: float = 5.0) -> None:
+        self.stream = stream
+        self.tty = stream.isatty()
+        self.interval_s = interval_s
+        self.started = time.monotonic()
+        self.last = 0.0
+
+    def __call__(self, done: int, total: int) -> None:
+        now = time.monotonic()
+        if not self.tty and done < total and now - self.last < self.interval_s:
+            return
+        self.last = now
+        elapsed = max(now - self.started, 1e-9)
+        rate = done / elapsed
+        eta = (total - done) / rate if rate > 0 else 0.0
+        text = f"{done}/{total} buildings  {rate:.1f}/s  ETA {int(eta) // 60}:{int(eta) % 60:02d}"
+        if self.tty:
+            width = 30
+            filled = int(width * done / total) if total else width
+            self.stream.write(f"\r[{'#' * filled}{'.' * (width - filled)}] {text}  ")
+            if done == total:
+                self.stream.write("\n")
+        else:
+            self.stream.write(text + "\n")
+        self.stream.flush()
+
+
+def _effective_config(args):
+    config = load_config(args.config)
+    if getattr(args, "crs", None):
+        config.readers = dataclasses.replace(config.readers, crs=args.crs)
+    return config
+
+
+def cmd_export(args) -> int:
+    from .pipeline import export_tiles
+
+    config = _effective_config(args)
+    progress = None if args.quiet else ProgressPrinter(sys.stderr)
+    stats = export_tiles(args.tile_dirs, args.out, config, jobs=args.jobs, force=args.force, progress=progress)
+    if not args.quiet:
+        for tile in stats.tiles:
+            print(f"{tile.tile.name}: {tile.buildings} buildings ({tile.reused} unchanged), {tile.skipped} skipped -> {tile.manifest_path}")
+        print(f"done in {stats.wall_seconds:.1f} s")
+    if args.report:
+        from .report import write_reports
+
+        for page in write_reports(Path(args.out)):
+            if not args.quiet:
+                print(f"report: {page}")
+    return 0
+
+
+def cmd_init_config(args) -> int:
+    path = Path(args.path)
+    if path.exists() and not args.force:
+        print(f"vworld-lod: {path}: already exists (use --force to overwrite)", file=sys.stderr)
+        return 2
+    from .atomic import write_text_atomic
+
+    write_text_atomic(path, default_config_yaml())
+    print(f"wrote {path}")
+    return 0
+
+
+def cmd_inspect(args) -> int:
+    from .readers import load_entry, scan_folder
+
+    config = _effective_config(args)
+    out = sys.stdout
+    for folder in args.tile_dirs:
+        scan = scan_folder(folder, config.readers)
+        out.write(f"{folder}: format {scan.format}, {len(scan.entries)} buildings listed\n")
+        for note in scan.notes:
+            out.write(f"  note: {note}\n")
+        tiles: dict[str, int] = {}
+        triangles = 0
+        textures = 0
+        problems = [f"{item.source}: {item.reason}" for item in scan.skipped]
+        for entry in scan.entries:
+            try:
+                building = load_entry(entry, config.readers)
+            except ReadError as error:
+                problems.append(str(error))
+                continue
+            tile = building.tile or entry.tile
+            tiles[tile.name if tile else "?"] = tiles.get(tile.name if tile else "?", 0) + 1
+            triangles += building.triangle_count
+            atlases = [p.texture for p in building.parts if p.texture is not None]
+            textures += len({id(t) for t in atlases})
+            sizes = ", ".join(sorted({f"{t.width}x{t.height}" for t in atlases})) or "none"
+            out.write(f"  {building.id}: {len(building.parts)} part(s), {building.triangle_count} triangles, textures {sizes}\n")
+            problems += [f"{building.id}: {p}" for p in building.problems]
+        for name, count in sorted(tiles.items()):
+            out.write(f"  tile {name}: {count} buildings\n")
+        loaded = sum(tiles.values())
+        out.write(f"  total: {loaded} buildings, {triangles} triangles" + (f" (mean {triangles / loaded:.1f})" if loaded else "") + f", {textures} textures\n")
+        out.write(f"  problems: {len(problems)}\n")
+        for problem in problems:
+            out.write(f"    {problem}\n")
+    return 0
+
+
+def cmd_report(args) -> int:
+    from .report import write_reports
+
+    for page in write_reports(Path(args.out)):
+        print(f"report: {page}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="vworld-lod", description="Turn 3D building tiles into Unity-ready glTF LoD chains and a LODGroup manifest.")
+    parser.add_argument("--version", action="version", version=f"vworld-lod {__version__}")
+    commands = parser.add_subparsers(dest="command", required=True)
+
+    export = commands.add_parser("export", help="export tile folders to glTF LoD chains + lod_manifest.json per tile")
+    export.add_argument("tile_dirs", nargs="+", metavar="TILE_DIR")
+    export.add_argument("--out", required=True, help="output folder (one subfolder per tile)")
+    export.add_argument("--config", help="YAML config (see init-config); defaults from the paper")
+    export.add_argument("--crs", help="CRS of input files that do not declare one, e.g. EPSG:7415")
+    export.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
+    export.add_argument("--force", action="store_true", help="redo every building, even unchanged ones")
+    export.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    export.add_argument("--report", action="store_true", help="also write the HTML report (see 'report')")
+    export.set_defaults(run=cmd_export)
+
+    init = commands.add_parser("init-config", help="write the default config as commented YAML")
+    init.add_argument("path")
+    init.add_argument("--force", action="store_true", help="overwrite an existing file")
+    init.set_defaults(run=cmd_init_config)
+
+    inspect = commands.add_parser("inspect", help="print what tile folders hold, writing nothing")
+    inspect.add_argument("tile_dirs", nargs="+", metavar="TILE_DIR")
+    inspect.add_argument("--config", help="YAML config (reader options)")
+    inspect.add_argument("--crs", help="CRS of input files that do not declare one, e.g. EPSG:7415")
+    inspect.set_defaults(run=cmd_inspect)
+
+    report = commands.add_parser("report", help="write an HTML report of an export's LoD chains")
+    report.add_argument("out", help="an export's output folder")
+    report.set_defaults(run=cmd_report)
+    return parser
+
+
+def main(argv: Optional[list[str]] = None) -> int:
+    args = build_parser().parse_args(argv)
+    if getattr(args, "jobs", None) is not None and args.jobs < 1:
+        print("vworld-lod: --jobs: must be at least 1", file=sys.stderr)
+        return 2
+    try:
+        return args.run(args)
+    except VWorldLodError as error:
+        print(f"vworld-lod: {error}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("vworld-lod: interrupted; finished files are complete, re-run to resume", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1

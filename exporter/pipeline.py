@@ -1,0 +1,367 @@
+"""The export pipeline: tile folders in, per-tile glTF LoD chains and manifests out.
+
+Per building (``process_entry``, run in worker processes): read -> mesh LoDs -> texture LoDs ->
+quality -> placement -> write ``lod<k>.glb`` files -> write the building's record
+(``building.json``) last. A record's presence therefore means the building's files are complete;
+its ``input_hash`` (source bytes + effective config + generator version) lets a re-run skip
+unchanged buildings, and an interrupted run resume where it stopped.
+
+Per tile (``export_tiles``): collect the records, remove what a previous run left that this run no
+longer produces, and write ``lod_manifest.json`` last. Every file is written atomically
+(``exporter.atomic``). One broken building never stops a tile: it is listed in ``skipped``.
+
+Output layout: ``OUT/<level>_<idx>_<idy>/lod_manifest.json`` and
+``OUT/<level>_<idx>_<idy>/<building folder>/lod<k>.glb`` + ``building.json``.
+"""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import os
+import re
+import shutil
+import time
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Iterable, Optional
+
+from . import __version__
+from .atomic import remove_stale_temporaries, write_bytes_atomic, write_text_atomic
+from .config import Config
+from .errors import InputError, ProcessError, ReadError
+from .manifest import MANIFEST_NAME, build_manifest, dumps
+from .model import Building, GeoPoint, Part, Skipped, Texture, TileId
+from .readers import Entry, load_entry, scan_folder
+
+RECORD_NAME = "building.json"
+STAGES = ("read", "simplify", "textures", "quality", "write")
+
+
+# --------------------------------------------------------------------------- small pure helpers
+
+def safe_folder_name(building_id: str) -> str:
+    """A file-system-safe, still readable folder name for a building id (stable across runs)."""
+    name = re.sub(r"[^0-9A-Za-z._-]+", "_", building_id).strip("._") or "building"
+    if name != building_id:  # keep distinct ids distinct after replacement
+        name = f"{name[:80]}_{hashlib.sha1(building_id.encode('utf-8')).hexdigest()[:8]}"
+    return name
+
+
+def config_fingerprint(config: Config) -> str:
+    """Hash of everything in the config that changes a building's output."""
+    data = config.to_dict()
+    return hashlib.sha256(json.dumps(data, sort_keys=True).encode("utf-8")).hexdigest()
+
+
+def input_hash(entry: Entry, config_hash: str) -> str:
+    """Content hash of a building's inputs (every input file's bytes), the effective config and
+    the generator version; missing input files hash as missing (the load reports them)."""
+    digest = hashlib.sha256()
+    digest.update(f"vworld-lod {__version__}\n{config_hash}\n{entry.format}\n{entry.id}\n{entry.key!r}\n".encode("utf-8"))
+    for name in entry.inputs:
+        digest.update(f"\n{os.path.basename(name)}\n".encode("utf-8"))
+        try:
+            with open(name, "rb") as handle:
+                for block in iter(lambda: handle.read(1 << 20), b""):
+                    digest.update(block)
+        except OSError:
+            digest.update(b"<missing>")
+    return digest.hexdigest()
+
+
+def building_tile(building: Building, level: int = 15) -> tuple[TileId, Optional[TileId], Optional[str]]:
+    """(tile to write into, tile holding the centre if it differs from the data's, message).
+
+    The data's own tile wins when it has one; the disagreement is reported (tiles.check_tile)."""
+    from .tiles import building_tile as tile_of_bounds, check_tile
+
+    bounds = building.lonlat_bounds or (building.reference.lon, building.reference.lat, building.reference.lon, building.reference.lat)
+    data_level = building.tile.level if building.tile is not None else level
+    tile, message = check_tile(building.tile, bounds, data_level)
+    centre = tile_of_bounds(bounds, data_level)
+    return tile, (centre if centre != tile else None), message
+
+
+# --------------------------------------------------------------------------- per-building stages
+
+def texture_levels(parts_by_level: list[list[Part]], config: Config, problems: list[str]) -> list[list[Part]]:
+    """Give every level's parts their level's atlas; a texture that cannot be processed leaves its
+    parts untextured (with a problem listed), never failing the building."""
+    from .textures import build_texture_lods
+
+    scales = [spec.texture for spec in config.lods]
+    reduced: dict[int, Optional[list[Texture]]] = {}
+    for part in parts_by_level[0]:
+        texture = part.texture
+        if texture is None or id(texture) in reduced:
+            continue
+        try:
+            reduced[id(texture)] = build_texture_lods(texture, scales, config.textures)
+        except ReadError as error:
+            problems.append(f"texture {texture.name or texture.source or '?'}: {error.problem}; exported untextured")
+            reduced[id(texture)] = None
+    out = []
+    for level, parts in enumerate(parts_by_level):
+        level_parts = []
+        for part in parts:
+            textures = reduced.get(id(part.texture)) if part.texture is not None else None
+            level_parts.append(dataclasses.replace(part, texture=textures[level] if textures else None))
+        out.append(level_parts)
+    return out
+
+
+def lod_record(level: int, parts: list[Part], file_name: str, data: bytes, quality: dict) -> dict:
+    textures = [p.texture for p in parts if p.texture is not None and p.triangle_count]
+    largest = max(textures, key=lambda t: t.width * t.height, default=None)
+    return {
+        "level": level,
+        "file": file_name,
+        "triangles": sum(p.triangle_count for p in parts),
+        "vertices": sum(p.vertex_count for p in parts if p.triangle_count),
+        "texture_size": [largest.width, largest.height] if largest else [0, 0],
+        "texture_bytes": sum(len(t.data) for t in {id(t): t for t in textures}.values()),
+        "file_bytes": len(data),
+        "quality": quality,
+    }
+
+
+@dataclass
+class EntryResult:
+    """What a worker returns for one entry: a manifest record or a skip, plus stage times (s)."""
+
+    tile: Optional[TileId]
+    record: Optional[dict] = None
+    skipped: Optional[Skipped] = None
+    reused: bool = False
+    seconds: dict = field(default_factory=dict)
+
+
+def process_entry(entry: Entry, config: Config, out_dir: str, config_hash: str, previous: Optional[dict], force: bool) -> EntryResult:
+    """Run the whole per-building pipeline for one entry (see module doc). Never raises for a bad
+    building: returns it as skipped with the reason."""
+    from .gltf_writer import glb_bytes
+    from .placement import building_placement, relative_placement
+    from .quality import measure_lod
+    from .simplify import build_mesh_lods
+
+    seconds = {stage: 0.0 for stage in STAGES}
+    clock = time.perf_counter()
+
+    def lap(stage: str) -> None:
+        nonlocal clock
+        now = time.perf_counter()
+        seconds[stage] += now - clock
+        clock = now
+
+    digest = input_hash(entry, config_hash)
+    if previous is not None and not force and previous["record"].get("input_hash") == digest:
+        tile_dir = Path(out_dir) / previous["tile"].name
+        if all((tile_dir / lod["file"]).is_file() for lod in previous["record"]["lods"]):
+            return EntryResult(tile=previous["tile"], record=previous["record"], reused=True, seconds=seconds)
+    try:
+        building = load_entry(entry, config.readers)
+    except ReadError as error:
+        return EntryResult(tile=entry.tile, skipped=Skipped(entry.source, error.problem, entry.id, entry.tile), seconds=seconds)
+    lap("read")
+    try:
+        tile, centre_tile, tile_message = building_tile(building)
+        problems = list(building.problems)
+        if tile_message:
+            problems.append(tile_message)
+        if building.triangle_count == 0:
+            raise ProcessError("no triangles to export")
+        parts_by_level = build_mesh_lods(building.parts, config.lods, config.simplify)
+        lap("simplify")
+        parts_by_level = texture_levels(parts_by_level, config, problems)
+        lap("textures")
+        qualities = [{"triangle_ratio": 1.0}] + [measure_lod(parts_by_level[0], parts) for parts in parts_by_level[1:]]
+        lap("quality")
+        folder = safe_folder_name(building.id)
+        building_dir = Path(out_dir) / tile.name / folder
+        lods = []
+        for level, parts in enumerate(parts_by_level):
+            data = glb_bytes(parts, f"{building.id}_LOD{level}")
+            file_name = f"{folder}/lod{level}.glb"
+            write_bytes_atomic(building_dir / f"lod{level}.glb", data)
+            lods.append(lod_record(level, parts, file_name, data, qualities[level]))
+        for stale in building_dir.glob("lod*.glb"):  # levels a previous config had and this one has not
+            if stale.name not in {f"lod{k}.glb" for k in range(len(lods))}:
+                stale.unlink(missing_ok=True)
+        record = {
+            "id": building.id,
+            "folder": folder,
+            "source": entry.source,
+            "input_hash": digest,
+            "center": {"lon": building.reference.lon, "lat": building.reference.lat, "elev": building.reference.elev},
+            "placement": building_placement(building.reference, config.globe),
+            "relative_placement": relative_placement(building.reference, tile, config.globe),
+            "lods": lods,
+            "problems": problems,
+        }
+        if centre_tile is not None:
+            record["tile_from_center"] = {"level": centre_tile.level, "idx": centre_tile.idx, "idy": centre_tile.idy}
+        write_text_atomic(building_dir / RECORD_NAME, json.dumps({"tile": dataclasses.asdict(tile), "record": record}, allow_nan=False))
+        lap("write")
+        return EntryResult(tile=tile, record=record, seconds=seconds)
+    except Exception as error:  # one broken building never stops the tile
+        reason = error.problem if isinstance(error, ReadError) else f"{type(error).__name__}: {error}"
+        return EntryResult(tile=entry.tile, skipped=Skipped(entry.source, f"processing failed: {reason}", building.id, entry.tile), seconds=seconds)
+
+
+# --------------------------------------------------------------------------- previous runs
+
+def previous_records(out_dir: Path) -> dict[tuple[str, str], dict]:
+    """Records a previous run left in ``out_dir``, keyed by (source, id): ``{"tile", "record"}``."""
+    found = {}
+    for path in out_dir.glob(f"*/*/{RECORD_NAME}"):
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+            tile = TileId(**data["tile"])
+            record = data["record"]
+            found[(record["source"], record["id"])] = {"tile": tile, "record": record}
+        except (OSError, ValueError, KeyError, TypeError):
+            continue  # unreadable leftovers are simply redone
+    return found
+
+
+# --------------------------------------------------------------------------- the run
+
+@dataclass
+class TileResult:
+    tile: TileId
+    manifest_path: Path
+    buildings: int
+    skipped: int
+    reused: int
+
+
+@dataclass
+class RunStats:
+    """What a run did: counts and seconds summed over buildings per stage."""
+
+    buildings: int = 0
+    skipped: int = 0
+    reused: int = 0
+    seconds: dict = field(default_factory=lambda: {stage: 0.0 for stage in STAGES})
+    wall_seconds: float = 0.0
+    tiles: list[TileResult] = field(default_factory=list)
+
+
+Progress = Callable[[int, int], None]
+
+
+def _results(tasks: list[tuple], jobs: int) -> Iterable[EntryResult]:
+    """Run ``process_entry`` over ``tasks``, in this process for one job, else in a process pool
+    with a bounded number of tasks in flight (memory stays bounded by the work in flight)."""
+    if jobs <= 1:
+        for task in tasks:
+            yield process_entry(*task)
+        return
+    with ProcessPoolExecutor(max_workers=jobs) as pool:
+        pending = set()
+        queue = iter(tasks)
+        try:
+            for task in queue:
+                pending.add(pool.submit(process_entry, *task))
+                if len(pending) >= jobs * 4:
+                    done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                    for future in done:
+                        yield future.result()
+            while pending:
+                done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for future in done:
+                    yield future.result()
+        except BaseException:
+            pool.shutdown(wait=False, cancel_futures=True)
+            raise
+
+
+def export_tiles(
+    folders: list[str | Path],
+    out: str | Path,
+    config: Config,
+    jobs: Optional[int] = None,
+    force: bool = False,
+    progress: Optional[Progress] = None,
+) -> RunStats:
+    """Export every building of ``folders`` into ``out``; returns what was done.
+
+    Raises InputError for a folder that cannot be used at all (before writing anything)."""
+    started = time.perf_counter()
+    out_dir = Path(out)
+    scans = [scan_folder(folder, config.readers) for folder in folders]  # all folders checked first
+    out_dir.mkdir(parents=True, exist_ok=True)
+    remove_stale_temporaries(out_dir)
+    previous = {} if force else previous_records(out_dir)
+    config_hash = config_fingerprint(config)
+    jobs = max(1, jobs or os.cpu_count() or 1)
+
+    entries = [entry for scan in scans for entry in scan.entries]
+    seen_ids: dict[str, int] = {}
+    for entry in entries:  # ids must be unique in a run: they name the output folders
+        count = seen_ids.get(entry.id, 0)
+        seen_ids[entry.id] = count + 1
+        if count:
+            entry.id = f"{entry.id}~{count}"
+    tasks = [(entry, config, str(out_dir), config_hash, previous.get((entry.source, entry.id)), force) for entry in entries]
+
+    records: dict[TileId, list[dict]] = {}
+    reused: dict[TileId, int] = {}
+    skipped: dict[Optional[TileId], list[Skipped]] = {}
+    for scan in scans:
+        for item in scan.skipped:
+            skipped.setdefault(item.tile, []).append(item)
+    stats = RunStats()
+    done = 0
+    for result in _results(tasks, jobs):
+        done += 1
+        for stage, value in result.seconds.items():
+            stats.seconds[stage] += value
+        if result.record is not None:
+            records.setdefault(result.tile, []).append(result.record)
+            stats.buildings += 1
+            stats.reused += int(result.reused)
+            reused[result.tile] = reused.get(result.tile, 0) + int(result.reused)
+        else:
+            skipped.setdefault(result.tile, []).append(result.skipped)
+            stats.skipped += 1
+        if progress:
+            progress(done, len(tasks))
+
+    # Skips without a known tile go to every tile of this run (or a tile of their own when none).
+    unplaced = skipped.pop(None, [])
+    tiles = set(records) | set(skipped)
+    if unplaced and not tiles:
+        raise InputError(f"{', '.join(map(str, folders))}: no building could be read; first problem: {unplaced[0].source}: {unplaced[0].reason}")
+    for tile in sorted(tiles, key=lambda t: (t.level, t.idx, t.idy)):
+        stats.tiles.append(write_tile_output(out_dir, tile, config, records.get(tile, []), skipped.get(tile, []) + unplaced, reused.get(tile, 0)))
+    stats.wall_seconds = time.perf_counter() - started
+    return stats
+
+
+def write_tile_output(out_dir: Path, tile: TileId, config: Config, records: list[dict], skipped: list[Skipped], reused: int = 0) -> TileResult:
+    """Remove building folders of earlier runs that this run did not produce, then write the
+    manifest (last, atomically)."""
+    from .placement import tile_placement
+    from .tiles import tile_bounds, tile_center
+
+    tile_dir = out_dir / tile.name
+    tile_dir.mkdir(parents=True, exist_ok=True)
+    keep = {record["folder"] for record in records}
+    for record_file in tile_dir.glob(f"*/{RECORD_NAME}"):  # only folders this tool made
+        if record_file.parent.name not in keep:
+            shutil.rmtree(record_file.parent, ignore_errors=True)
+    lon, lat = tile_center(tile)
+    manifest = build_manifest(
+        tile,
+        tile_bounds(tile),
+        {"lon": lon, "lat": lat, "elev": 0.0},
+        tile_placement(tile, config.globe),
+        config,
+        records,
+        skipped,
+    )
+    path = write_text_atomic(tile_dir / MANIFEST_NAME, dumps(manifest))
+    return TileResult(tile, path, len(records), len(skipped), reused)
