@@ -1,0 +1,447 @@
+"""VWorld ``.dat`` tile indexes and ``.xdo`` building models: parse and serialise, byte for byte.
+
+Data form (all little-endian; a *string* is one u8 length then that many raw bytes, no terminator):
+
+- ``.dat``: ``level, idx, idy, object_count`` (4 x u32), then per object ``version`` (4 x u8, e.g.
+  3,0,0,2; the last byte selects the ``.xdo`` layout), ``type`` u8, ``key`` string,
+  ``center_lon, center_lat`` (2 x f64, degrees), ``altitude`` f32 (metres), bounding box 6 x f64
+  (min x, y, z, max x, y, z; metres, VWorld global frame), ``img_level`` u8, ``data_file`` string
+  (the ``.xdo`` name), ``img_file_name`` string.
+- ``.xdo``: ``type`` u8 (8), ``object_id`` u32, ``key`` string, bounding box 6 x f64 (metres, VWorld
+  global frame), ``altitude`` f32 (metres); version 3.0.0.1 then holds exactly one mesh block,
+  3.0.0.2 a ``face_count`` u8 and that many mesh blocks. A mesh block is ``vertex_count`` u32,
+  ``vertex_count`` x 8 f32 (position x, y, z = metre offsets from the bounding-box centre in the
+  VWorld global frame; normal x, y, z in that frame; u, v with the origin top-left), ``index_count``
+  u32 and that many u16 (a triangle list), ``color`` 4 bytes, ``image_level`` u8, ``image_name``
+  string, then a thumbnail (``size`` u32 + ``size`` bytes of JPEG) -- which some writers leave out
+  when ``image_name`` is empty.
+
+Disputed points and how they are settled here:
+
+- thumbnail with an empty ``image_name``: both readings are tried and the one that ends exactly at
+  the end of the file is kept (one reading per file); :attr:`XdoMesh.thumbnail` is ``None`` when
+  the field is absent, so serialising reproduces the file.
+- colour byte order (A,R,G,B or B,G,R,A): the 4 raw bytes are kept; :func:`color_rgba` reads them
+  as B,G,R,A, i.e. one little-endian u32 ``0xAARRGGBB`` (Direct3D's ``D3DCOLOR``), which is the
+  same bytes the A,R,G,B readers describe as a u32.
+- string encodings: raw bytes are kept; :func:`decode_text` tries UTF-8, then EUC-KR, then
+  Latin-1 (which never fails), for display and ids only.
+- ``.xdo`` version unknown: both layouts are tried, keeping the one that parses to the exact end.
+
+Every count read from a header is checked against the bytes left before anything is allocated,
+and bad input raises only :class:`exporter.errors.ReadError` naming the file and the problem.
+The VWorld service answers errors with XML (e.g. ``ERROR_SERVICE_FILE_NOTTHING``); such a file is
+reported as an XML error page.
+
+Sources: ``../shared/notes/vworld-formats.md`` (compiled from several public VWorld readers in
+Java, C#, C++, Rust and TypeScript, which agree on this layout except on the points above).
+"""
+from __future__ import annotations
+
+import re
+import struct
+from dataclasses import dataclass, field
+from typing import Optional
+
+import numpy as np
+
+from ..errors import ReadError
+
+XDO_TYPE = 8  # the .xdo header's type byte, always 8 in known files
+VERSION_PREFIX = (3, 0, 0)  # .dat version bytes are 3,0,0,<xdo layout>
+XDO_VERSIONS = (1, 2)  # 1 = 3.0.0.1 (one mesh), 2 = 3.0.0.2 (face_count u8, up to 255 meshes)
+VERTEX_FLOATS = 8  # x, y, z, nx, ny, nz, u, v as f32
+VERTEX_BYTES = 4 * VERTEX_FLOATS
+MAX_STRING_BYTES = 255
+MAX_MESHES = 255
+MAX_INDEX = 65535  # u16 indices
+
+# Smallest possible encodings, used to check counts before allocating.
+_DAT_OBJECT_MIN_BYTES = 4 + 1 + 1 + 16 + 4 + 48 + 1 + 1 + 1
+_MESH_MIN_BYTES = 4 + 4 + 4 + 1 + 1  # without a thumbnail field
+
+_XML_CODE = re.compile(rb"[A-Z][A-Z0-9]*_[A-Z0-9_]{3,}")
+
+
+# --------------------------------------------------------------------------- data classes
+
+@dataclass
+class DatObject:
+    """One object record of a ``.dat``. Strings are raw bytes (see :func:`decode_text`)."""
+
+    version: bytes  # 4 raw bytes, e.g. b"\x03\x00\x00\x02"
+    type: int
+    key: bytes
+    center_lon: float  # degrees
+    center_lat: float  # degrees
+    altitude: np.float32  # metres; numpy float32 so any bit pattern round-trips
+    bbox: tuple  # 6 floats: min x, y, z, max x, y, z; metres, VWorld global frame
+    img_level: int
+    data_file: bytes  # the .xdo file name
+    img_file_name: bytes
+
+    @property
+    def xdo_version(self) -> Optional[int]:
+        """The ``.xdo`` layout the record declares (1 or 2), or None when the bytes are unknown."""
+        return xdo_version_of(self.version)
+
+
+@dataclass
+class DatFile:
+    """A ``.dat`` tile index: the tile address and its object records.
+
+    ``trailing`` keeps bytes after the last record (none in well-formed files) so serialising
+    reproduces the input.
+    """
+
+    level: int
+    idx: int
+    idy: int
+    objects: list[DatObject] = field(default_factory=list)
+    trailing: bytes = b""
+
+
+@dataclass
+class XdoMesh:
+    """One mesh block of an ``.xdo``.
+
+    ``vertices`` (n, 8) float32: position x, y, z (metre offsets from the bounding-box centre,
+    VWorld global frame), normal x, y, z (same frame), u, v (origin top-left). ``indices`` (k,)
+    uint16, a triangle list. ``thumbnail`` is None when the field is absent (only possible with an
+    empty ``image_name``).
+    """
+
+    vertices: np.ndarray
+    indices: np.ndarray
+    color: bytes  # 4 raw bytes, see color_rgba
+    image_level: int
+    image_name: bytes
+    thumbnail: Optional[bytes] = b""
+
+    @property
+    def positions(self) -> np.ndarray:
+        """(n, 3) float32 metre offsets from the bounding-box centre, VWorld global frame."""
+        return self.vertices[:, 0:3]
+
+    @property
+    def normals(self) -> np.ndarray:
+        """(n, 3) float32 normals, VWorld global frame."""
+        return self.vertices[:, 3:6]
+
+    @property
+    def uvs(self) -> np.ndarray:
+        """(n, 2) float32 texture coordinates, origin top-left."""
+        return self.vertices[:, 6:8]
+
+
+@dataclass
+class XdoFile:
+    """An ``.xdo`` building model; ``version`` 1 (3.0.0.1) or 2 (3.0.0.2)."""
+
+    version: int
+    type: int
+    object_id: int
+    key: bytes
+    bbox: tuple  # 6 floats: min x, y, z, max x, y, z; metres, VWorld global frame
+    altitude: np.float32  # metres
+    meshes: list[XdoMesh] = field(default_factory=list)
+
+    @property
+    def bbox_center(self) -> np.ndarray:
+        """(3,) float64 centre of the bounding box, metres, VWorld global frame."""
+        box = np.asarray(self.bbox, dtype=np.float64)
+        return (box[:3] + box[3:]) / 2.0
+
+
+# --------------------------------------------------------------------------- small helpers
+
+def decode_text(raw: bytes) -> str:
+    """Display text of a raw string: UTF-8, else EUC-KR, else Latin-1 (never fails)."""
+    for encoding in ("utf-8", "euc-kr"):
+        try:
+            return raw.decode(encoding)
+        except UnicodeDecodeError:
+            continue
+    return raw.decode("latin-1")
+
+
+def color_rgba(raw: bytes) -> tuple:
+    """RGBA in 0..1 from the 4 colour bytes, read as B, G, R, A (little-endian ``0xAARRGGBB``)."""
+    if len(raw) != 4:
+        raise ValueError(f"a colour is 4 bytes, got {len(raw)}")
+    b, g, r, a = raw
+    return (r / 255.0, g / 255.0, b / 255.0, a / 255.0)
+
+
+def color_bytes(rgba) -> bytes:
+    """The 4 colour bytes (B, G, R, A) for RGBA in 0..1; the inverse of :func:`color_rgba`."""
+    r, g, b, a = (int(round(min(max(float(c), 0.0), 1.0) * 255.0)) for c in rgba)
+    return bytes((b, g, r, a))
+
+
+def version_bytes(xdo_version: int) -> bytes:
+    """The ``.dat`` version bytes 3,0,0,<xdo_version>."""
+    if xdo_version not in XDO_VERSIONS:
+        raise ValueError(f"xdo version must be one of {XDO_VERSIONS}, got {xdo_version!r}")
+    return bytes((*VERSION_PREFIX, xdo_version))
+
+
+def xdo_version_of(version: bytes) -> Optional[int]:
+    """1 or 2 for the version bytes 3,0,0,1 / 3,0,0,2; None for anything else."""
+    if len(version) == 4 and tuple(version[:3]) == VERSION_PREFIX and version[3] in XDO_VERSIONS:
+        return version[3]
+    return None
+
+
+def xml_error(data: bytes) -> Optional[str]:
+    """None unless ``data`` is XML (a VWorld error page); then the error code or the first text."""
+    head = bytes(data[:4096]).lstrip(b"\xef\xbb\xbf \t\r\n")
+    if not head.startswith(b"<"):
+        return None
+    code = _XML_CODE.search(head)
+    if code:
+        return code.group(0).decode("ascii")
+    return decode_text(head[:80]).replace("\n", " ").strip()
+
+
+# --------------------------------------------------------------------------- reading
+
+class _Malformed(Exception):
+    """Internal: the bytes do not fit the layout; ``offset`` is how far parsing got."""
+
+    def __init__(self, problem: str, offset: int) -> None:
+        super().__init__(problem)
+        self.problem, self.offset = problem, offset
+
+
+class _Cursor:
+    """Reads little-endian fields from ``data``, checking the bytes left before every read."""
+
+    def __init__(self, data: bytes) -> None:
+        self.data, self.pos = data, 0
+
+    @property
+    def left(self) -> int:
+        return len(self.data) - self.pos
+
+    def take(self, size: int, what: str) -> bytes:
+        if size > self.left:
+            raise _Malformed(f"truncated: {what} needs {size} bytes at offset {self.pos}, only {self.left} left", self.pos)
+        chunk = self.data[self.pos:self.pos + size]
+        self.pos += size
+        return chunk
+
+    def u8(self, what: str) -> int:
+        return self.take(1, what)[0]
+
+    def u32(self, what: str) -> int:
+        return struct.unpack("<I", self.take(4, what))[0]
+
+    def f32(self, what: str) -> np.float32:
+        return np.frombuffer(self.take(4, what), dtype="<f4")[0]
+
+    def f64s(self, count: int, what: str) -> tuple:
+        return struct.unpack(f"<{count}d", self.take(8 * count, what))
+
+    def string(self, what: str) -> bytes:
+        return self.take(self.u8(f"{what} length"), what)
+
+    def count(self, what: str, item_bytes: int) -> int:
+        """A u32 count of items of ``item_bytes`` each, refused when the bytes left cannot hold it."""
+        start = self.pos
+        count = self.u32(what)
+        if count * item_bytes > self.left:
+            raise _Malformed(
+                f"{what} {count} at offset {start} needs {count * item_bytes} bytes, only {self.left} left", start)
+        return count
+
+    def array(self, count: int, dtype: str, what: str) -> np.ndarray:
+        itemsize = np.dtype(dtype).itemsize
+        return np.frombuffer(self.take(count * itemsize, what), dtype=dtype).copy()
+
+
+def _check_bytes(data, path: str, kind: str) -> bytes:
+    if not isinstance(data, (bytes, bytearray, memoryview)):
+        raise TypeError(f"{kind} data must be bytes, got {type(data).__name__}")
+    data = bytes(data)
+    if not data:
+        raise ReadError(path, f"empty file (0 bytes), not a {kind}")
+    code = xml_error(data)
+    if code is not None:
+        raise ReadError(path, f"is an XML error page from the VWorld service ({code}), not a {kind}")
+    return data
+
+
+def parse_dat(data: bytes, path: str) -> DatFile:
+    """Parse a ``.dat`` tile index; ``path`` only names the file in errors.
+
+    Raises :class:`ReadError` for an empty, truncated or XML file.
+    """
+    data = _check_bytes(data, path, ".dat tile index")
+    cursor = _Cursor(data)
+    try:
+        level, idx, idy = (cursor.u32(name) for name in ("level", "IDX", "IDY"))
+        count = cursor.count("object_count", _DAT_OBJECT_MIN_BYTES)
+        objects = []
+        for i in range(count):
+            what = f"object {i}"
+            version = cursor.take(4, f"{what} version")
+            kind = cursor.u8(f"{what} type")
+            key = cursor.string(f"{what} key")
+            lon, lat = cursor.f64s(2, f"{what} centre lon/lat")
+            altitude = cursor.f32(f"{what} altitude")
+            bbox = cursor.f64s(6, f"{what} bounding box")
+            img_level = cursor.u8(f"{what} img_level")
+            data_file = cursor.string(f"{what} data_file")
+            img_file = cursor.string(f"{what} img_file_name")
+            objects.append(DatObject(version, kind, key, lon, lat, altitude, bbox, img_level, data_file, img_file))
+    except _Malformed as error:
+        raise ReadError(path, f"not a valid .dat tile index: {error.problem}") from None
+    return DatFile(level, idx, idy, objects, trailing=data[cursor.pos:])
+
+
+def _parse_mesh(cursor: _Cursor, what: str, thumbnail_when_empty: bool, seen_empty: list) -> XdoMesh:
+    vertex_count = cursor.count(f"{what} vertex_count", VERTEX_BYTES)
+    vertices = cursor.array(vertex_count * VERTEX_FLOATS, "<f4", f"{what} vertices").reshape(-1, VERTEX_FLOATS)
+    index_count = cursor.count(f"{what} index_count", 2)
+    indices = cursor.array(index_count, "<u2", f"{what} indices")
+    color = cursor.take(4, f"{what} color")
+    image_level = cursor.u8(f"{what} image_level")
+    image_name = cursor.string(f"{what} image_name")
+    thumbnail: Optional[bytes] = None
+    if image_name or thumbnail_when_empty:
+        thumbnail = cursor.take(cursor.count(f"{what} thumbnail size", 1), f"{what} thumbnail")
+    if not image_name:
+        seen_empty.append(True)
+    return XdoMesh(vertices, indices, color, image_level, image_name, thumbnail)
+
+
+def _parse_xdo_layout(data: bytes, version: int, thumbnail_when_empty: bool, seen_empty: list) -> XdoFile:
+    cursor = _Cursor(data)
+    kind = cursor.u8("type")
+    object_id = cursor.u32("object_id")
+    key = cursor.string("key")
+    bbox = cursor.f64s(6, "bounding box")
+    altitude = cursor.f32("altitude")
+    if version == 1:
+        mesh_count = 1
+    else:
+        mesh_count = cursor.u8("face_count")
+        if mesh_count * _MESH_MIN_BYTES > cursor.left:
+            raise _Malformed(f"face_count {mesh_count} needs at least {mesh_count * _MESH_MIN_BYTES} bytes, only {cursor.left} left", cursor.pos - 1)
+    meshes = [_parse_mesh(cursor, f"mesh {i}", thumbnail_when_empty, seen_empty) for i in range(mesh_count)]
+    if cursor.left:
+        raise _Malformed(f"{cursor.left} bytes left over after the last mesh (offset {cursor.pos})", cursor.pos)
+    return XdoFile(version, kind, object_id, key, bbox, altitude, meshes)
+
+
+def parse_xdo(data: bytes, path: str, version: Optional[int] = None) -> XdoFile:
+    """Parse an ``.xdo`` building model; ``path`` only names the file in errors.
+
+    ``version`` is 1 (3.0.0.1), 2 (3.0.0.2) or None (unknown: both layouts are tried). Of the
+    readings tried (layouts x thumbnail present/absent with an empty ``image_name``) the first one
+    that parses to the exact end of the file is returned. Raises :class:`ReadError` otherwise,
+    quoting the reading that got furthest.
+    """
+    if version is not None and version not in XDO_VERSIONS:
+        raise ValueError(f"version must be None or one of {XDO_VERSIONS}, got {version!r}")
+    data = _check_bytes(data, path, ".xdo model")
+    best: Optional[tuple] = None
+    for layout in ([version] if version else [2, 1]):
+        for thumbnail_when_empty in (True, False):
+            seen_empty: list = []
+            try:
+                return _parse_xdo_layout(data, layout, thumbnail_when_empty, seen_empty)
+            except _Malformed as error:
+                if best is None or error.offset > best[1].offset:
+                    best = (layout, error)
+            if not seen_empty:
+                break  # no empty image_name met: the other thumbnail reading is the same reading
+    layout, error = best
+    return _raise_xdo(path, layout, error, version)
+
+
+def _raise_xdo(path: str, layout: int, error: _Malformed, version: Optional[int]):
+    tried = f"3.0.0.{layout}" if version else f"3.0.0.1 or 3.0.0.2 (closest: 3.0.0.{layout})"
+    raise ReadError(path, f"not a valid .xdo {tried}: {error.problem}")
+
+
+# --------------------------------------------------------------------------- writing
+
+def _string(raw: bytes, what: str) -> bytes:
+    raw = bytes(raw)
+    if len(raw) > MAX_STRING_BYTES:
+        raise ValueError(f"{what} is {len(raw)} bytes; a VWorld string holds at most {MAX_STRING_BYTES}")
+    return bytes((len(raw),)) + raw
+
+
+def _f32(value) -> bytes:
+    return np.asarray(value, dtype="<f4").reshape(()).tobytes()
+
+
+def _bbox(values, what: str) -> bytes:
+    values = tuple(values)
+    if len(values) != 6:
+        raise ValueError(f"{what} needs 6 numbers (min x, y, z, max x, y, z), got {len(values)}")
+    return struct.pack("<6d", *values)
+
+
+def serialise_dat(dat: DatFile) -> bytes:
+    """The bytes of a ``.dat``; ``parse_dat(serialise_dat(d))`` equals ``d``. ValueError on bad fields."""
+    out = [struct.pack("<4I", dat.level, dat.idx, dat.idy, len(dat.objects))]
+    for i, obj in enumerate(dat.objects):
+        if len(obj.version) != 4:
+            raise ValueError(f"object {i}: version must be 4 bytes, got {len(obj.version)}")
+        out += [
+            bytes(obj.version), struct.pack("<B", obj.type), _string(obj.key, f"object {i} key"),
+            struct.pack("<2d", obj.center_lon, obj.center_lat), _f32(obj.altitude),
+            _bbox(obj.bbox, f"object {i} bbox"), struct.pack("<B", obj.img_level),
+            _string(obj.data_file, f"object {i} data_file"), _string(obj.img_file_name, f"object {i} img_file_name"),
+        ]
+    out.append(bytes(dat.trailing))
+    return b"".join(out)
+
+
+def _mesh_bytes(mesh: XdoMesh, what: str) -> list:
+    vertices = np.asarray(mesh.vertices)
+    if vertices.ndim != 2 or vertices.shape[1] != VERTEX_FLOATS:
+        raise ValueError(f"{what}: vertices must have shape (n, {VERTEX_FLOATS}), got {vertices.shape}")
+    indices = np.asarray(mesh.indices)
+    if indices.size and (indices.min() < 0 or indices.max() > MAX_INDEX):
+        raise ValueError(f"{what}: indices must fit u16 (0..{MAX_INDEX})")
+    if len(mesh.color) != 4:
+        raise ValueError(f"{what}: color must be 4 bytes, got {len(mesh.color)}")
+    if mesh.thumbnail is None and mesh.image_name:
+        raise ValueError(f"{what}: a mesh with an image_name always carries a thumbnail field (use b'')")
+    out = [
+        struct.pack("<I", len(vertices)), vertices.astype("<f4", copy=False).tobytes(),
+        struct.pack("<I", indices.size), indices.astype("<u2").tobytes(),
+        bytes(mesh.color), struct.pack("<B", mesh.image_level), _string(mesh.image_name, f"{what} image_name"),
+    ]
+    if mesh.thumbnail is not None:
+        out += [struct.pack("<I", len(mesh.thumbnail)), bytes(mesh.thumbnail)]
+    return out
+
+
+def serialise_xdo(xdo: XdoFile) -> bytes:
+    """The bytes of an ``.xdo``; ``parse_xdo(serialise_xdo(x), p, x.version)`` equals ``x``.
+
+    ValueError when the model cannot be written in its version's layout (3.0.0.1 holds exactly one
+    mesh, 3.0.0.2 up to 255) or could not be read back unambiguously (meshes with an empty
+    ``image_name`` must all have a thumbnail field or all lack it).
+    """
+    if xdo.version not in XDO_VERSIONS:
+        raise ValueError(f"version must be one of {XDO_VERSIONS}, got {xdo.version!r}")
+    if xdo.version == 1 and len(xdo.meshes) != 1:
+        raise ValueError(f".xdo 3.0.0.1 holds exactly one mesh, got {len(xdo.meshes)}")
+    if len(xdo.meshes) > MAX_MESHES:
+        raise ValueError(f".xdo 3.0.0.2 holds at most {MAX_MESHES} meshes, got {len(xdo.meshes)}")
+    empty_thumbnails = {m.thumbnail is None for m in xdo.meshes if not m.image_name}
+    if len(empty_thumbnails) > 1:
+        raise ValueError("meshes with an empty image_name must all have a thumbnail field or all lack it")
+    out = [struct.pack("<BI", xdo.type, xdo.object_id), _string(xdo.key, "key"), _bbox(xdo.bbox, "bbox"), _f32(xdo.altitude)]
+    if xdo.version == 2:
+        out.append(struct.pack("<B", len(xdo.meshes)))
+    for i, mesh in enumerate(xdo.meshes):
+        out += _mesh_bytes(mesh, f"mesh {i}")
+    return b"".join(out)

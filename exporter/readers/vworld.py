@@ -1,0 +1,489 @@
+"""VWorld building tiles: a folder with ``.dat`` tile indexes, ``.xdo`` models and ``.jpg`` textures.
+
+Reader contract (see ``exporter/readers/__init__.py``): :func:`detect`, :func:`scan`, :func:`load`;
+plus :func:`write_tile`, the inverse, used by the sample generator and the tests.
+
+Frames (``../shared/notes/frames-and-placement.md``):
+
+- **VWorld global**: ``X = R cos(lat) cos(lon), Y = -R cos(lat) sin(lon), Z = R sin(lat)``, metres,
+  R = 6 378 137 m (VWorld's sphere). ``.xdo`` positions are float32 metre offsets from the
+  bounding-box centre in it; normals are unit vectors in it.
+- **Local East/Up/North** (the model's frame): metres, origin at the reference point = the
+  ``.dat`` record's centre lon/lat at its ``altitude``. The VWorld global frame -> local frame
+  rotation has determinant +1 (both frames are mirror images of a right-handed one), so it keeps
+  the winding; which way VWorld winds its triangles is decided per mesh from the stored normals
+  (majority vote), and the loaded triangles always have ``(b-a)x(c-a)`` pointing outward.
+
+The reference elevation is the ``.dat`` altitude (the building's base in VWorld's data); the
+geometry keeps its absolute position whatever the reference, since positions are offsets from it.
+When the model's lowest point is far from that altitude (public parsers report such data) the
+building gets a ``problems`` entry quoting the altitude, the model base and the box-centre height.
+
+Files written by :func:`write_tile`: ``<level>_<idx>_<idy>.dat`` (the tile index),
+``<building id>.xdo`` per building (id made file-system safe, made unique with ``~<n>``) and each
+part's texture under its own file name (``Texture.name``) or ``<xdo stem>_<part>.jpg``/``.png``.
+"""
+from __future__ import annotations
+
+import io
+import math
+import os
+import re
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+
+from ..atomic import write_bytes_atomic
+from ..config import ReaderOptions
+from ..errors import ReadError
+from ..formats.vworld_binary import (
+    MAX_MESHES, XDO_TYPE, DatFile, DatObject, XdoFile, XdoMesh, color_bytes, color_rgba, decode_text,
+    parse_dat, parse_xdo, serialise_dat, serialise_xdo, version_bytes, xml_error,
+)
+from ..model import Building, GeoPoint, Part, Skipped, Texture, TileId
+from . import Entry, Scan
+
+EARTH_RADIUS_M = 6378137.0  # VWorld's sphere
+MAX_PART_VERTICES = 65535  # u16 indices
+ALTITUDE_MISMATCH_M = 10.0  # report when the model's base is further than this from the .dat altitude
+BBOX_MISMATCH_M = 1.0  # report when the .dat and .xdo bounding boxes differ by more than this
+DISAGREEING_SHARE = 0.1  # report a mesh whose winding disagrees with its normals on more triangles
+
+
+# --------------------------------------------------------------------------- frames
+
+def enu_rotation(lon: float, lat: float) -> np.ndarray:
+    """(3, 3) rotation, rows = local East, Up, North unit vectors in the VWorld global frame.
+
+    ``local = rotation @ global`` for directions; ``lon``/``lat`` in degrees. Determinant +1.
+    """
+    lam, phi = math.radians(lon), math.radians(lat)
+    sl, cl, sp, cp = math.sin(lam), math.cos(lam), math.sin(phi), math.cos(phi)
+    return np.array([
+        [-sl, -cl, 0.0],
+        [cp * cl, -cp * sl, sp],
+        [-sp * cl, sp * sl, cp],
+    ])
+
+
+def global_point(point: GeoPoint) -> np.ndarray:
+    """(3,) VWorld global position, metres, of a lon/lat (degrees) at ``elev`` metres."""
+    lam, phi = math.radians(point.lon), math.radians(point.lat)
+    h = EARTH_RADIUS_M + point.elev
+    return np.array([h * math.cos(phi) * math.cos(lam), -h * math.cos(phi) * math.sin(lam), h * math.sin(phi)])
+
+
+def global_to_local(points: np.ndarray, reference: GeoPoint) -> np.ndarray:
+    """(n, 3) VWorld global positions (metres) -> local East/Up/North (metres) at ``reference``."""
+    return (np.asarray(points, dtype=np.float64) - global_point(reference)) @ enu_rotation(reference.lon, reference.lat).T
+
+
+def local_to_global(points: np.ndarray, reference: GeoPoint) -> np.ndarray:
+    """(n, 3) local East/Up/North positions (metres) at ``reference`` -> VWorld global (metres)."""
+    return np.asarray(points, dtype=np.float64) @ enu_rotation(reference.lon, reference.lat) + global_point(reference)
+
+
+def lonlat_of(points: np.ndarray) -> tuple:
+    """(lon, lat) arrays in degrees of (n, 3) VWorld global positions (metres)."""
+    x, y, z = points[:, 0], points[:, 1], points[:, 2]
+    return np.degrees(np.arctan2(-y, x)), np.degrees(np.arctan2(z, np.hypot(x, y)))
+
+
+def tile_of(lon: float, lat: float, level: int) -> TileId:
+    """The VWorld tile at ``level`` holding lon/lat (degrees): unit = 36 / 2**level degrees."""
+    unit = 36.0 / 2 ** level
+    return TileId(level, int(math.floor((lon + 180.0) / unit)), int(math.floor((lat + 90.0) / unit)))
+
+
+# --------------------------------------------------------------------------- winding
+
+def winding_votes(positions: np.ndarray, triangles: np.ndarray, directions: np.ndarray) -> tuple:
+    """(agree, disagree): triangles whose ``(b-a)x(c-a)`` has a positive / negative dot with
+    the sum of the corner ``directions`` ((n, 3), any frame shared with ``positions``)."""
+    a, b, c = (positions[triangles[:, k]] for k in range(3))
+    face = np.cross(b - a, c - a)
+    reference = directions[triangles].sum(axis=1)
+    dots = np.einsum("ij,ij->i", face, reference)
+    return int((dots > 0).sum()), int((dots < 0).sum())
+
+
+def outward_triangles(positions: np.ndarray, triangles: np.ndarray, normals: np.ndarray,
+                      centroid: np.ndarray) -> tuple:
+    """Triangles (m, 3) reordered so ``(b-a)x(c-a)`` points outward, with (agree, disagree) votes.
+
+    The stored vertex ``normals`` vote; when they give no vote (all zero) the direction from the
+    building's ``centroid`` (same frame as ``positions``) to each corner votes instead.
+    """
+    agree, disagree = winding_votes(positions, triangles, normals)
+    if agree == 0 and disagree == 0:
+        agree, disagree = winding_votes(positions, triangles, positions - centroid)
+    if disagree > agree:
+        return triangles[:, [0, 2, 1]], (disagree, agree)
+    return triangles, (agree, disagree)
+
+
+def vertex_normals(positions: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(n, 3) area-weighted unit vertex normals of outward-wound triangles (same frame)."""
+    a, b, c = (positions[triangles[:, k]] for k in range(3))
+    face = np.cross(b - a, c - a)
+    normals = np.zeros_like(positions, dtype=np.float64)
+    for k in range(3):
+        np.add.at(normals, triangles[:, k], face)
+    return _unit(normals)
+
+
+def _unit(vectors: np.ndarray) -> np.ndarray:
+    length = np.linalg.norm(vectors, axis=1, keepdims=True)
+    return np.divide(vectors, length, out=np.zeros_like(vectors, dtype=np.float64), where=length > 0)
+
+
+# --------------------------------------------------------------------------- files
+
+def detect(folder: str | Path) -> bool:
+    """True when the folder holds any ``.dat`` tile index."""
+    return any(_dat_files(Path(folder)))
+
+
+def _dat_files(folder: Path) -> list[Path]:
+    return sorted(p for p in folder.iterdir() if p.suffix.lower() == ".dat" and p.is_file())
+
+
+def _find(folder: Path, raw_name: bytes) -> Optional[Path]:
+    """The file a raw VWorld string names: its exact bytes, its decoded text, then any case."""
+    if not raw_name:
+        return None
+    names = [os.fsdecode(raw_name), decode_text(raw_name)]
+    for name in names:
+        if "/" in name or "\\" in name or name in (".", ".."):
+            continue
+        if (folder / name).is_file():
+            return folder / name
+    wanted = {n.lower() for n in names}
+    for candidate in folder.iterdir():
+        if candidate.name.lower() in wanted and candidate.is_file():
+            return candidate
+    return None
+
+
+def _expected(folder: Path, raw_name: bytes) -> Path:
+    return folder / Path(decode_text(raw_name).replace("\\", "/")).name
+
+
+def _read(path: Path) -> bytes:
+    try:
+        return path.read_bytes()
+    except FileNotFoundError:
+        raise ReadError(str(path), "missing") from None
+    except OSError as error:
+        raise ReadError(str(path), f"cannot be read ({error.strerror or error})") from None
+
+
+# --------------------------------------------------------------------------- scan
+
+def scan(folder: str | Path, options: Optional[ReaderOptions] = None) -> Scan:
+    """One :class:`Entry` per ``.dat`` object record of every ``.dat`` in ``folder``.
+
+    ``Entry.key`` = (dat path, record index, the :class:`DatObject`); ``Entry.source`` = the
+    ``.xdo`` path (which may be missing: reported by :func:`load`). A ``.dat`` that cannot be read
+    goes to ``skipped``.
+    """
+    folder = Path(folder)
+    result = Scan(folder=str(folder), format="vworld")
+    used_ids: set[str] = set()
+    for dat_path in _dat_files(folder):
+        try:
+            dat = parse_dat(_read(dat_path), str(dat_path))
+        except ReadError as error:
+            result.skipped.append(Skipped(source=str(dat_path), reason=error.problem))
+            continue
+        tile = TileId(dat.level, dat.idx, dat.idy)
+        if dat.trailing:
+            result.notes.append(f"{dat_path}: {len(dat.trailing)} bytes after the last object record ignored")
+        for index, record in enumerate(dat.objects):
+            xdo_path = _find(folder, record.data_file)
+            if xdo_path is None and record.key:
+                xdo_path = _find(folder, record.key + b".xdo")
+            if xdo_path is None:
+                if not record.data_file:
+                    result.skipped.append(Skipped(source=str(dat_path), reason=f"object {index} names no .xdo file (empty data_file)", id=decode_text(record.key) or None, tile=tile))
+                    continue
+                xdo_path = _expected(folder, record.data_file)
+            building_id = _unique(decode_text(record.key).strip() or xdo_path.stem, used_ids)
+            inputs = [str(dat_path)] + ([str(xdo_path)] if xdo_path.is_file() else [])
+            inputs += [str(p) for p in _texture_files(folder, xdo_path, record)]
+            result.entries.append(Entry(format="vworld", id=building_id, source=str(xdo_path), tile=tile,
+                                        inputs=inputs, key=(str(dat_path), index, record)))
+    return result
+
+
+def _unique(name: str, used: set) -> str:
+    candidate, n = name, 1
+    while candidate in used:
+        n += 1
+        candidate = f"{name}~{n}"
+    used.add(candidate)
+    return candidate
+
+
+def _texture_files(folder: Path, xdo_path: Path, record: DatObject) -> list[Path]:
+    """Texture files the model names (for hashing); nothing when the ``.xdo`` cannot be read yet."""
+    try:
+        xdo = parse_xdo(xdo_path.read_bytes(), str(xdo_path), None)
+    except (OSError, ReadError):
+        return []
+    found = {_find(folder, mesh.image_name) for mesh in xdo.meshes} - {None}
+    return sorted(found)
+
+
+# --------------------------------------------------------------------------- load
+
+def load(entry: Entry, options: Optional[ReaderOptions] = None) -> Building:
+    """Read one building: its ``.xdo`` and textures, in the local East/Up/North frame.
+
+    Raises :class:`ReadError` naming the ``.xdo`` when it is missing, truncated, an XML error page
+    or holds no triangles; a missing or broken texture only leaves its part untextured, with a
+    ``problems`` entry naming the file.
+    """
+    dat_path, index, record = entry.key
+    xdo_path = Path(entry.source)
+    folder = xdo_path.parent
+    problems: list[str] = []
+
+    xdo = _parse_declared(_read(xdo_path), xdo_path, record, problems)
+    reference = _reference(record, xdo, dat_path, xdo_path, problems)
+    rotation = enu_rotation(reference.lon, reference.lat)
+    center = xdo.bbox_center
+    if not np.all(np.isfinite(center)):
+        raise ReadError(str(xdo_path), "bounding box is not finite")
+    center_local = (center - global_point(reference)) @ rotation.T  # metres, local East/Up/North
+
+    meshes = []
+    for j, mesh in enumerate(xdo.meshes):
+        triangles = _triangles(mesh, j, xdo_path, problems)
+        if triangles is None:
+            continue
+        positions = mesh.positions.astype(np.float64) @ rotation.T + center_local
+        if not np.all(np.isfinite(positions)):
+            raise ReadError(str(xdo_path), f"mesh {j}: positions are not finite")
+        normals = _unit(np.nan_to_num(mesh.normals.astype(np.float64)) @ rotation.T)
+        meshes.append((j, mesh, positions, triangles, normals))
+    if not meshes:
+        raise ReadError(str(xdo_path), "holds no triangles")
+
+    centroid = np.concatenate([m[2] for m in meshes]).mean(axis=0)
+    textures: dict[bytes, Optional[Texture]] = {}
+    parts = []
+    for j, mesh, positions, triangles, normals in meshes:
+        triangles, (agree, disagree) = outward_triangles(positions, triangles, normals, centroid)
+        if disagree > DISAGREEING_SHARE * (agree + disagree):
+            problems.append(f"{xdo_path.name} mesh {j}: {disagree} of {agree + disagree} triangles are wound against the stored normals")
+        if mesh.image_name and mesh.image_name not in textures:
+            textures[mesh.image_name] = _texture(folder, mesh.image_name, problems)
+        texture = textures.get(mesh.image_name)
+        has_normals = bool(np.any(normals))
+        parts.append(Part(
+            positions=positions, triangles=triangles, normals=normals if has_normals else None,
+            uvs=mesh.uvs, texture=texture, color=_color(mesh.color),
+            name=Path(decode_text(mesh.image_name)).stem if mesh.image_name else f"mesh{j}",
+        ))
+
+    everything = np.concatenate([p.positions for p in parts])
+    _check_base(everything, record, center, reference, xdo_path, problems)
+    lon, lat = lonlat_of(everything @ rotation + global_point(reference))
+    bounds = (float(lon.min()), float(lat.min()), float(lon.max()), float(lat.max()))
+    return Building(id=entry.id, source=str(xdo_path), reference=reference, parts=parts,
+                    tile=entry.tile, problems=problems, lonlat_bounds=bounds)
+
+
+def _parse_declared(data: bytes, xdo_path: Path, record: DatObject, problems: list) -> XdoFile:
+    """The ``.xdo`` in the layout the ``.dat`` declares, else in the one that fits (noted)."""
+    declared = record.xdo_version
+    try:
+        return parse_xdo(data, str(xdo_path), declared)
+    except ReadError as error:
+        if declared is None:
+            raise
+        try:
+            xdo = parse_xdo(data, str(xdo_path), 3 - declared)
+        except ReadError:
+            raise error from None
+    problems.append(f"{xdo_path.name}: the .dat declares version 3.0.0.{declared} but the file has the 3.0.0.{xdo.version} layout")
+    return xdo
+
+
+def _reference(record: DatObject, xdo: XdoFile, dat_path: str, xdo_path: Path, problems: list) -> GeoPoint:
+    """The local frame's origin: the ``.dat`` centre lon/lat at the ``.dat`` altitude."""
+    lon, lat = float(record.center_lon), float(record.center_lat)
+    if not (math.isfinite(lon) and math.isfinite(lat) and -90.0 <= lat <= 90.0):
+        raise ReadError(dat_path, f"object {decode_text(record.key)!r}: centre lon/lat ({lon}, {lat}) is not a valid position")
+    altitude = float(record.altitude)
+    if not math.isfinite(altitude):
+        altitude = float(xdo.altitude) if math.isfinite(float(xdo.altitude)) else 0.0
+        problems.append(f"{Path(dat_path).name}: altitude of {decode_text(record.key)!r} is not a number; used {altitude:g} m")
+    dat_box, xdo_box = np.asarray(record.bbox, dtype=np.float64), np.asarray(xdo.bbox, dtype=np.float64)
+    if np.all(np.isfinite(dat_box)) and np.max(np.abs(dat_box - xdo_box)) > BBOX_MISMATCH_M:
+        problems.append(f"{xdo_path.name}: bounding box differs from the .dat's by {np.max(np.abs(dat_box - xdo_box)):.1f} m; used the .xdo's")
+    return GeoPoint(lon, lat, altitude)
+
+
+def _triangles(mesh: XdoMesh, j: int, xdo_path: Path, problems: list) -> Optional[np.ndarray]:
+    """(m, 3) int64 triangles of a mesh, None (with a problem) for an empty one."""
+    if len(mesh.indices) == 0 or len(mesh.vertices) == 0:
+        problems.append(f"{xdo_path.name} mesh {j}: empty (no triangles), dropped")
+        return None
+    if len(mesh.indices) % 3:
+        raise ReadError(str(xdo_path), f"mesh {j}: {len(mesh.indices)} indices is not a whole number of triangles")
+    if int(mesh.indices.max()) >= len(mesh.vertices):
+        raise ReadError(str(xdo_path), f"mesh {j}: index {int(mesh.indices.max())} is past the {len(mesh.vertices)} vertices")
+    return mesh.indices.astype(np.int64).reshape(-1, 3)
+
+
+def _color(raw: bytes) -> tuple:
+    # All-zero bytes mean "no colour set" in practice; a transparent black factor would hide the part.
+    return (1.0, 1.0, 1.0, 1.0) if raw == b"\x00\x00\x00\x00" else color_rgba(raw)
+
+
+def _check_base(local: np.ndarray, record: DatObject, center: np.ndarray, reference: GeoPoint,
+                xdo_path: Path, problems: list) -> None:
+    base = float(local[:, 1].min())  # metres above the reference (Up)
+    if abs(base) > ALTITUDE_MISMATCH_M:
+        box_height = float(np.linalg.norm(center)) - EARTH_RADIUS_M
+        problems.append(
+            f"{xdo_path.name}: model base is {base:+.1f} m from the .dat altitude {reference.elev:.1f} m "
+            f"(bounding-box centre height {box_height:.1f} m); positions kept relative to the .dat altitude")
+
+
+def _texture(folder: Path, raw_name: bytes, problems: list) -> Optional[Texture]:
+    """The texture a mesh names, or None with a ``problems`` entry naming the file."""
+    name = decode_text(raw_name)
+    path = _find(folder, raw_name)
+    if path is None:
+        problems.append(f"texture {name} missing: exported untextured")
+        return None
+    try:
+        data = path.read_bytes()
+    except OSError as error:
+        problems.append(f"texture {name} cannot be read ({error.strerror or error}): exported untextured")
+        return None
+    code = xml_error(data) if data else "empty file"
+    if code is not None:
+        problems.append(f"texture {name} is an XML error page ({code}), not an image: exported untextured")
+        return None
+    try:
+        from PIL import Image
+
+        with Image.open(io.BytesIO(data)) as image:  # reads the header only
+            fmt, (width, height) = image.format, image.size
+            mime = Image.MIME.get(fmt or "", "")
+    except Exception as error:  # Pillow raises many types for bad headers
+        problems.append(f"texture {name} is not a readable image ({type(error).__name__}: {error}): exported untextured")
+        return None
+    if _truncated(data, fmt):
+        problems.append(f"texture {name} is truncated ({len(data)} bytes): exported untextured")
+        return None
+    return Texture(data=data, mime=mime or "application/octet-stream", width=width, height=height, name=path.name, source=str(path))
+
+
+def _truncated(data: bytes, fmt: Optional[str]) -> bool:
+    """True when an encoded image visibly stops early (JPEG without EOI after its scan, PNG without IEND)."""
+    if fmt == "JPEG":
+        # 0xFFD9 cannot occur inside entropy-coded data (0xFF is byte-stuffed there).
+        return not (0 <= data.find(b"\xff\xda") < data.rfind(b"\xff\xd9"))
+    if fmt == "PNG":
+        return b"IEND" not in data[-64:]
+    return False
+
+
+# --------------------------------------------------------------------------- write
+
+def write_tile(folder: str | Path, tile: TileId, buildings: list[Building], *, version: int = 2) -> list[Path]:
+    """Write ``buildings`` as a VWorld tile: ``<level>_<idx>_<idy>.dat``, one ``.xdo`` each, textures.
+
+    Local East/Up/North positions (metres, at each ``Building.reference``) become float32 offsets
+    from the bounding-box centre in the VWorld global frame; the ``.dat`` records the reference
+    lon/lat and its elevation (as float32). Triangles keep their (outward) order, which is outward
+    in the VWorld global frame too, and the normals (``Part.normals`` or computed from the
+    triangles) are rotated with the positions. ``Part.color`` is stored as B,G,R,A bytes, each
+    texture's bytes unchanged, thumbnails empty.
+
+    ``version`` 1 (3.0.0.1) takes exactly one part per building, 2 (3.0.0.2) 1 to 255. Raises
+    ValueError for what the format cannot hold (a part with more than 65535 vertices, a string over
+    255 bytes, a wrong number of parts). Returns the written paths, the ``.dat`` first.
+    """
+    if version not in (1, 2):
+        raise ValueError(f"version must be 1 (3.0.0.1) or 2 (3.0.0.2), got {version!r}")
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    written: list[Path] = []
+    records: list[DatObject] = []
+    used_stems: set[str] = set()
+    texture_files: dict[str, bytes] = {}
+    for number, building in enumerate(buildings):
+        stem = _unique(_safe_name(building.id) or f"building{number}", used_stems)
+        xdo, record, textures = _building_files(building, number, stem, version, texture_files)
+        written.append(write_bytes_atomic(folder / record.data_file.decode("utf-8"), serialise_xdo(xdo)))
+        for name, data in textures:
+            written.append(write_bytes_atomic(folder / name, data))
+        records.append(record)
+    dat = DatFile(tile.level, tile.idx, tile.idy, records)
+    dat_path = write_bytes_atomic(folder / f"{tile.name}.dat", serialise_dat(dat))
+    return [dat_path] + written
+
+
+def _safe_name(text: str) -> str:
+    return re.sub(r"[^\w.-]", "_", text).strip("._")[:200]
+
+
+def _building_files(building: Building, number: int, stem: str, version: int, texture_files: dict) -> tuple:
+    """(XdoFile, DatObject, [(texture file name, bytes) to write]) of one building."""
+    parts = building.parts
+    if version == 1 and len(parts) != 1:
+        raise ValueError(f"building {building.id!r}: .xdo 3.0.0.1 holds exactly one part, got {len(parts)}; use version=2")
+    if not 1 <= len(parts) <= MAX_MESHES:
+        raise ValueError(f"building {building.id!r}: .xdo 3.0.0.2 holds 1 to {MAX_MESHES} parts, got {len(parts)}")
+    for j, part in enumerate(parts):
+        if part.vertex_count > MAX_PART_VERTICES:
+            raise ValueError(f"building {building.id!r} part {j}: {part.vertex_count} vertices; .xdo indices are u16, at most {MAX_PART_VERTICES} vertices a part")
+        if part.vertex_count == 0 or part.triangle_count == 0:
+            raise ValueError(f"building {building.id!r} part {j}: no triangles")
+    altitude = np.float32(building.reference.elev)
+    reference = GeoPoint(building.reference.lon, building.reference.lat, float(altitude))
+    rotation = enu_rotation(reference.lon, reference.lat)
+    global_parts = [local_to_global(p.positions, reference) for p in parts]
+    everything = np.concatenate(global_parts)
+    bbox = tuple(float(v) for v in np.concatenate([everything.min(axis=0), everything.max(axis=0)]))
+    center = (everything.min(axis=0) + everything.max(axis=0)) / 2.0
+
+    meshes, new_textures = [], []
+    for j, (part, positions) in enumerate(zip(parts, global_parts)):
+        normals = part.normals if part.normals is not None else vertex_normals(part.positions, part.triangles)
+        uvs = part.uvs if part.uvs is not None else np.zeros((part.vertex_count, 2), np.float32)
+        vertices = np.hstack([positions - center, np.asarray(normals, np.float64) @ rotation, uvs]).astype("<f4")
+        image_name = b""
+        if part.texture is not None:
+            name = _texture_name(part.texture, f"{stem}_{j}", texture_files)
+            if name not in texture_files:
+                texture_files[name] = part.texture.data
+                new_textures.append((name, part.texture.data))
+            image_name = name.encode("utf-8")
+        meshes.append(XdoMesh(vertices, part.triangles.reshape(-1).astype("<u2"), color_bytes(part.color), 0, image_name, b""))
+    key = building.id.encode("utf-8")
+    xdo = XdoFile(version, XDO_TYPE, number, key, bbox, altitude, meshes)
+    record = DatObject(version_bytes(version), XDO_TYPE, key, reference.lon, reference.lat, altitude, bbox, 0,
+                       f"{stem}.xdo".encode("utf-8"), meshes[0].image_name)
+    return xdo, record, new_textures
+
+
+def _texture_name(texture: Texture, fallback: str, taken: dict) -> str:
+    """A file name for a texture: its own (when free or holding the same bytes), else a new one."""
+    extension = ".png" if texture.mime == "image/png" else ".jpg"
+    name = _safe_name(Path(texture.name.replace("\\", "/")).name) if texture.name else ""
+    if not name:
+        name = fallback + extension
+    stem, suffix = os.path.splitext(name)
+    candidate, n = name, 1
+    while candidate in taken and taken[candidate] != texture.data:
+        n += 1
+        candidate = f"{stem}~{n}{suffix}"
+    return candidate
