@@ -1,0 +1,162 @@
+"""End to end: `vworld-lod export` on VWorld-format tiles written by the sample generator."""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from exporter.cli import main
+from exporter.manifest import validate_manifest
+from exporter.model import TileId
+
+REPO = Path(__file__).resolve().parents[1]
+TILE = TileId(15, 279418, 116113)
+
+
+@pytest.fixture(scope="module")
+def small_tile(tmp_path_factory) -> Path:
+    from exporter.samplegen import generate_tile
+
+    folder = tmp_path_factory.mktemp("tile") / TILE.name
+    generate_tile(folder, count=6, seed=7, tile=TILE, atlas_size=128, mean_triangles=200)
+    return folder
+
+
+def export(args: list[str]) -> int:
+    return main(["export", *args, "--quiet", "--jobs", "1"])
+
+
+def manifest_of(out: Path) -> dict:
+    (path,) = list(out.glob("*/lod_manifest.json"))
+    return json.loads(path.read_text())
+
+
+def test_demo_tile_exports_a_valid_manifest_and_valid_gltf(tmp_path, gltf_validator):
+    demo = sorted(p for p in (REPO / "samples").iterdir() if p.is_dir() and list(p.glob("*.dat")))
+    assert demo, "samples/ must hold the committed demo tile"
+    out = tmp_path / "out"
+    assert main(["export", str(demo[0]), "--out", str(out), "--quiet"]) == 0
+    manifest = manifest_of(out)
+    validate_manifest(manifest)
+    assert manifest["lod_group"]["screen_relative_heights"] == [0.5, 0.17, 0.02]
+    assert manifest["buildings"] and not manifest["skipped"]
+    tile_dir = out / manifest["tile"]["name"]
+    files = [tile_dir / lod["file"] for b in manifest["buildings"] for lod in b["lods"]]
+    assert all(f.is_file() for f in files) and len(files) == 3 * len(manifest["buildings"])
+    reports = gltf_validator(files)
+    assert all(r["errors"] == 0 for r in reports), [r for r in reports if r["errors"]][:3]
+    levels = manifest["summary"]["levels"]
+    assert levels[0]["ratio_to_lod0"] == 1.0
+    assert levels[0]["mean_triangles"] > levels[1]["mean_triangles"] > levels[2]["mean_triangles"]
+    for building in manifest["buildings"]:
+        sizes = [lod["texture_size"] for lod in building["lods"]]
+        assert sizes[1][0] * 2 == sizes[0][0] and sizes[2][0] * 4 == sizes[0][0]
+
+
+def test_yaml_transitions_and_levels_reach_the_manifest(tmp_path, small_tile):
+    config = tmp_path / "lod.yaml"
+    config.write_text("lods:\n  - {transition: 60%, mesh: 1.0, texture: 1.0}\n  - {transition: 0.05, mesh: 0.5, texture: 0.5}\nunity: {fade_mode: cross_fade}\n")
+    out = tmp_path / "out"
+    assert export([str(small_tile), "--out", str(out), "--config", str(config)]) == 0
+    manifest = manifest_of(out)
+    validate_manifest(manifest)
+    assert manifest["lod_group"]["screen_relative_heights"] == [0.6, 0.05]
+    assert manifest["lod_group"]["fade_mode"] == "cross_fade"
+    assert all(len(b["lods"]) == 2 for b in manifest["buildings"])
+    assert manifest["tile"]["name"] == TILE.name
+
+
+def test_a_corrupt_building_is_skipped_and_the_rest_of_the_tile_exported(tmp_path, small_tile):
+    tile = tmp_path / "tile"
+    shutil.copytree(small_tile, tile)
+    victim = sorted(tile.glob("*.xdo"))[2]
+    victim.write_bytes(victim.read_bytes()[:40])
+    out = tmp_path / "out"
+    assert export([str(tile), "--out", str(out)]) == 0
+    manifest = manifest_of(out)
+    validate_manifest(manifest)
+    assert len(manifest["skipped"]) == 1 and victim.name in manifest["skipped"][0]["source"] + manifest["skipped"][0]["reason"]
+    assert len(manifest["buildings"]) == 5
+
+
+def test_unusable_input_and_config_exit_non_zero_with_one_line(tmp_path, small_tile, capsys):
+    assert main(["export", str(tmp_path / "nowhere"), "--out", str(tmp_path / "o")]) == 2
+    assert "nowhere" in capsys.readouterr().err
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert main(["export", str(empty), "--out", str(tmp_path / "o")]) == 2
+    assert "empty" in capsys.readouterr().err
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("lods:\n  - {transition: 0.1}\n  - {transition: 0.2}\n")
+    assert main(["export", str(small_tile), "--out", str(tmp_path / "o"), "--config", str(bad)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "bad.yaml" in err and "lods[1].transition" in err
+    assert not (tmp_path / "o").exists(), "a bad config is refused before any work"
+
+
+def test_rerun_skips_unchanged_buildings_force_redoes_and_removed_ones_disappear(tmp_path, small_tile):
+    from exporter.pipeline import export_tiles
+    from exporter.config import Config
+
+    tile = tmp_path / "tile"
+    shutil.copytree(small_tile, tile)
+    out = tmp_path / "out"
+    first = export_tiles([tile], out, Config(), jobs=1)
+    assert first.buildings == 6 and first.reused == 0
+    before = manifest_of(out)
+    second = export_tiles([tile], out, Config(), jobs=1)
+    assert second.reused == 6
+    assert manifest_of(out) == before
+    forced = export_tiles([tile], out, Config(), jobs=1, force=True)
+    assert forced.reused == 0 and manifest_of(out) == before
+    # Changing the config redoes everything; the output follows the new config.
+    changed = Config()
+    changed.lods = changed.lods[:2]
+    third = export_tiles([tile], out, changed, jobs=1)
+    assert third.reused == 0
+    assert not list((out / TILE.name).glob("*/lod2.glb"))
+
+
+def test_inspect_lists_buildings_without_writing(tmp_path, small_tile, capsys):
+    before = sorted(p.name for p in small_tile.iterdir())
+    assert main(["inspect", str(small_tile)]) == 0
+    text = capsys.readouterr().out
+    assert "format vworld" in text and "6 buildings" in text and "triangles" in text
+    assert sorted(p.name for p in small_tile.iterdir()) == before
+
+
+def test_init_config_writes_a_loadable_commented_file(tmp_path, capsys):
+    path = tmp_path / "lod.yaml"
+    assert main(["init-config", str(path)]) == 0
+    assert main(["init-config", str(path)]) == 2, "never overwrites what the user had"
+    from exporter.config import Config, load_config
+
+    assert load_config(path) == Config()
+
+
+@pytest.mark.slow
+def test_killed_run_resumes_to_the_same_output_as_an_uninterrupted_one(tmp_path, small_tile):
+    reference = tmp_path / "reference"
+    assert export([str(small_tile), "--out", str(reference)]) == 0
+    out = tmp_path / "out"
+    command = [sys.executable, "-m", "exporter", "export", str(small_tile), "--out", str(out), "--jobs", "1", "--quiet"]
+    process = subprocess.Popen(command, cwd=REPO, env={**os.environ, "PYTHONPATH": str(REPO)})
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and len(list(out.glob("*/*/building.json"))) < 2 and process.poll() is None:
+        time.sleep(0.02)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    assert not (out / TILE.name / "lod_manifest.json").exists() or process.returncode == 0
+    assert export([str(small_tile), "--out", str(out)]) == 0
+    assert manifest_of(out) == manifest_of(reference)
+    leftovers = [p for p in out.rglob("*") if p.name.endswith(".tmp")]
+    assert leftovers == []
+    names = lambda root: sorted(str(p.relative_to(root)) for p in root.rglob("*"))
+    assert names(out) == names(reference)
