@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import itertools
 import json
 import os
 import re
@@ -138,9 +139,20 @@ class EntryResult:
     seconds: dict = field(default_factory=dict)
 
 
-def process_entry(entry: Entry, config: Config, out_dir: str, config_hash: str, previous: Optional[dict], force: bool) -> EntryResult:
-    """Run the whole per-building pipeline for one entry (see module doc). Never raises for a bad
-    building: returns it as skipped with the reason."""
+def reusable_record(previous: Optional[dict], digest: str, out_dir: Path) -> Optional[dict]:
+    """A previous run's record when its input hash matches and all its files are still there."""
+    if previous is None or previous["record"].get("input_hash") != digest:
+        return None
+    tile_dir = out_dir / previous["tile"].name
+    if all((tile_dir / lod["file"]).is_file() for lod in previous["record"]["lods"]):
+        return previous
+    return None
+
+
+def process_entry(entry: Entry, config: Config, out_dir: str, digest: str) -> EntryResult:
+    """Run the whole per-building pipeline for one entry (see module doc); ``digest`` is its input
+    hash, recorded for the next run. Never raises for a bad building: returns it as skipped with
+    the reason."""
     from .gltf_writer import glb_bytes
     from .placement import building_placement, relative_placement
     from .quality import measure_lod
@@ -155,11 +167,6 @@ def process_entry(entry: Entry, config: Config, out_dir: str, config_hash: str, 
         seconds[stage] += now - clock
         clock = now
 
-    digest = input_hash(entry, config_hash)
-    if previous is not None and not force and previous["record"].get("input_hash") == digest:
-        tile_dir = Path(out_dir) / previous["tile"].name
-        if all((tile_dir / lod["file"]).is_file() for lod in previous["record"]["lods"]):
-            return EntryResult(tile=previous["tile"], record=previous["record"], reused=True, seconds=seconds)
     try:
         building = load_entry(entry, config.readers)
     except ReadError as error:
@@ -305,7 +312,17 @@ def export_tiles(
         seen_ids[entry.id] = count + 1
         if count:
             entry.id = f"{entry.id}~{count}"
-    tasks = [(entry, config, str(out_dir), config_hash, previous.get((entry.source, entry.id)), force) for entry in entries]
+    # Unchanged buildings are recognised here, in the main process: hashing is cheap I/O, and a
+    # re-run that changes nothing then starts no worker at all.
+    reused_results = []
+    tasks = []
+    for entry in entries:
+        digest = input_hash(entry, config_hash)
+        previous_run = reusable_record(previous.get((entry.source, entry.id)), digest, out_dir)
+        if previous_run is not None:
+            reused_results.append(EntryResult(tile=previous_run["tile"], record=previous_run["record"], reused=True))
+        else:
+            tasks.append((entry, config, str(out_dir), digest))
 
     records: dict[TileId, list[dict]] = {}
     reused: dict[TileId, int] = {}
@@ -315,7 +332,8 @@ def export_tiles(
             skipped.setdefault(item.tile, []).append(item)
     stats = RunStats()
     done = 0
-    for result in _results(tasks, jobs):
+    total = len(entries)
+    for result in itertools.chain(reused_results, _results(tasks, min(jobs, max(1, len(tasks))))):
         done += 1
         for stage, value in result.seconds.items():
             stats.seconds[stage] += value
@@ -328,7 +346,7 @@ def export_tiles(
             skipped.setdefault(result.tile, []).append(result.skipped)
             stats.skipped += 1
         if progress:
-            progress(done, len(tasks))
+            progress(done, total)
 
     # Skips without a known tile go to every tile of this run (or a tile of their own when none).
     unplaced = skipped.pop(None, [])

@@ -1,0 +1,149 @@
+"""Throughput benchmark: a generated VWorld-like tile through the whole exporter (issue 8).
+
+Reports, from one run on this machine (figures are ratios against baselines measured in the same
+run, because the machines are shared and noisy):
+
+- buildings/s with ``--jobs N`` (default: all cores) and with ``--jobs 1`` -> parallel speed-up;
+- seconds per stage (read, simplify, textures, quality, write), summed over workers;
+- peak memory (max RSS of the main process and of any worker) for a small and the full tile;
+- the codec floor: the time just to decode each atlas and encode its smaller levels (Pillow,
+  same scales and JPEG quality, same number of processes) -> export / codec floor;
+- an unchanged re-run -> re-run / first run;
+- scaling: seconds per building and peak memory at a small size vs the full size.
+
+Usage: ``python benchmarks/bench_throughput.py [--buildings 1248] [--atlas 1024] [--small 100]``.
+Each measured export runs in its own child process so its peak memory is its own.
+"""
+from __future__ import annotations
+
+import argparse
+import io
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+
+def peak_rss_mb() -> float:
+    """Max resident set size (MiB) of this process and of its largest finished child."""
+    own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    children = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    return max(own, children) / 1024.0
+
+
+def child_export(tile: str, out: str, jobs: int, force: bool) -> None:
+    """Run one export in this (child) process and print its figures as JSON."""
+    from exporter.config import Config
+    from exporter.pipeline import export_tiles
+
+    started = time.perf_counter()
+    stats = export_tiles([tile], out, Config(), jobs=jobs, force=force)
+    print(json.dumps({
+        "seconds": time.perf_counter() - started,
+        "buildings": stats.buildings,
+        "skipped": stats.skipped,
+        "reused": stats.reused,
+        "stages": stats.seconds,
+        "peak_rss_mb": peak_rss_mb(),
+    }))
+
+
+def run_export(tile: Path, out: Path, jobs: int, force: bool = False) -> dict:
+    command = [sys.executable, __file__, "--child", str(tile), str(out), str(jobs), "1" if force else "0"]
+    result = subprocess.run(command, capture_output=True, text=True, check=True)
+    return json.loads(result.stdout.strip().splitlines()[-1])
+
+
+def _codec_one(args: tuple) -> float:
+    """Decode one atlas and encode its smaller levels; seconds spent."""
+    from PIL import Image
+
+    path, scales, quality = args
+    started = time.perf_counter()
+    with Image.open(path) as image:
+        image = image.convert("RGB")
+        for scale in scales[1:]:
+            size = (max(1, round(image.width * scale)), max(1, round(image.height * scale)))
+            buffer = io.BytesIO()
+            image.resize(size, Image.Resampling.LANCZOS).save(buffer, "JPEG", quality=quality)
+    return time.perf_counter() - started
+
+
+def codec_floor(tile: Path, jobs: int) -> float:
+    """Wall seconds to decode every atlas of the tile and encode its smaller levels, ``jobs`` processes."""
+    from exporter.config import Config
+
+    config = Config()
+    scales = [spec.texture for spec in config.lods]
+    tasks = [(str(p), scales, config.textures.jpeg_quality) for p in sorted(tile.glob("*.jpg"))]
+    started = time.perf_counter()
+    with ProcessPoolExecutor(max_workers=jobs) as pool:
+        list(pool.map(_codec_one, tasks, chunksize=8))
+    return time.perf_counter() - started
+
+
+def main() -> None:
+    if len(sys.argv) > 1 and sys.argv[1] == "--child":
+        child_export(sys.argv[2], sys.argv[3], int(sys.argv[4]), sys.argv[5] == "1")
+        return
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--buildings", type=int, default=1248, help="buildings in the full tile (the paper's 1,248)")
+    parser.add_argument("--small", type=int, default=100, help="buildings in the small tile (scaling baseline)")
+    parser.add_argument("--atlas", type=int, default=1024, help="atlas size in pixels")
+    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--workdir", help="keep the generated tiles and output here")
+    args = parser.parse_args()
+
+    from exporter.samplegen import generate_tile
+
+    work = Path(args.workdir or tempfile.mkdtemp(prefix="vworld-lod-bench-"))
+    print(f"work folder: {work}")
+    tiles = {}
+    for name, count in (("small", args.small), ("full", args.buildings)):
+        tiles[name] = work / f"tile_{count}"
+        if not list(tiles[name].glob("*.dat")):
+            started = time.perf_counter()
+            generate_tile(tiles[name], count=count, seed=args.seed, atlas_size=args.atlas)
+            print(f"generated {count} buildings with {args.atlas}px atlases in {time.perf_counter() - started:.1f} s")
+
+    full = run_export(tiles["full"], work / "out_full", args.jobs, force=True)
+    rerun = run_export(tiles["full"], work / "out_full", args.jobs)
+    single = run_export(tiles["full"], work / "out_single", 1, force=True)
+    small = run_export(tiles["small"], work / "out_small", args.jobs, force=True)
+    floor = codec_floor(tiles["full"], args.jobs)
+
+    n = full["buildings"]
+    print()
+    print(f"tile: {n} buildings ({full['skipped']} skipped), {args.atlas}px atlases, jobs={args.jobs}")
+    print(f"{'measure':44} {'value':>12}")
+    rows = [
+        ("export wall time (s)", f"{full['seconds']:.2f}"),
+        ("buildings/s", f"{n / full['seconds']:.1f}"),
+        ("codec floor wall time (s)", f"{floor:.2f}"),
+        ("export / codec floor (target <= 1.5)", f"{full['seconds'] / floor:.2f}"),
+        (f"jobs {args.jobs} speed-up over jobs 1 (target >= 1.8)", f"{single['seconds'] / full['seconds']:.2f}"),
+        ("unchanged re-run / first run (target <= 0.05)", f"{rerun['seconds'] / full['seconds']:.3f}"),
+        (f"s per building: {args.buildings} vs {args.small} buildings", f"{(full['seconds'] / n) / (small['seconds'] / small['buildings']):.2f}"),
+        (f"peak memory MiB: {args.small} buildings", f"{small['peak_rss_mb']:.0f}"),
+        (f"peak memory MiB: {args.buildings} buildings", f"{full['peak_rss_mb']:.0f}"),
+        ("peak memory ratio full / small", f"{full['peak_rss_mb'] / small['peak_rss_mb']:.2f}"),
+    ]
+    for label, value in rows:
+        print(f"{label:44} {value:>12}")
+    total = sum(full["stages"].values()) or 1.0
+    print("\nstage shares of worker time (jobs={}):".format(args.jobs))
+    for stage, seconds in full["stages"].items():
+        print(f"  {stage:10} {seconds:8.2f} s  {seconds / total:6.1%}  ({1000 * seconds / n:.1f} ms/building)")
+
+
+if __name__ == "__main__":
+    main()
