@@ -1,0 +1,192 @@
+// Editor import of one tile manifest under Assets/: one prefab per building (a LODGroup over the
+// imported glTF levels) and one tile prefab holding every building at its placement.
+//
+// Flat pipeline: plan (LodPlanner) -> make sure every glTF is imported -> building prefabs (in
+// one StartAssetEditing batch) -> tile prefab (after the batch, so the building prefabs load).
+// Prefabs go to <manifest folder>/Prefabs/<building>.prefab and <tile>.prefab: re-running
+// overwrites them in place (same paths, same GUIDs), so scene instances update and nothing is
+// duplicated.
+using System;
+using System.Collections.Generic;
+using System.IO;
+using UnityEditor;
+using UnityEngine;
+
+namespace VWorldLod.EditorTools
+{
+    /// <summary>What a build did, for the console summary.</summary>
+    public class BuildReport
+    {
+        public string ManifestPath;
+        public int Built;
+        public int Failed;
+        public bool Cancelled;
+        public string TilePrefabPath;
+
+        public override string ToString()
+        {
+            return "VWorld LoD: " + ManifestPath + ": " + Built + " building prefab(s) built, " + Failed + " failed"
+                   + (Cancelled ? ", cancelled" : "")
+                   + (string.IsNullOrEmpty(TilePrefabPath) ? "" : "; tile prefab " + TilePrefabPath);
+        }
+    }
+
+    public static class LodGroupPrefabBuilder
+    {
+        const string ProgressTitle = "VWorld LoD";
+
+        /// <summary>Builds the prefabs of the manifest at manifestAssetPath ("Assets/.../lod_manifest.json").</summary>
+        public static BuildReport Build(string manifestAssetPath)
+        {
+            var report = new BuildReport { ManifestPath = manifestAssetPath };
+            TilePlan plan;
+            try
+            {
+                plan = LodPlanner.Load(manifestAssetPath, new JsonUtilityManifestParser(), File.Exists);
+            }
+            catch (ManifestException e)
+            {
+                Debug.LogError(e.Message);
+                report.Failed = 1;
+                return report;
+            }
+            foreach (ManifestException failure in plan.Failures)
+                Debug.LogError(failure.Message);
+            report.Failed = plan.Failures.Length;
+
+            string prefabFolder = EnsureFolder(plan.Folder, "Prefabs");
+            var levelAssets = LoadLevelAssets(plan, report);
+            var saved = new List<BuildingPlan>();
+            try
+            {
+                AssetDatabase.StartAssetEditing();
+                for (int i = 0; i < plan.Buildings.Length; i++)
+                {
+                    BuildingPlan building = plan.Buildings[i];
+                    if (EditorUtility.DisplayCancelableProgressBar(ProgressTitle, building.Id, (float)i / plan.Buildings.Length))
+                    {
+                        report.Cancelled = true;
+                        break;
+                    }
+                    GameObject[] levels;
+                    if (!levelAssets.TryGetValue(building.Id, out levels)) continue;
+                    if (SaveBuildingPrefab(building, plan, levels, prefabFolder + "/" + building.Name + ".prefab"))
+                    {
+                        saved.Add(building);
+                        report.Built++;
+                    }
+                    else
+                    {
+                        report.Failed++;
+                    }
+                }
+            }
+            finally
+            {
+                AssetDatabase.StopAssetEditing();
+                EditorUtility.ClearProgressBar();
+            }
+
+            if (!report.Cancelled)
+                report.TilePrefabPath = SaveTilePrefab(plan, saved, prefabFolder);
+            Debug.Log(report.ToString());
+            return report;
+        }
+
+        // Every level's imported glTF, per building id; a building with a level that is not
+        // (and cannot be) imported is reported and left out.
+        static Dictionary<string, GameObject[]> LoadLevelAssets(TilePlan plan, BuildReport report)
+        {
+            var result = new Dictionary<string, GameObject[]>();
+            foreach (BuildingPlan building in plan.Buildings)
+            {
+                var levels = new GameObject[building.Levels.Length];
+                for (int k = 0; k < levels.Length; k++)
+                {
+                    string path = building.Levels[k].Path;
+                    levels[k] = AssetDatabase.LoadAssetAtPath<GameObject>(path);
+                    if (levels[k] == null)
+                    {
+                        AssetDatabase.ImportAsset(path, ImportAssetOptions.ForceSynchronousImport);
+                        levels[k] = AssetDatabase.LoadAssetAtPath<GameObject>(path);
+                    }
+                    if (levels[k] == null)
+                    {
+                        Debug.LogError(plan.ManifestPath + ": building " + building.Id + ": " + path
+                                       + " did not import as a model (is glTFast, com.unity.cloud.gltfast, installed?)");
+                        report.Failed++;
+                        levels = null;
+                        break;
+                    }
+                }
+                if (levels != null) result[building.Id] = levels;
+            }
+            return result;
+        }
+
+        static bool SaveBuildingPrefab(BuildingPlan building, TilePlan plan, GameObject[] levelAssets, string prefabPath)
+        {
+            var root = new GameObject(building.Name);
+            try
+            {
+                var renderers = new Renderer[levelAssets.Length][];
+                for (int k = 0; k < levelAssets.Length; k++)
+                {
+                    var level = (GameObject)PrefabUtility.InstantiatePrefab(levelAssets[k], root.transform);
+                    level.name = building.Name + "_LOD" + k;
+                    renderers[k] = level.GetComponentsInChildren<Renderer>();
+                }
+                LodGroupAssembly.Configure(root, building, plan, renderers);
+                bool ok;
+                PrefabUtility.SaveAsPrefabAsset(root, prefabPath, out ok);
+                if (!ok) Debug.LogError(plan.ManifestPath + ": building " + building.Id + ": could not save " + prefabPath);
+                return ok;
+            }
+            catch (Exception e)
+            {
+                Debug.LogError(plan.ManifestPath + ": building " + building.Id + ": " + e.Message);
+                return false;
+            }
+            finally
+            {
+                UnityEngine.Object.DestroyImmediate(root);
+            }
+        }
+
+        static string SaveTilePrefab(TilePlan plan, List<BuildingPlan> buildings, string prefabFolder)
+        {
+            var root = new GameObject(plan.TileName);
+            try
+            {
+                LodGroupAssembly.ApplyPose(root.transform, plan.TileRoot);
+                foreach (BuildingPlan building in buildings)
+                {
+                    var prefab = AssetDatabase.LoadAssetAtPath<GameObject>(prefabFolder + "/" + building.Name + ".prefab");
+                    if (prefab == null) continue;
+                    var instance = (GameObject)PrefabUtility.InstantiatePrefab(prefab, root.transform);
+                    LodGroupAssembly.ApplyPose(instance.transform, building.Local);
+                }
+                string path = prefabFolder + "/" + plan.TileName + ".prefab";
+                bool ok;
+                PrefabUtility.SaveAsPrefabAsset(root, path, out ok);
+                if (!ok)
+                {
+                    Debug.LogError(plan.ManifestPath + ": could not save the tile prefab " + path);
+                    return null;
+                }
+                return path;
+            }
+            finally
+            {
+                UnityEngine.Object.DestroyImmediate(root);
+            }
+        }
+
+        static string EnsureFolder(string parent, string name)
+        {
+            string path = parent + "/" + name;
+            if (!AssetDatabase.IsValidFolder(path)) AssetDatabase.CreateFolder(parent, name);
+            return path;
+        }
+    }
+}

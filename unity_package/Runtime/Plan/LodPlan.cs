@@ -1,0 +1,180 @@
+// From a validated manifest to what Unity has to build: per building, its LoD files (paths
+// relative to the manifest's folder joined to it), the LODGroup's screen-relative heights and
+// fade settings, and where the building goes. Pure data, no Unity types; the Editor importer and
+// the runtime loader both build from a TilePlan.
+//
+// Placement (docs/ARCHITECTURE.md, "Placement dicts"):
+//   tile_relative: a tile root at tile.placement (Unity globe frame, scale UR/R) and each building
+//                  under it at relative_placement (tile East/Up/North, metres, scale 1);
+//   globe:         no tile root transform (identity); each building at its placement (Unity globe frame).
+// Either way Compose(TileRoot, building.Local) is the building's globe placement.
+using System;
+using System.Collections.Generic;
+using System.IO;
+using System.Text;
+
+namespace VWorldLod
+{
+    public enum PlacementMode { TileRelative, Globe }
+
+    /// <summary>Mirrors UnityEngine.LODFadeMode (same order and values).</summary>
+    public enum LodFadeKind { None = 0, CrossFade = 1, SpeedTree = 2 }
+
+    /// <summary>One LoD of one building.</summary>
+    public class LevelPlan
+    {
+        public int Level;
+        /// <summary>As written in the manifest: relative to its folder.</summary>
+        public string File;
+        /// <summary>Manifest folder + File, '/' separated (an asset path inside Unity).</summary>
+        public string Path;
+        /// <summary>LOD.screenRelativeTransitionHeight: this level shows above it (0..1 of the screen height).</summary>
+        public double ScreenRelativeHeight;
+        /// <summary>LOD.fadeTransitionWidth (0..1), used with cross-fading.</summary>
+        public double FadeTransitionWidth;
+    }
+
+    /// <summary>One building's LODGroup.</summary>
+    public class BuildingPlan
+    {
+        public string Id;
+        /// <summary>Id made safe for a GameObject, prefab or file name.</summary>
+        public string Name;
+        public LevelPlan[] Levels;
+        /// <summary>The building's transform under the tile root (see file header).</summary>
+        public Pose Local;
+        /// <summary>Warnings the exporter recorded for this building.</summary>
+        public string[] Problems;
+    }
+
+    /// <summary>What one tile manifest asks Unity to build.</summary>
+    public class TilePlan
+    {
+        public string ManifestPath;
+        /// <summary>Folder holding the manifest, '/' separated ("" for the working folder).</summary>
+        public string Folder;
+        public string TileName;
+        public PlacementMode Mode;
+        /// <summary>The tile root's transform (identity in globe mode).</summary>
+        public Pose TileRoot;
+        public LodFadeKind FadeMode;
+        public bool AnimateCrossFading;
+        public BuildingPlan[] Buildings;
+        /// <summary>Buildings that cannot be built, one error each (naming manifest, building and field).</summary>
+        public ManifestException[] Failures;
+    }
+
+    public static class LodPlanner
+    {
+        /// <summary>
+        /// Reads, validates and plans the manifest at manifestPath. Tile-level problems (unreadable
+        /// file, bad JSON, wrong format/version, bad heights) throw ManifestException; a bad
+        /// building goes to TilePlan.Failures and the others are still planned.
+        /// </summary>
+        public static TilePlan Load(string manifestPath, IManifestParser parser, Func<string, bool> fileExists)
+        {
+            string text;
+            try
+            {
+                text = System.IO.File.ReadAllText(manifestPath, Encoding.UTF8);
+            }
+            catch (Exception e)
+            {
+                if (!(e is IOException || e is UnauthorizedAccessException || e is ArgumentException || e is NotSupportedException)) throw;
+                throw new ManifestException(manifestPath, "", "cannot read the manifest: " + e.Message, e);
+            }
+            return Plan(parser.Parse(text, manifestPath), manifestPath, fileExists);
+        }
+
+        /// <summary>Validates and plans an already parsed manifest (see Load).</summary>
+        public static TilePlan Plan(TileManifest m, string manifestPath, Func<string, bool> fileExists)
+        {
+            ManifestValidator.ValidateTile(m, manifestPath);
+            PlacementMode mode = ManifestValidator.ParsePlacementMode(m.globe.placement).Value;
+            double[] heights = m.lod_group.screen_relative_heights;
+            string folder = FolderOf(manifestPath);
+
+            var plans = new List<BuildingPlan>();
+            var failures = new List<ManifestException>();
+            var seen = new HashSet<string>();
+            BuildingEntry[] buildings = m.buildings ?? new BuildingEntry[0];
+            for (int i = 0; i < buildings.Length; i++)
+            {
+                BuildingEntry b = buildings[i];
+                ManifestException problem = ManifestValidator.BuildingProblem(b, i, heights.Length, mode, folder, fileExists, manifestPath);
+                if (problem == null && !seen.Add(SafeName(b.id)))
+                    problem = new ManifestException(manifestPath, "buildings[" + i + "] (id " + b.id + ").id", "another building already has this id (or the same safe name " + SafeName(b.id) + ")");
+                if (problem != null)
+                {
+                    failures.Add(problem);
+                    continue;
+                }
+                plans.Add(PlanBuilding(b, heights, m.lod_group.fade_transition_width, mode, folder));
+            }
+
+            return new TilePlan
+            {
+                ManifestPath = manifestPath,
+                Folder = folder,
+                TileName = m.tile.name,
+                Mode = mode,
+                TileRoot = mode == PlacementMode.TileRelative ? Pose.FromPlacement(m.tile.placement) : Pose.Identity,
+                FadeMode = ManifestValidator.ParseFadeMode(m.lod_group.fade_mode).Value,
+                AnimateCrossFading = m.lod_group.animate_cross_fading,
+                Buildings = plans.ToArray(),
+                Failures = failures.ToArray(),
+            };
+        }
+
+        static BuildingPlan PlanBuilding(BuildingEntry b, double[] heights, double fadeWidth, PlacementMode mode, string folder)
+        {
+            var levels = new LevelPlan[b.lods.Length];
+            for (int k = 0; k < levels.Length; k++)
+            {
+                levels[k] = new LevelPlan
+                {
+                    Level = k,
+                    File = b.lods[k].file,
+                    Path = ManifestValidator.JoinPath(folder, b.lods[k].file),
+                    ScreenRelativeHeight = LevelHeight(heights, k, levels.Length),
+                    FadeTransitionWidth = fadeWidth,
+                };
+            }
+            return new BuildingPlan
+            {
+                Id = b.id,
+                Name = SafeName(b.id),
+                Levels = levels,
+                Local = Pose.FromPlacement(mode == PlacementMode.TileRelative ? b.relative_placement : b.placement),
+                Problems = b.problems ?? new string[0],
+            };
+        }
+
+        /// <summary>
+        /// Height of level k of a building with levelCount levels. A building with fewer levels than
+        /// the tile keeps its last level until the tile's last height (where culling starts), so it
+        /// disappears at the same screen size as the others.
+        /// </summary>
+        public static double LevelHeight(double[] heights, int k, int levelCount)
+        {
+            return k == levelCount - 1 ? heights[heights.Length - 1] : heights[k];
+        }
+
+        /// <summary>Letters, digits, '-', '_' and '.' kept; anything else becomes '_'.</summary>
+        public static string SafeName(string id)
+        {
+            var sb = new StringBuilder(id.Length);
+            foreach (char c in id)
+                sb.Append((c < 128 && (char.IsLetterOrDigit(c) || c == '-' || c == '_' || c == '.')) ? c : '_');
+            string name = sb.ToString();
+            return name.Trim('.').Length == 0 ? "_" + name : name;
+        }
+
+        static string FolderOf(string manifestPath)
+        {
+            string p = manifestPath.Replace('\\', '/');
+            int slash = p.LastIndexOf('/');
+            return slash < 0 ? "" : p.Substring(0, slash);
+        }
+    }
+}
