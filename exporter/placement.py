@@ -74,9 +74,11 @@ def axis_angle_matrix(axis: np.ndarray, angle: float) -> np.ndarray:
 def fig5_rotation(lon: float, lat: float) -> np.ndarray:
     """(3, 3) the paper's Fig. 5 rotation of a model standing on the y axis to ``lon``, ``lat`` (degrees).
 
-    Step 1 turns it about y by ``-lon`` (so its north side faces away from the meridian plane the
-    centre lies in); step 2 turns it about ``cross(y, c)`` by the angle between y and the centre
-    vector ``c``. Equals :func:`enu_matrix` (tested).
+    Step 1 turns it about y by ``-lon`` radians (numerically, as Unity's ``AngleAxis``), which
+    points its local z (North) along the centre's meridian, away from the centre's side of the
+    axis; step 2 tips the pole down that meridian: about ``cross(y, c)`` by the angle between y
+    and the centre vector ``c``, which takes y to ``c`` and that meridian direction to North.
+    Equals :func:`enu_matrix` (tested).
     """
     c = unit_position(lon, lat)
     step1 = axis_angle_matrix(Y_AXIS, -np.radians(lon))
