@@ -252,7 +252,7 @@ class _Cursor:
         count = self.u32(what)
         if count * item_bytes > self.left:
             raise _Malformed(
-                f"{what} {count} at offset {start} needs {count * item_bytes} bytes, only {self.left} left", start)
+                f"truncated or corrupt: {what} {count} at offset {start} needs {count * item_bytes} bytes, only {self.left} left", start)
         return count
 
     def array(self, count: int, dtype: str, what: str) -> np.ndarray:
@@ -308,11 +308,11 @@ def _parse_mesh(cursor: _Cursor, what: str, thumbnail_when_empty: bool, seen_emp
     color = cursor.take(4, f"{what} color")
     image_level = cursor.u8(f"{what} image_level")
     image_name = cursor.string(f"{what} image_name")
+    if not image_name:
+        seen_empty.append(True)
     thumbnail: Optional[bytes] = None
     if image_name or thumbnail_when_empty:
         thumbnail = cursor.take(cursor.count(f"{what} thumbnail size", 1), f"{what} thumbnail")
-    if not image_name:
-        seen_empty.append(True)
     return XdoMesh(vertices, indices, color, image_level, image_name, thumbnail)
 
 
@@ -328,7 +328,7 @@ def _parse_xdo_layout(data: bytes, version: int, thumbnail_when_empty: bool, see
     else:
         mesh_count = cursor.u8("face_count")
         if mesh_count * _MESH_MIN_BYTES > cursor.left:
-            raise _Malformed(f"face_count {mesh_count} needs at least {mesh_count * _MESH_MIN_BYTES} bytes, only {cursor.left} left", cursor.pos - 1)
+            raise _Malformed(f"truncated or corrupt: face_count {mesh_count} needs at least {mesh_count * _MESH_MIN_BYTES} bytes, only {cursor.left} left", cursor.pos - 1)
     meshes = [_parse_mesh(cursor, f"mesh {i}", thumbnail_when_empty, seen_empty) for i in range(mesh_count)]
     if cursor.left:
         raise _Malformed(f"{cursor.left} bytes left over after the last mesh (offset {cursor.pos})", cursor.pos)

@@ -90,12 +90,6 @@ def lonlat_of(points: np.ndarray) -> tuple:
     return np.degrees(np.arctan2(-y, x)), np.degrees(np.arctan2(z, np.hypot(x, y)))
 
 
-def tile_of(lon: float, lat: float, level: int) -> TileId:
-    """The VWorld tile at ``level`` holding lon/lat (degrees): unit = 36 / 2**level degrees."""
-    unit = 36.0 / 2 ** level
-    return TileId(level, int(math.floor((lon + 180.0) / unit)), int(math.floor((lat + 90.0) / unit)))
-
-
 # --------------------------------------------------------------------------- winding
 
 def winding_votes(positions: np.ndarray, triangles: np.ndarray, directions: np.ndarray) -> tuple:
@@ -184,7 +178,7 @@ def _read(path: Path) -> bytes:
 def scan(folder: str | Path, options: Optional[ReaderOptions] = None) -> Scan:
     """One :class:`Entry` per ``.dat`` object record of every ``.dat`` in ``folder``.
 
-    ``Entry.key`` = (dat path, record index, the :class:`DatObject`); ``Entry.source`` = the
+    ``Entry.key`` = (dat file name, record index, the :class:`DatObject`); ``Entry.source`` = the
     ``.xdo`` path (which may be missing: reported by :func:`load`). A ``.dat`` that cannot be read
     goes to ``skipped``.
     """
@@ -213,7 +207,7 @@ def scan(folder: str | Path, options: Optional[ReaderOptions] = None) -> Scan:
             inputs = [str(dat_path)] + ([str(xdo_path)] if xdo_path.is_file() else [])
             inputs += [str(p) for p in _texture_files(folder, xdo_path, record)]
             result.entries.append(Entry(format="vworld", id=building_id, source=str(xdo_path), tile=tile,
-                                        inputs=inputs, key=(str(dat_path), index, record)))
+                                        inputs=inputs, key=(dat_path.name, index, record)))
     return result
 
 
@@ -245,11 +239,14 @@ def load(entry: Entry, options: Optional[ReaderOptions] = None) -> Building:
     or holds no triangles; a missing or broken texture only leaves its part untextured, with a
     ``problems`` entry naming the file.
     """
-    dat_path, index, record = entry.key
+    dat_name, index, record = entry.key
     xdo_path = Path(entry.source)
     folder = xdo_path.parent
+    dat_path = str(folder / dat_name)
     problems: list[str] = []
 
+    if not xdo_path.is_file():
+        raise ReadError(str(xdo_path), f"missing: object {index} ({decode_text(record.key)!r}) of {dat_name} names this .xdo model")
     xdo = _parse_declared(_read(xdo_path), xdo_path, record, problems)
     reference = _reference(record, xdo, dat_path, xdo_path, problems)
     rotation = enu_rotation(reference.lon, reference.lat)
@@ -432,7 +429,8 @@ def write_tile(folder: str | Path, tile: TileId, buildings: list[Building], *, v
 
 
 def _safe_name(text: str) -> str:
-    return re.sub(r"[^\w.-]", "_", text).strip("._")[:200]
+    # \w keeps non-ASCII letters; 60 characters stay under the 255-byte string limit in UTF-8.
+    return re.sub(r"[^\w.-]", "_", text).strip("._")[:60]
 
 
 def _building_files(building: Building, number: int, stem: str, version: int, texture_files: dict) -> tuple:
@@ -478,10 +476,11 @@ def _building_files(building: Building, number: int, stem: str, version: int, te
 def _texture_name(texture: Texture, fallback: str, taken: dict) -> str:
     """A file name for a texture: its own (when free or holding the same bytes), else a new one."""
     extension = ".png" if texture.mime == "image/png" else ".jpg"
-    name = _safe_name(Path(texture.name.replace("\\", "/")).name) if texture.name else ""
-    if not name:
-        name = fallback + extension
-    stem, suffix = os.path.splitext(name)
+    stem, suffix = os.path.splitext(Path(texture.name.replace("\\", "/")).name)
+    stem = _safe_name(stem) or fallback
+    matching = {"image/jpeg": (".jpg", ".jpeg"), "image/png": (".png",)}.get(texture.mime, ())
+    suffix = suffix.lower() if suffix.lower() in matching else extension
+    name = stem + suffix
     candidate, n = name, 1
     while candidate in taken and taken[candidate] != texture.data:
         n += 1
