@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import math
+import pickle
 import re
 from pathlib import Path
 
@@ -266,6 +267,22 @@ def test_model_far_from_the_dat_altitude_is_reported(tmp_path):
     (loaded,) = load_all(tmp_path)
     assert loaded.parts[0].positions[:, 1].min() == pytest.approx(40.0, abs=1e-3)
     assert any("model base is +40.0 m from the .dat altitude" in p for p in loaded.problems)
+
+
+def test_model_far_from_the_dat_centre_is_reported(tmp_path):
+    vworld.write_tile(tmp_path, TILE, [building([textured_box(x0=495, x1=505)])])
+    (loaded,) = load_all(tmp_path)
+    assert loaded.parts[0].positions[:, 0].min() == pytest.approx(495.0, abs=1e-3)
+    assert any("model centre is 500 m from the .dat centre" in p for p in loaded.problems)
+
+
+def test_entries_pickle_and_name_their_inputs(tmp_path):
+    vworld.write_tile(tmp_path, TILE, [building([textured_box()])])
+    (entry,) = vworld.scan(tmp_path).entries
+    assert [Path(p).name for p in entry.inputs] == ["15_279418_116113.dat", "BLD_0001.xdo", "wall.jpg"]
+    again = pickle.loads(pickle.dumps(entry))
+    assert again == entry and str(tmp_path) not in repr(entry.key)  # the key survives moving the folder
+    assert vworld.load(again).parts[0].triangle_count == 10
 
 
 def test_detect_needs_a_dat(tmp_path):

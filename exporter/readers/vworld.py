@@ -47,6 +47,7 @@ from . import Entry, Scan
 EARTH_RADIUS_M = 6378137.0  # VWorld's sphere
 MAX_PART_VERTICES = 65535  # u16 indices
 ALTITUDE_MISMATCH_M = 10.0  # report when the model's base is further than this from the .dat altitude
+CENTRE_MISMATCH_M = 100.0  # report when the model's centre is further than this from the .dat lon/lat
 BBOX_MISMATCH_M = 1.0  # report when the .dat and .xdo bounding boxes differ by more than this
 DISAGREEING_SHARE = 0.1  # report a mesh whose winding disagrees with its normals on more triangles
 
@@ -343,6 +344,10 @@ def _color(raw: bytes) -> tuple:
 
 def _check_base(local: np.ndarray, record: DatObject, center: np.ndarray, reference: GeoPoint,
                 xdo_path: Path, problems: list) -> None:
+    middle = (local.min(axis=0) + local.max(axis=0)) / 2.0  # metres, local East/Up/North
+    offset = math.hypot(middle[0], middle[2])
+    if offset > CENTRE_MISMATCH_M:
+        problems.append(f"{xdo_path.name}: model centre is {offset:.0f} m from the .dat centre lon/lat; positions kept relative to the .dat centre")
     base = float(local[:, 1].min())  # metres above the reference (Up)
     if abs(base) > ALTITUDE_MISMATCH_M:
         box_height = float(np.linalg.norm(center)) - EARTH_RADIUS_M
