@@ -139,6 +139,15 @@ def test_multi_part_round_trip_shares_and_omits_textures(tmp_path):
     assert np.allclose(first.parts[2].uvs, 0.0)
 
 
+def test_same_texture_name_with_other_bytes_gets_its_own_file(tmp_path):
+    first, second = textured_box("atlas.jpg"), textured_box("atlas.jpg")
+    second.texture = Texture(jpeg(32, 32), "image/jpeg", 32, 32, name="atlas.jpg")
+    written = vworld.write_tile(tmp_path, TILE, [building([first], "A"), building([second], "B")])
+    assert sorted(p.name for p in written if p.suffix == ".jpg") == ["atlas.jpg", "atlas~2.jpg"]
+    a, b = load_all(tmp_path)
+    assert a.parts[0].texture.data == first.texture.data and b.parts[0].texture.data == second.texture.data
+
+
 def test_writer_refuses_what_the_format_cannot_hold(tmp_path):
     with pytest.raises(ValueError, match="exactly one part"):
         vworld.write_tile(tmp_path, TILE, [building([textured_box(), textured_box()])], version=1)

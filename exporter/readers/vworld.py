@@ -287,7 +287,7 @@ def load(entry: Entry, options: Optional[ReaderOptions] = None) -> Building:
         ))
 
     everything = np.concatenate([p.positions for p in parts])
-    _check_base(everything, record, center, reference, xdo_path, problems)
+    _check_base(everything, center, reference, xdo_path, problems)
     lon, lat = lonlat_of(everything @ rotation + global_point(reference))
     bounds = (float(lon.min()), float(lat.min()), float(lon.max()), float(lat.max()))
     return Building(id=entry.id, source=str(xdo_path), reference=reference, parts=parts,
@@ -342,8 +342,8 @@ def _color(raw: bytes) -> tuple:
     return (1.0, 1.0, 1.0, 1.0) if raw == b"\x00\x00\x00\x00" else color_rgba(raw)
 
 
-def _check_base(local: np.ndarray, record: DatObject, center: np.ndarray, reference: GeoPoint,
-                xdo_path: Path, problems: list) -> None:
+def _check_base(local: np.ndarray, center: np.ndarray, reference: GeoPoint, xdo_path: Path, problems: list) -> None:
+    """Report a model whose base or centre is far from the ``.dat`` reference (local metres)."""
     middle = (local.min(axis=0) + local.max(axis=0)) / 2.0  # metres, local East/Up/North
     offset = math.hypot(middle[0], middle[2])
     if offset > CENTRE_MISMATCH_M:
