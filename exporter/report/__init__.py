@@ -1,0 +1,137 @@
+"""A visual HTML report of every tile's LoD chain (issue 9).
+
+One public entry point, :func:`write_reports`. For each tile folder ``OUT/<level>_<idx>_<idy>/``
+holding a ``lod_manifest.json`` it writes ``OUT/<tile>/report.html`` and the renders next to it in
+``OUT/<tile>/report/<building folder>_lod<k>.png``; then ``OUT/index.html`` linking every tile.
+
+Flat pipeline per tile: read the manifest -> per building, load each level's ``.glb`` (glTF frame)
+-> fit one camera to LOD0 -> render every level from it (:mod:`.render`, numpy only, no GPU) ->
+write the PNGs -> write the page (:mod:`.page`, numbers from :mod:`.summary`, plots from
+:mod:`.plots`). A building whose file is missing or broken gets a labelled placeholder in place of
+its picture; the report never stops for one bad building.
+"""
+from __future__ import annotations
+
+import json
+import re
+import time
+from pathlib import Path
+from typing import Optional
+from urllib.parse import quote
+
+from ..atomic import write_bytes_atomic, write_text_atomic
+from ..errors import InputError
+from .page import BuildingRenders, LevelRender, TileEntry, index_page, tile_page
+from .render import fit_view, load_glb, png_bytes, render
+
+__all__ = ["write_reports"]
+
+MANIFEST = "lod_manifest.json"
+TILE_NAME = re.compile(r"^[0-9]+_[0-9]+_[0-9]+$")
+IMAGE_FOLDER = "report"
+IMAGE_SIZE = 256  # pixels per side of each render
+
+
+def read_tile_manifest(path: Path) -> dict:
+    """The parsed manifest; InputError naming the file when it is not JSON or lacks buildings."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except OSError as error:
+        raise InputError(f"{path}: cannot be read ({error.strerror or error})") from None
+    except ValueError as error:
+        raise InputError(f"{path}: not valid JSON ({error})") from None
+    if not isinstance(data, dict) or not isinstance(data.get("buildings"), list):
+        raise InputError(f"{path}: not a vworld-lod manifest (no 'buildings' list)")
+    for i, building in enumerate(data["buildings"]):
+        if not isinstance(building, dict) or not isinstance(building.get("lods"), list):
+            raise InputError(f"{path}: buildings[{i}] has no 'lods' list")
+    return data
+
+
+def image_name(building: dict, level: int) -> str:
+    """File name of a level's render: the building's output folder name (already file-system safe)
+    or, failing that, its id with unsafe characters replaced."""
+    lods = building.get("lods") or [{}]
+    folder = Path(str(lods[0].get("file", ""))).parent.name
+    if not folder:
+        folder = re.sub(r"[^0-9A-Za-z._-]+", "_", str(building.get("id", "building"))).strip("._") or "building"
+    return f"{folder}_lod{level}.png"
+
+
+def render_building(tile_dir: Path, building: dict, size: int = IMAGE_SIZE) -> BuildingRenders:
+    """Render every level of one building into ``tile_dir/report/``, all from LOD0's view."""
+    result = BuildingRenders(building)
+    view = None
+    for lod in building.get("lods", []):
+        level = int(lod.get("level", len(result.levels)))
+        started = time.perf_counter()
+        entry = LevelRender(level, lod)
+        try:
+            meshes = load_glb(tile_dir / str(lod.get("file", "")))
+            if view is None:  # LOD0 (or the first readable level) fixes the camera for the chain
+                view = fit_view(meshes, size)
+            name = image_name(building, level)
+            write_bytes_atomic(tile_dir / IMAGE_FOLDER / name, png_bytes(render(meshes, view)))
+            entry.image = f"{IMAGE_FOLDER}/{quote(name)}"
+        except InputError as error:
+            entry.error = str(error).replace(str(tile_dir) + "/", "")
+        entry.seconds = time.perf_counter() - started
+        result.levels.append(entry)
+    return result
+
+
+def remove_stale_images(image_dir: Path, keep: set[str]) -> None:
+    """Delete renders of buildings or levels the manifest no longer lists."""
+    if image_dir.is_dir():
+        for path in image_dir.glob("*.png"):
+            if path.name not in keep:
+                path.unlink(missing_ok=True)
+
+
+def write_tile_report(tile_dir: Path, manifest: dict, size: int = IMAGE_SIZE) -> Path:
+    """Render one tile's buildings and write ``tile_dir/report.html``; returns the page's path."""
+    started = time.perf_counter()
+    renders = [render_building(tile_dir, building, size) for building in manifest["buildings"]]
+    seconds = time.perf_counter() - started
+    remove_stale_images(tile_dir / IMAGE_FOLDER, {image_name(r.building, level.level) for r in renders for level in r.levels})
+    return write_text_atomic(tile_dir / "report.html", tile_page(manifest, renders, seconds))
+
+
+def find_tiles(out_dir: Path) -> list[Path]:
+    """Tile folders of an export (named ``<level>_<idx>_<idy>`` and holding a manifest), sorted."""
+    return sorted(p for p in out_dir.iterdir() if p.is_dir() and TILE_NAME.match(p.name) and (p / MANIFEST).is_file())
+
+
+def write_reports(out_dir: Path, tiles: Optional[list[str]] = None) -> list[Path]:
+    """Write the report pages of an export folder ``out_dir`` (see module doc).
+
+    ``tiles`` limits rendering to those tile folder names (the index still lists every tile).
+    Returns the written pages: one per rendered tile, then ``index.html``. Raises InputError when
+    ``out_dir`` is not an export folder, a requested tile is absent, or a manifest to render is
+    unreadable (an unreadable manifest of a tile not requested is only flagged on the index)."""
+    out_dir = Path(out_dir)
+    if not out_dir.is_dir():
+        raise InputError(f"{out_dir}: not a folder (expected the output folder of 'vworld-lod export')")
+    tile_dirs = find_tiles(out_dir)
+    if not tile_dirs:
+        raise InputError(f"{out_dir}: no <level>_<idx>_<idy>/{MANIFEST} found (run 'vworld-lod export' first)")
+    names = [p.name for p in tile_dirs]
+    if tiles is not None:
+        unknown = [t for t in tiles if t not in names]
+        if unknown:
+            raise InputError(f"{out_dir}: no tile folder with a {MANIFEST} for {', '.join(unknown)} (found: {', '.join(names)})")
+    selected = set(names if tiles is None else tiles)
+    pages, entries = [], []
+    for tile_dir in tile_dirs:
+        manifest, error = None, None
+        if tile_dir.name in selected:
+            manifest = read_tile_manifest(tile_dir / MANIFEST)
+            pages.append(write_tile_report(tile_dir, manifest))
+        else:
+            try:
+                manifest = read_tile_manifest(tile_dir / MANIFEST)
+            except InputError as problem:
+                error = str(problem)
+        entries.append(TileEntry(tile_dir.name, manifest, (tile_dir / "report.html").is_file(), error))
+    pages.append(write_text_atomic(out_dir / "index.html", index_page(entries)))
+    return pages

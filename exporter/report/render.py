@@ -1,0 +1,339 @@
+"""Headless software renderer for the report: a textured, lit view of one building LoD as an RGB image.
+
+No GPU, no display, no system packages: a numpy z-buffer rasteriser, enough for buildings of a
+few hundred to a few thousand triangles at a few hundred pixels.
+
+Data form:
+
+- A building level is a list of :class:`Mesh`: ``positions`` (n, 3) float64 in the **building-local
+  East/Up/North frame, metres** (x = East, y = Up, z = North; glTF's +X = West is negated on load),
+  ``triangles`` (m, 3) int64 wound outward (numerical ``(b - a) x (c - a)`` points out of the
+  building), ``uvs`` (n, 2) float64 with the origin at the image's *bottom-left* (trimesh's
+  convention; it flips glTF's top-left v on load) or None, ``image`` (h, w, 3) float32 linear-ish
+  0..1 or None, ``color`` (3,) float32 0..1 (glTF ``baseColorFactor``, multiplied with the texture).
+- A :class:`View` is a pinhole camera in the same local frame: ``eye`` (3,) metres, an orthonormal
+  basis ``right``/``up``/``forward`` and ``focal`` in pixels. One view is fitted to LOD0 and reused
+  for every level so the renders compare like for like.
+- Images are (size, size, 3) uint8 RGB.
+
+Shading: Lambert with one fixed sun (``SUN``, from the south-south-west, high) plus ambient, flat per face,
+two-sided: a face seen from behind (a floorless model's inside) is lit with its flipped normal and
+darkened, so open bottoms read as "inside" rather than as holes. A ground plane at the building's
+base with the building's planar shadow anchors it. Texture lookup is nearest-texel with
+perspective-correct UVs (u/w, v/w, 1/w interpolated in screen space), then the image is rendered
+at ``supersample`` times the size and box-filtered down (anti-aliasing; 1.5 measured ~2.5x cheaper
+than 2 at a 256 px image and visibly smoother than 1).
+
+Sources: the rasterisation follows the edge-function formulation in J. Pineda, "A Parallel Algorithm
+for Polygon Rasterization" (SIGGRAPH 1988) and perspective-correct interpolation as in
+P. Heckbert & H. Moreton, "Interpolation for Polygon Texture Mapping and Shading" (1991).
+Planar shadows: J. Blinn, "Me and My (Fake) Shadow" (IEEE CG&A, 1988).
+"""
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+import trimesh
+from PIL import Image
+
+from ..errors import InputError
+
+# Unit direction *towards* the sun in the local East/Up/North frame: from the south-south-west
+# (azimuth 200 deg), 50 deg high, so the shadow falls north-north-east, beside the 3/4 view.
+SUN = np.array([-0.22, 0.766, -0.60]) / np.linalg.norm([-0.22, 0.766, -0.60])
+AMBIENT = 0.38  # share of light that reaches faces turned away from the sun
+BACK_FACE_DIM = 0.55  # inside faces (seen through an open bottom or a hole) are darker
+BACKGROUND = np.array([0.96, 0.96, 0.97], dtype=np.float32)
+GROUND = np.array([0.82, 0.84, 0.80], dtype=np.float32)
+SHADOW = np.array([0.62, 0.64, 0.61], dtype=np.float32)
+
+
+@dataclass
+class Mesh:
+    """One material's triangles of a building level (see the module doc for frames and shapes)."""
+
+    positions: np.ndarray
+    triangles: np.ndarray
+    uvs: Optional[np.ndarray] = None
+    image: Optional[np.ndarray] = None
+    color: np.ndarray = field(default_factory=lambda: np.ones(3, dtype=np.float32))
+
+
+@dataclass
+class View:
+    """Pinhole camera in the local East/Up/North frame: ``eye`` in metres, unit basis vectors,
+    ``focal`` in pixels of a ``size`` x ``size`` image; ``ground`` is the base height (metres, Up)."""
+
+    eye: np.ndarray
+    right: np.ndarray
+    up: np.ndarray
+    forward: np.ndarray
+    focal: float
+    size: int
+    ground: float
+
+
+# --------------------------------------------------------------------------- loading
+
+def _image_array(material) -> Optional[np.ndarray]:
+    texture = getattr(material, "baseColorTexture", None)
+    if texture is None:
+        texture = getattr(material, "image", None)
+    if texture is None:
+        return None
+    return np.asarray(texture.convert("RGB"), dtype=np.float32) / 255.0
+
+
+def _base_color(material) -> np.ndarray:
+    factor = getattr(material, "baseColorFactor", None)
+    if factor is None:
+        factor = getattr(material, "main_color", None)
+    if factor is None:
+        return np.ones(3, dtype=np.float32)
+    factor = np.asarray(factor, dtype=np.float32)[:3]
+    return factor / 255.0 if factor.max() > 1.0 else factor
+
+
+def load_glb(path: str | Path) -> list[Mesh]:
+    """Read a ``.glb`` (glTF frame: +X = West, +Y = Up, +Z = North, metres) into meshes in the local
+    East/Up/North frame, node transforms applied. Raises InputError naming the file when it cannot
+    be read or holds no triangles."""
+    path = Path(path)
+    try:
+        scene = trimesh.load(str(path), file_type="glb", force="scene", process=False)
+    except Exception as error:  # trimesh raises many types for a broken file
+        raise InputError(f"{path}: cannot be read as glTF binary ({type(error).__name__}: {error})") from None
+    meshes = []
+    for node in scene.graph.nodes_geometry:
+        transform, name = scene.graph[node]
+        geometry = scene.geometry[name]
+        if not isinstance(geometry, trimesh.Trimesh) or len(geometry.faces) == 0:
+            continue
+        positions = trimesh.transform_points(np.asarray(geometry.vertices, dtype=np.float64), transform)
+        # glTF -> local: negate X (West -> East); reversing the triangles keeps them wound outward.
+        positions[:, 0] *= -1.0
+        triangles = np.asarray(geometry.faces, dtype=np.int64)[:, ::-1]
+        visual = geometry.visual
+        material = getattr(visual, "material", None)
+        uvs = getattr(visual, "uv", None)
+        image = _image_array(material) if material is not None else None
+        if uvs is None or image is None or len(uvs) != len(positions):
+            uvs, image = None, None
+        color = _base_color(material) if material is not None else np.ones(3, dtype=np.float32)
+        meshes.append(Mesh(positions, triangles, None if uvs is None else np.asarray(uvs, dtype=np.float64), image, color))
+    if not meshes:
+        raise InputError(f"{path}: holds no triangle meshes")
+    return meshes
+
+
+# --------------------------------------------------------------------------- camera
+
+def fit_view(meshes: list[Mesh], size: int = 256, azimuth_deg: float = 135.0, elevation_deg: float = 32.0,
+             fov_deg: float = 30.0) -> View:
+    """A 3/4 view from above that frames all ``meshes`` (their bounding sphere).
+
+    ``azimuth_deg`` is the compass direction the camera stands in, seen from the building (0 =
+    North, 90 = East, clockwise); ``elevation_deg`` its angle above the horizon; ``size`` in pixels.
+    """
+    points = np.concatenate([m.positions for m in meshes])
+    low, high = points.min(axis=0), points.max(axis=0)
+    center = (low + high) / 2.0
+    radius = max(float(np.linalg.norm(high - low)) / 2.0, 1e-3)
+    azimuth, elevation = np.radians(azimuth_deg), np.radians(elevation_deg)
+    # Direction from the building to the camera in East/Up/North.
+    back = np.array([np.cos(elevation) * np.sin(azimuth), np.sin(elevation), np.cos(elevation) * np.cos(azimuth)])
+    half_fov = np.radians(fov_deg) / 2.0
+    distance = radius / np.sin(half_fov) * 1.08
+    forward = -back
+    # East appears to the right when looking North: right = (f_z, 0, -f_x) in this left-handed frame.
+    right = np.array([forward[2], 0.0, -forward[0]])
+    right /= np.linalg.norm(right)
+    up = np.array([0.0, 1.0, 0.0]) - forward * forward[1]
+    up /= np.linalg.norm(up)
+    focal = (size / 2.0) / np.tan(half_fov)
+    return View(center + back * distance, right, up, forward, float(focal), int(size), float(low[1]))
+
+
+def project(points: np.ndarray, view: View, size: int) -> np.ndarray:
+    """(n, 3) local metres -> (n, 3) of pixel x, pixel y (row, down), camera depth in metres."""
+    relative = points - view.eye
+    depth = relative @ view.forward
+    scale = view.focal * size / view.size / np.maximum(depth, 1e-6)
+    x = size / 2.0 + (relative @ view.right) * scale
+    y = size / 2.0 - (relative @ view.up) * scale
+    return np.stack([x, y, depth], axis=1)
+
+
+# --------------------------------------------------------------------------- shading
+
+def face_shading(positions: np.ndarray, triangles: np.ndarray, eye: np.ndarray) -> np.ndarray:
+    """(m,) float32 Lambert brightness per face, two-sided (back faces flipped and dimmed)."""
+    a, b, c = (positions[triangles[:, i]] for i in range(3))
+    normals = np.cross(b - a, c - a)
+    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
+    facing = np.einsum("ij,ij->i", normals, eye - (a + b + c) / 3.0) >= 0.0
+    normals[~facing] *= -1.0
+    light = AMBIENT + (1.0 - AMBIENT) * np.clip(normals @ SUN, 0.0, 1.0)
+    return np.where(facing, light, light * BACK_FACE_DIM).astype(np.float32)
+
+
+def shadow_triangles(positions: np.ndarray, ground: float) -> np.ndarray:
+    """Project (n, 3) local points onto the plane Up = ``ground`` along the sun direction."""
+    lift = np.maximum(positions[:, 1] - ground, 0.0)
+    shadow = positions - np.outer(lift / SUN[1], SUN)
+    shadow[:, 1] = ground
+    return shadow
+
+
+# --------------------------------------------------------------------------- rasterising
+
+FRAGMENT_CHUNK = 1 << 20  # bounding-box pixels handled per numpy batch (bounded memory)
+
+
+def fragments(screen: np.ndarray, triangles: np.ndarray, size: int):
+    """Yield the covered pixels of all triangles, in batches, vectorised over triangles.
+
+    ``screen`` (n, 3) projected points (pixel x, pixel y, depth); ``triangles`` (m, 3). Yields
+    ``(rows, cols, faces, weights)``: (k,) pixel row and column, (k,) triangle index, (k, 3)
+    screen-space barycentric weights of the pixel centre. Top-left ties are not resolved: a pixel
+    on a shared edge may belong to both triangles, which only matters for depth-equal overlaps.
+    """
+    corners = screen[triangles][:, :, :2]  # (m, 3, 2)
+    low = np.maximum(np.floor(corners.min(axis=1)).astype(np.int64), 0)
+    high = np.minimum(np.ceil(corners.max(axis=1)).astype(np.int64) + 1, size)
+    extent = np.maximum(high - low, 0)
+    (x0, y0), (x1, y1), (x2, y2) = (corners[:, i].T for i in range(3))
+    area = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+    valid = np.abs(area) > 1e-9
+    area = np.where(valid, area, 1.0)
+    # Edge functions are affine in the pixel centre: w_i = a_i x + b_i y + c_i, relative to the
+    # bounding box corner (x = col - low_x + 0.5) to keep float32 exact enough.
+    ox, oy = low[:, 0] - 0.5, low[:, 1] - 0.5
+    coefficients = []
+    for (xa, ya), (xb, yb) in (((x1, y1), (x2, y2)), ((x2, y2), (x0, y0))):
+        xa, ya, xb, yb = xa - ox, ya - oy, xb - ox, yb - oy
+        coefficients.append(np.stack([(ya - yb) / area, (xb - xa) / area, (xa * yb - xb * ya) / area], axis=1))
+    coefficients = np.concatenate(coefficients, axis=1).astype(np.float32)  # (m, 6)
+    counts = np.where(valid, extent[:, 0] * extent[:, 1], 0)
+    order = np.flatnonzero(counts)
+    start = 0
+    while start < len(order):
+        # Take triangles until the batch holds about FRAGMENT_CHUNK bounding-box pixels.
+        running = np.cumsum(counts[order[start:]])
+        stop = start + max(1, int(np.searchsorted(running, FRAGMENT_CHUNK, side="right")))
+        batch = order[start:stop]
+        start = stop
+        faces = np.repeat(batch.astype(np.int32), counts[batch])
+        first = np.repeat((np.cumsum(counts[batch]) - counts[batch]).astype(np.int32), counts[batch])
+        offset = np.arange(len(faces), dtype=np.int32) - first
+        dx, dy = np.divmod(offset, extent[faces, 0].astype(np.int32))[::-1]
+        c = coefficients[faces]
+        xs, ys = dx.astype(np.float32), dy.astype(np.float32)
+        w0 = c[:, 0] * xs + c[:, 1] * ys + c[:, 2]
+        w1 = c[:, 3] * xs + c[:, 4] * ys + c[:, 5]
+        w2 = 1.0 - w0 - w1
+        inside = np.flatnonzero((w0 >= 0.0) & (w1 >= 0.0) & (w2 >= 0.0))
+        faces = faces[inside]
+        yield (low[faces, 1] + dy[inside], low[faces, 0] + dx[inside], faces,
+               np.column_stack([w0[inside], w1[inside], w2[inside]]))
+
+
+def fill_flat(canvas: np.ndarray, screen: np.ndarray, triangles: np.ndarray, color: np.ndarray) -> None:
+    """Paint triangles (no depth test) of (n, 3) screen points in one colour onto (h, w, 3) canvas."""
+    for rows, cols, _, _ in fragments(screen, triangles, canvas.shape[0]):
+        canvas[rows, cols] = color
+
+
+def nearest_per_pixel(pixels: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Indices of the nearest fragment (smallest positive ``z``) for every distinct value in ``pixels``.
+
+    One integer sort: positive float32 depths keep their order as uint32 bit patterns, so
+    ``pixel << 32 | bits(z)`` sorts by pixel, then depth."""
+    key = (pixels.astype(np.uint64) << np.uint64(32)) | z.astype(np.float32).view(np.uint32).astype(np.uint64)
+    order = np.argsort(key)
+    sorted_pixels = pixels[order]
+    first = np.ones(len(order), dtype=bool)
+    first[1:] = sorted_pixels[1:] != sorted_pixels[:-1]
+    return order[first]
+
+
+def fill_mesh(canvas: np.ndarray, depth: np.ndarray, screen: np.ndarray, mesh: Mesh, shading: np.ndarray) -> None:
+    """Z-buffered, textured, flat-lit triangles of one mesh; ``screen`` is its (n, 3) projection
+    (all points in front of the camera, as for a fitted view)."""
+    size = canvas.shape[0]
+    inverse_depth = (1.0 / np.maximum(screen[:, 2], 1e-6)).astype(np.float32)
+    textured = mesh.image is not None and mesh.uvs is not None
+    if textured:
+        height, width = mesh.image.shape[:2]
+        # Texel coordinates: u to the right, v up from the bottom row (trimesh's convention).
+        texels = np.stack([mesh.uvs[:, 0] * width, (1.0 - mesh.uvs[:, 1]) * height], axis=1).astype(np.float32)
+    for rows, cols, faces, weights in fragments(screen, mesh.triangles, size):
+        corners = mesh.triangles[faces]  # (k, 3)
+        perspective = weights * inverse_depth[corners]
+        one_over_z = perspective[:, 0] + perspective[:, 1] + perspective[:, 2]
+        z = 1.0 / one_over_z
+        keep = nearest_per_pixel(rows * size + cols, z)
+        keep = keep[z[keep] < depth[rows[keep], cols[keep]]]
+        if len(keep) == 0:
+            continue
+        rows, cols, faces, z = rows[keep], cols[keep], faces[keep], z[keep]
+        if textured:
+            texel = np.einsum("ki,kij->kj", perspective[keep], texels[corners[keep]]) / one_over_z[keep, None]
+            column = np.mod(np.floor(texel[:, 0]).astype(np.int64), width)  # glTF default sampler: REPEAT
+            row = np.mod(np.floor(texel[:, 1]).astype(np.int64), height)
+            colors = mesh.image[row, column] * mesh.color
+        else:
+            colors = np.broadcast_to(mesh.color, (len(z), 3))
+        depth[rows, cols] = z
+        canvas[rows, cols] = colors * shading[faces, None]
+
+
+def paint_ground(canvas: np.ndarray, view: View, center: np.ndarray, reach: float) -> None:
+    """Paint a ground disc (radius ``reach`` metres around ``center``, at Up = ``view.ground``) by
+    casting one ray per pixel; the camera is above the ground, so the building always covers it."""
+    size = canvas.shape[0]
+    focal = view.focal * size / view.size
+    offsets = (np.arange(size, dtype=np.float64) + 0.5 - size / 2.0) / focal
+    # Ray direction per pixel (rows, cols, 3) = forward + x right - y up, kept separable.
+    up_component = view.forward[1] - offsets[:, None] * view.up[1] + offsets[None, :] * view.right[1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        distance = (view.ground - view.eye[1]) / up_component
+    hit_x = view.eye[0] + distance * (view.forward[0] - offsets[:, None] * view.up[0] + offsets[None, :] * view.right[0])
+    hit_z = view.eye[2] + distance * (view.forward[2] - offsets[:, None] * view.up[2] + offsets[None, :] * view.right[2])
+    on_disc = (distance > 0.0) & ((hit_x - center[0]) ** 2 + (hit_z - center[2]) ** 2 <= reach**2)
+    canvas[on_disc] = GROUND
+
+
+# --------------------------------------------------------------------------- entry point
+
+def render(meshes: list[Mesh], view: View, supersample: float = 1.5) -> np.ndarray:
+    """Render ``meshes`` (local East/Up/North, metres) seen from ``view`` into a (size, size, 3)
+    uint8 RGB image: background, ground disc with the building's sun shadow, then the lit building."""
+    size = int(round(view.size * supersample))
+    canvas = np.empty((size, size, 3), dtype=np.float32)
+    canvas[:] = BACKGROUND
+    depth = np.full((size, size), np.inf, dtype=np.float32)
+    points = np.concatenate([m.positions for m in meshes])
+    center = (points.min(axis=0) + points.max(axis=0)) / 2.0
+    span = points.max(axis=0) - points.min(axis=0)
+    reach = float(np.hypot(span[0], span[2])) * 0.75  # metres: the disc reaches past the shadow
+    paint_ground(canvas, view, center, reach)
+    for mesh in meshes:
+        fill_flat(canvas, project(shadow_triangles(mesh.positions, view.ground), view, size), mesh.triangles, SHADOW)
+    for mesh in meshes:
+        fill_mesh(canvas, depth, project(mesh.positions, view, size), mesh, face_shading(mesh.positions, mesh.triangles, view.eye))
+    image = (np.clip(canvas, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
+    if size != view.size:
+        image = np.asarray(Image.fromarray(image, "RGB").resize((view.size, view.size), Image.Resampling.BOX))
+    return image
+
+
+def png_bytes(image: np.ndarray) -> bytes:
+    """A (h, w, 3) uint8 RGB image encoded as PNG."""
+    buffer = io.BytesIO()
+    Image.fromarray(image, "RGB").save(buffer, format="PNG")
+    return buffer.getvalue()

@@ -1,0 +1,407 @@
+"""The HTML LoD report (exporter/report): page numbers, images, worst-first order, renders.
+
+Fixture: a small fake export written with the project's own glTF writer (local East/Up/North ->
+glTF West/Up/North) and a manifest following docs/ARCHITECTURE.md, so the test does not depend on
+the simplifier; one test runs the real pipeline on the real Rotterdam data when it is present.
+"""
+from __future__ import annotations
+
+import io
+import json
+import re
+from html.parser import HTMLParser
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image, ImageDraw
+
+from exporter.errors import InputError
+from exporter.gltf_writer import glb_bytes
+from exporter.model import Part, Texture
+from exporter.report import image_name, write_reports
+from exporter.report.plots import nice_ticks, strip_plot_svg
+from exporter.report.render import BACKGROUND, Mesh, fit_view, load_glb, render
+from exporter.report.summary import level_table, quality_score, worst_first
+
+TILE = "15_279418_116113"
+WALL, WINDOW, ROOF = (176, 96, 60), (40, 90, 200), (200, 30, 30)
+BACKGROUND_RGB = np.round(BACKGROUND * 255).astype(int)
+
+
+# --------------------------------------------------------------------------- fake export
+
+def atlas_jpeg(size: int) -> bytes:
+    """Left half: brick-coloured wall with blue windows; right half: red roof."""
+    image = Image.new("RGB", (size, size), WALL)
+    draw = ImageDraw.Draw(image)
+    step = size // 8
+    for i in range(4):
+        for j in range(8):
+            draw.rectangle([i * step + step // 4, j * step + step // 4, i * step + 3 * step // 4, j * step + 3 * step // 4], fill=WINDOW)
+    draw.rectangle([size // 2, 0, size, size], fill=ROOF)
+    out = io.BytesIO()
+    image.save(out, format="JPEG", quality=92)
+    return out.getvalue()
+
+
+def box_part(width: float, depth: float, height: float, cuts: int, texture_size: int, east_offset: float = 0.0) -> Part:
+    """A floorless box (local East/Up/North metres, centred on the origin's vertical axis, base at
+    Up = 0), walls split into cuts x cuts quads, flat roof; outward winding; glTF-convention UVs
+    (origin top-left): walls map to the atlas' left half, the roof to its right half."""
+    positions, triangles, uvs = [], [], []
+
+    def grid(origin, du, dv, uv0, uvu, uvv, n):
+        base = len(positions)
+        for i in range(n + 1):
+            for j in range(n + 1):
+                positions.append(origin + du * i / n + dv * j / n)
+                uvs.append(uv0 + uvu * i / n + uvv * j / n)
+        for i in range(n):
+            for j in range(n):
+                a, b = base + i * (n + 1) + j, base + (i + 1) * (n + 1) + j
+                triangles.extend([[a, a + 1, b + 1], [a, b + 1, b]])
+
+    corners = [(-width / 2, -depth / 2), (width / 2, -depth / 2), (width / 2, depth / 2), (-width / 2, depth / 2)]
+    for k in range(4):
+        (x0, z0), (x1, z1) = corners[k], corners[(k + 1) % 4]
+        grid(np.array([x0 + east_offset, 0.0, z0]), np.array([x1 - x0, 0, z1 - z0]), np.array([0, height, 0]),
+             np.array([0.0, 1.0]), np.array([0.5, 0]), np.array([0, -1.0]), cuts)
+    grid(np.array([-width / 2 + east_offset, height, -depth / 2]), np.array([width, 0, 0]), np.array([0, 0, depth]),
+         np.array([0.5, 1.0]), np.array([0.5, 0]), np.array([0, -1.0]), 1)
+    positions, triangles = np.array(positions), np.array(triangles)
+    a, b, c = (positions[triangles[:, i]] for i in range(3))
+    inward = np.einsum("ij,ij->i", np.cross(b - a, c - a), (a + b + c) / 3 - [east_offset, height / 2, 0]) < 0
+    triangles[inward] = triangles[inward][:, ::-1]
+    texture = Texture(atlas_jpeg(texture_size), "image/jpeg", texture_size, texture_size, name="atlas.jpg")
+    return Part(positions, triangles, uvs=np.array(uvs), texture=texture)
+
+
+def fake_building(tile_dir: Path, building_id: str, size: tuple, quality: list[dict], missing_level=None) -> dict:
+    """Write lod0..lod2 of a box building and return its manifest record."""
+    lods = []
+    for level, (cuts, texture) in enumerate([(6, 256), (3, 128), (1, 64)]):
+        part = box_part(*size, cuts, texture)
+        file_name = f"{building_id}/lod{level}.glb"
+        data = glb_bytes([part], building_id)
+        if level != missing_level:
+            (tile_dir / building_id).mkdir(parents=True, exist_ok=True)
+            (tile_dir / file_name).write_bytes(data)
+        lods.append({"level": level, "file": file_name, "triangles": part.triangle_count, "vertices": part.vertex_count,
+                     "texture_size": [texture, texture], "texture_bytes": len(part.texture.data), "file_bytes": len(data),
+                     "quality": quality[level]})
+    placement = {"position": [0.0, 0.0, 0.0], "rotation": [0.0, 0.0, 0.0, 1.0], "scale": 1.0}
+    return {"id": building_id, "source": f"src/{building_id}.xdo", "input_hash": "0" * 64,
+            "center": {"lon": 126.978, "lat": 37.5665, "elev": 20.0}, "placement": placement,
+            "relative_placement": placement, "lods": lods, "problems": []}
+
+
+def metrics(ratio: float, iou: float, coverage: float, hausdorff: float = 0.01) -> dict:
+    return {"triangle_ratio": ratio, "hausdorff_rel": hausdorff, "silhouette_iou": iou, "wall_coverage": coverage,
+            "boundary_length_change": 0.0, "new_holes": 0.0}
+
+
+# (id, size in metres, LOD1 quality, LOD2 quality); the expected worst-first order is C, A, D, B.
+BUILDINGS = [
+    ("A", (20.0, 12.0, 15.0), metrics(0.5, 0.97, 0.95), metrics(0.15, 0.90, 0.85)),
+    ("B", (10.0, 10.0, 30.0), metrics(0.5, 0.99, 0.99), metrics(0.15, 0.98, 0.97)),
+    ("C", (30.0, 8.0, 6.0), metrics(0.5, 0.80, 0.95), metrics(0.15, 0.60, 0.90)),
+    ("D", (15.0, 15.0, 9.0), metrics(0.5, 0.95, 0.95), metrics(0.15, 0.93, 0.96, hausdorff=0.2)),
+]
+EXPECTED_ORDER = ["C", "A", "D", "B"]
+
+
+def make_fake_export(out: Path, tile: str = TILE, missing: tuple = ("D", 2)) -> Path:
+    """A fake export folder ``out`` with one tile (4 buildings, 3 levels, one skipped building and
+    one level file missing); returns the tile folder."""
+    tile_dir = out / tile
+    tile_dir.mkdir(parents=True)
+    base = metrics(1.0, 1.0, 1.0, 0.0)
+    buildings = [fake_building(tile_dir, bid, size, [base, q1, q2], missing[1] if bid == missing[0] else None)
+                 for bid, size, q1, q2 in BUILDINGS]
+    level, idx, idy = (int(v) for v in tile.split("_"))
+    placement = {"position": [0.0, 0.0, 0.0], "rotation": [0.0, 0.0, 0.0, 1.0], "scale": 1.0}
+    manifest = {
+        "format": "vworld-lod-manifest", "version": "1.0", "generator": {"name": "vworld-lod", "version": "0.1.0"},
+        "config": {"lods": [], "simplify": {}, "globe": {}, "unity": {}, "textures": {}, "readers": {}},
+        "tile": {"level": level, "idx": idx, "idy": idy, "name": tile,
+                 "bounds": {"west": 126.97, "south": 37.56, "east": 126.98, "north": 37.57},
+                 "center": {"lon": 126.975, "lat": 37.565, "elev": 0.0}, "placement": placement},
+        "globe": {"earth_radius_m": 6378137.0, "unity_radius": 6378137.0, "handedness": "left", "up": "y", "placement": "tile_relative"},
+        "lod_group": {"screen_relative_heights": [0.5, 0.17, 0.02], "fade_mode": "none", "animate_cross_fading": False,
+                      "fade_transition_width": 0.0, "terrain_levels": [15, 14, 13]},
+        "buildings": buildings,
+        "skipped": [{"source": "src/E.xdo", "reason": "E.xdo: truncated mesh block (needs 3200 bytes, has 17)", "id": "E"}],
+        "summary": {"buildings": len(buildings), "skipped": 1, "levels": [{"level": 0, "mean_triangles": 1.0, "ratio_to_lod0": 1.0}]},
+    }
+    (tile_dir / "lod_manifest.json").write_text(json.dumps(manifest, indent=1), encoding="utf-8")
+    return tile_dir
+
+
+# --------------------------------------------------------------------------- HTML helpers
+
+class Page(HTMLParser):
+    """Collects what the tests look at: images per building article, tables' rows, element ids."""
+
+    def __init__(self, text: str) -> None:
+        super().__init__()
+        self.articles: list[dict] = []
+        self.images: list[str] = []
+        self.missing: list[str] = []
+        self.tables: dict[str, list[list[str]]] = {}
+        self.links: list[str] = []
+        self._table = None
+        self._cell = None
+        self._in_missing = False
+        self.feed(text)
+
+    def handle_starttag(self, tag, attrs):
+        attrs = dict(attrs)
+        if tag == "article":
+            self.articles.append({"id": attrs.get("data-building-id"), "images": [], "missing": []})
+        elif tag == "img":
+            self.images.append(attrs["src"])
+            if self.articles:
+                self.articles[-1]["images"].append(attrs["src"])
+        elif tag == "div" and attrs.get("class") == "missing":
+            self._in_missing = True
+        elif tag == "table" and attrs.get("id"):
+            self._table = attrs["id"]
+            self.tables[self._table] = []
+        elif tag == "tr" and self._table:
+            self.tables[self._table].append([])
+        elif tag in ("td", "th") and self._table:
+            self._cell = ""
+        elif tag == "a":
+            self.links.append(attrs.get("href"))
+
+    def handle_endtag(self, tag):
+        if tag in ("td", "th") and self._table and self._cell is not None:
+            self.tables[self._table][-1].append(self._cell.strip())
+            self._cell = None
+        elif tag == "table":
+            self._table = None
+        elif tag == "div":
+            self._in_missing = False
+
+    def handle_data(self, data):
+        if self._cell is not None:
+            self._cell += data
+        if self._in_missing and self.articles:
+            self.articles[-1]["missing"].append(data)
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory):
+    out = tmp_path_factory.mktemp("out")
+    tile_dir = make_fake_export(out)
+    pages = write_reports(out)
+    page = Page((tile_dir / "report.html").read_text(encoding="utf-8"))
+    return out, tile_dir, pages, page
+
+
+def _manifest(tile_dir: Path) -> dict:
+    return json.loads((tile_dir / "lod_manifest.json").read_text(encoding="utf-8"))
+
+
+# --------------------------------------------------------------------------- the pages
+
+def test_returns_tile_page_then_index(report):
+    out, tile_dir, pages, _ = report
+    assert pages == [tile_dir / "report.html", out / "index.html"]
+    assert all(p.is_file() and p.stat().st_size > 1000 for p in pages)
+
+
+def test_level_table_has_the_manifest_numbers(report):
+    _, tile_dir, _, page = report
+    manifest = _manifest(tile_dir)
+    rows = page.tables["level-table"][1:]
+    assert [r[0] for r in rows] == ["LOD0", "LOD1", "LOD2"]
+    assert [r[1] for r in rows] == ["50 %", "17 %", "2 %"]
+    totals = [sum(b["lods"][k]["triangles"] for b in manifest["buildings"]) for k in range(3)]
+    assert [int(r[3].replace(",", "")) for r in rows] == totals
+    shares = [float(r[5].rstrip(" %")) for r in rows]
+    assert shares == pytest.approx([100 * t / totals[0] for t in totals], abs=0.05)
+    assert shares[0] == 100.0 and shares[2] < shares[1] < 100.0
+    # Texture pixels: each building's atlas, a quarter per level.
+    pixels = [int(r[8].replace(",", "")) for r in rows]
+    assert pixels == [4 * 256 * 256, 4 * 128 * 128, 4 * 64 * 64]
+    assert "256×256 ×4" in rows[0][10]
+
+
+def test_skipped_buildings_listed_with_reason(report):
+    _, _, _, page = report
+    assert page.tables["skipped-table"][1] == ["E", "src/E.xdo", "E.xdo: truncated mesh block (needs 3200 bytes, has 17)"]
+
+
+def test_quality_table_per_level(report):
+    _, _, _, page = report
+    rows = {(r[0], r[1]): r for r in page.tables["quality-table"][1:]}
+    iou2 = [q2["silhouette_iou"] for _, _, _, q2 in BUILDINGS]
+    assert float(rows[("silhouette_iou", "LOD2")][3]) == pytest.approx(min(iou2))
+    assert float(rows[("silhouette_iou", "LOD2")][5]) == pytest.approx(max(iou2))
+    assert rows[("silhouette_iou", "LOD2")][2] == str(len(BUILDINGS))
+
+
+def test_plots_are_inline_svg_with_a_dot_per_building_and_level(report):
+    _, tile_dir, _, _ = report
+    text = (tile_dir / "report.html").read_text(encoding="utf-8")
+    svgs = re.findall(r"<svg.*?</svg>", text, flags=re.S)
+    titles = [re.search(r'aria-label="([^"]+)"', s).group(1) for s in svgs]
+    assert "silhouette IoU" in titles and "wall coverage" in titles
+    iou = svgs[titles.index("silhouette IoU")]
+    assert iou.count("<circle") == 2 * len(BUILDINGS)
+    assert "C: 0.6" in iou  # tooltips name the building
+    assert "http://" not in text.replace('xmlns="http://www.w3.org/2000/svg"', "") and "https://" not in text
+
+
+def test_one_image_per_building_per_level_worst_first(report):
+    _, tile_dir, _, page = report
+    assert [a["id"] for a in page.articles] == EXPECTED_ORDER
+    for article in page.articles:
+        expected = 2 if article["id"] == "D" else 3
+        assert len(article["images"]) == expected, article
+        for src in article["images"]:
+            assert not src.startswith(("/", "file:", "http")), src
+            assert (tile_dir / src).is_file()
+    d = next(a for a in page.articles if a["id"] == "D")
+    assert any("D/lod2.glb" in text for text in d["missing"]), d["missing"]
+
+
+def test_renders_show_the_textured_building(report):
+    _, tile_dir, _, page = report
+    for src in page.images:
+        image = np.asarray(Image.open(tile_dir / src).convert("RGB")).astype(int)
+        assert image.shape == (256, 256, 3)
+        background = np.abs(image - BACKGROUND_RGB).sum(axis=2) < 12
+        assert 0.1 < 1.0 - background.mean() < 0.95, src  # the building fills a fair part, not all
+        r, g, b = image[..., 0], image[..., 1], image[..., 2]
+        assert ((r > 2.5 * g) & (r > 2.5 * b) & (r > 90)).mean() > 0.01, src  # red roof
+        if "lod2" not in src:  # 64 px atlas: windows still there but blurred by JPEG
+            assert ((b > r + 50) & (b > g + 30)).mean() > 0.003, src  # blue windows
+
+
+def test_same_view_for_every_level(report):
+    _, tile_dir, _, page = report
+    a = next(x for x in page.articles if x["id"] == "A")
+    masks = [np.abs(np.asarray(Image.open(tile_dir / s).convert("RGB")).astype(int) - BACKGROUND_RGB).sum(axis=2) > 40 for s in a["images"]]
+    for mask in masks[1:]:  # same box geometry at every level -> nearly the same silhouette
+        assert (mask & masks[0]).sum() / (mask | masks[0]).sum() > 0.97
+
+
+def test_index_links_every_tile(tmp_path):
+    make_fake_export(tmp_path, TILE)
+    make_fake_export(tmp_path, "15_279419_116113")
+    (tmp_path / "not_a_tile").mkdir()
+    pages = write_reports(tmp_path, tiles=["15_279419_116113"])
+    assert pages == [tmp_path / "15_279419_116113" / "report.html", tmp_path / "index.html"]
+    index = Page((tmp_path / "index.html").read_text(encoding="utf-8"))
+    rows = index.tables["tile-table"][1:]
+    assert [r[0] for r in rows] == [TILE, "15_279419_116113"]
+    assert rows[0][-1] == "not rendered" and rows[1][-1] == "report"
+    assert rows[1][-2] == "C (0.600)"
+    assert "15_279419_116113/report.html" in index.links
+    assert not (tmp_path / TILE / "report.html").exists()
+
+
+def test_stale_images_removed(tmp_path):
+    tile_dir = make_fake_export(tmp_path, missing=("A", 9))
+    stale = tile_dir / "report" / "Z_lod0.png"
+    stale.parent.mkdir()
+    stale.write_bytes(b"old")
+    write_reports(tmp_path)
+    assert not stale.exists() and (tile_dir / "report" / "A_lod0.png").is_file()
+
+
+def test_bad_inputs_raise_input_error_naming_the_file(tmp_path):
+    with pytest.raises(InputError, match="not a folder"):
+        write_reports(tmp_path / "nope")
+    with pytest.raises(InputError, match="no <level>_<idx>_<idy>/lod_manifest.json"):
+        write_reports(tmp_path)
+    tile_dir = tmp_path / TILE
+    tile_dir.mkdir()
+    (tile_dir / "lod_manifest.json").write_text("{not json", encoding="utf-8")
+    with pytest.raises(InputError, match=re.escape(str(tile_dir / "lod_manifest.json")) + ": not valid JSON"):
+        write_reports(tmp_path)
+    with pytest.raises(InputError, match="15_1_1"):
+        write_reports(tmp_path, tiles=["15_1_1"])
+
+
+def test_broken_glb_gets_a_placeholder_not_a_crash(tmp_path):
+    tile_dir = make_fake_export(tmp_path, missing=("A", 9))
+    (tile_dir / "B" / "lod1.glb").write_bytes(b"glTF but not really")
+    write_reports(tmp_path)
+    page = Page((tile_dir / "report.html").read_text(encoding="utf-8"))
+    b = next(a for a in page.articles if a["id"] == "B")
+    assert len(b["images"]) == 2 and any("B/lod1.glb" in t and "cannot be read" in t for t in b["missing"])
+
+
+# --------------------------------------------------------------------------- renderer
+
+def test_load_glb_returns_local_frame(tmp_path):
+    part = box_part(10.0, 4.0, 3.0, 1, 64, east_offset=20.0)  # centred 20 m East
+    path = tmp_path / "b.glb"
+    path.write_bytes(glb_bytes([part], "b"))
+    (mesh,) = load_glb(path)
+    assert mesh.positions[:, 0].mean() == pytest.approx(20.0, abs=1e-4)  # East again, not West
+    # Outward winding survives the round trip: normals of the top face point up.
+    a, b, c = (mesh.positions[mesh.triangles[:, i]] for i in range(3))
+    normals = np.cross(b - a, c - a)
+    top = np.isclose(a[:, 1], 3.0) & np.isclose(b[:, 1], 3.0) & np.isclose(c[:, 1], 3.0)
+    assert top.any() and (normals[top, 1] > 0).all()
+    assert mesh.image is not None and mesh.image.shape == (64, 64, 3)
+
+
+def test_render_is_not_mirrored():
+    # A low box with a tall tower at its East end, seen from the south: the tower is on the right.
+    base = box_part(30.0, 6.0, 4.0, 1, 64)
+    tower = box_part(4.0, 4.0, 20.0, 1, 64, east_offset=12.0)
+    meshes = [Mesh(p.positions, p.triangles, color=np.array([0.5, 0.5, 0.5], dtype=np.float32)) for p in (base, tower)]
+    view = fit_view(meshes, size=128, azimuth_deg=180.0, elevation_deg=10.0)
+    image = render(meshes, view).astype(int)
+    building = np.abs(image - BACKGROUND_RGB).sum(axis=2) > 40
+    top_rows = building[: 128 // 3]  # only the tower reaches the upper third
+    columns = np.nonzero(top_rows.any(axis=0))[0]
+    assert len(columns) and columns.min() > 64
+
+
+def test_render_untextured_uses_base_colour_and_lambert_shading():
+    part = box_part(10.0, 10.0, 10.0, 1, 64)
+    green = Mesh(part.positions, part.triangles, color=np.array([0.1, 0.8, 0.1], dtype=np.float32))
+    image = render([green], fit_view([green], size=96)).astype(int)
+    greenish = (image[..., 1] > image[..., 0] + 60) & (image[..., 1] > image[..., 2] + 60)
+    assert greenish.mean() > 0.1
+    # Faces at different angles to the sun get different brightness.
+    assert len(np.unique(image[greenish][:, 1] // 10)) >= 3
+
+
+# --------------------------------------------------------------------------- pure helpers
+
+def test_worst_first_puts_unmeasured_last():
+    buildings = [{"id": "x", "lods": [{}]}, {"id": "y", "lods": [{}, {"quality": {"wall_coverage": 0.5}}]},
+                 {"id": "z", "lods": [{}, {"quality": {"silhouette_iou": 0.9, "wall_coverage": 0.95}}]}]
+    assert [b["id"] for b in worst_first(buildings)] == ["y", "z", "x"]
+    assert quality_score(buildings[0]) is None and quality_score(buildings[2]) == 0.9
+
+
+def test_level_table_ratios():
+    manifest = {"lod_group": {"screen_relative_heights": [0.5, 0.1]}, "buildings": [
+        {"lods": [{"level": 0, "triangles": 100, "texture_size": [64, 64]}, {"level": 1, "triangles": 40, "texture_size": [32, 32]}]},
+        {"lods": [{"level": 0, "triangles": 300, "texture_size": [0, 0]}, {"level": 1, "triangles": 200, "texture_size": [0, 0]}]}]}
+    rows = level_table(manifest)
+    assert rows[1]["triangle_share"] == pytest.approx(240 / 400)
+    assert rows[1]["pixel_share"] == pytest.approx(0.25)
+    assert rows[0]["mean_triangles"] == 200 and rows[1]["file_bytes"] is None
+
+
+def test_plot_helpers():
+    assert nice_ticks(0.0, 1.0) == [0.0, 0.25, 0.5, 0.75, 1.0]
+    assert nice_ticks(-0.03, 0.11) == [0.0, 0.05, 0.1]
+    assert nice_ticks(0.0, 7.0) == [0.0, 2.0, 4.0, 6.0]
+    svg = strip_plot_svg("t<x>", [("LOD1", [("a", 0.2), ("b", 0.4)]), ("LOD2", [])], (0.0, 1.0))
+    assert svg.count("<circle") == 2 and "no data" in svg and "t&lt;x&gt;" in svg
+
+
+def test_image_name_uses_the_output_folder():
+    assert image_name({"id": "a/b", "lods": [{"file": "a_b_1234/lod0.glb"}]}, 2) == "a_b_1234_lod2.png"
+    assert image_name({"id": "a/b c", "lods": [{}]}, 0) == "a_b_c_lod0.png"
