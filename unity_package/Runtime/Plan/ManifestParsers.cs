@@ -70,11 +70,21 @@ namespace VWorldLod
                 object member;
                 if (members.TryGetValue(info.Name, out member) && member != null)
                     info.SetValue(instance, Fill(info.FieldType, member, path, manifestPath));
-                else if (info.FieldType.IsArray)
-                    info.SetValue(instance, Array.CreateInstance(info.FieldType.GetElementType(), 0));
-                else if (info.FieldType.IsClass && info.FieldType != typeof(string))
-                    info.SetValue(instance, Activator.CreateInstance(info.FieldType));
+                else if (info.FieldType.IsArray || (info.FieldType.IsClass && info.FieldType != typeof(string)))
+                    info.SetValue(instance, NewDefault(info.FieldType));
             }
+            return instance;
+        }
+
+        // What JsonUtility leaves in a missing field: an empty array, or an instance whose own
+        // class and array fields are filled the same way (the manifest classes are not recursive).
+        static object NewDefault(Type type)
+        {
+            if (type.IsArray) return Array.CreateInstance(type.GetElementType(), 0);
+            object instance = Activator.CreateInstance(type);
+            foreach (FieldInfo info in type.GetFields(BindingFlags.Public | BindingFlags.Instance))
+                if (info.FieldType.IsArray || (info.FieldType.IsClass && info.FieldType != typeof(string)))
+                    info.SetValue(instance, NewDefault(info.FieldType));
             return instance;
         }
 

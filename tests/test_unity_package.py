@@ -1,0 +1,307 @@
+"""The Unity package (``unity_package/``) compiled and tested under mono, without Unity.
+
+Stand-in ``UnityEngine``/``UnityEditor``/``glTFast`` assemblies (``tests/unity/stubs/``) declare
+exactly the members the package uses, with the real signatures; every package script is compiled
+against them the way its ``.asmdef`` files group them. The plain logic (``Runtime/Plan``) is also
+compiled with no Unity reference at all, and the C# tests (``tests/unity/Tests``) run on it under
+mono, fed with manifests written by the Python side (``exporter.manifest`` + ``exporter.placement``,
+and the real ``vworld-lod export`` of the demo tile when ``samples/`` has one), broken variants of
+them, and placements computed by ``exporter.placement``.
+"""
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+PACKAGE = REPO / "unity_package"
+UNITY_TESTS = REPO / "tests" / "unity"
+sys.path.insert(0, str(UNITY_TESTS))
+
+import unity_meta  # noqa: E402  (tests/unity/unity_meta.py)
+
+MCS, MONO = shutil.which("mcs"), shutil.which("mono")
+needs_mono = pytest.mark.skipif(not (MCS and MONO), reason="mono's C# compiler (mcs) and runtime (mono) are not installed: apt-get install mono-mcs mono-runtime")
+
+
+def scripts(folder: Path) -> list[str]:
+    return sorted(str(p) for p in folder.rglob("*.cs"))
+
+
+def mcs(out: Path, sources: list[str], refs: list[Path] = (), library: bool = True, strict: bool = True) -> Path:
+    args = [MCS, "-nologo", f"-out:{out}"] + (["-target:library"] if library else [])
+    args += ["-warnaserror+"] if strict else []
+    args += [f"-r:{r}" for r in refs] + sources
+    result = subprocess.run(args, capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, f"mcs failed for {out.name}:\n{result.stdout}\n{result.stderr}"
+    return out
+
+
+@pytest.fixture(scope="module")
+def build(tmp_path_factory) -> dict[str, Path]:
+    """Compile stand-ins, the package (as its asmdefs group it), the plain logic alone and the tests."""
+    if not (MCS and MONO):
+        pytest.skip("mono's C# compiler (mcs) and runtime (mono) are not installed")
+    d = tmp_path_factory.mktemp("unity_build")
+    stubs = UNITY_TESTS / "stubs"
+    engine = mcs(d / "UnityEngine.dll", [str(stubs / "UnityEngine.cs")], strict=False)
+    editor = mcs(d / "UnityEditor.dll", [str(stubs / "UnityEditor.cs")], [engine], strict=False)
+    gltfast = mcs(d / "glTFast.dll", [str(stubs / "GLTFast.cs")], [engine], strict=False)
+    plan = mcs(d / "VWorldLod.Plan.dll", scripts(PACKAGE / "Runtime" / "Plan"))
+    runtime = mcs(d / "VWorldLod.Runtime.dll", scripts(PACKAGE / "Runtime"), [engine, gltfast])
+    editor_asm = mcs(d / "VWorldLod.Editor.dll", scripts(PACKAGE / "Editor"), [engine, editor, gltfast, runtime])
+    tests = mcs(d / "VWorldLod.Tests.exe", scripts(UNITY_TESTS / "Tests"), [plan, Path("System.Core.dll")], library=False)
+    return {"plan": plan, "runtime": runtime, "editor": editor_asm, "tests": tests, "dir": d}
+
+
+def run_csharp(build: dict, *args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([MONO, str(build["tests"]), *map(str, args)], capture_output=True, text=True, timeout=60)
+
+
+def passed_failed(output: str) -> tuple[int, int]:
+    match = re.search(r"^(\d+) passed, (\d+) failed$", output, re.MULTILINE)
+    assert match, f"no summary line in:\n{output}"
+    return int(match.group(1)), int(match.group(2))
+
+
+# --------------------------------------------------------------------------- package layout
+
+def test_package_json_is_a_unity_package_depending_on_gltfast():
+    data = json.loads((PACKAGE / "package.json").read_text(encoding="utf-8"))
+    assert data["name"] == "com.vworldlod.importer" and data["version"] == "0.1.0"
+    assert data["unity"] == "2022.3" and data["displayName"] and data["description"]
+    assert re.fullmatch(r"\d+\.\d+\.\d+", data["dependencies"]["com.unity.cloud.gltfast"])
+
+
+def test_asmdefs_group_runtime_and_editor():
+    runtime = json.loads((PACKAGE / "Runtime" / "VWorldLod.Runtime.asmdef").read_text())
+    editor = json.loads((PACKAGE / "Editor" / "VWorldLod.Editor.asmdef").read_text())
+    assert runtime["includePlatforms"] == [] and "glTFast" in runtime["references"]
+    assert editor["includePlatforms"] == ["Editor"]
+    assert set(editor["references"]) >= {runtime["name"], "glTFast"}
+
+
+def test_every_asset_has_a_fixed_meta_and_no_meta_is_stale():
+    expected = unity_meta.expected_metas()
+    on_disk = {p for p in PACKAGE.rglob("*.meta")}
+    assert on_disk == set(expected), "run: python tests/unity/unity_meta.py"
+    for path, text in expected.items():
+        assert path.read_text(encoding="utf-8") == text, f"{path} is outdated: run python tests/unity/unity_meta.py"
+    guids = [re.search(r"^guid: ([0-9a-f]{32})$", t, re.MULTILINE).group(1) for t in expected.values()]
+    assert len(set(guids)) == len(guids)
+    assert not any("~" in p.name for p in on_disk), "Unity ignores folders ending in ~: they get no metas"
+
+
+def test_meta_guid_is_md5_of_package_relative_path():
+    text = (PACKAGE / "Runtime" / "Plan" / "LodPlan.cs.meta").read_text()
+    assert "guid: " + __import__("hashlib").md5(b"Runtime/Plan/LodPlan.cs").hexdigest() in text
+    assert "MonoImporter:" in text
+    assert "folderAsset: yes" in (PACKAGE / "Runtime.meta").read_text()
+    assert "PackageManifestImporter:" in (PACKAGE / "package.json.meta").read_text()
+
+
+def test_plain_logic_names_no_unity_type():
+    for path in (PACKAGE / "Runtime" / "Plan").rglob("*.cs"):
+        assert not re.search(r"\busing (UnityEngine|UnityEditor|GLTFast)\b", path.read_text()), path
+
+
+def test_stubs_declare_nothing_the_package_does_not_use():
+    """Every member or type a stand-in declares is named somewhere in the package's scripts."""
+    package_text = "\n".join(Path(p).read_text() for p in scripts(PACKAGE))
+    declared = set()
+    for stub in (UNITY_TESTS / "stubs").glob("*.cs"):
+        code = re.sub(r"//.*", "", stub.read_text())
+        declared |= set(re.findall(r"\b(?:class|struct|enum|interface|delegate \w+)\s+(\w+)", code))
+        declared |= set(re.findall(r"\bpublic (?:static )?(?:[\w.<>\[\]]+ )(\w+)\s*(?:[({<]|;|=)", code))
+        declared |= set(re.findall(r"^\s*(\w+) = \d+,", code, re.MULTILINE))  # enum members
+    declared -= {"Object", "Component", "Behaviour", "GltfImportBase", "IDownloadProvider", "IDeferAgent",
+                 "IMaterialGenerator", "ICodeLogger", "ImportSettings", "CallbackFunction", "None", "SpeedTree"}
+    # Base classes, and types named only by the signatures of used members (real Unity/glTFast
+    # declares them too); LODFadeMode's other values mirror LodFadeKind's (cast by value).
+    unused = sorted(name for name in declared if not re.search(r"\b" + name + r"\b", package_text))
+    assert not unused, f"stand-ins declare members the package never uses: {unused}"
+
+
+# --------------------------------------------------------------------------- compile + C# tests
+
+@needs_mono
+def test_every_package_script_compiles_against_the_stand_ins(build):
+    compiled = set(scripts(PACKAGE / "Runtime")) | set(scripts(PACKAGE / "Editor"))
+    assert compiled == set(scripts(PACKAGE)), "a script outside Runtime/ and Editor/ would not belong to an asmdef"
+    assert all(build[k].stat().st_size > 0 for k in ("plan", "runtime", "editor"))
+
+
+@needs_mono
+def test_csharp_tests_of_the_plain_logic_pass(build):
+    result = run_csharp(build)
+    passed, failed = passed_failed(result.stdout)
+    assert failed == 0 and result.returncode == 0, result.stdout + result.stderr
+    assert passed >= 50
+
+
+def write_glb(path: Path, size: float) -> None:
+    """A one-quad building level written by the exporter's own glTF writer."""
+    from exporter.gltf_writer import glb_bytes
+    from exporter.model import Part
+
+    positions = np.array([[0, 0, 0], [size, 0, 0], [size, size, 0], [0, size, 0]], dtype=np.float64)
+    part = Part(positions=positions, triangles=np.array([[0, 2, 1], [0, 3, 2]]))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(glb_bytes([part], path.stem))
+
+
+def manifest_from_exporter_modules(out: Path, placement_mode: str) -> Path:
+    """A tile written with exporter.manifest.build_manifest and exporter.placement (the pipeline's
+    own building blocks), with real GLB files, for when no full export is at hand."""
+    from exporter.config import Config
+    from exporter.manifest import MANIFEST_NAME, build_manifest, dumps, validate_manifest
+    from exporter.model import GeoPoint, Skipped
+    from exporter.placement import building_placement, relative_placement, tile_placement
+    from exporter.tiles import tile_bounds, tile_center, tile_of
+
+    config = Config()
+    config.globe.placement = placement_mode
+    tile = tile_of(126.9780, 37.5665, 15)  # Seoul City Hall
+    lon0, lat0 = tile_center(tile)
+    west, south, east, north = tile_bounds(tile)
+    folder = out / tile.name
+    records = []
+    for n, (fx, fy, elev) in enumerate([(0.1, 0.2, 12.5), (0.8, 0.9, 40.0), (0.5, 0.5, 0.0)]):
+        ref = GeoPoint(west + fx * (east - west), south + fy * (north - south), elev)
+        bid = f"B{n}"
+        lods = []
+        for level in range(len(config.lods)):
+            file = f"{bid}/lod{level}.glb"
+            write_glb(folder / file, 10.0 - level)
+            lods.append({"level": level, "file": file, "triangles": 2, "vertices": 4, "texture_size": [0, 0]})
+        records.append({
+            "id": bid, "source": f"{bid}.xdo", "input_hash": "0" * 64,
+            "center": {"lon": ref.lon, "lat": ref.lat, "elev": ref.elev},
+            "placement": building_placement(ref, config.globe),
+            "relative_placement": relative_placement(ref, tile, config.globe),
+            "lods": lods, "problems": [],
+        })
+    manifest = build_manifest(tile, (west, south, east, north), {"lon": lon0, "lat": lat0, "elev": 0.0},
+                              tile_placement(tile, config.globe), config, records,
+                              [Skipped(source="B9.xdo", reason="no triangles", id="B9")])
+    validate_manifest(manifest)
+    path = folder / MANIFEST_NAME
+    path.write_text(dumps(manifest), encoding="utf-8")
+    return path
+
+
+def broken_variants(manifest_path: Path) -> list[tuple[Path, str]]:
+    """(path, field the error must name) of manifests broken one way each, beside the good one."""
+    good = json.loads(manifest_path.read_text(encoding="utf-8"))
+    folder = manifest_path.parent
+    first = good["buildings"][0]
+    variants = []
+
+    def variant(name: str, field: str, change) -> None:
+        data = json.loads(json.dumps(good))
+        change(data)
+        path = folder / f"broken_{name}.json"
+        path.write_text(json.dumps(data), encoding="utf-8")
+        variants.append((path, field))
+
+    variant("heights_not_decreasing", "lod_group.screen_relative_heights[1]",
+            lambda d: d["lod_group"].update(screen_relative_heights=[0.5, 0.6, 0.02]))
+    variant("nine_levels", "lod_group.screen_relative_heights",
+            lambda d: d["lod_group"].update(screen_relative_heights=[0.9 - 0.1 * k for k in range(9)]))
+    variant("missing_file", f"buildings[0] (id {first['id']}).lods[1].file",
+            lambda d: d["buildings"][0]["lods"][1].update(file=f"{first['id']}/lod1_missing.glb"))
+    variant("wrong_version", "version", lambda d: d.update(version="2.0"))
+    variant("summary_count", "summary.buildings", lambda d: d["summary"].update(buildings=99))
+    bad_json = folder / "broken_bad_json.json"
+    bad_json.write_text(manifest_path.read_text(encoding="utf-8")[:300], encoding="utf-8")
+    variants.append((bad_json, ""))
+    return variants
+
+
+def placement_cases(path: Path) -> Path:
+    """Tile root, relative placement, their Python composition and the globe placement, for
+    buildings in tiles around the world and two Unity radii."""
+    from exporter.config import GlobeOptions
+    from exporter.model import GeoPoint
+    from exporter.placement import building_placement, compose, relative_placement, tile_placement
+    from exporter.tiles import tile_bounds, tile_of
+
+    cases = []
+    rng = np.random.default_rng(11)
+    places = [(126.9780, 37.5665), (0.001, 0.001), (-179.99, -45.0), (179.99, 70.0), (-74.0, 40.7), (151.2, -33.9), (10.0, 89.0)]
+    for unity_radius in (6378137.0, 1000.0):
+        globe = GlobeOptions(unity_radius=unity_radius)
+        for lon, lat in places:
+            tile = tile_of(lon, lat, 15)
+            west, south, east, north = tile_bounds(tile)
+            ref = GeoPoint(west + rng.random() * (east - west), south + rng.random() * (north - south), float(rng.uniform(-50, 500)))
+            t, r = tile_placement(tile, globe), relative_placement(ref, tile, globe)
+            cases.append({"name": f"lon {lon} lat {lat} UR {unity_radius:g}", "tile": t, "relative": r,
+                          "composed": compose(t, r), "building": building_placement(ref, globe)})
+    path.write_text(json.dumps({"cases": cases}), encoding="utf-8")
+    return path
+
+
+def check_run(result: subprocess.CompletedProcess, min_passed: int) -> str:
+    passed, failed = passed_failed(result.stdout)
+    assert failed == 0 and result.returncode == 0, result.stdout + result.stderr
+    assert passed >= min_passed
+    return result.stdout
+
+
+@needs_mono
+@pytest.mark.parametrize("mode", ["tile_relative", "globe"])
+def test_csharp_plans_a_manifest_from_the_exporter_modules_and_refuses_broken_ones(build, tmp_path, mode):
+    manifest = manifest_from_exporter_modules(tmp_path, mode)
+    args = ["--manifest", manifest]
+    variants = broken_variants(manifest)
+    for path, field in variants:
+        args += ["--broken", path, field]
+    args += ["--placements", placement_cases(tmp_path / "placements.json")]
+    out = check_run(run_csharp(build, *args), 53 + 6 + len(variants) + 15)
+    errors = [line for line in out.splitlines() if line.startswith("ERROR ")]
+    assert len(errors) == len(variants)
+    assert any(": not valid JSON: line " in e and "broken_bad_json.json" in e for e in errors)
+    assert any("lod1_missing.glb does not exist" in e for e in errors)
+    assert any("strictly decrease" in e for e in errors)
+
+
+@needs_mono
+def test_csharp_detects_a_wrong_placement(build, tmp_path):
+    """The comparison is not vacuous: a building moved by 1 m fails the composition check."""
+    manifest = manifest_from_exporter_modules(tmp_path, "tile_relative")
+    data = json.loads(manifest.read_text())
+    data["buildings"][1]["relative_placement"]["position"][0] += 1.0
+    manifest.write_text(json.dumps(data))
+    result = run_csharp(build, "--manifest", manifest)
+    assert result.returncode != 0
+    assert "FAIL exported: tile root composed with relative_placement is the globe placement: B1" in result.stdout
+
+
+def demo_tile() -> Path | None:
+    samples = REPO / "samples"
+    tiles = sorted(p for p in samples.iterdir() if p.is_dir() and any(p.glob("*.dat"))) if samples.is_dir() else []
+    return tiles[0] if tiles else None
+
+
+@needs_mono
+def test_csharp_plans_the_real_export_of_the_demo_tile(build, tmp_path):
+    tile = demo_tile()
+    if tile is None:
+        pytest.skip("samples/ holds no demo tile (a folder with .dat files) yet")
+    out = tmp_path / "out"
+    export = subprocess.run([sys.executable, "-m", "exporter", "export", str(tile), "--out", str(out), "--quiet"],
+                            cwd=REPO, capture_output=True, text=True, timeout=300)
+    assert export.returncode == 0, export.stdout + export.stderr
+    (manifest,) = out.glob("*/lod_manifest.json")
+    args = ["--manifest", manifest]
+    for path, field in broken_variants(manifest):
+        args += ["--broken", path, field]
+    check_run(run_csharp(build, *args), 53 + 6 + 6)

@@ -1,0 +1,29 @@
+// Entry point of the C# test assembly:
+//   mono VWorldLod.Tests.exe [--manifest PATH]... [--broken PATH FIELD]... [--placements PATH]...
+// Always runs the self-contained tests; the options add tests on files made by the Python side.
+using System;
+
+namespace VWorldLod.Tests
+{
+    public static class Program
+    {
+        public static int Main(string[] args)
+        {
+            var t = new TestRunner();
+            PlanTests.Run(t);
+            for (int i = 0; i < args.Length; i++)
+            {
+                if (args[i] == "--manifest" && i + 1 < args.Length) ExportedTests.RunManifest(t, args[++i]);
+                else if (args[i] == "--broken" && i + 2 < args.Length) { ExportedTests.RunBroken(t, args[i + 1], args[i + 2]); i += 2; }
+                else if (args[i] == "--placements" && i + 1 < args.Length) ExportedTests.RunPlacements(t, args[++i]);
+                else
+                {
+                    Console.Error.WriteLine("unknown or incomplete argument: " + args[i]);
+                    return 2;
+                }
+            }
+            ExportedTests.PrintMeasurements();
+            return t.Finish();
+        }
+    }
+}
