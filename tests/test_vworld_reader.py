@@ -297,3 +297,22 @@ def test_entries_pickle_and_name_their_inputs(tmp_path):
 def test_detect_needs_a_dat(tmp_path):
     (tmp_path / "a.xdo").write_bytes(b"\x08")
     assert not vworld.detect(tmp_path)
+
+
+def test_vworld_box_arrives_in_unity_facing_outward(tmp_path):
+    """The end result as Unity sees it: VWorld file -> load -> glTF -> glTFast's import (negate X,
+    reverse winding) -> every face of the box still points away from its inside."""
+    trimesh = pytest.importorskip("trimesh")
+    from exporter.gltf_writer import glb_bytes
+
+    vworld.write_tile(tmp_path, TILE, [building([textured_box()])])
+    path = tmp_path / "BLD_0001.xdo"
+    xdo = parse_xdo(path.read_bytes(), str(path), 2)  # store the opposite winding, as VWorld might
+    xdo.meshes[0].indices = xdo.meshes[0].indices.reshape(-1, 3)[:, ::-1].reshape(-1).copy()
+    path.write_bytes(serialise_xdo(xdo))
+    (loaded,) = load_all(tmp_path)
+    scene = trimesh.load(io.BytesIO(glb_bytes(loaded.parts, loaded.id)), file_type="glb", process=False)
+    (mesh,) = scene.geometry.values()
+    unity_positions = np.asarray(mesh.vertices) * [-1.0, 1.0, 1.0]
+    unity_triangles = np.asarray(mesh.faces)[:, ::-1]
+    assert outward_share(unity_positions, unity_triangles, np.array([0.0, 6.0, 0.0])) == 1.0
