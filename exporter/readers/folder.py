@@ -1,0 +1,400 @@
+"""Generic folder reader: OBJ (+ MTL + images), glTF and GLB models, one building per file, placed
+on the globe by an index file in the folder.
+
+Meshes and materials are read with trimesh; original image bytes are taken from the files the MTL
+names or from the glTF's own images (read with pygltflib), so LOD0 keeps the source encoding.
+
+Index file (the first found of ``buildings.csv``, ``buildings.yaml``/``buildings.yml``,
+``buildings.json``), one row per model file:
+
+==========  ========  ==========================================================================
+column      required  meaning
+==========  ========  ==========================================================================
+file        yes       model path relative to the folder: ``*.obj``, ``*.gltf`` or ``*.glb``
+lon, lat    yes       degrees (WGS84) of the model's origin (0, 0, 0)
+elev        yes       metres: height of the model's origin (same datum as the terrain)
+up_axis     no        ``y`` (default) or ``z``: which model axis points up (see below)
+id          no        building id (default: the file name without extension); must be unique
+==========  ========  ==========================================================================
+
+``buildings.csv`` has a header row with these column names (any order)::
+
+    file,lon,lat,elev,up_axis,id
+    hall.glb,126.9780,37.5665,38.5,y,city-hall
+
+``buildings.yaml`` / ``buildings.json`` hold a list of mappings with the same keys, either at the
+top level or under a ``buildings`` key::
+
+    buildings:
+      - {file: hall.glb, lon: 126.9780, lat: 37.5665, elev: 38.5, up_axis: y, id: city-hall}
+
+Model frames (units are metres; both are right-handed, front faces counter-clockwise):
+
+- ``up_axis: y`` (glTF's and Blender's glTF/OBJ export convention): x = East, y = Up, -z = North
+  (+z = South).
+- ``up_axis: z`` (GIS/CAD convention): x = East, y = North, z = Up.
+
+Both become the local East/Up/North frame (x = East, y = Up, z = North) by a reflection, so every
+triangle's index order is reversed to keep ``(b - a) x (c - a)`` outward. Positions are then moved
+from the origin's tangent frame to the building's reference point (centre of its lon/lat box at
+its lowest point) on the 6378137 m sphere (:mod:`exporter.geodesy`): a rigid motion, the shape is
+unchanged.
+
+Each material becomes one :class:`~exporter.model.Part` (meshes sharing a material are merged);
+UVs are given in glTF's convention (origin top-left). The colour is glTF's ``baseColorFactor`` or
+MTL's ``Kd`` (white for textured OBJ materials: the texture alone gives the colour). ``Entry.tile`` is the level-15 tile holding the model's origin (the model is not
+opened while scanning); ``Building.lonlat_bounds`` gives its true extent and ``Building.tile`` is
+None, so the pipeline files it by the centre of that extent.
+"""
+from __future__ import annotations
+
+import csv
+import hashlib
+import io
+import json
+import math
+import re
+from pathlib import Path
+from typing import Any, Optional
+
+import numpy as np
+import yaml
+from PIL import Image
+
+from .. import geodesy
+from ..config import ReaderOptions
+from ..errors import InputError, ReadError
+from ..model import Building, GeoPoint, Part, Skipped, Texture
+from ..tiles import tile_of
+from . import Entry, Scan
+
+FORMAT = "folder"
+INDEX_NAMES = ("buildings.csv", "buildings.yaml", "buildings.yml", "buildings.json")
+MODEL_SUFFIXES = (".obj", ".gltf", ".glb")
+UP_AXES = ("y", "z")
+
+# Model axes -> local (East, Up, North): rows pick and sign the model's x, y, z. Both have det -1.
+TO_LOCAL = {
+    "y": np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -1.0]]),
+    "z": np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]]),
+}
+
+
+# --------------------------------------------------------------------------- index file
+
+def index_file(folder: Path) -> Optional[Path]:
+    for name in INDEX_NAMES:
+        if (folder / name).is_file():
+            return folder / name
+    return None
+
+
+def _index_rows(path: Path) -> list[dict]:
+    """Raw rows of the index file; InputError naming the file when it cannot be parsed at all."""
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except (OSError, UnicodeDecodeError) as error:
+        raise InputError(f"{path}: index file cannot be read ({error})") from None
+    if path.suffix == ".csv":
+        reader = csv.DictReader(io.StringIO(text))
+        columns = [c.strip() for c in reader.fieldnames or []]
+        missing = [c for c in ("file", "lon", "lat", "elev") if c not in columns]
+        if missing:
+            raise InputError(f"{path}: missing column(s) {', '.join(missing)}; expected a header row file,lon,lat,elev[,up_axis][,id]")
+        return [{(k or "").strip(): (v.strip() if isinstance(v, str) else v) for k, v in row.items()} for row in reader]
+    try:
+        data = yaml.safe_load(text) if path.suffix in (".yaml", ".yml") else json.loads(text)
+    except (yaml.YAMLError, json.JSONDecodeError) as error:
+        raise InputError(f"{path}: index file is not valid {path.suffix[1:].upper()} ({str(error).splitlines()[0]})") from None
+    if isinstance(data, dict):
+        data = data.get("buildings")
+    if not isinstance(data, list) or not all(isinstance(row, dict) for row in data):
+        raise InputError(f"{path}: expected a list of mappings with keys file, lon, lat, elev[, up_axis][, id] (at the top level or under 'buildings')")
+    return data
+
+
+def _row_entry(folder: Path, index: Path, number: int, row: dict) -> Entry:
+    """One index row -> Entry; ValueError saying what is wrong with the row."""
+    file = row.get("file")
+    if not isinstance(file, str) or not file.strip():
+        raise ValueError("no 'file'")
+    file = file.strip()
+    if not file.lower().endswith(MODEL_SUFFIXES):
+        raise ValueError(f"file {file!r} is not one of {', '.join(MODEL_SUFFIXES)}")
+    values = {}
+    for key, low, high in (("lon", -180.0, 180.0), ("lat", -90.0, 90.0), ("elev", -12000.0, 100000.0)):
+        raw = row.get(key)
+        try:
+            value = float(raw)
+        except (TypeError, ValueError):
+            raise ValueError(f"{key} {raw!r} is not a number") from None
+        if not (math.isfinite(value) and low <= value <= high):
+            raise ValueError(f"{key} {raw!r} is outside [{low:g}, {high:g}]")
+        values[key] = value
+    up_axis = str(row.get("up_axis") or "y").strip().lower()
+    if up_axis not in UP_AXES:
+        raise ValueError(f"up_axis {row.get('up_axis')!r}; allowed: y or z")
+    building_id = str(row.get("id") or "").strip() or Path(file).stem
+    model = folder / file
+    key = (file, values["lon"], values["lat"], values["elev"], up_axis)
+    return Entry(format=FORMAT, id=building_id, source=str(model), tile=tile_of(values["lon"], values["lat"], 15),
+                 inputs=[str(model)] + _dependencies(model), key=key)
+
+
+# --------------------------------------------------------------------------- dependencies
+
+_MTLLIB = re.compile(rb"^\s*mtllib\s+(.+?)\s*$", re.MULTILINE)
+_MAP_KD = re.compile(r"^\s*map_Kd\s+(.+?)\s*$", re.MULTILINE | re.IGNORECASE)
+
+
+def _mtl_image_name(argument: str) -> str:
+    """The file name of a ``map_Kd`` line, skipping options like ``-s 1 1 1`` (the name is last)."""
+    return argument.split()[-1] if argument.split() else argument
+
+
+def _obj_materials(model: Path) -> tuple[list[Path], list[Path]]:
+    """(MTL files, image files) an OBJ names, relative to the OBJ and the MTL respectively."""
+    try:
+        data = model.read_bytes()
+    except OSError:
+        return [], []
+    mtls, images = [], []
+    for match in _MTLLIB.finditer(data):
+        mtl = model.parent / match.group(1).decode("utf-8", "replace")
+        mtls.append(mtl)
+        try:
+            text = mtl.read_text(encoding="utf-8", errors="replace")
+        except OSError:
+            continue
+        images += [mtl.parent / _mtl_image_name(m) for m in _MAP_KD.findall(text)]
+    return mtls, images
+
+
+def _gltf_header(model: Path) -> Optional[dict]:
+    """The JSON part of a .gltf or .glb file (None when it cannot be read)."""
+    try:
+        data = model.read_bytes()
+        if model.suffix.lower() == ".glb":
+            length = int.from_bytes(data[12:16], "little")
+            return json.loads(data[20:20 + length])
+        return json.loads(data)
+    except (OSError, ValueError):
+        return None
+
+
+def _dependencies(model: Path) -> list[str]:
+    """Files besides the model whose bytes decide the building (MTL, images, external buffers)."""
+    if not model.is_file():
+        return []
+    if model.suffix.lower() == ".obj":
+        mtls, images = _obj_materials(model)
+        return [str(p) for p in mtls + images]
+    header = _gltf_header(model) or {}
+    uris = [item.get("uri") for key in ("buffers", "images") for item in header.get(key) or [] if isinstance(item, dict)]
+    return [str(model.parent / uri) for uri in uris if isinstance(uri, str) and not uri.startswith("data:")]
+
+
+# --------------------------------------------------------------------------- original image bytes
+
+def _encoded_images(model: Path) -> list[tuple[bytes, str]]:
+    """(encoded bytes, name) of every image the model file refers to."""
+    found = []
+    if model.suffix.lower() == ".obj":
+        for image in _obj_materials(model)[1]:
+            try:
+                found.append((image.read_bytes(), image.name))
+            except OSError:
+                continue
+        return found
+    import pygltflib
+
+    try:
+        gltf = pygltflib.GLTF2().load(str(model))
+    except Exception:  # pygltflib raises assorted errors on bad files; trimesh reports them
+        return found
+    blob = gltf.binary_blob() if model.suffix.lower() == ".glb" else None
+    for number, image in enumerate(gltf.images or []):
+        data = None
+        if image.bufferView is not None:
+            view = gltf.bufferViews[image.bufferView]
+            buffer = gltf.buffers[view.buffer]
+            source = blob if buffer.uri is None else _uri_bytes(model, buffer.uri)
+            if source is not None:
+                data = source[(view.byteOffset or 0):(view.byteOffset or 0) + view.byteLength]
+        elif image.uri:
+            data = _uri_bytes(model, image.uri)
+        if data:
+            found.append((bytes(data), image.name or (Path(image.uri).name if image.uri and not image.uri.startswith("data:") else f"image{number}")))
+    return found
+
+
+def _uri_bytes(model: Path, uri: str) -> Optional[bytes]:
+    import base64
+    from urllib.parse import unquote
+
+    try:
+        if uri.startswith("data:"):
+            return base64.b64decode(uri.split(",", 1)[1])
+        return (model.parent / unquote(uri)).read_bytes()
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def _pixel_digest(image: Image.Image) -> tuple:
+    return image.size, hashlib.sha1(image.convert("RGBA").tobytes()).hexdigest()
+
+
+def _texture_for(image: Image.Image, candidates: list[tuple[bytes, str]], digests: dict) -> tuple[Texture, Optional[str]]:
+    """The Texture of a decoded image: the candidate whose decoded pixels are equal (original
+    bytes), else the image re-encoded as PNG with a problem note."""
+    wanted = _pixel_digest(image)
+    for number, (data, name) in enumerate(candidates):
+        if number not in digests:
+            try:
+                with Image.open(io.BytesIO(data)) as decoded:
+                    digests[number] = (_pixel_digest(decoded), decoded.format)
+            except (OSError, Image.DecompressionBombError):
+                digests[number] = (None, None)
+        digest, kind = digests[number]
+        if digest == wanted:
+            mime = Image.MIME.get(kind, f"image/{(kind or 'unknown').lower()}")
+            return Texture(data, mime, image.width, image.height, name=name), None
+    buffer = io.BytesIO()
+    image.save(buffer, format="PNG")
+    note = "texture re-encoded as PNG (its original bytes were not found)"
+    return Texture(buffer.getvalue(), "image/png", image.width, image.height, name="texture.png"), note
+
+
+# --------------------------------------------------------------------------- meshes
+
+def _material_of(visual) -> tuple[Optional[Image.Image], tuple]:
+    """(texture image or None, RGBA colour 0..1) of a trimesh visual."""
+    material = getattr(visual, "material", None)
+    image, color = None, (1.0, 1.0, 1.0, 1.0)
+    if material is None:
+        return image, color
+    image = getattr(material, "baseColorTexture", None) or getattr(material, "image", None)
+    factor = getattr(material, "baseColorFactor", None)
+    if factor is None:
+        factor = getattr(material, "diffuse", None)
+    if factor is not None:
+        values = np.asarray(factor).ravel()
+        if values.size in (3, 4):
+            # trimesh stores colours as uint8 0..255; plain floats are already 0..1.
+            scaled = values / 255.0 if np.issubdtype(values.dtype, np.integer) or values.max() > 1.0 else values.astype(np.float64)
+            color = tuple(float(c) for c in np.append(scaled, 1.0)[:4])
+    return image, color
+
+
+def _scene_meshes(scene) -> list[tuple[np.ndarray, np.ndarray, Optional[np.ndarray], Any]]:
+    """(vertices (n, 3) model metres, faces (m, 3) CCW front, uv (n, 2) bottom-left origin or None,
+    visual) for every mesh instance of the scene graph, node transforms applied."""
+    meshes = []
+    for node in scene.graph.nodes_geometry:
+        transform, name = scene.graph[node]
+        mesh = scene.geometry[name]
+        if not hasattr(mesh, "faces") or len(mesh.faces) == 0:
+            continue
+        vertices = np.asarray(mesh.vertices, dtype=np.float64) @ transform[:3, :3].T + transform[:3, 3]
+        faces = np.asarray(mesh.faces, dtype=np.int64)
+        if np.linalg.det(transform[:3, :3]) < 0:  # a mirroring node turns faces inside out
+            faces = faces[:, ::-1]
+        uv = getattr(mesh.visual, "uv", None) if getattr(mesh.visual, "kind", None) == "texture" else None
+        meshes.append((vertices, faces, None if uv is None else np.asarray(uv, dtype=np.float64), mesh.visual))
+    return meshes
+
+
+def _load_scene(model: Path):
+    import trimesh
+
+    try:
+        return trimesh.load(str(model), force="scene", process=False)
+    except Exception as error:  # trimesh raises many types on malformed files
+        raise ReadError(str(model), f"cannot be read as {model.suffix[1:].upper()} ({type(error).__name__}: {error})") from None
+
+
+# --------------------------------------------------------------------------- contract
+
+def detect(folder: Path) -> bool:
+    """True when the folder holds an index file (``buildings.csv``/``.yaml``/``.yml``/``.json``)."""
+    return index_file(Path(folder)) is not None
+
+
+def scan(folder: Path, options: ReaderOptions) -> Scan:
+    """One Entry per index row; bad rows and duplicate ids go to ``Scan.skipped``."""
+    folder = Path(folder)
+    index = index_file(folder)
+    if index is None:
+        raise InputError(f"{folder}: no index file ({', '.join(INDEX_NAMES)}) for the OBJ/glTF/GLB models")
+    result = Scan(folder=str(folder), format=FORMAT)
+    seen: set[str] = set()
+    for number, row in enumerate(_index_rows(index), start=1):
+        source = str(folder / str(row.get("file") or ""))
+        try:
+            entry = _row_entry(folder, index, number, row)
+        except ValueError as error:
+            result.skipped.append(Skipped(source=str(index), reason=f"row {number}: {error}", id=str(row.get("id") or "") or None))
+            continue
+        if entry.id in seen:
+            result.skipped.append(Skipped(source=source, reason=f"{index.name} row {number}: duplicate id {entry.id!r}", id=entry.id))
+            continue
+        seen.add(entry.id)
+        result.entries.append(entry)
+    return result
+
+
+def load(entry: Entry, options: ReaderOptions) -> Building:
+    """The model ``entry.source`` placed by its index row; raises only ReadError."""
+    model = Path(entry.source)
+    file, lon, lat, elev, up_axis = entry.key
+    if not model.is_file():
+        raise ReadError(str(model), f"listed in the index as {file!r} but missing")
+    origin = GeoPoint(float(lon), float(lat), float(elev))
+    scene = _load_scene(model)
+    meshes = _scene_meshes(scene)
+    if not meshes:
+        raise ReadError(str(model), "has no triangles")
+    to_local = TO_LOCAL[up_axis]
+
+    # Local East/Up/North around the origin, then around the building's own reference point.
+    at_origin = [vertices @ to_local.T for vertices, _, _, _ in meshes]
+    lonlath = [geodesy.local_to_lonlath(points, origin) for points in at_origin]
+    reference, bounds = geodesy.base_centre(np.concatenate(lonlath))
+
+    candidates, digests, problems = None, {}, []
+    groups: dict[Any, dict] = {}
+    for (vertices, faces, uv, visual), points in zip(meshes, lonlath):
+        image, color = _material_of(visual)
+        texture, key = None, ("color", color)
+        if image is not None and uv is not None and len(uv) == len(vertices):
+            if model.suffix.lower() == ".obj":
+                # MTL's Kd next to a map_Kd is commonly a leftover (trimesh writes 0.4 grey); like
+                # Blender's importer, the texture alone gives the colour.
+                color = (1.0, 1.0, 1.0, color[3])
+            if candidates is None:
+                candidates = _encoded_images(model)
+            texture, note = _texture_for(image, candidates, digests)
+            if note and note not in problems:
+                problems.append(note)
+            key = ("texture", hashlib.sha1(texture.data).hexdigest(), color)
+        group = groups.setdefault(key, {"positions": [], "triangles": [], "uvs": [], "texture": texture, "color": color, "count": 0})
+        group["positions"].append(geodesy.lonlath_to_local(points, reference))
+        group["triangles"].append(faces[:, ::-1] + group["count"])  # reflection: reverse the winding
+        if texture is not None:
+            flipped = uv.copy()
+            flipped[:, 1] = 1.0 - flipped[:, 1]  # trimesh's bottom-left origin -> glTF top-left
+            group["uvs"].append(flipped)
+        group["count"] += len(vertices)
+
+    parts = []
+    for number, group in enumerate(groups.values()):
+        texture = group["texture"]
+        parts.append(Part(
+            positions=np.concatenate(group["positions"]),
+            triangles=np.concatenate(group["triangles"]),
+            uvs=np.concatenate(group["uvs"]) if texture is not None else None,
+            texture=texture, color=group["color"],
+            name=texture.name if texture is not None else f"material{number}",
+        ))
+    return Building(id=entry.id, source=str(model), reference=reference, parts=parts, tile=None,
+                    problems=problems, lonlat_bounds=bounds)
