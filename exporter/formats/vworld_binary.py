@@ -358,10 +358,6 @@ def parse_xdo(data: bytes, path: str, version: Optional[int] = None) -> XdoFile:
             if not seen_empty:
                 break  # no empty image_name met: the other thumbnail reading is the same reading
     layout, error = best
-    return _raise_xdo(path, layout, error, version)
-
-
-def _raise_xdo(path: str, layout: int, error: _Malformed, version: Optional[int]):
     tried = f"3.0.0.{layout}" if version else f"3.0.0.1 or 3.0.0.2 (closest: 3.0.0.{layout})"
     raise ReadError(path, f"not a valid .xdo {tried}: {error.problem}")
 
