@@ -6,7 +6,9 @@ a list of :class:`BuildingRenders` (per building, per level: the image path *rel
 or the reason there is none). Pages are self-contained static HTML: inline CSS, inline SVG plots,
 images referenced relatively, so they open from ``file://`` with no server and no network. One
 small inline script marks ``<body>`` with the count of loaded and broken images
-(``data-images-loaded`` / ``data-images-broken``) and shows a banner when an image is missing.
+(``data-images-loaded`` / ``data-images-broken``), the ids of laid-out tables
+(``data-tables-shown``) and the count of laid-out plots (``data-plots-shown``), and shows a banner
+when an image is missing.
 """
 from __future__ import annotations
 
@@ -49,6 +51,12 @@ window.addEventListener("load", function () {
   var loaded = images.filter(function (i) { return i.complete && i.naturalWidth > 0; }).length;
   document.body.setAttribute("data-images-loaded", String(loaded));
   document.body.setAttribute("data-images-broken", String(images.length - loaded));
+  var shown = function (selector) {
+    return Array.prototype.filter.call(document.querySelectorAll(selector), function (e) {
+      var box = e.getBoundingClientRect(); return box.width > 0 && box.height > 0; });
+  };
+  document.body.setAttribute("data-tables-shown", shown("table[id]").map(function (t) { return t.id; }).join(" "));
+  document.body.setAttribute("data-plots-shown", String(shown("svg.plot").length));
   if (images.length > loaded) {
     var banner = document.getElementById("broken-banner");
     if (banner) { banner.style.display = "block"; banner.textContent = (images.length - loaded) + " image(s) failed to load"; }
