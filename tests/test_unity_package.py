@@ -249,6 +249,15 @@ def placement_cases(path: Path) -> Path:
     return path
 
 
+def name_cases(path: Path) -> Path:
+    """Building ids and the exporter's safe folder names for them (prefab names must match)."""
+    from exporter.pipeline import safe_folder_name
+
+    ids = ["B1", "a/b", "..", "\u00e9\u00e8", "B/2", "x" * 100 + "/", "11000000123_0", "with space", "_x_", "a..b", "-", "\u5efa\u7269 3"]
+    path.write_text(json.dumps({"names": [{"id": i, "safe": safe_folder_name(i)} for i in ids]}), encoding="utf-8")
+    return path
+
+
 def check_run(result: subprocess.CompletedProcess, min_passed: int) -> str:
     passed, failed = passed_failed(result.stdout)
     assert failed == 0 and result.returncode == 0, result.stdout + result.stderr
@@ -264,8 +273,8 @@ def test_csharp_plans_a_manifest_from_the_exporter_modules_and_refuses_broken_on
     variants = broken_variants(manifest)
     for path, field in variants:
         args += ["--broken", path, field]
-    args += ["--placements", placement_cases(tmp_path / "placements.json")]
-    out = check_run(run_csharp(build, *args), 53 + 6 + len(variants) + 15)
+    args += ["--placements", placement_cases(tmp_path / "placements.json"), "--names", name_cases(tmp_path / "names.json")]
+    out = check_run(run_csharp(build, *args), 53 + 6 + len(variants) + 15 + 1)
     errors = [line for line in out.splitlines() if line.startswith("ERROR ")]
     assert len(errors) == len(variants)
     assert any(": not valid JSON: line " in e and "broken_bad_json.json" in e for e in errors)

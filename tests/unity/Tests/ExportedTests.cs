@@ -156,6 +156,22 @@ namespace VWorldLod.Tests
             }
         }
 
+        /// <summary>{"names": [{"id", "safe"}]} from exporter.pipeline.safe_folder_name.</summary>
+        public static void RunNames(TestRunner t, string path)
+        {
+            var root = (Dictionary<string, object>)PlainJson.Parse(File.ReadAllText(path));
+            var names = (List<object>)root["names"];
+            t.Check("names: same safe names as the exporter (" + names.Count + " ids)", () =>
+            {
+                Assert.True(names.Count > 0, "names");
+                foreach (object item in names)
+                {
+                    var n = (Dictionary<string, object>)item;
+                    Assert.Equal((string)n["safe"], LodPlanner.SafeName((string)n["id"]), "safe name of " + n["id"]);
+                }
+            });
+        }
+
         static Pose ToPose(object value)
         {
             var d = (Dictionary<string, object>)value;

@@ -175,7 +175,7 @@ namespace VWorldLod.Tests
             t.Check("plan: a building with fewer levels keeps its last one down to the culling height", () =>
             {
                 BuildingPlan b2 = PlanSample(m => { }).Buildings[1];
-                Assert.Equal("B_2", b2.Name, "safe name of B/2");
+                Assert.Equal("B_2_eef514d5", b2.Name, "safe name of B/2");
                 Assert.Equal(2, b2.Levels.Length, "levels");
                 Assert.Equal(0.5, b2.Levels[0].ScreenRelativeHeight, "h0");
                 Assert.Equal(0.02, b2.Levels[1].ScreenRelativeHeight, "last level at the tile's last height");
@@ -281,12 +281,13 @@ namespace VWorldLod.Tests
                 var e = Assert.Throws<ManifestException>(() => LodPlanner.Load(missing, new PlainJsonManifestParser(), File.Exists), "missing file");
                 Assert.Contains(missing + ": cannot read the manifest", e.Message, "message");
             });
-            t.Check("safe names", () =>
+            t.Check("safe names match exporter.pipeline.safe_folder_name", () =>
             {
-                Assert.Equal("a_b_c", LodPlanner.SafeName("a/b\\c"), "slashes");
-                Assert.Equal("_..", LodPlanner.SafeName(".."), "dots only");
-                Assert.Equal("B-1.x_y", LodPlanner.SafeName("B-1.x_y"), "kept");
-                Assert.Equal("_", LodPlanner.SafeName("\u00e9"), "non-ascii");
+                Assert.Equal("B1", LodPlanner.SafeName("B1"), "kept");
+                Assert.Equal("a_b_3ec69c85", LodPlanner.SafeName("a/b"), "slash");
+                Assert.Equal("building_9d891e73", LodPlanner.SafeName(".."), "dots only");
+                Assert.Equal("building_bf15be71", LodPlanner.SafeName("\u00e9"), "non-ascii");
+                Assert.Equal(new string('x', 80) + "_6689f28c", LodPlanner.SafeName(new string('x', 100) + "/"), "long");
             });
 
             PoseTests.Run(t);

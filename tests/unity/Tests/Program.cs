@@ -1,5 +1,5 @@
 // Entry point of the C# test assembly:
-//   mono VWorldLod.Tests.exe [--manifest PATH]... [--broken PATH FIELD]... [--placements PATH]...
+//   mono VWorldLod.Tests.exe [--manifest PATH]... [--broken PATH FIELD]... [--placements PATH]... [--names PATH]...
 // Always runs the self-contained tests; the options add tests on files made by the Python side.
 using System;
 
@@ -16,6 +16,7 @@ namespace VWorldLod.Tests
                 if (args[i] == "--manifest" && i + 1 < args.Length) ExportedTests.RunManifest(t, args[++i]);
                 else if (args[i] == "--broken" && i + 2 < args.Length) { ExportedTests.RunBroken(t, args[i + 1], args[i + 2]); i += 2; }
                 else if (args[i] == "--placements" && i + 1 < args.Length) ExportedTests.RunPlacements(t, args[++i]);
+                else if (args[i] == "--names" && i + 1 < args.Length) ExportedTests.RunNames(t, args[++i]);
                 else
                 {
                     Console.Error.WriteLine("unknown or incomplete argument: " + args[i]);

@@ -11,7 +11,9 @@
 using System;
 using System.Collections.Generic;
 using System.IO;
+using System.Security.Cryptography;
 using System.Text;
+using System.Text.RegularExpressions;
 
 namespace VWorldLod
 {
@@ -160,14 +162,24 @@ namespace VWorldLod
             return k == levelCount - 1 ? heights[heights.Length - 1] : heights[k];
         }
 
-        /// <summary>Letters, digits, '-', '_' and '.' kept; anything else becomes '_'.</summary>
+        /// <summary>
+        /// The exporter's file-system-safe name of a building id (exporter.pipeline.safe_folder_name):
+        /// runs of characters other than ASCII letters, digits, '.', '_' and '-' become '_', leading
+        /// and trailing '.'/'_' go ("building" if nothing is left), and a changed name gets the first
+        /// 8 hex digits of the id's SHA-1 (after at most 80 characters) so distinct ids stay distinct.
+        /// </summary>
         public static string SafeName(string id)
         {
-            var sb = new StringBuilder(id.Length);
-            foreach (char c in id)
-                sb.Append((c < 128 && (char.IsLetterOrDigit(c) || c == '-' || c == '_' || c == '.')) ? c : '_');
-            string name = sb.ToString();
-            return name.Trim('.').Length == 0 ? "_" + name : name;
+            string name = Regex.Replace(id, "[^0-9A-Za-z._-]+", "_").Trim('.', '_');
+            if (name.Length == 0) name = "building";
+            if (name == id) return name;
+            using (SHA1 sha1 = SHA1.Create())
+            {
+                byte[] digest = sha1.ComputeHash(Encoding.UTF8.GetBytes(id));
+                var hex = new StringBuilder();
+                for (int k = 0; k < 4; k++) hex.Append(digest[k].ToString("x2"));
+                return (name.Length > 80 ? name.Substring(0, 80) : name) + "_" + hex;
+            }
         }
 
         static string FolderOf(string manifestPath)
