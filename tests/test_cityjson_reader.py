@@ -398,3 +398,18 @@ def test_local_frame_round_trip_and_axes():
     assert north[1] > ref.lat and north[0] == pytest.approx(ref.lon, abs=1e-9)
     # 100 m along the sphere of radius 6378137 m, at the reference's height of 20 m.
     assert math.radians(north[1] - ref.lat) * (6378137.0 + 20.0) == pytest.approx(100.0, rel=1e-6)
+
+
+def test_degenerate_polygon_left_out_and_declared_crs_override_noted(tmp_path):
+    geometry = unit_box()
+    geometry["boundaries"][0].append([[0, 1, 1, 0]])  # no area
+    geometry["semantics"]["values"][0].append(2)
+    write(tmp_path, "deg.city.json", city({"B": {"type": "Building", "geometry": [geometry]}}, BOX_VERTICES))
+    scan, building = only_building(tmp_path)
+    assert building.triangle_count == 10
+    assert any("1 degenerate polygon" in p for p in building.problems)
+    assert not scan.notes
+    scan = scan_folder(tmp_path, ReaderOptions(crs="EPSG:2056"))
+    assert not scan.notes  # same CRS written another way
+    scan = scan_folder(tmp_path, ReaderOptions(crs="EPSG:21781"))  # LV03: overriding is noted
+    assert any("declares" in note and "EPSG:21781" in note for note in scan.notes)

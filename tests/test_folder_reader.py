@@ -228,3 +228,14 @@ def test_entries_are_plain_and_key_decides_hash(tmp_path):
     assert pickle.loads(pickle.dumps(entry)) == entry
     assert entry.key == ("a.glb", LON, LAT, ELEV, "y")  # placement in the key: a moved row re-exports
     assert load_entry(entry, ReaderOptions()).id == "A"
+
+
+def test_obj_with_missing_image_is_untextured_with_a_problem(tmp_path):
+    textured_box(tmp_path).export(tmp_path / "hall.obj")
+    mtl_text = (tmp_path / "material.mtl").read_text()
+    image_name = next(line.split()[-1] for line in mtl_text.splitlines() if line.startswith("map_Kd"))
+    (tmp_path / image_name).unlink()
+    write_csv(tmp_path, [f"hall.obj,{LON},{LAT},{ELEV},y,O"])
+    building = load_entry(scan_folder(tmp_path).entries[0])
+    assert building.triangle_count == 12 and all(p.texture is None and p.uvs is None for p in building.parts)
+    assert any(image_name in p and "missing" in p for p in building.problems)

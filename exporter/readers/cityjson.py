@@ -93,6 +93,7 @@ class _Document:
     chunks: list[_Chunk]
     objects: dict  # CityObject id -> (chunk index, CityObject dict)
     themes: list[str] = field(default_factory=list)
+    declared_crs: Optional[str] = None  # metadata.referenceSystem as written (None when absent)
     children: dict = field(default_factory=dict)  # id -> ids of its BuildingPart/Installation children
 
     @property
@@ -177,7 +178,7 @@ def _parse(path: Path, crs_override: Optional[str]) -> _Document:
     crs = _crs_of(path, header, crs_override)
     transform = header.get("transform")
     bodies = [header] if not path.name.endswith(".jsonl") else records[1:]
-    document = _Document(path, crs, [], {})
+    document = _Document(path, crs, [], {}, declared_crs=(header.get("metadata") or {}).get("referenceSystem"))
     for body in bodies:
         if not isinstance(body, dict) or not isinstance(body.get("CityObjects"), dict):
             raise _fail(path, "has no CityObjects mapping")
@@ -460,6 +461,9 @@ def scan(folder: Path, options: ReaderOptions) -> Scan:
                 raise InputError(str(error)) from None
             result.skipped.append(Skipped(source=str(path), reason=error.problem))
             continue
+        declared = document.declared_crs
+        if declared and geodesy.normalise_crs_text(declared) != geodesy.normalise_crs_text(document.crs):
+            result.notes.append(f"{path.name}: declares {declared}; read as {document.crs} (readers.crs / --crs overrides it)")
         if len(document.themes) > 1:
             result.notes.append(f"{path.name}: texture themes {', '.join(document.themes)}; used the first, {document.theme}")
         for building_id in _building_ids(document):

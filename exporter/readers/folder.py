@@ -362,6 +362,9 @@ def load(entry: Entry, options: ReaderOptions) -> Building:
     reference, bounds = geodesy.base_centre(np.concatenate(lonlath))
 
     candidates, digests, problems = None, {}, []
+    if model.suffix.lower() == ".obj":
+        # trimesh drops a material whose image is missing; say so instead of going quietly grey.
+        problems += [f"texture {image.name} missing: exported untextured" for image in _obj_materials(model)[1] if not image.is_file()]
     groups: dict[Any, dict] = {}
     for (vertices, faces, uv, visual), points in zip(meshes, lonlath):
         image, color = _material_of(visual)
