@@ -413,3 +413,15 @@ def test_degenerate_polygon_left_out_and_declared_crs_override_noted(tmp_path):
     assert not scan.notes  # same CRS written another way
     scan = scan_folder(tmp_path, ReaderOptions(crs="EPSG:21781"))  # LV03: overriding is noted
     assert any("declares" in note and "EPSG:21781" in note for note in scan.notes)
+
+
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_triangulate_concave_ring_follows_outward(sign):
+    # An L-shaped wall in the East/Up plane (metres), slightly non-planar (5 mm out of plane).
+    ring = np.array([[0, 0, 0], [4, 0, 0], [4, 1, 0.005], [1, 1, 0], [1, 3, 0], [0, 3, 0.005]], dtype=float)
+    outward = np.array([0.0, 0.0, sign])
+    triangles = cityjson.triangulate_polygon([ring], outward)
+    assert len(triangles) == 4
+    n = np.cross(ring[triangles[:, 1]] - ring[triangles[:, 0]], ring[triangles[:, 2]] - ring[triangles[:, 0]])
+    assert np.all(n @ outward > 0)
+    assert (np.linalg.norm(n, axis=1) / 2).sum() == pytest.approx(6.0, rel=1e-3)  # m², the L's area

@@ -295,7 +295,7 @@ class _Polygon:
 
 
 def _polygons(document: _Document, geometries: list[tuple[int, dict]], options: ReaderOptions) -> tuple[list[_Polygon], list[str]]:
-    polygons, notes, dropped, bad_texture = [], [], 0, 0
+    polygons, notes, dropped, bad_texture, malformed = [], [], 0, 0, 0
     theme = document.theme
     for chunk, geometry in geometries:
         depth = SURFACE_DEPTH[geometry["type"]]
@@ -307,10 +307,12 @@ def _polygons(document: _Document, geometries: list[tuple[int, dict]], options: 
                 dropped += 1
                 continue
             if not isinstance(rings, list) or not rings or not all(isinstance(r, list) and len(r) >= 3 for r in rings):
+                malformed += 1
                 continue
             texture, uv_rings = None, None
             if isinstance(tex, list) and tex and isinstance(tex[0], list) and tex[0] and tex[0][0] is not None:
-                ok = len(tex) == len(rings) and all(isinstance(t, list) and len(t) == len(r) + 1 and None not in t for t, r in zip(tex, rings))
+                ok = len(tex) == len(rings) and all(
+                    isinstance(t, list) and len(t) == len(r) + 1 and all(isinstance(i, int) for i in t) for t, r in zip(tex, rings))
                 if ok and all(t[0] == tex[0][0] for t in tex):
                     texture, uv_rings = int(tex[0][0]), [t[1:] for t in tex]
                 else:
@@ -320,6 +322,8 @@ def _polygons(document: _Document, geometries: list[tuple[int, dict]], options: 
         notes.append(f"dropped {dropped} GroundSurface polygon(s)")
     if bad_texture:
         notes.append(f"{bad_texture} polygon(s) with malformed texture values exported untextured")
+    if malformed:
+        notes.append(f"{malformed} malformed polygon(s) (not a list of rings of 3 or more vertices) left out")
     return polygons, notes
 
 
@@ -334,24 +338,27 @@ def newell_normal(points: np.ndarray) -> np.ndarray:
 
 def triangulate_polygon(rings: list[np.ndarray], outward: np.ndarray) -> np.ndarray:
     """Triangles (m, 3) indexing the concatenated ``rings`` (each (k, 3) metres, outer first, holes
-    after), every one oriented so ``(b - a) x (c - a)`` has a positive dot with ``outward`` (3,).
-    Triangulated with earcut on the plane perpendicular to ``outward``."""
+    after), every one oriented so ``(b - a) x (c - a)`` points along ``outward`` (3,).
+
+    Earcut runs on the projection onto the plane perpendicular to ``outward``, in a 2D basis
+    (u, v) with ``u x v = outward``; orientation is decided there (by each triangle's signed 2D
+    area), which stays right for slightly non-planar real-world polygons.
+    """
     points = np.concatenate(rings)
+    normal = outward / np.linalg.norm(outward)
+    u = np.cross(normal, np.eye(3)[int(np.argmin(np.abs(normal)))])
+    u /= np.linalg.norm(u)
+    v = np.cross(normal, u)
+    flat = np.column_stack([(points - points[0]) @ u, (points - points[0]) @ v])
     if len(rings) == 1 and len(points) == 3:
         triangles = np.array([[0, 1, 2]], dtype=np.int64)
     else:
-        normal = outward / np.linalg.norm(outward)
-        helper = np.eye(3)[int(np.argmin(np.abs(normal)))]
-        u = np.cross(normal, helper)
-        u /= np.linalg.norm(u)
-        v = np.cross(normal, u)
-        flat = np.column_stack([(points - points[0]) @ u, (points - points[0]) @ v])
         ends = np.cumsum([len(r) for r in rings]).astype(np.uint32)
         triangles = np.asarray(mapbox_earcut.triangulate_float64(flat, ends), dtype=np.int64).reshape(-1, 3)
     if len(triangles):
-        a, b, c = points[triangles[:, 0]], points[triangles[:, 1]], points[triangles[:, 2]]
-        backward = np.cross(b - a, c - a) @ outward < 0
-        triangles[backward] = triangles[backward][:, ::-1]
+        a, b, c = flat[triangles[:, 0]], flat[triangles[:, 1]], flat[triangles[:, 2]]
+        area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+        triangles[area < 0] = triangles[area < 0][:, ::-1]
     return triangles
 
 
