@@ -9,8 +9,10 @@ namespace VWorldLod.Tests
     {
         public static int Main(string[] args)
         {
+            System.Threading.Thread.CurrentThread.CurrentCulture = System.Globalization.CultureInfo.InvariantCulture;
             var t = new TestRunner();
             PlanTests.Run(t);
+            UnityLayerTests.Run(t);
             for (int i = 0; i < args.Length; i++)
             {
                 if (args[i] == "--manifest" && i + 1 < args.Length) ExportedTests.RunManifest(t, args[++i]);

@@ -1,8 +1,11 @@
 // Stand-in for UnityEngine: declares exactly the members unity_package uses, with Unity's
 // namespaces, type names and signatures (Unity 2022.3 scripting API), so the package's scripts
-// compile under mono. Bodies are minimal: they record values (properties) or throw (engine calls
-// that need a running player); tests run only the package's plain logic.
+// compile under mono. Bodies are minimal: GameObject keeps its components, LODGroup and the
+// Transform's properties record what they are given (in non-public fields, which the C# tests
+// read by reflection), and engine calls that need a running player throw.
 using System;
+
+[assembly: System.Runtime.CompilerServices.InternalsVisibleTo("VWorldLod.Tests")]
 
 namespace UnityEngine
 {
@@ -15,7 +18,8 @@ namespace UnityEngine
 
     public class Component : Object
     {
-        public Transform transform { get { throw new NotSupportedException("stand-in"); } }
+        internal GameObject owner;
+        public Transform transform { get { return owner.transform; } }
     }
 
     public class Behaviour : Component { }
@@ -34,21 +38,43 @@ namespace UnityEngine
 
     public sealed class GameObject : Object
     {
-        public GameObject(string name) { this.name = name; }
-        public Transform transform { get { throw new NotSupportedException("stand-in"); } }
-        public T GetComponent<T>() { throw new NotSupportedException("stand-in"); }
-        public T AddComponent<T>() where T : Component { throw new NotSupportedException("stand-in"); }
+        readonly System.Collections.Generic.List<Component> components = new System.Collections.Generic.List<Component>();
+
+        public GameObject(string name)
+        {
+            this.name = name;
+            AddComponent<Transform>();
+        }
+
+        public Transform transform { get { return GetComponent<Transform>(); } }
+
+        public T GetComponent<T>()
+        {
+            foreach (Component c in components) if (c is T) return (T)(object)c;
+            return default(T);
+        }
+
+        public T AddComponent<T>() where T : Component
+        {
+            T c = (T)Activator.CreateInstance(typeof(T), true);
+            c.owner = this;
+            components.Add(c);
+            return c;
+        }
+
         public T[] GetComponentsInChildren<T>() { throw new NotSupportedException("stand-in"); }
     }
 
     public struct Vector3
     {
-        public Vector3(float x, float y, float z) { }
+        internal float[] values;
+        public Vector3(float x, float y, float z) { values = new[] { x, y, z }; }
     }
 
     public struct Quaternion
     {
-        public Quaternion(float x, float y, float z, float w) { }
+        internal float[] values;
+        public Quaternion(float x, float y, float z, float w) { values = new[] { x, y, z, w }; }
     }
 
     public enum LODFadeMode
@@ -61,10 +87,14 @@ namespace UnityEngine
     public struct LOD
     {
         public float fadeTransitionWidth;
+        internal float height;
+        internal Renderer[] given;
 
         public LOD(float screenRelativeTransitionHeight, Renderer[] renderers)
         {
             fadeTransitionWidth = 0f;
+            height = screenRelativeTransitionHeight;
+            given = renderers;
         }
     }
 
@@ -72,8 +102,10 @@ namespace UnityEngine
     {
         public LODFadeMode fadeMode { get; set; }
         public bool animateCrossFading { get; set; }
-        public void SetLODs(LOD[] lods) { throw new NotSupportedException("stand-in"); }
-        public void RecalculateBounds() { throw new NotSupportedException("stand-in"); }
+        internal LOD[] lods;
+        internal int boundsRecalculated;
+        public void SetLODs(LOD[] lods) { this.lods = (LOD[])lods.Clone(); }
+        public void RecalculateBounds() { boundsRecalculated++; }
     }
 
     public static class Debug

@@ -1,0 +1,61 @@
+// The thin Unity layer (Runtime/Unity/LodGroupAssembly.cs) run against the stand-in
+// UnityEngine, whose GameObject, Transform and LODGroup record what they are given.
+using System;
+using UnityEngine;
+
+namespace VWorldLod.Tests
+{
+    public static class UnityLayerTests
+    {
+        public static void Run(TestRunner t)
+        {
+            t.Check("unity: LODGroup gets one LOD per level with the plan's heights, fade and renderers", () =>
+            {
+                TilePlan plan = LodPlanner.Plan(PlanTests.Parse(PlanTests.Sample), PlanTests.ManifestPath, p => true);
+                BuildingPlan b = plan.Buildings[0];
+                var root = new GameObject(b.Name);
+                var renderers = new Renderer[b.Levels.Length][];
+                for (int k = 0; k < renderers.Length; k++) renderers[k] = new[] { new Renderer(), new Renderer() };
+                LODGroup group = LodGroupAssembly.Configure(root, b, plan, renderers);
+                Assert.True(ReferenceEquals(group, root.GetComponent<LODGroup>()), "group added to the root");
+                Assert.Equal(3, group.lods.Length, "levels");
+                float[] expected = { 0.5f, 0.17f, 0.02f };
+                for (int k = 0; k < 3; k++)
+                {
+                    Assert.Equal(expected[k], group.lods[k].height, "height " + k);
+                    Assert.Equal(0.25f, group.lods[k].fadeTransitionWidth, "fade width " + k);
+                    Assert.True(ReferenceEquals(renderers[k], group.lods[k].given), "renderers of level " + k);
+                }
+                Assert.Equal(LODFadeMode.CrossFade, group.fadeMode, "fade mode");
+                Assert.True(group.animateCrossFading, "animate cross-fading");
+                Assert.Equal(1, group.boundsRecalculated, "bounds recalculated after SetLODs");
+            });
+            t.Check("unity: re-configuring reuses the LODGroup", () =>
+            {
+                TilePlan plan = LodPlanner.Plan(PlanTests.Parse(PlanTests.Sample), PlanTests.ManifestPath, p => true);
+                BuildingPlan b = plan.Buildings[1];
+                var root = new GameObject(b.Name);
+                var renderers = new[] { new Renderer[0], new Renderer[0] };
+                LODGroup first = LodGroupAssembly.Configure(root, b, plan, renderers);
+                LODGroup second = LodGroupAssembly.Configure(root, b, plan, renderers);
+                Assert.True(ReferenceEquals(first, second), "same component");
+                Assert.Equal(2, second.lods.Length, "levels");
+                Assert.Equal(0.02f, second.lods[1].height, "last level down to the culling height");
+            });
+            t.Check("unity: pose goes to the local transform as floats (x, y, z, w order)", () =>
+            {
+                var go = new GameObject("x");
+                LodGroupAssembly.ApplyPose(go.transform, new Pose(1.5, -2, 3.25, 0, 0.6, 0, 0.8, 2));
+                float[] p = go.transform.localPosition.values, q = go.transform.localRotation.values, s = go.transform.localScale.values;
+                Assert.Equal("1.5 -2 3.25", string.Join(" ", p), "position");
+                Assert.Equal("0 0.6 0 0.8", string.Join(" ", q), "rotation");
+                Assert.Equal("2 2 2", string.Join(" ", s), "uniform scale");
+            });
+            t.Check("unity: LodFadeKind casts to the LODFadeMode of the same name", () =>
+            {
+                foreach (LodFadeKind kind in Enum.GetValues(typeof(LodFadeKind)))
+                    Assert.Equal(kind.ToString(), ((LODFadeMode)(int)kind).ToString(), "cast of " + kind);
+            });
+        }
+    }
+}
