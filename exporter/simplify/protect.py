@@ -1,0 +1,87 @@
+"""Which faces and vertices the simplifier must not touch (the paper's geometric filter and locks).
+
+Data form: a welded triangle mesh, ``faces`` (m, 3) int64 into ``positions`` (k, 3) float64
+metres (building-local East/Up/North, y = Up), ``face_part`` (m,) int64 the part of every face,
+``corner_uvs`` (m, 3, 2) float32 (glTF UV convention) or None. Every function returns a boolean
+mask over faces (m,) or over vertices (k,).
+
+Sources: the paper's geometric filter (sort faces by area, exclude the largest 30 % from
+simplification); Table II's border / UV-seam options as defined by Whinarn's UnityMeshSimplifier
+(border edge = used by one triangle, seam = one position with two UVs).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+def face_areas(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Area of every face, (m,) float64 square metres."""
+    a, b, c = (positions[faces[:, i]] for i in range(3))
+    return 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
+
+
+def largest_faces(areas: np.ndarray, share: float) -> np.ndarray:
+    """(m,) bool: the ``round(share * m)`` largest faces by area (ties: lower index first)."""
+    count = int(round(share * len(areas)))
+    mask = np.zeros(len(areas), dtype=bool)
+    mask[np.argsort(-areas, kind="stable")[:count]] = True
+    return mask
+
+
+def edge_use(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unique undirected edges (e, 2) int64 (sorted pairs) and how many faces use each (e,)."""
+    edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    unique, counts = np.unique(edges, axis=0, return_counts=True)
+    return unique, counts
+
+
+def border_vertices(faces: np.ndarray, vertex_count: int) -> np.ndarray:
+    """(k,) bool: vertices on an edge used by exactly one face (the open boundary)."""
+    edges, counts = edge_use(faces)
+    mask = np.zeros(vertex_count, dtype=bool)
+    mask[edges[counts == 1].reshape(-1)] = True
+    return mask
+
+
+def nonmanifold_vertices(faces: np.ndarray, vertex_count: int) -> np.ndarray:
+    """(k,) bool: vertices on an edge used by more than two faces (locked so collapses stay sane)."""
+    edges, counts = edge_use(faces)
+    mask = np.zeros(vertex_count, dtype=bool)
+    mask[edges[counts > 2].reshape(-1)] = True
+    return mask
+
+
+def part_border_vertices(faces: np.ndarray, face_part: np.ndarray, vertex_count: int) -> np.ndarray:
+    """(k,) bool: vertices used by faces of two or more parts; locking them means no cracks."""
+    corner_part = np.repeat(face_part, 3)
+    low = np.full(vertex_count, np.iinfo(np.int64).max)
+    high = np.full(vertex_count, np.iinfo(np.int64).min)
+    np.minimum.at(low, faces.reshape(-1), corner_part)
+    np.maximum.at(high, faces.reshape(-1), corner_part)
+    return (high > low) & (high >= 0)
+
+
+def seam_vertices(faces: np.ndarray, corner_uvs: np.ndarray, vertex_count: int) -> np.ndarray:
+    """(k,) bool: vertices whose corners carry two or more different UVs (texture seams)."""
+    keys = np.column_stack([faces.reshape(-1).astype(np.float64), corner_uvs.reshape(-1, 2).astype(np.float64)])
+    distinct = np.unique(keys, axis=0)
+    counts = np.bincount(distinct[:, 0].astype(np.int64), minlength=vertex_count)
+    return counts > 1
+
+
+def footprint_wall_faces(positions: np.ndarray, faces: np.ndarray, border: np.ndarray,
+                         max_normal_up: float = 0.2) -> np.ndarray:
+    """(m,) bool: near-vertical faces (|unit normal . Up| <= ``max_normal_up``) that stand on the
+    open bottom border: a border vertex at the building's lowest level (within 1 % of its height).
+
+    These are the walls on the footprint outline of a floorless building; keeping them keeps the
+    outline and the side silhouettes.
+    """
+    a, b, c = (positions[faces[:, i]] for i in range(3))
+    normal = np.cross(b - a, c - a)
+    length = np.linalg.norm(normal, axis=1)
+    up = np.abs(normal[:, 1]) / np.maximum(length, 1e-30)
+    y = positions[:, 1]
+    low = y <= y.min() + 0.01 * max(float(np.ptp(y)), 1e-9)
+    on_ground = (border & low)[faces].any(axis=1)
+    return (up <= max_normal_up) & on_ground & (length > 0)
