@@ -135,6 +135,7 @@ class SimplifyOptions:
     preserve_surface_curvature: bool = field(default=False, metadata=meta(parse_bool, "weigh collapses by surface curvature so curved parts (domes) keep their shape"))
     vertex_link_distance: float = field(default=0.0, metadata=meta(_number(0.0), "metres: weld vertices closer than this before simplifying (0 = only exact duplicates)"))
     max_iterations: int = field(default=100, metadata=meta(_integer(1, 100000), "maximum simplification passes per level"))
+    protect_walls: bool = field(default=True, metadata=meta(parse_bool, "also never simplify near-vertical faces standing on the open bottom border (the walls on the footprint outline)"))
 
 
 @dataclass
