@@ -50,32 +50,53 @@ namespace VWorldLod
             int built = 0;
             foreach (BuildingPlan building in plan.Buildings)
             {
-                var root = new GameObject(building.Name);
-                root.transform.SetParent(tileRoot.transform, false);
-                LodGroupAssembly.ApplyPose(root.transform, building.Local);
-                var renderers = new Renderer[building.Levels.Length][];
-                bool ok = true;
-                for (int k = 0; k < building.Levels.Length && ok; k++)
+                try
                 {
-                    var level = new GameObject("LOD" + k);
-                    level.transform.SetParent(root.transform, false);
-                    var gltf = new GltfImport();
-                    imports.Add(gltf);
-                    ok = await gltf.Load(new Uri(Path.GetFullPath(building.Levels[k].Path)))
-                         && await gltf.InstantiateMainSceneAsync(level.transform);
-                    renderers[k] = level.GetComponentsInChildren<Renderer>();
-                    if (!ok) Debug.LogError(plan.ManifestPath + ": building " + building.Id + ": glTFast could not load " + building.Levels[k].Path);
+                    if (await BuildBuildingAsync(plan, building, tileRoot.transform)) built++;
                 }
-                if (!ok)
+                catch (Exception e)
                 {
-                    Destroy(root);
-                    continue;
+                    // One building's failure (I/O, a glTF glTFast rejects) must not stop the tile.
+                    Debug.LogError(plan.ManifestPath + ": building " + building.Id + ": " + e.Message);
                 }
-                LodGroupAssembly.Configure(root, building, plan, renderers);
-                built++;
             }
             Debug.Log(plan.ManifestPath + ": built " + built + " of " + (plan.Buildings.Length + plan.Failures.Length) + " buildings");
             return plan;
+        }
+
+        // One LODGroup under tileRoot; false (and nothing left behind) when a level does not load.
+        async Task<bool> BuildBuildingAsync(TilePlan plan, BuildingPlan building, Transform tileRoot)
+        {
+            var root = new GameObject(building.Name);
+            root.transform.SetParent(tileRoot, false);
+            LodGroupAssembly.ApplyPose(root.transform, building.Local);
+            var renderers = new Renderer[building.Levels.Length][];
+            try
+            {
+                for (int k = 0; k < building.Levels.Length; k++)
+                {
+                    var level = new GameObject(building.Name + "_LOD" + k);
+                    level.transform.SetParent(root.transform, false);
+                    var gltf = new GltfImport();
+                    imports.Add(gltf);
+                    bool ok = await gltf.Load(new Uri(Path.GetFullPath(building.Levels[k].Path)))
+                              && await gltf.InstantiateMainSceneAsync(level.transform);
+                    if (!ok)
+                    {
+                        Debug.LogError(plan.ManifestPath + ": building " + building.Id + ": glTFast could not load " + building.Levels[k].Path);
+                        Destroy(root);
+                        return false;
+                    }
+                    renderers[k] = level.GetComponentsInChildren<Renderer>();
+                }
+            }
+            catch
+            {
+                Destroy(root);
+                throw;
+            }
+            LodGroupAssembly.Configure(root, building, plan, renderers);
+            return true;
         }
 
         void OnDestroy()
