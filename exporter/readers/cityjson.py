@@ -332,8 +332,15 @@ def _polygons(document: _Document, geometries: list[tuple[int, dict]], options: 
 def newell_normal(points: np.ndarray) -> np.ndarray:
     """Area-weighted normal (3,) of a closed ring of points (k, 3) by Newell's method (unnormalised,
     length = twice the area; direction by the right-hand rule of the ring order)."""
-    following = np.roll(points, -1, axis=0)
-    return np.cross(points, following).sum(axis=0)
+    x, y, z = points[:, 0], points[:, 1], points[:, 2]
+    # np.cross is slow on many tiny arrays; write the summed cross product out.
+    x1, y1, z1 = np.append(x[1:], x[0]), np.append(y[1:], y[0]), np.append(z[1:], z[0])
+    return np.array([(y * z1 - z * y1).sum(), (z * x1 - x * z1).sum(), (x * y1 - y * x1).sum()])
+
+
+def _cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross product of two 3-vectors (np.cross costs ~20x more on single vectors)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
 def triangulate_polygon(rings: list[np.ndarray], outward: np.ndarray) -> np.ndarray:
@@ -346,9 +353,9 @@ def triangulate_polygon(rings: list[np.ndarray], outward: np.ndarray) -> np.ndar
     """
     points = np.concatenate(rings)
     normal = outward / np.linalg.norm(outward)
-    u = np.cross(normal, np.eye(3)[int(np.argmin(np.abs(normal)))])
+    u = _cross3(normal, np.eye(3)[int(np.argmin(np.abs(normal)))])
     u /= np.linalg.norm(u)
-    v = np.cross(normal, u)
+    v = _cross3(normal, u)
     flat = np.column_stack([(points - points[0]) @ u, (points - points[0]) @ v])
     if len(rings) == 1 and len(points) == 3:
         triangles = np.array([[0, 1, 2]], dtype=np.int64)
