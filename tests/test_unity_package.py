@@ -294,6 +294,28 @@ def test_csharp_detects_a_wrong_placement(build, tmp_path):
     assert "FAIL exported: tile root composed with relative_placement is the globe placement: B1" in result.stdout
 
 
+REAL_DATA = REPO / ".." / "shared" / "data" / "real"
+
+
+@needs_mono
+def test_csharp_plans_the_real_export_of_real_cityjson(build, tmp_path):
+    """`vworld-lod export` on the real textured Rotterdam CityJSON (../shared/data/real)."""
+    source = REAL_DATA / "rotterdam_textured"
+    if not source.is_dir():
+        pytest.skip(f"../shared/data/real not present: {source} is missing")
+    out = tmp_path / "out"
+    export = subprocess.run([sys.executable, "-m", "exporter", "export", str(source), "--out", str(out), "--quiet", "--jobs", "1"],
+                            cwd=REPO, capture_output=True, text=True, timeout=300)
+    assert export.returncode == 0, export.stdout + export.stderr
+    (manifest,) = out.glob("*/lod_manifest.json")
+    assert json.loads(manifest.read_text())["buildings"], "the real export has buildings"
+    args = ["--manifest", manifest]
+    variants = broken_variants(manifest)
+    for path, field in variants:
+        args += ["--broken", path, field]
+    check_run(run_csharp(build, *args), 57 + 6 + len(variants))
+
+
 def demo_tile() -> Path | None:
     samples = REPO / "samples"
     tiles = sorted(p for p in samples.iterdir() if p.is_dir() and any(p.glob("*.dat"))) if samples.is_dir() else []
