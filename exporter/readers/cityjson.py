@@ -54,7 +54,7 @@ from PIL import Image
 from .. import geodesy
 from ..config import ReaderOptions
 from ..errors import InputError, ReadError
-from ..model import Building, GeoPoint, Part, Skipped, Texture
+from ..model import Building, Part, Skipped, Texture
 from ..tiles import building_tile
 from . import Entry, Scan
 

@@ -113,7 +113,7 @@ def _index_rows(path: Path) -> list[dict]:
     return data
 
 
-def _row_entry(folder: Path, index: Path, number: int, row: dict) -> Entry:
+def _row_entry(folder: Path, row: dict) -> Entry:
     """One index row -> Entry; ValueError saying what is wrong with the row."""
     file = row.get("file")
     if not isinstance(file, str) or not file.strip():
@@ -331,7 +331,7 @@ def scan(folder: Path, options: ReaderOptions) -> Scan:
     for number, row in enumerate(_index_rows(index), start=1):
         source = str(folder / str(row.get("file") or ""))
         try:
-            entry = _row_entry(folder, index, number, row)
+            entry = _row_entry(folder, row)
         except ValueError as error:
             result.skipped.append(Skipped(source=str(index), reason=f"row {number}: {error}", id=str(row.get("id") or "") or None))
             continue
