@@ -158,13 +158,13 @@ namespace VWorldLod.EditorTools
             var root = new GameObject(plan.TileName);
             try
             {
-                LodGroupAssembly.ApplyPose(root.transform, plan.TileRoot);
+                LodGroupAssembly.ApplyPlacement(root.transform, plan.TileRoot);
                 foreach (BuildingPlan building in buildings)
                 {
                     var prefab = AssetDatabase.LoadAssetAtPath<GameObject>(prefabFolder + "/" + building.Name + ".prefab");
                     if (prefab == null) continue;
                     var instance = (GameObject)PrefabUtility.InstantiatePrefab(prefab, root.transform);
-                    LodGroupAssembly.ApplyPose(instance.transform, building.Local);
+                    LodGroupAssembly.ApplyPlacement(instance.transform, building.Local);
                 }
                 string path = prefabFolder + "/" + plan.TileName + ".prefab";
                 bool ok;

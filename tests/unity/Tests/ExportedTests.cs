@@ -26,7 +26,7 @@ namespace VWorldLod.Tests
         }
 
         /// <summary>Position relative to its length (at least 1), rotation up to sign, scale relative.</summary>
-        public static void SamePose(Pose expected, Pose actual, string what, string measure)
+        public static void SamePose(Placement expected, Placement actual, string what, string measure)
         {
             double norm = Math.Max(1, Math.Sqrt(expected.px * expected.px + expected.py * expected.py + expected.pz * expected.pz));
             double dp = Math.Sqrt(Sq(expected.px - actual.px) + Sq(expected.py - actual.py) + Sq(expected.pz - actual.pz)) / norm;
@@ -44,11 +44,11 @@ namespace VWorldLod.Tests
 
         static double Sq(double x) { return x * x; }
 
-        static Pose GlobePose(GeoCenter c, GlobeInfo g)
+        static Placement GlobePose(GeoCenter c, GlobeInfo g)
         {
-            double[] p = Pose.GlobePosition(c.lon, c.lat, c.elev, g.earth_radius_m, g.unity_radius);
-            double[] q = Pose.EastUpNorthRotation(c.lon, c.lat);
-            return new Pose(p[0], p[1], p[2], q[0], q[1], q[2], q[3], g.unity_radius / g.earth_radius_m);
+            double[] p = Placement.GlobePosition(c.lon, c.lat, c.elev, g.earth_radius_m, g.unity_radius);
+            double[] q = Placement.EastUpNorthRotation(c.lon, c.lat);
+            return new Placement(p[0], p[1], p[2], q[0], q[1], q[2], q[3], g.unity_radius / g.earth_radius_m);
         }
 
         public static void RunManifest(TestRunner t, string path)
@@ -79,17 +79,17 @@ namespace VWorldLod.Tests
                 }
             });
             t.Check("exported: tile root is equations (1)-(2) and East/Up/North at the tile centre", () =>
-                SamePose(GlobePose(m.tile.center, m.globe), Pose.FromPlacement(m.tile.placement), "tile.placement", "tile_root_vs_csharp_globe"));
+                SamePose(GlobePose(m.tile.center, m.globe), Placement.FromData(m.tile.placement), "tile.placement", "tile_root_vs_csharp_globe"));
             t.Check("exported: building placements are equations (1)-(2) at their centres", () =>
             {
                 foreach (BuildingEntry b in m.buildings)
-                    SamePose(GlobePose(b.center, m.globe), Pose.FromPlacement(b.placement), b.id + " placement", "building_vs_csharp_globe");
+                    SamePose(GlobePose(b.center, m.globe), Placement.FromData(b.placement), b.id + " placement", "building_vs_csharp_globe");
             });
             t.Check("exported: tile root composed with relative_placement is the globe placement", () =>
             {
-                Pose root = Pose.FromPlacement(m.tile.placement);
+                Placement root = Placement.FromData(m.tile.placement);
                 foreach (BuildingEntry b in m.buildings)
-                    SamePose(Pose.FromPlacement(b.placement), Pose.Compose(root, Pose.FromPlacement(b.relative_placement)), b.id, "csharp_compose_vs_manifest_globe");
+                    SamePose(Placement.FromData(b.placement), Placement.Compose(root, Placement.FromData(b.relative_placement)), b.id, "csharp_compose_vs_manifest_globe");
             });
             t.Check("exported: both placement modes put each building at the same globe pose", () =>
             {
@@ -101,8 +101,8 @@ namespace VWorldLod.Tests
                     m.globe.placement = "globe";
                     TilePlan globe = LodPlanner.Plan(m, path, File.Exists);
                     for (int i = 0; i < relative.Buildings.Length; i++)
-                        SamePose(Pose.Compose(globe.TileRoot, globe.Buildings[i].Local),
-                                 Pose.Compose(relative.TileRoot, relative.Buildings[i].Local), relative.Buildings[i].Id, "modes_agree");
+                        SamePose(Placement.Compose(globe.TileRoot, globe.Buildings[i].Local),
+                                 Placement.Compose(relative.TileRoot, relative.Buildings[i].Local), relative.Buildings[i].Id, "modes_agree");
                 }
                 finally
                 {
@@ -149,7 +149,7 @@ namespace VWorldLod.Tests
                 string name = (string)c["name"];
                 t.Check("placements: " + name, () =>
                 {
-                    Pose composed = Pose.Compose(ToPose(c["tile"]), ToPose(c["relative"]));
+                    Placement composed = Placement.Compose(ToPose(c["tile"]), ToPose(c["relative"]));
                     SamePose(ToPose(c["composed"]), composed, name + " vs Python compose", "csharp_vs_python_compose");
                     SamePose(ToPose(c["building"]), composed, name + " vs Python building_placement", "csharp_compose_vs_python_building");
                 });
@@ -172,12 +172,12 @@ namespace VWorldLod.Tests
             });
         }
 
-        static Pose ToPose(object value)
+        static Placement ToPose(object value)
         {
             var d = (Dictionary<string, object>)value;
             var p = (List<object>)d["position"];
             var q = (List<object>)d["rotation"];
-            return new Pose((double)p[0], (double)p[1], (double)p[2], (double)q[0], (double)q[1], (double)q[2], (double)q[3], (double)d["scale"]);
+            return new Placement((double)p[0], (double)p[1], (double)p[2], (double)q[0], (double)q[1], (double)q[2], (double)q[3], (double)d["scale"]);
         }
     }
 }

@@ -45,7 +45,7 @@ namespace VWorldLod.Tests
             t.Check("unity: pose goes to the local transform as floats (x, y, z, w order)", () =>
             {
                 var go = new GameObject("x");
-                LodGroupAssembly.ApplyPose(go.transform, new Pose(1.5, -2, 3.25, 0, 0.6, 0, 0.8, 2));
+                LodGroupAssembly.ApplyPlacement(go.transform, new Placement(1.5, -2, 3.25, 0, 0.6, 0, 0.8, 2));
                 float[] p = go.transform.localPosition.values, q = go.transform.localRotation.values, s = go.transform.localScale.values;
                 Assert.Equal("1.5 -2 3.25", string.Join(" ", p), "position");
                 Assert.Equal("0 0.6 0 0.8", string.Join(" ", q), "rotation");

@@ -44,7 +44,7 @@ namespace VWorldLod
         public string Name;
         public LevelPlan[] Levels;
         /// <summary>The building's transform under the tile root (see file header).</summary>
-        public Pose Local;
+        public Placement Local;
         /// <summary>Warnings the exporter recorded for this building.</summary>
         public string[] Problems;
     }
@@ -58,7 +58,7 @@ namespace VWorldLod
         public string TileName;
         public PlacementMode Mode;
         /// <summary>The tile root's transform (identity in globe mode).</summary>
-        public Pose TileRoot;
+        public Placement TileRoot;
         public LodFadeKind FadeMode;
         public bool AnimateCrossFading;
         public BuildingPlan[] Buildings;
@@ -120,7 +120,7 @@ namespace VWorldLod
                 Folder = folder,
                 TileName = m.tile.name,
                 Mode = mode,
-                TileRoot = mode == PlacementMode.TileRelative ? Pose.FromPlacement(m.tile.placement) : Pose.Identity,
+                TileRoot = mode == PlacementMode.TileRelative ? Placement.FromData(m.tile.placement) : Placement.Identity,
                 FadeMode = ManifestValidator.ParseFadeMode(m.lod_group.fade_mode).Value,
                 AnimateCrossFading = m.lod_group.animate_cross_fading,
                 Buildings = plans.ToArray(),
@@ -147,7 +147,7 @@ namespace VWorldLod
                 Id = b.id,
                 Name = SafeName(b.id),
                 Levels = levels,
-                Local = Pose.FromPlacement(mode == PlacementMode.TileRelative ? b.relative_placement : b.placement),
+                Local = Placement.FromData(mode == PlacementMode.TileRelative ? b.relative_placement : b.placement),
                 Problems = b.problems ?? new string[0],
             };
         }

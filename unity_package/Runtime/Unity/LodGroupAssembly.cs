@@ -1,7 +1,7 @@
 // The thin Unity side shared by the Editor importer and the runtime loader: applies a planned
-// Pose to a Transform and sets up a building's LODGroup from its LevelPlans.
+// Placement to a Transform and sets up a building's LODGroup from its LevelPlans.
 //
-// Frames: Pose values are in the parent's frame (see LodPlan.cs); Unity stores float, so globe
+// Frames: Placement values are in the parent's frame (see LodPlan.cs); Unity stores float, so globe
 // positions (~6.4e6 units for UR = R) keep ~0.5 unit steps: prefer tile_relative placement.
 using UnityEngine;
 
@@ -10,7 +10,7 @@ namespace VWorldLod
     public static class LodGroupAssembly
     {
         /// <summary>Sets t's local position, rotation and uniform scale to pose.</summary>
-        public static void ApplyPose(Transform t, Pose pose)
+        public static void ApplyPlacement(Transform t, Placement pose)
         {
             t.localPosition = new Vector3((float)pose.px, (float)pose.py, (float)pose.pz);
             t.localRotation = new Quaternion((float)pose.qx, (float)pose.qy, (float)pose.qz, (float)pose.qw);

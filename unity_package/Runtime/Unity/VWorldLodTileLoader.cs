@@ -45,7 +45,7 @@ namespace VWorldLod
 
             var tileRoot = new GameObject(plan.TileName);
             tileRoot.transform.SetParent(transform, false);
-            LodGroupAssembly.ApplyPose(tileRoot.transform, plan.TileRoot);
+            LodGroupAssembly.ApplyPlacement(tileRoot.transform, plan.TileRoot);
 
             int built = 0;
             foreach (BuildingPlan building in plan.Buildings)
@@ -69,7 +69,7 @@ namespace VWorldLod
         {
             var root = new GameObject(building.Name);
             root.transform.SetParent(tileRoot, false);
-            LodGroupAssembly.ApplyPose(root.transform, building.Local);
+            LodGroupAssembly.ApplyPlacement(root.transform, building.Local);
             var renderers = new Renderer[building.Levels.Length][];
             try
             {

@@ -6,7 +6,7 @@
 //   world.rotation = parent.rotation * child.rotation,  world.scale = parent.scale * child.scale
 // and Unity's (ordinary, Hamilton) quaternion product, components x, y, z, w.
 //
-// Frames: a Pose places a child frame in its parent's frame; which frames depends on use
+// Frames: a Placement places a child frame in its parent's frame; which frames depends on use
 // (tile root: Unity globe frame, Unity units; building relative: tile East/Up/North, metres).
 using System;
 
@@ -14,35 +14,35 @@ namespace VWorldLod
 {
     /// <summary>Position (x, y, z), rotation quaternion (x, y, z, w), uniform scale.</summary>
     [Serializable]
-    public struct Pose
+    public struct Placement
     {
         public double px, py, pz;
         public double qx, qy, qz, qw;
         public double scale;
 
-        public Pose(double px, double py, double pz, double qx, double qy, double qz, double qw, double scale)
+        public Placement(double px, double py, double pz, double qx, double qy, double qz, double qw, double scale)
         {
             this.px = px; this.py = py; this.pz = pz;
             this.qx = qx; this.qy = qy; this.qz = qz; this.qw = qw;
             this.scale = scale;
         }
 
-        public static Pose Identity { get { return new Pose(0, 0, 0, 0, 0, 0, 1, 1); } }
+        public static Placement Identity { get { return new Placement(0, 0, 0, 0, 0, 0, 1, 1); } }
 
         /// <summary>The pose of a placement dict ({"position", "rotation", "scale"}).</summary>
-        public static Pose FromPlacement(PlacementData p)
+        public static Placement FromData(PlacementData p)
         {
-            return new Pose(p.position[0], p.position[1], p.position[2],
+            return new Placement(p.position[0], p.position[1], p.position[2],
                             p.rotation[0], p.rotation[1], p.rotation[2], p.rotation[3], p.scale);
         }
 
         /// <summary>Unity's hierarchy: the child's pose seen from the parent's parent.</summary>
-        public static Pose Compose(Pose parent, Pose child)
+        public static Placement Compose(Placement parent, Placement child)
         {
             double[] offset = Rotate(parent.qx, parent.qy, parent.qz, parent.qw,
                                      parent.scale * child.px, parent.scale * child.py, parent.scale * child.pz);
             double[] q = Multiply(parent.qx, parent.qy, parent.qz, parent.qw, child.qx, child.qy, child.qz, child.qw);
-            return new Pose(parent.px + offset[0], parent.py + offset[1], parent.pz + offset[2],
+            return new Placement(parent.px + offset[0], parent.py + offset[1], parent.pz + offset[2],
                             q[0], q[1], q[2], q[3], parent.scale * child.scale);
         }
 
