@@ -22,7 +22,7 @@ from urllib.parse import quote
 from ..atomic import write_bytes_atomic, write_text_atomic
 from ..errors import InputError
 from .page import BuildingRenders, LevelRender, TileEntry, index_page, tile_page
-from .render import fit_view, load_glb, png_bytes, render
+from .render import backdrop, fit_view, load_glb, png_bytes, render
 
 __all__ = ["write_reports"]
 
@@ -61,7 +61,7 @@ def image_name(building: dict, level: int) -> str:
 def render_building(tile_dir: Path, building: dict, size: int = IMAGE_SIZE) -> BuildingRenders:
     """Render every level of one building into ``tile_dir/report/``, all from LOD0's view."""
     result = BuildingRenders(building)
-    view = None
+    view, background = None, None
     for lod in building.get("lods", []):
         level = int(lod.get("level", len(result.levels)))
         started = time.perf_counter()
@@ -70,8 +70,9 @@ def render_building(tile_dir: Path, building: dict, size: int = IMAGE_SIZE) -> B
             meshes = load_glb(tile_dir / str(lod.get("file", "")))
             if view is None:  # LOD0 (or the first readable level) fixes the camera for the chain
                 view = fit_view(meshes, size)
+                background = backdrop(view)
             name = image_name(building, level)
-            write_bytes_atomic(tile_dir / IMAGE_FOLDER / name, png_bytes(render(meshes, view)))
+            write_bytes_atomic(tile_dir / IMAGE_FOLDER / name, png_bytes(render(meshes, view, background=background)))
             entry.image = f"{IMAGE_FOLDER}/{quote(name)}"
         except InputError as error:
             entry.error = str(error).replace(str(tile_dir) + "/", "")

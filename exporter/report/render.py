@@ -9,20 +9,20 @@ Data form:
   East/Up/North frame, metres** (x = East, y = Up, z = North; glTF's +X = West is negated on load),
   ``triangles`` (m, 3) int64 wound outward (numerical ``(b - a) x (c - a)`` points out of the
   building), ``uvs`` (n, 2) float64 with the origin at the image's *bottom-left* (trimesh's
-  convention; it flips glTF's top-left v on load) or None, ``image`` (h, w, 3) float32 linear-ish
-  0..1 or None, ``color`` (3,) float32 0..1 (glTF ``baseColorFactor``, multiplied with the texture).
+  convention; it flips glTF's top-left v on load) or None, ``image`` (h, w, 3) uint8 sRGB or None,
+  ``color`` (3,) float32 0..1 (glTF ``baseColorFactor``, multiplied with the texture).
 - A :class:`View` is a pinhole camera in the same local frame: ``eye`` (3,) metres, an orthonormal
   basis ``right``/``up``/``forward`` and ``focal`` in pixels. One view is fitted to LOD0 and reused
   for every level so the renders compare like for like.
 - Images are (size, size, 3) uint8 RGB.
 
-Shading: Lambert with one fixed sun (``SUN``, from the south-south-west, high) plus ambient, flat per face,
-two-sided: a face seen from behind (a floorless model's inside) is lit with its flipped normal and
+Shading: Lambert with one fixed sun (``SUN``, from the south-south-west, high) plus ambient, flat
+per face, two-sided: a face seen from behind (a floorless model's inside) is lit with its flipped normal and
 darkened, so open bottoms read as "inside" rather than as holes. A ground plane at the building's
 base with the building's planar shadow anchors it. Texture lookup is nearest-texel with
 perspective-correct UVs (u/w, v/w, 1/w interpolated in screen space), then the image is rendered
-at ``supersample`` times the size and box-filtered down (anti-aliasing; 1.5 measured ~2.5x cheaper
-than 2 at a 256 px image and visibly smoother than 1).
+at ``supersample`` times the size and box-filtered down (anti-aliasing; the default 1.5 trades
+smoothness for time).
 
 Sources: the rasterisation follows the edge-function formulation in J. Pineda, "A Parallel Algorithm
 for Polygon Rasterization" (SIGGRAPH 1988) and perspective-correct interpolation as in
@@ -47,6 +47,9 @@ from ..errors import InputError
 SUN = np.array([-0.22, 0.766, -0.60]) / np.linalg.norm([-0.22, 0.766, -0.60])
 AMBIENT = 0.38  # share of light that reaches faces turned away from the sun
 BACK_FACE_DIM = 0.55  # inside faces (seen through an open bottom or a hole) are darker
+# Atlases are sampled at most this many pixels per side: a 256 px thumbnail cannot show more, and
+# decoding full 1024-4096 px atlases would dominate the report's time.
+MAX_TEXTURE_SIDE = 512
 BACKGROUND = np.array([0.96, 0.96, 0.97], dtype=np.float32)
 GROUND = np.array([0.82, 0.84, 0.80], dtype=np.float32)
 SHADOW = np.array([0.62, 0.64, 0.61], dtype=np.float32)
@@ -66,7 +69,9 @@ class Mesh:
 @dataclass
 class View:
     """Pinhole camera in the local East/Up/North frame: ``eye`` in metres, unit basis vectors,
-    ``focal`` in pixels of a ``size`` x ``size`` image; ``ground`` is the base height (metres, Up)."""
+    ``focal`` in pixels of a ``size`` x ``size`` image, ``shift`` (2,) the principal point's offset
+    from the image centre in pixels (x right, y down); ``ground`` is the base height (metres, Up),
+    ``ground_center`` (3,) and ``ground_reach`` (metres) the ground disc drawn under the building."""
 
     eye: np.ndarray
     right: np.ndarray
@@ -75,17 +80,29 @@ class View:
     focal: float
     size: int
     ground: float
+    ground_center: np.ndarray
+    ground_reach: float
+    shift: np.ndarray = field(default_factory=lambda: np.zeros(2))
 
 
 # --------------------------------------------------------------------------- loading
 
-def _image_array(material) -> Optional[np.ndarray]:
+def _image_array(material, max_side: int = MAX_TEXTURE_SIDE) -> Optional[np.ndarray]:
+    """The material's base colour texture as (h, w, 3) uint8, decoded at reduced size when larger
+    than ``max_side`` pixels (JPEG: DCT scaling while decoding; others: integer box reduction)."""
     texture = getattr(material, "baseColorTexture", None)
     if texture is None:
         texture = getattr(material, "image", None)
     if texture is None:
         return None
-    return np.asarray(texture.convert("RGB"), dtype=np.float32) / 255.0
+    if max(texture.size) > max_side:
+        if hasattr(texture, "draft") and texture.format == "JPEG":
+            texture.draft("RGB", (max_side, max_side))  # lazy image: the decode below is reduced
+        texture = texture.convert("RGB")
+        factor = max(texture.size) // max_side
+        if factor > 1:
+            texture = texture.reduce(factor)
+    return np.asarray(texture.convert("RGB"), dtype=np.uint8)
 
 
 def _base_color(material) -> np.ndarray:
@@ -133,11 +150,14 @@ def load_glb(path: str | Path) -> list[Mesh]:
 # --------------------------------------------------------------------------- camera
 
 def fit_view(meshes: list[Mesh], size: int = 256, azimuth_deg: float = 135.0, elevation_deg: float = 32.0,
-             fov_deg: float = 30.0) -> View:
-    """A 3/4 view from above that frames all ``meshes`` (their bounding sphere).
+             fov_deg: float = 30.0, fill: float = 0.9) -> View:
+    """A 3/4 view from above whose image ``fill`` share (per side) is the building's projection.
 
     ``azimuth_deg`` is the compass direction the camera stands in, seen from the building (0 =
     North, 90 = East, clockwise); ``elevation_deg`` its angle above the horizon; ``size`` in pixels.
+    The camera stands outside the bounding sphere (every point in front of it); then the focal
+    length and the principal point are set so the projected points span ``fill`` of the image
+    and sit in its middle (a tall tower fills the height, a long slab the width).
     """
     points = np.concatenate([m.positions for m in meshes])
     low, high = points.min(axis=0), points.max(axis=0)
@@ -154,17 +174,26 @@ def fit_view(meshes: list[Mesh], size: int = 256, azimuth_deg: float = 135.0, el
     right /= np.linalg.norm(right)
     up = np.array([0.0, 1.0, 0.0]) - forward * forward[1]
     up /= np.linalg.norm(up)
-    focal = (size / 2.0) / np.tan(half_fov)
-    return View(center + back * distance, right, up, forward, float(focal), int(size), float(low[1]))
+    eye = center + back * distance
+    # Normalised image coordinates (x right, y down) of every point, then zoom and centre on them.
+    relative = points - eye
+    depth = relative @ forward
+    x, y = relative @ right / depth, -(relative @ up) / depth
+    extent = max(float(np.ptp(x)), float(np.ptp(y)), 1e-9)
+    focal = fill * size / extent
+    shift = -np.array([x.min() + x.max(), y.min() + y.max()]) / 2.0 * focal
+    reach = float(np.hypot(high[0] - low[0], high[2] - low[2])) * 0.75  # metres: past the shadow
+    return View(eye, right, up, forward, float(focal), int(size), float(low[1]), center, reach, shift)
 
 
 def project(points: np.ndarray, view: View, size: int) -> np.ndarray:
-    """(n, 3) local metres -> (n, 3) of pixel x, pixel y (row, down), camera depth in metres."""
+    """(n, 3) local metres -> (n, 3) of pixel x, pixel y (row, down), camera depth in metres, in an
+    image of ``size`` pixels (a multiple of ``view.size`` when supersampling)."""
     relative = points - view.eye
     depth = relative @ view.forward
-    scale = view.focal * size / view.size / np.maximum(depth, 1e-6)
-    x = size / 2.0 + (relative @ view.right) * scale
-    y = size / 2.0 - (relative @ view.up) * scale
+    scale = size / view.size
+    x = size / 2.0 + (view.shift[0] + (relative @ view.right) * view.focal / np.maximum(depth, 1e-6)) * scale
+    y = size / 2.0 + (view.shift[1] - (relative @ view.up) * view.focal / np.maximum(depth, 1e-6)) * scale
     return np.stack([x, y, depth], axis=1)
 
 
@@ -285,43 +314,48 @@ def fill_mesh(canvas: np.ndarray, depth: np.ndarray, screen: np.ndarray, mesh: M
             texel = np.einsum("ki,kij->kj", perspective[keep], texels[corners[keep]]) / one_over_z[keep, None]
             column = np.mod(np.floor(texel[:, 0]).astype(np.int64), width)  # glTF default sampler: REPEAT
             row = np.mod(np.floor(texel[:, 1]).astype(np.int64), height)
-            colors = mesh.image[row, column] * mesh.color
+            colors = mesh.image[row, column].astype(np.float32) * (mesh.color / 255.0)
         else:
             colors = np.broadcast_to(mesh.color, (len(z), 3))
         depth[rows, cols] = z
         canvas[rows, cols] = colors * shading[faces, None]
 
 
-def paint_ground(canvas: np.ndarray, view: View, center: np.ndarray, reach: float) -> None:
-    """Paint a ground disc (radius ``reach`` metres around ``center``, at Up = ``view.ground``) by
-    casting one ray per pixel; the camera is above the ground, so the building always covers it."""
-    size = canvas.shape[0]
-    focal = view.focal * size / view.size
-    offsets = (np.arange(size, dtype=np.float64) + 0.5 - size / 2.0) / focal
-    # Ray direction per pixel (rows, cols, 3) = forward + x right - y up, kept separable.
-    up_component = view.forward[1] - offsets[:, None] * view.up[1] + offsets[None, :] * view.right[1]
+def backdrop(view: View, supersample: float = 1.5) -> np.ndarray:
+    """The (s, s, 3) float32 background of every level's render, s = size x supersample: a ground
+    disc (radius ``view.ground_reach`` metres around ``view.ground_center``, at Up = ``view.ground``)
+    found by casting one ray per pixel. The camera is above the ground, so the building always
+    covers it. Computed once per building and reused for each level."""
+    size = int(round(view.size * supersample))
+    canvas = np.empty((size, size, 3), dtype=np.float32)
+    canvas[:] = BACKGROUND
+    scale = size / view.size
+    pixels = np.arange(size, dtype=np.float64) + 0.5 - size / 2.0
+    across = (pixels / scale - view.shift[0]) / view.focal  # per column: x / depth
+    down = (pixels / scale - view.shift[1]) / view.focal  # per row: y / depth (y down)
+    # Ray direction per pixel = forward + across right - down up, kept separable (rows x columns).
+    up_component = view.forward[1] - down[:, None] * view.up[1] + across[None, :] * view.right[1]
     with np.errstate(divide="ignore", invalid="ignore"):
         distance = (view.ground - view.eye[1]) / up_component
-    hit_x = view.eye[0] + distance * (view.forward[0] - offsets[:, None] * view.up[0] + offsets[None, :] * view.right[0])
-    hit_z = view.eye[2] + distance * (view.forward[2] - offsets[:, None] * view.up[2] + offsets[None, :] * view.right[2])
-    on_disc = (distance > 0.0) & ((hit_x - center[0]) ** 2 + (hit_z - center[2]) ** 2 <= reach**2)
+    hit_x = view.eye[0] + distance * (view.forward[0] - down[:, None] * view.up[0] + across[None, :] * view.right[0])
+    hit_z = view.eye[2] + distance * (view.forward[2] - down[:, None] * view.up[2] + across[None, :] * view.right[2])
+    center = view.ground_center
+    on_disc = (distance > 0.0) & ((hit_x - center[0]) ** 2 + (hit_z - center[2]) ** 2 <= view.ground_reach**2)
     canvas[on_disc] = GROUND
+    return canvas
 
 
 # --------------------------------------------------------------------------- entry point
 
-def render(meshes: list[Mesh], view: View, supersample: float = 1.5) -> np.ndarray:
+def render(meshes: list[Mesh], view: View, supersample: float = 1.5, background: Optional[np.ndarray] = None) -> np.ndarray:
     """Render ``meshes`` (local East/Up/North, metres) seen from ``view`` into a (size, size, 3)
-    uint8 RGB image: background, ground disc with the building's sun shadow, then the lit building."""
+    uint8 RGB image: ground disc, the building's sun shadow, then the lit building.
+    ``background`` is :func:`backdrop` of the same view and supersample (computed when None)."""
     size = int(round(view.size * supersample))
-    canvas = np.empty((size, size, 3), dtype=np.float32)
-    canvas[:] = BACKGROUND
+    canvas = backdrop(view, supersample) if background is None else background.copy()
+    if canvas.shape[:2] != (size, size):
+        raise ValueError(f"background is {canvas.shape[:2]}, the render needs {(size, size)}")
     depth = np.full((size, size), np.inf, dtype=np.float32)
-    points = np.concatenate([m.positions for m in meshes])
-    center = (points.min(axis=0) + points.max(axis=0)) / 2.0
-    span = points.max(axis=0) - points.min(axis=0)
-    reach = float(np.hypot(span[0], span[2])) * 0.75  # metres: the disc reaches past the shadow
-    paint_ground(canvas, view, center, reach)
     for mesh in meshes:
         fill_flat(canvas, project(shadow_triangles(mesh.positions, view.ground), view, size), mesh.triangles, SHADOW)
     for mesh in meshes:
@@ -333,7 +367,7 @@ def render(meshes: list[Mesh], view: View, supersample: float = 1.5) -> np.ndarr
 
 
 def png_bytes(image: np.ndarray) -> bytes:
-    """A (h, w, 3) uint8 RGB image encoded as PNG."""
+    """A (h, w, 3) uint8 RGB image encoded as PNG (light compression: thumbnails, written often)."""
     buffer = io.BytesIO()
-    Image.fromarray(image, "RGB").save(buffer, format="PNG")
+    Image.fromarray(image, "RGB").save(buffer, format="PNG", compress_level=3)
     return buffer.getvalue()
