@@ -381,5 +381,5 @@ def write_tile_output(out_dir: Path, tile: TileId, config: Config, records: list
         records,
         skipped,
     )
-    path = write_text_atomic(tile_dir / MANIFEST_NAME, dumps(manifest))
+    path = write_text_atomic(tile_dir / MANIFEST_NAME, dumps(manifest), durable=True)
     return TileResult(tile, path, len(records), len(skipped), reused)
