@@ -141,7 +141,8 @@ def generate_samples(count: int, seed: int = 0, tile: TileId = DEFAULT_TILE, atl
     centres = layout.place(tile_rng, radii, tile)
     lonlat = layout.to_lonlat(tile, centres)
     for s, (x, z), (lon, lat) in zip(samples, centres, lonlat):
-        elev = float(np.clip(elev_base + elev_slope @ [x, z], 20.0, 60.0))
+        # float32 like VWorld's .dat altitude, so a written and re-read tile gives the same reference
+        elev = float(np.float32(np.clip(elev_base + elev_slope @ [x, z], 20.0, 60.0)))
         s.building.reference = GeoPoint(float(lon), float(lat), elev)
         s.building.tile = tile
         s.building.lonlat_bounds = _lonlat_bounds(s.building, lon, lat)

@@ -1,12 +1,12 @@
 """Procedural texture atlases for sample buildings, encoded as JPEG with fixed settings.
 
-Data form: an atlas is a square ``size x size`` RGB image (uint8 array ``(size, size, 3)``, row 0
-at the top, as glTF UVs address it) split into the UV regions of
+Data form: an atlas is a square ``size x size`` RGB Pillow image (row 0 at the top, as glTF UVs
+address it; boxes are pixel ``(x0, y0, x1, y1)``, end exclusive) split into the UV regions of
 :mod:`exporter.samplegen.kinds`: a facade (windows per floor and bay) over the top 5/8, a roof
 (tiles) bottom-left and details (metal, copper) bottom-right. A little fixed noise makes the JPEG
 sizes realistic for photo textures.
 
-Determinism: every choice comes from the caller's ``numpy.random.Generator``; the noise field is
+Determinism: every choice comes from the caller's ``numpy.random.Generator``; the grain is
 drawn once per size from a fixed seed; JPEG settings (quality, 4:2:0 subsampling, baseline, no
 optimisation) are fixed, so the same seed gives the same bytes with the same Pillow build.
 """
@@ -16,63 +16,69 @@ import io
 from functools import lru_cache
 
 import numpy as np
-from PIL import Image
+from PIL import Image, ImageChops, ImageDraw
 
 JPEG_QUALITY = 85
 NOISE_SEED = 20240101  # fixed: the noise texture is part of the format, not of the sample seed
 
 
 @lru_cache(maxsize=4)
-def noise_field(size: int) -> np.ndarray:
-    """Grain (size, size) int16 in [-10, 10], the same for every call."""
-    return np.random.default_rng(NOISE_SEED).integers(-10, 11, size=(size, size)).astype(np.int16)
+def grain(size: int) -> Image.Image:
+    """Grey grain (2*size, 2*size) RGB with values 0..20 (10 = no change), the same for every call."""
+    values = np.random.default_rng(NOISE_SEED).integers(0, 21, size=(2 * size, 2 * size), dtype=np.uint8)
+    return Image.fromarray(np.repeat(values[:, :, None], 3, axis=2), "RGB")
 
 
-def facade(rng: np.random.Generator, height: int, width: int, floors: int, bays: int) -> np.ndarray:
-    """Wall colour with a ``floors x bays`` window grid, each window a slightly different glass tone; (h, w, 3) int16."""
-    wall = rng.integers(120, 225, size=3)
+def _colour(rng: np.random.Generator, low, high) -> tuple:
+    return tuple(int(v) for v in rng.integers(low, high, size=3))
+
+
+def facade(draw: ImageDraw.ImageDraw, rng: np.random.Generator, box: tuple, floors: int, bays: int) -> None:
+    """Wall colour with a ``floors x bays`` window grid in the pixel ``box`` (x0, y0, x1, y1), each window its own glass tone."""
+    x0, y0, x1, y1 = box
+    draw.rectangle((x0, y0, x1 - 1, y1 - 1), fill=_colour(rng, 120, 225))
     glass = rng.integers(40, 110, size=3)
-    rows = np.arange(height) * floors // height
-    cols = np.arange(width) * bays // width
-    in_floor = (np.arange(height) * floors % height) / height  # 0..1 within a floor, top first
-    in_bay = (np.arange(width) * bays % width) / width
-    window = ((in_floor > 0.25) & (in_floor < 0.8))[:, None] & ((in_bay > 0.2) & (in_bay < 0.8))[None, :]
-    tone = rng.integers(-25, 26, size=(floors, bays))[rows[:, None], cols[None, :]]
-    image = np.broadcast_to(wall, (height, width, 3)).astype(np.int16).copy()
-    image[window] = glass + tone[window][:, None]
-    return image
+    tones = np.clip(glass + rng.integers(-25, 26, size=(floors, bays, 1)), 0, 255).tolist()
+    floor_h, bay_w = (y1 - y0) / floors, (x1 - x0) / bays
+    for f in range(floors):
+        top, bottom = y0 + (f + 0.25) * floor_h, y0 + (f + 0.8) * floor_h
+        for b in range(bays):
+            draw.rectangle((x0 + (b + 0.2) * bay_w, top, x0 + (b + 0.8) * bay_w, bottom), fill=tuple(tones[f][b]))
 
 
-def roof(rng: np.random.Generator, height: int, width: int) -> np.ndarray:
-    """Roof colour with darker tile courses every few pixels; (h, w, 3) int16."""
+def roof(draw: ImageDraw.ImageDraw, rng: np.random.Generator, box: tuple) -> None:
+    """Roof colour with darker tile courses every few pixels in the pixel ``box``."""
+    x0, y0, x1, y1 = box
     colour = rng.integers(60, 170, size=3)
-    course = max(2, height // 24)
-    shade = np.where(np.arange(height) % course == 0, -30, 0)
-    return (colour[None, None, :] + shade[:, None, None] + np.zeros((1, width, 1), np.int16)).astype(np.int16)
+    draw.rectangle((x0, y0, x1 - 1, y1 - 1), fill=tuple(int(c) for c in colour))
+    dark = tuple(int(c) for c in np.clip(colour - 30, 0, 255))
+    for y in range(y0, y1, max(2, (y1 - y0) // 24)):
+        draw.line((x0, y, x1 - 1, y), fill=dark)
 
 
-def details(rng: np.random.Generator, height: int, width: int) -> np.ndarray:
-    """Left half metal grey, right half copper green; (h, w, 3) int16."""
-    image = np.empty((height, width, 3), np.int16)
-    image[:, : width // 2] = rng.integers(130, 200) + np.zeros(3, np.int16)
-    image[:, width // 2 :] = rng.integers([70, 120, 100], [110, 170, 140])
-    return image
+def details(draw: ImageDraw.ImageDraw, rng: np.random.Generator, box: tuple) -> None:
+    """Left half metal grey, right half copper green in the pixel ``box``."""
+    x0, y0, x1, y1 = box
+    middle = (x0 + x1) // 2
+    grey = int(rng.integers(130, 200))
+    draw.rectangle((x0, y0, middle - 1, y1 - 1), fill=(grey, grey, grey))
+    draw.rectangle((middle, y0, x1 - 1, y1 - 1), fill=tuple(int(c) for c in rng.integers([70, 120, 100], [110, 170, 140])))
 
 
-def draw_atlas(rng: np.random.Generator, size: int, floors: int, bays: int) -> np.ndarray:
-    """The full atlas (size, size, 3) uint8: facade top 5/8, roof bottom-left, details bottom-right."""
+def draw_atlas(rng: np.random.Generator, size: int, floors: int, bays: int) -> Image.Image:
+    """The full ``size x size`` RGB atlas: facade top 5/8, roof bottom-left, details bottom-right, grain over all."""
     split = size * 5 // 8
-    image = np.empty((size, size, 3), np.int16)
-    image[:split] = facade(rng, split, size, max(1, floors), max(1, bays))
-    image[split:, : size // 2] = roof(rng, size - split, size // 2)
-    image[split:, size // 2 :] = details(rng, size - split, size - size // 2)
-    dy, dx = rng.integers(0, size, size=2)
-    image += np.roll(noise_field(size), (int(dy), int(dx)), axis=(0, 1))[:, :, None]
-    return np.clip(image, 0, 255).astype(np.uint8)
+    image = Image.new("RGB", (size, size))
+    draw = ImageDraw.Draw(image)
+    facade(draw, rng, (0, 0, size, split), max(1, floors), max(1, bays))
+    roof(draw, rng, (0, split, size // 2, size))
+    details(draw, rng, (size // 2, split, size, size))
+    dy, dx = (int(v) for v in rng.integers(0, size, size=2))
+    return ImageChops.add(image, grain(size).crop((dx, dy, dx + size, dy + size)), scale=1.0, offset=-10)
 
 
-def encode_jpeg(image: np.ndarray) -> bytes:
+def encode_jpeg(image: Image.Image) -> bytes:
     """Baseline JPEG bytes with the module's fixed settings."""
     out = io.BytesIO()
-    Image.fromarray(image, "RGB").save(out, "JPEG", quality=JPEG_QUALITY, subsampling=2, optimize=False, progressive=False)
+    image.save(out, "JPEG", quality=JPEG_QUALITY, subsampling=2, optimize=False, progressive=False)
     return out.getvalue()

@@ -28,6 +28,8 @@ FACADE = (0.0 + MARGIN, 0.0 + MARGIN, 1.0 - MARGIN, 0.625 - MARGIN)
 ROOF = (0.0 + MARGIN, 0.625 + MARGIN, 0.5 - MARGIN, 1.0 - MARGIN)
 DETAIL = (0.5 + MARGIN, 0.625 + MARGIN, 1.0 - MARGIN, 1.0 - MARGIN)
 
+MAX_PERIMETER = 150.0  # metres: about 45 x 30 m, so a level-15 tile (about 100 x 120 m) holds a few of the largest
+
 KINDS = ("box_flat", "box_gable", "box_hip", "box_mansard", "l_shape", "u_shape", "t_shape", "tower", "dome", "spire")
 
 
@@ -230,10 +232,13 @@ def common(rng: np.random.Generator, budget: float, floors_scale: tuple = (0.3, 
     cells = 0.35 * budget
     floors = int(np.clip(round(math.sqrt(cells) * rng.uniform(*floors_scale)), 1, max_floors))
     bay = rng.uniform(2.6, 4.2)
+    perimeter = float(np.clip(cells / floors * bay, 16.0, MAX_PERIMETER))
+    # Big budgets beyond the largest footprint go into more floors (or, capped, narrower bays).
+    floors = int(np.clip(round(cells * bay / perimeter), floors, max_floors))
     return {
         "floors": floors,
         "floor_height": rng.uniform(3.0, 3.8),
-        "perimeter": max(16.0, cells / floors * bay),
+        "perimeter": perimeter,
         "details": rng.uniform(size=(int(rng.integers(1, 6)), 5)),
         "parapet": rng.uniform(0.6, 1.2) if rng.random() < 0.8 else 0.0,
         "slope_rows": int(rng.integers(1, 3)),

@@ -14,6 +14,8 @@ so every roof/wall junction is a UV seam, as in VWorld's textured models.
 """
 from __future__ import annotations
 
+from functools import lru_cache
+
 import mapbox_earcut
 import numpy as np
 
@@ -23,22 +25,26 @@ UP = np.array([0.0, 1.0, 0.0])
 def triangle_normals(positions: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """Unnormalised ``(b - a) x (c - a)`` per triangle, shape (m, 3), metres squared."""
     a, b, c = (positions[triangles[:, i]] for i in range(3))
-    return np.cross(b - a, c - a)
+    u, v = b - a, c - a
+    return np.stack([u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1], u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2], u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]], 1)
 
 
 def orient(positions: np.ndarray, triangles: np.ndarray, outward: np.ndarray) -> np.ndarray:
     """Reverse triangles whose normal points against ``outward`` ((3,) or (m, 3)); returns (m, 3)."""
     facing = np.einsum("ij,ij->i", triangle_normals(positions, triangles), np.broadcast_to(outward, (len(triangles), 3)))
-    flipped = triangles[:, ::-1]
-    return np.where((facing < 0)[:, None], flipped, triangles)
+    if np.all(facing >= 0):
+        return triangles
+    return np.where((facing < 0)[:, None], triangles[:, ::-1], triangles)
 
 
+@lru_cache(maxsize=4096)
 def grid_triangles(rows: int, cols: int) -> np.ndarray:
-    """Two triangles per cell of a ``(rows + 1) x (cols + 1)`` vertex grid stored row-major; (2*rows*cols, 3)."""
-    r, c = np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij")
-    a = (r * (cols + 1) + c).ravel()
+    """Two triangles per cell of a ``(rows + 1) x (cols + 1)`` vertex grid stored row-major; (2*rows*cols, 3), read-only."""
+    a = (np.arange(rows)[:, None] * (cols + 1) + np.arange(cols)[None, :]).ravel()
     b, d = a + 1, a + cols + 1
-    return np.concatenate([np.stack([a, b, d + 1], 1), np.stack([a, d + 1, d], 1)]).astype(np.int64)
+    triangles = np.concatenate([np.stack([a, b, d + 1], 1), np.stack([a, d + 1, d], 1)]).astype(np.int64)
+    triangles.flags.writeable = False
+    return triangles
 
 
 def patch(points: np.ndarray, uv_rect: tuple, outward) -> tuple:
@@ -48,8 +54,10 @@ def patch(points: np.ndarray, uv_rect: tuple, outward) -> tuple:
     """
     rows, cols = points.shape[0] - 1, points.shape[1] - 1
     u0, v0, u1, v1 = uv_rect
-    s, t = np.meshgrid(np.linspace(0.0, 1.0, cols + 1), np.linspace(0.0, 1.0, rows + 1))
-    uvs = np.stack([u0 + s * (u1 - u0), v1 - t * (v1 - v0)], -1).reshape(-1, 2)
+    uvs = np.empty((rows + 1, cols + 1, 2))
+    uvs[:, :, 0] = u0 + np.linspace(0.0, 1.0, cols + 1)[None, :] * (u1 - u0)
+    uvs[:, :, 1] = v1 - np.linspace(0.0, 1.0, rows + 1)[:, None] * (v1 - v0)
+    uvs = uvs.reshape(-1, 2)
     positions = points.reshape(-1, 3)
     triangles = grid_triangles(rows, cols)
     if callable(outward):
