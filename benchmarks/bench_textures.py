@@ -1,0 +1,210 @@
+"""Benchmark of texture LoDs (issue 6): fast vs careful JPEG downscaling, quality and codec floor.
+
+Atlases: the real aerial atlases ``../shared/data/real/rotterdam_textured/appearances/*.jpg``
+(1024x1024 JPEG) when present, plus synthetic facade atlases (windows, brick, signs; JPEG q90).
+
+Measured, per atlas (times are medians of ``--repeat`` runs, cache cleared before each):
+
+- ``floor``: the codec floor = full decode of the source + JPEG encode of each reduced level;
+- ``careful``: ``build_texture_lods`` with ``fast_jpeg_downscale: never`` (full decode, Lanczos
+  from the full image for every level);
+- ``auto`` / ``always``: the fast path (IDCT-scaled decode, each level from the previous one);
+- PSNR (dB) of an IDCT-scaled decode at 1/2, 1/4, 1/8 against Lanczos from the full image (no
+  encoding involved), and of each level's decoded output against that same reference;
+- a tile of ``--buildings`` buildings sharing the atlases: whole texture time vs the codec floor of
+  the distinct atlases (the cache's effect).
+
+Times are printed as ratios against the baseline measured in the same run.
+Run: ``python benchmarks/bench_textures.py [--repeat 5] [--buildings 1000]``.
+"""
+from __future__ import annotations
+
+import argparse
+import io
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from exporter.config import TextureOptions  # noqa: E402
+from exporter.model import Texture  # noqa: E402
+from exporter.textures import build_texture_lods, clear_texture_cache, level_sizes, psnr  # noqa: E402
+
+REAL = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "real" / "rotterdam_textured" / "appearances"
+SCALES = [1.0, 0.5, 0.25]
+FACTORS = (2, 4, 8)
+
+
+def facade_atlas(seed: int, width: int = 1024, height: int = 1024, style: str = "vworld") -> bytes:
+    """A synthetic facade atlas as JPEG q90 bytes: wall grain, a grid of framed windows, signs.
+
+    ``style``:
+    - ``vworld``: texel size of VWorld's photogrammetric atlases (~8 cm/px: window bays 30-46 px,
+      storeys 34-48 px, brick courses below a pixel); drawn at twice the size and reduced with
+      Lanczos, as a camera's optics band-limit a photograph; wall grain with a 1/f amplitude spectrum
+      like natural images (Field 1987, JOSA A 4(12)).
+    - ``fine``: the same photo model at close-range texel size (~1.5 cm/px: bays 48-96 px, brick
+      courses every 6 px): periodic detail near the pixel size.
+    - ``sharp``: like ``fine`` but drawn at the final size with white per-pixel noise: pixel-sharp
+      edges no photo has (a stress case).
+    """
+    rng = np.random.default_rng(seed)
+    k = 1 if style == "sharp" else 2
+    h, w = height * k, width * k
+    y, x = np.mgrid[0:h, 0:w]
+    if style == "sharp":
+        noise = rng.normal(0, 12, (h, w, 3))
+    else:
+        fy, fx = np.fft.fftfreq(h)[:, None], np.fft.rfftfreq(w)[None, :]
+        spectrum = rng.normal(size=(h, w // 2 + 1)) + 1j * rng.normal(size=(h, w // 2 + 1))
+        grain = np.fft.irfft2(spectrum / np.maximum(np.hypot(fy, fx), 1.0 / max(h, w)), s=(h, w))
+        noise = (grain * (14.0 / grain.std()))[..., None] + rng.normal(0, 2, (h, w, 3))
+    image = np.array(rng.integers(90, 200, 3), dtype=np.float64) + noise
+    if style == "vworld":
+        cell_w, cell_h = int(rng.integers(30, 46)) * k, int(rng.integers(34, 48)) * k
+    else:
+        cell_w, cell_h = int(rng.integers(48, 96)) * k, int(rng.integers(64, 128)) * k
+        course = 6 * k
+        mortar = (y % course < k) | ((x + (y // course % 2) * 8 * k) % (16 * k) < k)
+        image += np.where(mortar[..., None], -25.0, 0.0)
+    for top in range(8 * k, h - cell_h, cell_h):
+        for left in range(8 * k, w - cell_w, cell_w):
+            image[top + 6 * k: top + cell_h - 10 * k, left + 6 * k: left + cell_w - 6 * k] = 235.0
+            rows, cols = cell_h - 22 * k, cell_w - 18 * k
+            sky = np.linspace(40, 140, rows)[:, None, None] * np.array([0.6, 0.8, 1.0])
+            image[top + 9 * k: top + 9 * k + rows, left + 9 * k: left + 9 * k + cols] = sky + rng.normal(0, 6, (rows, cols, 3))
+            image[top + cell_h // 2 - k: top + cell_h // 2 + k, left + 9 * k: left + cell_w - 9 * k] = 235.0
+    glyph = 1 if style == "sharp" else 4  # sign lettering: strokes of this many pixels
+    for _ in range(6):
+        top, left = int(rng.integers(0, h - 40 * k)), int(rng.integers(0, w - 200 * k))
+        strokes = np.kron(rng.random((32 // glyph, 192 // glyph)) > 0.55, np.ones((glyph * k, glyph * k), dtype=bool))
+        image[top: top + 32 * k, left: left + 192 * k] = np.where(strokes[..., None], 20.0, 250.0)
+    picture = Image.fromarray(np.clip(image, 0, 255).astype(np.uint8))
+    if k > 1:
+        picture = picture.resize((width, height), Image.Resampling.LANCZOS)
+    out = io.BytesIO()
+    picture.save(out, "JPEG", quality=90)
+    return out.getvalue()
+
+
+def atlases() -> list[tuple[str, bytes]]:
+    found = [(path.name, path.read_bytes()) for path in sorted(REAL.glob("*.jpg"))] if REAL.is_dir() else []
+    if not found:
+        print(f"note: {REAL} not present; synthetic atlases only")
+    synthetic = [(f"facade_{seed}.jpg", facade_atlas(seed)) for seed in range(6)]
+    synthetic.append(("facade_wide.jpg", facade_atlas(99, 1024, 512)))
+    stress = [(f"fine_{seed}.jpg", facade_atlas(seed, style="fine")) for seed in range(3)]
+    stress += [(f"sharp_{seed}.jpg", facade_atlas(seed, style="sharp")) for seed in range(2)]
+    return found + synthetic + stress
+
+
+def median_time(function, repeat: int) -> float:
+    times = []
+    for _ in range(repeat):
+        clear_texture_cache()
+        start = time.perf_counter()
+        function()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times)
+
+
+def pixels(image: Image.Image) -> np.ndarray:
+    return np.asarray(image.convert("RGB"))
+
+
+def measure_atlas(name: str, data: bytes, repeat: int) -> dict:
+    full = Image.open(io.BytesIO(data))
+    full.load()
+    sizes = level_sizes(full.width, full.height, SCALES, TextureOptions().min_size)
+    reduced = sizes[1:]
+    reference = {size: full.resize(size, Image.Resampling.LANCZOS) for size in reduced}
+    texture = Texture(data, "image/jpeg", full.width, full.height, name, name)
+
+    def floor() -> None:
+        decoded = Image.open(io.BytesIO(data))
+        decoded.load()
+        for size in reduced:
+            reference[size].save(io.BytesIO(), "JPEG", quality=TextureOptions().jpeg_quality)
+
+    result = {"name": name, "floor": median_time(floor, repeat)}
+    for mode in ("never", "auto", "always"):
+        options = TextureOptions(fast_jpeg_downscale=mode)
+        result[mode] = median_time(lambda: build_texture_lods(texture, SCALES, options), repeat)
+        clear_texture_cache()
+        levels = build_texture_lods(texture, SCALES, options)
+        result[f"psnr_{mode}"] = [psnr(pixels(reference[(t.width, t.height)]), pixels(Image.open(io.BytesIO(t.data)))) for t in levels[1:]]
+    for factor in FACTORS:
+        size = (-(-full.width // factor), -(-full.height // factor))
+        drafted = Image.open(io.BytesIO(data))
+        drafted.draft(drafted.mode, size)
+        drafted.load()
+        careful = full.resize(drafted.size, Image.Resampling.LANCZOS)
+        result[f"draft_{factor}"] = psnr(pixels(careful), pixels(drafted))
+        # Context: a box filter (what mipmapping does) against the same reference.
+        result[f"box_{factor}"] = psnr(pixels(careful), pixels(full.reduce(factor)))
+    return result
+
+
+def measure_tile(label: str, atlas_list: list[tuple[str, bytes]], buildings: int, floor_total: float) -> None:
+    """Texture time of a tile of ``buildings`` buildings sharing ``atlas_list``, against the codec
+    floor of the distinct atlases; with the same bytes objects (a reader that caches files) and with
+    fresh copies (each building reads its file again, so every call hashes its bytes)."""
+    choice = np.random.default_rng(0).integers(0, len(atlas_list), buildings)
+    for kind, copy in (("same bytes objects", False), ("fresh copies", True)):
+        textures = []
+        for k, i in enumerate(choice):
+            name, data = atlas_list[i]
+            textures.append(Texture(bytes(bytearray(data)) if copy else data, "image/jpeg", 0, 0, name, f"b{k}/{name}"))
+        clear_texture_cache()
+        start = time.perf_counter()
+        for texture in textures:
+            build_texture_lods(texture, SCALES, TextureOptions())
+        elapsed = time.perf_counter() - start
+        print(f"  tile of {buildings} buildings sharing {len(atlas_list)} {label} atlases, {kind}: "
+              f"{elapsed / floor_total:.2f} x the codec floor of the distinct atlases")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--buildings", type=int, default=1000)
+    args = parser.parse_args()
+    atlas_list = atlases()
+    rows = [measure_atlas(name, data, args.repeat) for name, data in atlas_list]
+
+    print(f"scales {SCALES}; times relative to the codec floor (decode full + encode reduced levels)")
+    print(f"{'atlas':22s} {'floor ms':>8s} {'careful':>8s} {'auto':>6s} {'always':>6s} | PSNR dB draft 1/2 1/4 1/8 | levels auto / careful")
+    for r in rows:
+        print(f"{r['name']:22s} {r['floor'] * 1000:8.1f} {r['never'] / r['floor']:8.2f} {r['auto'] / r['floor']:6.2f} {r['always'] / r['floor']:6.2f} | "
+              f"{r['draft_2']:13.1f} {r['draft_4']:4.1f} {r['draft_8']:4.1f} | "
+              f"{' '.join(f'{v:.1f}' for v in r['psnr_auto'])} / {' '.join(f'{v:.1f}' for v in r['psnr_never'])}")
+    kinds = {"facade": "facade (synthetic, VWorld texel size)", "fine": "fine (synthetic close-range facade)",
+             "sharp": "sharp (synthetic stress case)"}
+    groups = {"real aerial": [r for r in rows if not r["name"].startswith(tuple(kinds))]}
+    groups.update({label: [r for r in rows if r["name"].startswith(prefix)] for prefix, label in kinds.items()})
+    print()
+    for label, group in groups.items():
+        if not group:
+            continue
+        print(f"{label} ({len(group)} atlases): PSNR min/mean dB vs Lanczos from full, IDCT-scaled decode: "
+              + ", ".join(f"1/{f} {min(r[f'draft_{f}'] for r in group):.1f}/{statistics.mean(r[f'draft_{f}'] for r in group):.1f}" for f in FACTORS)
+              + "; box filter: "
+              + ", ".join(f"1/{f} {min(r[f'box_{f}'] for r in group):.1f}/{statistics.mean(r[f'box_{f}'] for r in group):.1f}" for f in FACTORS))
+        for mode in ("never", "auto", "always"):
+            per_level = list(zip(*[r[f"psnr_{mode}"] for r in group]))
+            print(f"  {mode:7s} time / floor: mean {statistics.mean(r[mode] / r['floor'] for r in group):.2f}, "
+                  f"time / careful: mean {statistics.mean(r[mode] / r['never'] for r in group):.2f}; "
+                  f"output PSNR min per level: {' '.join(f'{min(v):.1f}' for v in per_level)}")
+    print("\ncache (auto):")
+    for label, group in groups.items():
+        names = {r["name"] for r in group}
+        if group and not label.startswith(("fine", "sharp")):
+            measure_tile(label.split(" (")[0], [a for a in atlas_list if a[0] in names], args.buildings, sum(r["floor"] for r in group))
+
+if __name__ == "__main__":
+    main()

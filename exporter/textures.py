@@ -1,0 +1,417 @@
+"""Texture LoDs (issue 6): one encoded atlas in, one encoded atlas per level of detail out.
+
+Data form: a :class:`~exporter.model.Texture` holds the *encoded* bytes of one atlas (JPEG, PNG,
+or another format Pillow reads) and its size in pixels. Each level ``k`` gets the atlas scaled per
+side by ``scales[k]`` (``lods[].texture``; 0.5 = a quarter of the pixels, the paper's rule). UVs are
+normalised (0..1, glTF convention), so they stay valid at every size and are never touched here.
+
+Sizes per level (:func:`level_size`), all in pixels:
+
+- never larger than the source, and LOD0 at scale 1.0 is the source size;
+- power-of-two sources (both sides) stay power-of-two: the scale is rounded to a power of two
+  (1024x512 -> 512x256 -> 256x128), so mip chains stay whole;
+- other sources get sides rounded to a multiple of 4: it keeps the aspect ratio and the requested
+  pixel budget (rounding to a power of two can halve or double the pixels and skew the aspect),
+  and 4x4 blocks are what BCn / ETC2 / ASTC 4x4 compression in Unity need; every GPU Unity
+  targets (GLES3+) mips non-power-of-two textures;
+- the shorter side is not reduced below ``min_size`` (nor above the source's own shorter side);
+  the other side follows the aspect ratio.
+
+Formats: LOD0 at the source size keeps the source bytes unchanged for JPEG and PNG; other formats
+are converted once (PNG when the image has real transparency, else JPEG). Reduced levels are
+JPEG for JPEG sources, PNG with alpha for transparent PNGs, and PNG (or JPEG with
+``opaque_png_to_jpeg``) for opaque PNGs.
+
+Speed: a source is decoded once. A JPEG source is decoded directly at 1/2, 1/4 or 1/8 size where
+the reduced levels allow it (libjpeg's scaled IDCT via Pillow's ``Image.draft``), and each smaller
+level is resized from the previous one. ``fast_jpeg_downscale: auto`` allows only the IDCT
+factors whose PSNR against a careful Lanczos reduction of the full image measured >= 35 dB (see
+``benchmarks/bench_textures.py`` and ``docs/textures.md``). Results are kept in a process-wide
+LRU cache bounded in bytes, so an atlas shared by many buildings is decoded once per run.
+
+Bounded memory: the declared size is read from the header and checked against ``max_pixels``
+before any pixel is decoded.
+
+Sources: the paper ("A Method for Constructing and Managing Level of Detail for Non-Closed
+Boundary Models of Buildings", texture atlases a quarter of the pixels per level);
+Pillow handbook (``Image.draft``, ``Image.resize`` with ``LANCZOS``, ``Image.reduce``,
+decompression-bomb protection ``Image.MAX_IMAGE_PIXELS``); libjpeg-turbo's scaled IDCT
+(``scale_num/scale_denom``).
+"""
+from __future__ import annotations
+
+import dataclasses
+import io
+import math
+import threading
+import warnings
+from collections import OrderedDict
+from typing import Optional, Sequence
+
+import numpy as np
+from PIL import Image, ImageChops, ImageStat, UnidentifiedImageError
+
+from .config import TextureOptions
+from .errors import ReadError
+from .model import Texture
+
+# Formats Pillow may open for us: the usual atlas formats only (no EPS/PDF plugins that shell out).
+ALLOWED_FORMATS = ("JPEG", "PNG", "BMP", "TGA", "GIF", "WEBP", "TIFF", "PPM", "DDS")
+MIME = {"JPEG": "image/jpeg", "PNG": "image/png"}
+EXTENSION = {"JPEG": ".jpg", "PNG": ".png"}
+
+# The fast JPEG path (IDCT-scaled decode) filters about like a box filter. ``auto`` uses it for
+# an atlas only when the box-vs-Lanczos PSNR measured one octave further down on the decoded image
+# itself is >= AUTO_MIN_PSNR_DB (scale similarity of images; in benchmarks/bench_textures.py this
+# estimate is below the true PSNR at 1/2 and within ~1 dB at 1/4 and takes the same side of 35 dB
+# on every atlas), and only at the factors where that held; otherwise it decodes the full image.
+AUTO_MIN_PSNR_DB = 35.0
+AUTO_DRAFT_FACTORS = (2, 4)
+ALWAYS_DRAFT_FACTORS = (2, 4, 8)
+# JPEG/PNG outputs of a whole run rarely exceed this; an LRU on bytes keeps memory bounded.
+CACHE_MAX_BYTES = 64 * 2**20
+# Stop at the first problem instead of getting a grey half image from libjpeg.
+Image.LOAD_TRUNCATED_IMAGES = False
+
+
+# --------------------------------------------------------------------------- sizes
+
+def is_power_of_two(n: int) -> bool:
+    return n > 0 and n & (n - 1) == 0
+
+
+def level_size(width: int, height: int, scale: float, min_size: int) -> tuple[int, int]:
+    """Size in pixels ``(width, height)`` of a level scaled per side by ``scale`` (see module doc).
+
+    ``width``/``height`` are the source's pixels, ``scale`` in (0, 1], ``min_size`` pixels.
+    """
+    if scale >= 1.0:
+        return width, height
+    shorter = min(width, height)
+    # The smallest factor that keeps the shorter side at min_size (or at the source's own size).
+    floor_factor = min(1.0, min_size / shorter)
+    if is_power_of_two(width) and is_power_of_two(height):
+        shift = max(0, round(-math.log2(scale)))
+        while shift > 0 and shorter >> shift < min(min_size, shorter):
+            shift -= 1
+        return width >> shift, height >> shift
+    factor = max(scale, floor_factor)
+    return _multiple_of_4(width, factor, min_size), _multiple_of_4(height, factor, min_size)
+
+
+def _multiple_of_4(side: int, factor: float, min_size: int) -> int:
+    if side <= 4:
+        return side
+    target = max(4, int(round(side * factor / 4.0)) * 4)
+    if target < min(min_size, side):
+        target += 4
+    return min(target, side)
+
+
+def level_sizes(width: int, height: int, scales: Sequence[float], min_size: int) -> list[tuple[int, int]]:
+    """:func:`level_size` for each scale, LOD0 first; pixels."""
+    return [level_size(width, height, float(s), min_size) for s in scales]
+
+
+# --------------------------------------------------------------------------- quality
+
+def psnr(reference: np.ndarray, image: np.ndarray) -> float:
+    """Peak signal-to-noise ratio in dB of ``image`` against ``reference``.
+
+    Both (h, w) or (h, w, c) arrays of 8-bit values, same shape; ``inf`` when identical.
+    """
+    difference = reference.astype(np.float64) - image.astype(np.float64)
+    mse = float(np.mean(difference * difference))
+    return math.inf if mse == 0.0 else 10.0 * math.log10(255.0 * 255.0 / mse)
+
+
+def image_psnr(reference: Image.Image, image: Image.Image) -> float:
+    """:func:`psnr` of two Pillow images of the same size and mode, in dB (computed in C)."""
+    squares = [rms * rms for rms in ImageStat.Stat(ImageChops.difference(reference, image)).rms]
+    mse = sum(squares) / len(squares)
+    return math.inf if mse == 0.0 else 10.0 * math.log10(255.0 * 255.0 / mse)
+
+
+# --------------------------------------------------------------------------- decoding
+
+_pillow_limit_lock = threading.Lock()
+
+
+def _problem_of_bytes(data: bytes) -> str:
+    head = data[:256].lstrip()
+    if head[:1] == b"<":
+        snippet = head[:80].decode("utf-8", "replace").replace("\n", " ")
+        return f"not an image but XML/HTML (a service error page?): {snippet!r}"
+    return f"not a readable image ({len(data)} bytes starting {data[:8].hex()})"
+
+
+def open_header(data: bytes, where: str, max_pixels: int) -> Image.Image:
+    """Open encoded ``data`` lazily (header only) and refuse it if its declared size exceeds
+    ``max_pixels``; raises ReadError naming ``where``. No pixel is decoded here."""
+    if not data:
+        raise ReadError(where, "texture is missing or empty (0 bytes)")
+    # Pillow's own bomb guard uses a process-wide limit; make it agree with ours for this open
+    # (the lock keeps concurrent opens from seeing each other's value) and report its refusal
+    # in our words. Its warning duplicates the check just below.
+    with _pillow_limit_lock:
+        saved = Image.MAX_IMAGE_PIXELS
+        Image.MAX_IMAGE_PIXELS = max_pixels
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+                image = Image.open(io.BytesIO(data), formats=ALLOWED_FORMATS)
+        except Image.DecompressionBombError:
+            raise ReadError(where, f"image declares more than 2 x {max_pixels} pixels (textures.max_pixels); refused before decoding") from None
+        except (UnidentifiedImageError, OSError, ValueError, SyntaxError):
+            raise ReadError(where, _problem_of_bytes(data)) from None
+        finally:
+            Image.MAX_IMAGE_PIXELS = saved
+    width, height = image.size
+    if width <= 0 or height <= 0:
+        raise ReadError(where, f"image declares an empty size {width}x{height}")
+    if width * height > max_pixels:
+        raise ReadError(where, f"image declares {width}x{height} = {width * height} pixels, over textures.max_pixels = {max_pixels}; refused before decoding")
+    return image
+
+
+def _decode(image: Image.Image, where: str) -> Image.Image:
+    """Decode the pixels of a lazily opened image into RGB, RGBA or L; ReadError when broken."""
+    try:
+        image.load()
+    except (OSError, ValueError, SyntaxError, EOFError) as error:
+        raise ReadError(where, f"image data is truncated or corrupt ({error})") from None
+    if image.mode in ("RGB", "RGBA", "L"):
+        return image
+    has_alpha = image.mode in ("LA", "PA", "La", "RGBa") or "transparency" in image.info
+    try:
+        return image.convert("RGBA" if has_alpha else "RGB")
+    except ValueError as error:
+        raise ReadError(where, f"unsupported pixel mode {image.mode} ({error})") from None
+
+
+def has_transparency(image: Image.Image) -> bool:
+    """True when a decoded RGB/RGBA/L image has at least one pixel with alpha below 255."""
+    return image.mode == "RGBA" and image.getchannel("A").getextrema()[0] < 255
+
+
+def draft_factors(options: TextureOptions) -> tuple[int, ...]:
+    """IDCT reduction factors a JPEG source may be decoded at under ``options``."""
+    return {"auto": AUTO_DRAFT_FACTORS, "always": ALWAYS_DRAFT_FACTORS, "never": ()}[options.fast_jpeg_downscale]
+
+
+def _draft(image: Image.Image, target: tuple[int, int], factors: tuple[int, ...]) -> None:
+    """Ask libjpeg to decode at the largest allowed 1/factor that still covers ``target`` pixels."""
+    if not factors:
+        return
+    width, height = image.size
+    largest = max(factors)
+    request = (max(target[0], -(-width // largest)), max(target[1], -(-height // largest)))
+    image.draft(image.mode, request)
+
+
+# --------------------------------------------------------------------------- encoding
+
+def _encode(image: Image.Image, fmt: str, quality: int) -> bytes:
+    out = io.BytesIO()
+    if fmt == "JPEG":
+        if image.mode == "RGBA":
+            image = image.convert("RGB")
+        image.save(out, "JPEG", quality=quality)
+    else:
+        image.save(out, "PNG")
+    return out.getvalue()
+
+
+def _level_name(name: str, level: int, fmt: str) -> str:
+    stem = name.rsplit(".", 1)[0] if "." in name else (name or "texture")
+    return f"{stem}_lod{level}{EXTENSION[fmt]}"
+
+
+# --------------------------------------------------------------------------- the cache
+
+class _LevelCache:
+    """Process-wide LRU of finished levels (or of the problem found), bounded by total bytes.
+
+    Keys are ``(source bytes, scales, options)``: the dict hashes the bytes (Python caches a bytes
+    object's hash, so a caller passing the same object again pays nothing) and confirms a match by
+    comparing them, so equal content is found whatever object holds it and no collision can mix
+    two atlases up. The source bytes are counted in the budget.
+    """
+
+    def __init__(self, max_bytes: int) -> None:
+        self.max_bytes = max_bytes
+        self.entries: OrderedDict = OrderedDict()  # key -> levels tuple or problem str
+        self.bytes = 0
+        self.hits = 0
+        self.misses = 0
+        self.lock = threading.Lock()
+
+    @staticmethod
+    def size_of(key, value) -> int:
+        if isinstance(value, str):
+            return len(key[0]) + 256
+        return len(key[0]) + sum(len(level[0]) for level in value if not level[4])
+
+    def get(self, key):
+        with self.lock:
+            value = self.entries.get(key)
+            if value is None:
+                self.misses += 1
+                return None
+            self.entries.move_to_end(key)
+            self.hits += 1
+            return value
+
+    def put(self, key, value) -> None:
+        size = self.size_of(key, value)
+        if size > self.max_bytes:
+            return
+        with self.lock:
+            if key in self.entries:
+                return
+            self.entries[key] = value
+            self.bytes += size
+            while self.bytes > self.max_bytes:
+                old_key, old_value = self.entries.popitem(last=False)
+                self.bytes -= self.size_of(old_key, old_value)
+
+    def clear(self) -> None:
+        with self.lock:
+            self.entries.clear()
+            self.bytes = self.hits = self.misses = 0
+
+
+_cache = _LevelCache(CACHE_MAX_BYTES)
+
+
+def clear_texture_cache() -> None:
+    """Forget every cached result (tests, or a long-lived process between runs)."""
+    _cache.clear()
+
+
+def texture_cache_stats() -> dict:
+    """``{"entries", "bytes", "max_bytes", "hits", "misses"}`` of the process-wide cache."""
+    with _cache.lock:
+        return {"entries": len(_cache.entries), "bytes": _cache.bytes, "max_bytes": _cache.max_bytes,
+                "hits": _cache.hits, "misses": _cache.misses}
+
+
+# --------------------------------------------------------------------------- the pipeline
+
+def predicted_draft_psnr(decoded: Image.Image) -> tuple[float, Image.Image]:
+    """dB: PSNR of a 2x box reduction of ``decoded`` against its 2x Lanczos reduction, and that
+    Lanczos reduction (reused as the next level when sizes match).
+
+    Estimates how far the IDCT-scaled decode that produced ``decoded`` is from a Lanczos reduction
+    of the full image: the same comparison one octave down, where it is cheap.
+    """
+    half = (max(1, decoded.width // 2), max(1, decoded.height // 2))
+    lanczos = decoded.resize(half, Image.Resampling.LANCZOS)
+    box = decoded.reduce(2) if decoded.width >= 2 and decoded.height >= 2 else decoded
+    return image_psnr(lanczos, box if box.size == half else box.resize(half)), lanczos
+
+
+def _decode_jpeg(data: bytes, where: str, options: TextureOptions, target: Optional[tuple[int, int]]) -> tuple[Image.Image, bool, dict]:
+    """Decode a JPEG once for levels no larger than ``target`` pixels (None: validation only).
+
+    Returns the image, whether each level is resized from the previous one, and Lanczos
+    reductions of the image already made ({size: image}). The full-size pixels are never needed
+    for themselves: LOD0 keeps the source bytes.
+    """
+    image = open_header(data, where, options.max_pixels)
+    if target is None:
+        _draft(image, (1, 1), ALWAYS_DRAFT_FACTORS)
+        return _decode(image, where), False, {}
+    full_width = image.width
+    _draft(image, target, draft_factors(options))
+    decoded = _decode(image, where)
+    chain = options.fast_jpeg_downscale != "never"
+    if decoded.width < full_width and options.fast_jpeg_downscale == "auto":
+        estimate, lanczos = predicted_draft_psnr(decoded)
+        if estimate < AUTO_MIN_PSNR_DB:
+            # Too much detail near the pixel size: the IDCT shortcut would alias it.
+            return _decode(open_header(data, where, options.max_pixels), where), chain, {}
+        return decoded, chain, {lanczos.size: lanczos}
+    return decoded, chain, {}
+
+
+def _output_format(source_format: str, transparent: bool, options: TextureOptions) -> str:
+    """Format (JPEG or PNG) of every level that is not the source's own bytes."""
+    if source_format == "JPEG":
+        return "JPEG"
+    if source_format == "PNG":
+        return "JPEG" if options.opaque_png_to_jpeg and not transparent else "PNG"
+    return "PNG" if transparent else "JPEG"
+
+
+def _build_levels(data: bytes, scales: Sequence[float], options: TextureOptions, where: str) -> list[tuple]:
+    """Encoded levels ``[(bytes, format, width, height, is_source_bytes), ...]`` for one source."""
+    header = open_header(data, where, options.max_pixels)
+    source_format, (width, height) = header.format, header.size
+    sizes = level_sizes(width, height, scales, options.min_size)
+    reduced = [size for size in sizes if size != (width, height)]
+    if source_format == "JPEG":
+        largest = max(reduced, key=lambda size: size[0] * size[1]) if reduced else None
+        decoded, chain, known = _decode_jpeg(data, where, options, largest)
+    else:
+        decoded, chain, known = _decode(header, where), False, {}
+    transparent = has_transparency(decoded)
+    if not transparent and decoded.mode == "RGBA":
+        decoded = decoded.convert("RGB")
+    fmt = _output_format(source_format, transparent, options)
+    source_level = (data, source_format, width, height, True) if source_format in MIME else None
+
+    levels: list[tuple] = []
+    previous = decoded
+    for size in sizes:
+        if levels and size == tuple(levels[-1][2:4]):
+            levels.append(levels[-1])
+            continue
+        if size == (width, height):
+            if source_level is None:
+                source_level = (_encode(decoded, fmt, options.jpeg_quality), fmt, width, height, False)
+            levels.append(source_level)
+            continue
+        base = previous if chain else decoded
+        if base.size == size:
+            resized = base
+        elif base is decoded and size in known:
+            resized = known[size]
+        else:
+            resized = base.resize(size, Image.Resampling.LANCZOS)
+        levels.append((_encode(resized, fmt, options.jpeg_quality), fmt, size[0], size[1], False))
+        previous = resized
+    return levels
+
+
+def build_texture_lods(texture: Texture, scales: list[float], options: TextureOptions) -> list[Texture]:
+    """One :class:`Texture` per level for ``scales`` (per-side factors, LOD0 first).
+
+    Raises :class:`~exporter.errors.ReadError` naming ``texture.source`` (or ``texture.name``) when
+    the image is missing, truncated, undecodable, or declares more than ``options.max_pixels``.
+    Identical bytes with identical scales and options are processed once per process.
+    """
+    where = texture.source or texture.name or "<embedded texture>"
+    if not scales:
+        return []
+    data = bytes(texture.data)
+    key = (data, tuple(float(s) for s in scales), dataclasses.astuple(options))
+    cached = _cache.get(key)
+    if cached is None:
+        try:
+            cached = tuple(_build_levels(data, scales, options, where))
+        except ReadError as error:
+            cached = error.problem
+        except MemoryError:
+            cached = "too large to decode in memory"
+        _cache.put(key, cached)
+    if isinstance(cached, str):
+        raise ReadError(where, cached)
+    # The source level hands back the caller's own bytes object (a cache hit may come from
+    # another building with equal bytes).
+    return [
+        Texture(data=texture.data, mime=MIME[fmt], width=w, height=h, name=texture.name, source=texture.source)
+        if is_source else
+        Texture(data=level_data, mime=MIME[fmt], width=w, height=h, name=_level_name(texture.name, k, fmt), source=texture.source)
+        for k, (level_data, fmt, w, h, is_source) in enumerate(cached)
+    ]
