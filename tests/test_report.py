@@ -405,3 +405,79 @@ def test_plot_helpers():
 def test_image_name_uses_the_output_folder():
     assert image_name({"id": "a/b", "lods": [{"file": "a_b_1234/lod0.glb"}]}, 2) == "a_b_1234_lod2.png"
     assert image_name({"id": "a/b c", "lods": [{}]}, 0) == "a_b_c_lod0.png"
+
+
+# --------------------------------------------------------------------------- the real pipeline
+
+def _building_pixels(path: Path) -> np.ndarray:
+    image = np.asarray(Image.open(path).convert("RGB")).astype(int)
+    ground = np.round(np.array([0.82, 0.84, 0.80]) * 255).astype(int)
+    shadow = np.round(np.array([0.62, 0.64, 0.61]) * 255).astype(int)
+    keep = ((np.abs(image - BACKGROUND_RGB).sum(axis=2) > 12) & (np.abs(image - ground).sum(axis=2) > 12)
+            & (np.abs(image - shadow).sum(axis=2) > 12))
+    return image[keep]
+
+
+def _check_pipeline_report(out: Path) -> tuple[dict, Page]:
+    """Common checks of a report written for a real export; returns the manifest and the page."""
+    (tile_dir,) = [p.parent for p in out.glob("*/lod_manifest.json")]
+    manifest = _manifest(tile_dir)
+    page = Page((tile_dir / "report.html").read_text(encoding="utf-8"))
+    assert len(page.articles) == len(manifest["buildings"]) > 0
+    by_id = {b["id"]: b for b in manifest["buildings"]}
+    scores = [quality_score(by_id[a["id"]]) for a in page.articles]
+    assert all(s is not None for s in scores) and scores == sorted(scores)  # worst first
+    for article in page.articles:
+        assert len(article["images"]) == len(by_id[article["id"]]["lods"]), article
+    rows = page.tables["level-table"][1:]
+    totals = [sum(b["lods"][k]["triangles"] for b in manifest["buildings"]) for k in range(len(rows))]
+    assert [int(r[3].replace(",", "")) for r in rows] == totals
+    return manifest, page
+
+
+def test_report_of_a_real_export(tmp_path):
+    from exporter.config import Config
+    from exporter.pipeline import export_tiles
+    from exporter.samplegen import generate_tile
+
+    generate_tile(tmp_path / "tile", 4, seed=1, atlas_size=256)
+    export_tiles([tmp_path / "tile"], tmp_path / "out", Config(), jobs=1)
+    write_reports(tmp_path / "out")
+    manifest, page = _check_pipeline_report(tmp_path / "out")
+    tile_dir = tmp_path / "out" / manifest["tile"]["name"]
+    for src in page.images:
+        pixels = _building_pixels(tile_dir / src)
+        assert len(pixels) > 0.05 * 256 * 256, src  # the building is in the picture
+        assert pixels.std(axis=0).max() > 15, src  # textured and shaded, not one flat colour
+
+
+def test_report_of_real_rotterdam_textures(tmp_path, shared_real):
+    from exporter.config import Config
+    from exporter.pipeline import export_tiles
+
+    export_tiles([shared_real / "rotterdam_textured"], tmp_path / "out", Config(), jobs=1)
+    write_reports(tmp_path / "out")
+    manifest, page = _check_pipeline_report(tmp_path / "out")
+    tile_dir = tmp_path / "out" / manifest["tile"]["name"]
+    for building in manifest["buildings"]:
+        for lod in building["lods"]:
+            pixels = _building_pixels(tile_dir / "report" / image_name(building, lod["level"]))
+            assert len(pixels) > 0.05 * 256 * 256, lod["file"]
+            # Aerial-photo atlases give many more distinct colours than the same geometry untextured.
+            meshes = load_glb(tile_dir / lod["file"])
+            assert any(m.image is not None for m in meshes)
+            flat = [Mesh(m.positions, m.triangles, color=m.color) for m in meshes]
+            view = fit_view(load_glb(tile_dir / building["lods"][0]["file"]))
+            flat_pixels = render(flat, view).reshape(-1, 3)
+            distinct = len(np.unique(pixels // 4, axis=0))
+            assert distinct > 3 * len(np.unique(flat_pixels // 4, axis=0)), lod["file"]
+
+
+def test_cli_report_command(tmp_path, capsys):
+    from exporter.cli import main
+
+    make_fake_export(tmp_path)
+    assert main(["report", str(tmp_path)]) == 0
+    assert f"report: {tmp_path / 'index.html'}" in capsys.readouterr().out
+    assert main(["report", str(tmp_path / "missing")]) == 2
+    assert "not a folder" in capsys.readouterr().err
