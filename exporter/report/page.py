@@ -38,6 +38,7 @@ th{background:#f0f0f3}td.text,th.text{text-align:left}
 .lods{display:flex;flex-wrap:wrap;gap:12px}.lod{margin:0;width:256px}
 .lod img{display:block;width:256px;height:256px;background:#eee;border:1px solid #ddd}
 .lod figcaption{font-size:12px}.lod table{font-size:11px;margin:.2em 0;width:100%}
+.lod td{padding:1px 4px}
 .missing{width:256px;height:256px;display:flex;align-items:center;justify-content:center;
  background:#fee;border:1px solid #e99;color:#a00;text-align:center;font-size:12px;padding:4px;box-sizing:border-box}
 .bad{color:#b00;font-weight:600}.problems{color:#a60}.score{font-weight:normal;color:#555}
@@ -119,8 +120,8 @@ def _document(title: str, body: list[str]) -> str:
 def level_table_html(manifest: dict) -> str:
     """The per-level summary table (the paper's Table III plus texture and file sizes)."""
     head = ("<tr><th>level</th><th>transition</th><th>buildings</th><th>triangles</th><th>mean triangles</th>"
-            "<th>triangles / LOD0</th><th>mean triangle_ratio</th><th>vertices</th><th>texture pixels</th>"
-            "<th>pixels / LOD0</th><th class=\"text\">texture sizes (largest atlas × buildings)</th><th>file bytes</th></tr>")
+            "<th>triangles / LOD0</th><th>mean triangle ratio</th><th>vertices</th><th>texture pixels</th>"
+            "<th>pixels / LOD0</th><th class=\"text\">atlas sizes × buildings</th><th>file bytes</th></tr>")
     rows = []
     for row in level_table(manifest):
         transition = "–" if row["transition"] is None else f"{row['transition'] * 100:g} %"
@@ -153,7 +154,7 @@ def plots_html(manifest: dict) -> str:
         series = metric_series(manifest, key)
         if not any(points for _, points in series):
             continue
-        plots.append(strip_plot_svg(label, [(f"LOD{level}", points) for level, points in series], FIXED_RANGES.get(key)))
+        plots.append(strip_plot_svg(label, [(f"LOD{level}", points) for level, points in series], FIXED_RANGES.get(key), width=168, height=150))
         for level, points in series:
             stats = metric_stats([v for _, v in points])
             if stats:
@@ -168,14 +169,16 @@ def plots_html(manifest: dict) -> str:
 
 
 def _metrics_table(lod: dict) -> str:
+    """The level's metrics, two label/value pairs per row (compact under a 256 px picture)."""
     cells = []
-    for key, label, _ in METRICS:
+    for key, _, label in METRICS:
         value = lod_metric(lod, key)
         if value is None:
             continue
         css = ' class="bad"' if _is_bad(key, value) else ""
-        cells.append(f'<tr><td class="text">{escape(label)}</td><td{css} data-metric="{key}">{_fmt_metric(value)}</td></tr>')
-    return f"<table>{''.join(cells)}</table>" if cells else ""
+        cells.append(f'<td class="text">{escape(label)}</td><td{css} data-metric="{key}">{_fmt_metric(value)}</td>')
+    rows = "".join(f"<tr>{''.join(cells[i:i + 2])}</tr>" for i in range(0, len(cells), 2))
+    return f'<table class="metrics">{rows}</table>' if cells else ""
 
 
 def _level_figure(building_id: str, render: LevelRender) -> str:

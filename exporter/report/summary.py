@@ -16,14 +16,14 @@ import math
 import statistics
 from typing import Optional
 
-# Metrics shown in plots and captions, in display order, with the direction that is better.
+# Metrics shown in plots and captions, in display order: key, plot title, short caption label.
 METRICS = (
-    ("triangle_ratio", "triangles / LOD0", None),
-    ("silhouette_iou", "silhouette IoU", "high"),
-    ("wall_coverage", "wall coverage", "high"),
-    ("hausdorff_rel", "Hausdorff / diagonal", "low"),
-    ("boundary_length_change", "border length change", "zero"),
-    ("new_holes", "new holes", "low"),
+    ("triangle_ratio", "triangles / LOD0", "triangles"),
+    ("silhouette_iou", "silhouette IoU", "silhouette"),
+    ("wall_coverage", "wall coverage", "walls"),
+    ("hausdorff_rel", "Hausdorff / diagonal", "Hausdorff"),
+    ("boundary_length_change", "border length change", "border Δ"),
+    ("new_holes", "new holes", "new holes"),
 )
 
 # The two metrics the worst-first order is decided by (lower = worse).
