@@ -191,13 +191,14 @@ def main() -> None:
     for label, group in groups.items():
         if not group:
             continue
-        print(f"{label} ({len(group)} atlases): PSNR min/mean dB vs Lanczos from full, IDCT-scaled decode: "
+        print(f"{label} ({len(group)} atlases, floor {statistics.mean(r['floor'] for r in group) * 1000:.1f} ms per atlas): PSNR min/mean dB vs Lanczos from full, IDCT-scaled decode: "
               + ", ".join(f"1/{f} {min(r[f'draft_{f}'] for r in group):.1f}/{statistics.mean(r[f'draft_{f}'] for r in group):.1f}" for f in FACTORS)
               + "; box filter: "
               + ", ".join(f"1/{f} {min(r[f'box_{f}'] for r in group):.1f}/{statistics.mean(r[f'box_{f}'] for r in group):.1f}" for f in FACTORS))
         for mode in ("never", "auto", "always"):
             per_level = list(zip(*[r[f"psnr_{mode}"] for r in group]))
-            print(f"  {mode:7s} time / floor: mean {statistics.mean(r[mode] / r['floor'] for r in group):.2f}, "
+            print(f"  {mode:7s} {statistics.mean(r[mode] for r in group) * 1000:5.1f} ms per atlas; "
+                  f"time / floor: mean {statistics.mean(r[mode] / r['floor'] for r in group):.2f}, "
                   f"time / careful: mean {statistics.mean(r[mode] / r['never'] for r in group):.2f}; "
                   f"output PSNR min per level: {' '.join(f'{min(v):.1f}' for v in per_level)}")
     print("\ncache (auto):")

@@ -70,8 +70,6 @@ AUTO_DRAFT_FACTORS = (2, 4)
 ALWAYS_DRAFT_FACTORS = (2, 4, 8)
 # JPEG/PNG outputs of a whole run rarely exceed this; an LRU on bytes keeps memory bounded.
 CACHE_MAX_BYTES = 64 * 2**20
-# Stop at the first problem instead of getting a grey half image from libjpeg.
-Image.LOAD_TRUNCATED_IMAGES = False
 
 
 # --------------------------------------------------------------------------- sizes
@@ -88,14 +86,14 @@ def level_size(width: int, height: int, scale: float, min_size: int) -> tuple[in
     if scale >= 1.0:
         return width, height
     shorter = min(width, height)
-    # The smallest factor that keeps the shorter side at min_size (or at the source's own size).
-    floor_factor = min(1.0, min_size / shorter)
     if is_power_of_two(width) and is_power_of_two(height):
+        # The scale rounded to the nearest power of two in log scale (0.7 -> 0.5, 0.75 -> 1).
         shift = max(0, round(-math.log2(scale)))
         while shift > 0 and shorter >> shift < min(min_size, shorter):
             shift -= 1
         return width >> shift, height >> shift
-    factor = max(scale, floor_factor)
+    # Not below the factor that keeps the shorter side at min_size (or at its own size).
+    factor = max(scale, min(1.0, min_size / shorter))
     return _multiple_of_4(width, factor, min_size), _multiple_of_4(height, factor, min_size)
 
 
@@ -213,12 +211,14 @@ def _draft(image: Image.Image, target: tuple[int, int], factors: tuple[int, ...]
 
 def _encode(image: Image.Image, fmt: str, quality: int) -> bytes:
     out = io.BytesIO()
+    # Keep the source's colour profile so every level shows the same colours as LOD0.
+    profile = {"icc_profile": image.info["icc_profile"]} if image.info.get("icc_profile") else {}
     if fmt == "JPEG":
         if image.mode == "RGBA":
             image = image.convert("RGB")
-        image.save(out, "JPEG", quality=quality)
+        image.save(out, "JPEG", quality=quality, **profile)
     else:
-        image.save(out, "PNG")
+        image.save(out, "PNG", **profile)
     return out.getvalue()
 
 
@@ -229,13 +229,29 @@ def _level_name(name: str, level: int, fmt: str) -> str:
 
 # --------------------------------------------------------------------------- the cache
 
+class _Content:
+    """Encoded bytes as a dict key: hashed on their length and ends (no pass over the whole file,
+    a JPEG's tail is entropy-coded pixels), equal only when every byte is equal (one memcmp),
+    so a hash collision costs a comparison and can never mix two atlases up."""
+
+    __slots__ = ("data", "_hash")
+
+    def __init__(self, data: bytes) -> None:
+        self.data = data
+        self._hash = hash((len(data), data[:4096], data[-4096:]))
+
+    def __hash__(self) -> int:
+        return self._hash
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, _Content) and (self.data is other.data or self.data == other.data)
+
+
 class _LevelCache:
     """Process-wide LRU of finished levels (or of the problem found), bounded by total bytes.
 
-    Keys are ``(source bytes, scales, options)``: the dict hashes the bytes (Python caches a bytes
-    object's hash, so a caller passing the same object again pays nothing) and confirms a match by
-    comparing them, so equal content is found whatever object holds it and no collision can mix
-    two atlases up. The source bytes are counted in the budget.
+    Keys are ``(_Content(source bytes), scales, options)``; the source bytes are counted in the
+    budget.
     """
 
     def __init__(self, max_bytes: int) -> None:
@@ -249,8 +265,8 @@ class _LevelCache:
     @staticmethod
     def size_of(key, value) -> int:
         if isinstance(value, str):
-            return len(key[0]) + 256
-        return len(key[0]) + sum(len(level[0]) for level in value if not level[4])
+            return len(key[0].data) + 256
+        return len(key[0].data) + sum(len(level[0]) for level in value if not level[4])
 
     def get(self, key):
         with self.lock:
@@ -394,8 +410,10 @@ def build_texture_lods(texture: Texture, scales: list[float], options: TextureOp
     where = texture.source or texture.name or "<embedded texture>"
     if not scales:
         return []
+    if not all(0.0 < s <= 1.0 for s in scales):
+        raise ValueError(f"texture scales must be in (0, 1], got {scales!r}")
     data = bytes(texture.data)
-    key = (data, tuple(float(s) for s in scales), dataclasses.astuple(options))
+    key = (_Content(data), tuple(float(s) for s in scales), dataclasses.astuple(options))
     cached = _cache.get(key)
     if cached is None:
         try:

@@ -358,3 +358,28 @@ def test_psnr():
     assert psnr(a, a) == float("inf")
     assert psnr(a, b) == pytest.approx(10 * np.log10(255 ** 2 / 16))
     assert textures.image_psnr(Image.fromarray(a), Image.fromarray(b)) == pytest.approx(psnr(a, b))
+
+
+def test_reduced_levels_keep_the_colour_profile():
+    from PIL import ImageCms
+    icc = ImageCms.ImageCmsProfile(ImageCms.createProfile("sRGB")).tobytes()
+    data = encode(smooth_rgb(64, 64), "JPEG", icc_profile=icc)
+    levels = build_texture_lods(texture_of(data), SCALES, TextureOptions())
+    assert all(decoded(t).info.get("icc_profile") == icc for t in levels)
+
+
+def test_scales_outside_0_1_are_a_programming_error():
+    with pytest.raises(ValueError):
+        build_texture_lods(texture_of(encode(smooth_rgb(16, 16), "JPEG")), [1.0, 0.0], TextureOptions())
+
+
+def test_cache_tells_apart_files_with_equal_length_and_ends():
+    # Uncompressed BMPs differing only in middle rows: same length, same first and last 4 KiB.
+    a = smooth_rgb(128, 128)
+    b = a.copy()
+    b[60:68] = 255 - b[60:68]
+    data_a, data_b = encode(a, "BMP"), encode(b, "BMP")
+    assert len(data_a) == len(data_b) and data_a[:4096] == data_b[:4096] and data_a[-4096:] == data_b[-4096:]
+    first = build_texture_lods(texture_of(data_a, "image/bmp", "a.bmp"), SCALES, TextureOptions())
+    second = build_texture_lods(texture_of(data_b, "image/bmp", "b.bmp"), SCALES, TextureOptions())
+    assert first[0].data != second[0].data and textures.texture_cache_stats()["entries"] == 2
