@@ -375,6 +375,31 @@ def test_render_untextured_uses_base_colour_and_lambert_shading():
     assert len(np.unique(image[greenish][:, 1] // 10)) >= 3
 
 
+def test_texture_lookup_is_perspective_correct():
+    # A 40 m square roof seen obliquely; its atlas is blue for v < 0.5 (South half) and red above.
+    # The colour edge must sit where the roof's 3D midline (North = 0) projects, not where a plain
+    # screen-space (affine) interpolation of the UVs would put it.
+    positions = np.array([[-20.0, 5.0, -20.0], [20.0, 5.0, -20.0], [20.0, 5.0, 20.0], [-20.0, 5.0, 20.0]])
+    triangles = np.array([[0, 2, 1], [0, 3, 2]])
+    uvs = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])  # v up from the bottom row
+    image = np.zeros((64, 64, 3), dtype=np.uint8)
+    image[:32] = (220, 20, 20)  # top rows = v > 0.5
+    image[32:] = (20, 20, 220)
+    roof = Mesh(positions, triangles, uvs=uvs, image=image)
+    view = fit_view([roof], size=256, azimuth_deg=180.0, elevation_deg=25.0, fov_deg=60.0)
+    picture = render([roof], view, supersample=1).astype(int)
+    from exporter.report.render import project
+
+    corners = project(positions, view, 256)
+    midline = project(np.array([[0.0, 5.0, 0.0]]), view, 256)[0]
+    column = int(midline[0])
+    blue = np.nonzero(picture[:, column, 2] > picture[:, column, 0] + 50)[0]
+    edge = blue.min()  # North is up in the image: red above, blue below
+    affine = (corners[0, 1] + corners[3, 1]) / 2.0  # the screen midpoint of the West edge's rows
+    assert abs(affine - midline[1]) > 4.0  # the test can tell the two apart
+    assert abs(edge - midline[1]) <= 1.5
+
+
 # --------------------------------------------------------------------------- pure helpers
 
 def test_worst_first_puts_unmeasured_last():
