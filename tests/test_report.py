@@ -352,6 +352,17 @@ def test_load_glb_returns_local_frame(tmp_path):
     assert mesh.image is not None and mesh.image.shape == (64, 64, 3)
 
 
+def test_untextured_part_renders_in_its_material_colour(tmp_path):
+    part = box_part(10.0, 10.0, 10.0, 1, 64)
+    plain = Part(part.positions, part.triangles, color=(0.1, 0.7, 0.1, 1.0))
+    path = tmp_path / "plain.glb"
+    path.write_bytes(glb_bytes([plain], "plain"))
+    (mesh,) = load_glb(path)
+    assert mesh.image is None and mesh.color == pytest.approx([0.1, 0.7, 0.1], abs=0.01)
+    image = render([mesh], fit_view([mesh], size=96)).astype(int)
+    assert ((image[..., 1] > image[..., 0] + 50) & (image[..., 1] > image[..., 2] + 50)).mean() > 0.1
+
+
 def test_render_is_not_mirrored():
     # A low box with a tall tower at its East end, seen from the south: the tower is on the right.
     base = box_part(30.0, 6.0, 4.0, 1, 64)

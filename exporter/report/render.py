@@ -106,13 +106,15 @@ def _image_array(material, max_side: int = MAX_TEXTURE_SIDE) -> Optional[np.ndar
 
 
 def _base_color(material) -> np.ndarray:
+    """glTF ``baseColorFactor`` RGB as (3,) float32 0..1 (trimesh keeps it as uint8 0..255)."""
     factor = getattr(material, "baseColorFactor", None)
     if factor is None:
         factor = getattr(material, "main_color", None)
     if factor is None:
         return np.ones(3, dtype=np.float32)
-    factor = np.asarray(factor, dtype=np.float32)[:3]
-    return factor / 255.0 if factor.max() > 1.0 else factor
+    factor = np.asarray(factor)[:3]
+    scale = 255.0 if np.issubdtype(factor.dtype, np.integer) else 1.0
+    return (factor.astype(np.float32) / scale).astype(np.float32)
 
 
 def load_glb(path: str | Path) -> list[Mesh]:
