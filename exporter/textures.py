@@ -24,10 +24,12 @@ JPEG for JPEG sources, PNG with alpha for transparent PNGs, and PNG (or JPEG wit
 
 Speed: a source is decoded once. A JPEG source is decoded directly at 1/2, 1/4 or 1/8 size where
 the reduced levels allow it (libjpeg's scaled IDCT via Pillow's ``Image.draft``), and each smaller
-level is resized from the previous one. ``fast_jpeg_downscale: auto`` allows only the IDCT
-factors whose PSNR against a careful Lanczos reduction of the full image measured >= 35 dB (see
-``benchmarks/bench_textures.py`` and ``docs/textures.md``). Results are kept in a process-wide
-LRU cache bounded in bytes, so an atlas shared by many buildings is decoded once per run.
+level is a Lanczos reduction of the previous one. The scaled IDCT filters about like a box filter:
+fine on photographs, aliasing on detail near the pixel size, so ``fast_jpeg_downscale: auto``
+keeps it for an atlas only when a PSNR estimate against a careful Lanczos reduction of the full
+image is >= 35 dB, and otherwise decodes the full image (:func:`predicted_draft_psnr`; numbers in
+``benchmarks/bench_textures.py`` and ``docs/textures.md``). Results are kept in a process-wide LRU
+cache bounded in bytes, so an atlas shared by many buildings is processed once per process.
 
 Bounded memory: the declared size is read from the header and checked against ``max_pixels``
 before any pixel is decoded.
@@ -176,10 +178,16 @@ def _decode(image: Image.Image, where: str) -> Image.Image:
     """Decode the pixels of a lazily opened image into RGB, RGBA or L; ReadError when broken."""
     try:
         image.load()
-    except (OSError, ValueError, SyntaxError, EOFError) as error:
-        raise ReadError(where, f"image data is truncated or corrupt ({error})") from None
+    except MemoryError:
+        raise ReadError(where, f"image of {image.width}x{image.height} pixels does not fit in memory") from None
+    except Exception as error:  # any decoder failure is this file's problem, never the run's
+        raise ReadError(where, f"image data is truncated or corrupt ({type(error).__name__}: {error})") from None
     if image.mode in ("RGB", "RGBA", "L"):
         return image
+    if image.mode == "I" or image.mode.startswith("I;16"):
+        # 16-bit grey (PNG): keep the high byte; Pillow's own conversion would clip at 255.
+        grey = np.asarray(image).astype(np.int64) >> 8
+        return Image.fromarray(np.clip(grey, 0, 255).astype(np.uint8), "L")
     has_alpha = image.mode in ("LA", "PA", "La", "RGBa") or "transparency" in image.info
     try:
         return image.convert("RGBA" if has_alpha else "RGB")
@@ -327,14 +335,15 @@ def predicted_draft_psnr(decoded: Image.Image) -> tuple[float, Image.Image]:
     return image_psnr(lanczos, box if box.size == half else box.resize(half)), lanczos
 
 
-def _decode_jpeg(data: bytes, where: str, options: TextureOptions, target: Optional[tuple[int, int]]) -> tuple[Image.Image, bool, dict]:
-    """Decode a JPEG once for levels no larger than ``target`` pixels (None: validation only).
+def _decode_jpeg(image: Image.Image, data: bytes, where: str, options: TextureOptions,
+                 target: Optional[tuple[int, int]]) -> tuple[Image.Image, bool, dict]:
+    """Decode the lazily opened JPEG ``image`` (of ``data``) once for levels no larger than
+    ``target`` pixels (None: validation only).
 
     Returns the image, whether each level is resized from the previous one, and Lanczos
     reductions of the image already made ({size: image}). The full-size pixels are never needed
     for themselves: LOD0 keeps the source bytes.
     """
-    image = open_header(data, where, options.max_pixels)
     if target is None:
         _draft(image, (1, 1), ALWAYS_DRAFT_FACTORS)
         return _decode(image, where), False, {}
@@ -368,7 +377,7 @@ def _build_levels(data: bytes, scales: Sequence[float], options: TextureOptions,
     reduced = [size for size in sizes if size != (width, height)]
     if source_format == "JPEG":
         largest = max(reduced, key=lambda size: size[0] * size[1]) if reduced else None
-        decoded, chain, known = _decode_jpeg(data, where, options, largest)
+        decoded, chain, known = _decode_jpeg(header, data, where, options, largest)
     else:
         decoded, chain, known = _decode(header, where), False, {}
     transparent = has_transparency(decoded)
@@ -420,8 +429,6 @@ def build_texture_lods(texture: Texture, scales: list[float], options: TextureOp
             cached = tuple(_build_levels(data, scales, options, where))
         except ReadError as error:
             cached = error.problem
-        except MemoryError:
-            cached = "too large to decode in memory"
         _cache.put(key, cached)
     if isinstance(cached, str):
         raise ReadError(where, cached)

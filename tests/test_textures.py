@@ -383,3 +383,12 @@ def test_cache_tells_apart_files_with_equal_length_and_ends():
     first = build_texture_lods(texture_of(data_a, "image/bmp", "a.bmp"), SCALES, TextureOptions())
     second = build_texture_lods(texture_of(data_b, "image/bmp", "b.bmp"), SCALES, TextureOptions())
     assert first[0].data != second[0].data and textures.texture_cache_stats()["entries"] == 2
+
+
+def test_16_bit_grey_png_is_reduced_to_8_bits_not_clipped():
+    ramp = (np.arange(64 * 64).reshape(64, 64) * 16).astype(np.uint16)  # 0 .. 65520
+    levels = build_texture_lods(texture_of(encode(ramp, "PNG"), "image/png", "g.png"), [1.0, 0.5], TextureOptions())
+    image = decoded(levels[1])
+    assert image.mode == "L" and image.size == (32, 32)
+    values = np.asarray(image)
+    assert values.min() < 10 and values.max() > 245 and 100 < values.mean() < 155
