@@ -301,6 +301,11 @@ def test_index_links_every_tile(tmp_path):
     assert rows[0][-1] == "not rendered" and rows[1][-1] == "report"
     assert rows[1][-2] == "C (0.600)"
     assert "15_279419_116113/report.html" in index.links
+    worst = index.tables["worst-table"][1:]
+    assert [(r[1], r[2], r[3]) for r in worst[:2]] == [(TILE, "C", "0.600"), ("15_279419_116113", "C", "0.600")]
+    assert [r[2] for r in worst] == ["C", "C", "A", "A", "D", "D", "B", "B"]
+    assert "15_279419_116113/report.html#building-C" in index.links  # only the rendered tile links
+    assert not any(link.startswith(f"{TILE}/") for link in index.links)
     assert not (tmp_path / TILE / "report.html").exists()
 
 

@@ -55,7 +55,7 @@ def test_every_image_loads_and_tables_render(export, tmp_path):
 
 def test_index_renders(export, tmp_path):
     marks = body_marks(export / "index.html", tmp_path / "profile")
-    assert marks.get("data-tables-shown") == "tile-table" and marks.get("data-images-broken") == "0", marks
+    assert marks.get("data-tables-shown") == "worst-table tile-table" and marks.get("data-images-broken") == "0", marks
 
 
 def test_a_missing_image_is_counted_as_broken(export, tmp_path):

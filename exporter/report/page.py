@@ -18,7 +18,7 @@ from typing import Optional
 from urllib.parse import quote
 
 from .plots import strip_plot_svg
-from .summary import METRICS, lod_metric, level_table, metric_series, metric_stats, quality_score, worst_first
+from .summary import METRICS, level_table, lod_metric, metric_series, metric_stats, quality_score, worst_first, worst_hausdorff
 
 # Display-only thresholds that colour a metric as a likely problem (not used by the exporter).
 WARN_BELOW = {"silhouette_iou": 0.9, "wall_coverage": 0.9}
@@ -196,6 +196,11 @@ def _level_figure(building_id: str, render: LevelRender) -> str:
             f'{_metrics_table(lod) if render.level > 0 else ""}</figcaption></figure>')
 
 
+def building_anchor(building_id: str) -> str:
+    """The building's element id on its tile page, usable as a URL fragment as it is."""
+    return "building-" + quote(building_id, safe="")
+
+
 def building_html(rank: int, renders: BuildingRenders) -> str:
     building = renders.building
     building_id = str(building.get("id", ""))
@@ -204,7 +209,7 @@ def building_html(rank: int, renders: BuildingRenders) -> str:
     problems = building.get("problems", [])
     problem_list = ("<ul class=\"problems\">" + "".join(f"<li>{escape(str(p))}</li>" for p in problems) + "</ul>") if problems else ""
     figures = "".join(_level_figure(building_id, r) for r in renders.levels)
-    return (f'<article class="building" id="building-{quote(building_id, safe="")}" data-building-id="{escape(building_id)}" '
+    return (f'<article class="building" id="{escape(building_anchor(building_id))}" data-building-id="{escape(building_id)}" '
             f'data-score="{"" if score is None else f"{score:.6f}"}"><h3>{rank}. {escape(building_id)} '
             f'<span class="score">— {score_text}</span></h3>'
             f'<div class="meta">source: {escape(str(building.get("source", "")))}</div>{problem_list}'
@@ -256,6 +261,29 @@ class TileEntry:
     error: Optional[str] = None
 
 
+WORST_LISTED = 10  # buildings in the index's "worst buildings" table
+
+
+def worst_buildings_html(entries: list[TileEntry]) -> str:
+    """The export's worst buildings over all tiles (those with metrics), linked to their pages."""
+    candidates = [(building, entry) for entry in entries if entry.manifest for building in entry.manifest.get("buildings", [])
+                  if quality_score(building) is not None]
+    order = {id(b): i for i, b in enumerate(worst_first([b for b, _ in candidates]))}
+    candidates.sort(key=lambda item: order[id(item[0])])
+    rows = []
+    for rank, (building, entry) in enumerate(candidates[:WORST_LISTED], 1):
+        building_id = str(building.get("id", ""))
+        name = escape(building_id)
+        if entry.has_page:
+            name = f'<a href="{quote(entry.name)}/report.html#{escape(building_anchor(building_id))}">{name}</a>'
+        rows.append(f'<tr><td>{rank}</td><td class="text">{escape(entry.name)}</td><td class="text">{name}</td>'
+                    f'<td>{quality_score(building):.3f}</td><td>{_fmt_metric(worst_hausdorff(building))}</td></tr>')
+    if not rows:
+        return '<p id="worst-none">No quality metrics in the manifests.</p>'
+    return ('<table id="worst-table"><tr><th>#</th><th class="text">tile</th><th class="text">building</th>'
+            f'<th>worst IoU / coverage</th><th>worst Hausdorff / diagonal</th></tr>{"".join(rows)}</table>')
+
+
 def index_page(entries: list[TileEntry]) -> str:
     levels = max((len(level_table(e.manifest)) for e in entries if e.manifest), default=0)
     head = ("<tr><th class=\"text\">tile</th><th>buildings</th><th>skipped</th>"
@@ -279,5 +307,6 @@ def index_page(entries: list[TileEntry]) -> str:
                     f'<td class="text">{link}</td></tr>')
     body = ["<h1>vworld-lod export — LoD reports</h1>",
             f'<p class="meta">{len(entries)} tile(s). Worst building = lowest silhouette IoU / wall coverage over its reduced levels.</p>',
-            f'<table id="tile-table">{head}{"".join(rows)}</table>']
+            f'<h2>Worst {WORST_LISTED} buildings</h2>', worst_buildings_html(entries),
+            '<h2>Tiles</h2>', f'<table id="tile-table">{head}{"".join(rows)}</table>']
     return _document("vworld-lod LoD reports", body)
