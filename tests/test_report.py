@@ -341,6 +341,24 @@ def test_broken_glb_gets_a_placeholder_not_a_crash(tmp_path):
     assert len(b["images"]) == 2 and any("B/lod1.glb" in t and "cannot be read" in t for t in b["missing"])
 
 
+def test_problems_shown_and_empty_tile_still_reported(tmp_path):
+    tile_dir = make_fake_export(tmp_path, missing=("A", 9))
+    manifest = _manifest(tile_dir)
+    manifest["buildings"][1]["problems"] = ["texture B.jpg missing: exported untextured"]
+    (tile_dir / "lod_manifest.json").write_text(json.dumps(manifest), encoding="utf-8")
+    empty = make_fake_export(tmp_path, "15_279419_116113")
+    manifest = _manifest(empty)
+    manifest["skipped"] += [{"source": b["source"], "reason": "unreadable", "id": b["id"]} for b in manifest["buildings"]]
+    manifest["buildings"] = []
+    (empty / "lod_manifest.json").write_text(json.dumps(manifest), encoding="utf-8")
+    write_reports(tmp_path)
+    assert "<li>texture B.jpg missing: exported untextured</li>" in (tile_dir / "report.html").read_text(encoding="utf-8")
+    page = Page((empty / "report.html").read_text(encoding="utf-8"))
+    assert page.articles == [] and len(page.tables["skipped-table"]) == 1 + 5
+    assert [r[2] for r in page.tables["level-table"][1:]] == ["0", "0", "0"]
+    assert not (empty / "report").exists() or not any((empty / "report").iterdir())
+
+
 # --------------------------------------------------------------------------- renderer
 
 def test_load_glb_returns_local_frame(tmp_path):
@@ -366,6 +384,18 @@ def test_untextured_part_renders_in_its_material_colour(tmp_path):
     assert mesh.image is None and mesh.color == pytest.approx([0.1, 0.7, 0.1], abs=0.01)
     image = render([mesh], fit_view([mesh], size=96)).astype(int)
     assert ((image[..., 1] > image[..., 0] + 50) & (image[..., 1] > image[..., 2] + 50)).mean() > 0.1
+
+
+def test_inside_faces_are_dimmed_not_dropped():
+    from exporter.report.render import BACK_FACE_DIM, face_shading
+
+    # The same triangle wound both ways: seen from the eye, one shows its outside, one its inside.
+    positions = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    triangles = np.array([[0, 1, 2], [0, 2, 1]])
+    for eye in (np.array([0.3, 0.3, 5.0]), np.array([0.3, 0.3, -5.0])):
+        light = face_shading(positions, triangles, eye)
+        outside, inside = (light if np.cross(positions[1], positions[2]) @ eye > 0 else light[::-1])
+        assert inside == pytest.approx(outside * BACK_FACE_DIM) and inside > 0
 
 
 def test_render_is_not_mirrored():
