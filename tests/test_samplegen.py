@@ -277,14 +277,9 @@ def test_demo_tile_is_small_complete_and_regenerates(tmp_path):
     buildings = [load_entry(e) for e in scan.entries]
     assert len(buildings) == 12 and any(len(b.parts) == 2 for b in buildings)
     import runpy
-    import sys
 
-    argv = sys.argv
-    try:
-        sys.argv = ["generate.py", "--out", str(tmp_path / DEMO.name), "--demo"]
-        runpy.run_path(str(REPO / "samples" / "generate.py"), run_name="__main__")
-    finally:
-        sys.argv = argv
+    script = runpy.run_path(str(REPO / "samples" / "generate.py"))  # not as __main__: call its main()
+    assert script["main"](["--out", str(tmp_path / DEMO.name), "--demo"]) == 0
     for committed in sorted(DEMO.iterdir()):
         fresh = tmp_path / DEMO.name / committed.name
         assert fresh.is_file(), f"{committed.name} is not regenerated"

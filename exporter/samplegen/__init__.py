@@ -137,8 +137,7 @@ def generate_samples(count: int, seed: int = 0, tile: TileId = DEFAULT_TILE, atl
         two_part = bool(rng.random() < two_part_share)
         yaw = street + math.pi / 2 * int(rng.integers(4)) + rng.normal(0.0, 0.03)
         samples.append(make_building(rng, kind, budget, atlas_size, f"B{i:04d}", yaw, two_part))
-    radii = np.array([max(np.linalg.norm(ring, axis=1).max() for ring in s.footprints) for s in samples]) if samples else np.zeros(0)
-    centres = layout.place(tile_rng, radii, tile)
+    centres = layout.place(tile_rng, [s.footprints for s in samples], tile)
     lonlat = layout.to_lonlat(tile, centres)
     for s, (x, z), (lon, lat) in zip(samples, centres, lonlat):
         # float32 like VWorld's .dat altitude, so a written and re-read tile gives the same reference

@@ -19,7 +19,8 @@ import numpy as np
 from PIL import Image, ImageChops, ImageDraw
 
 JPEG_QUALITY = 85
-NOISE_SEED = 20240101  # fixed: the noise texture is part of the format, not of the sample seed
+NOISE_SEED = 20240101
+ROOF_COLOURS = ((90, 90, 95), (150, 75, 55), (70, 100, 80), (80, 85, 110), (130, 125, 115))  # slate, terracotta, green, blue, concrete  # fixed: the noise texture is part of the format, not of the sample seed
 
 
 @lru_cache(maxsize=4)
@@ -36,8 +37,9 @@ def _colour(rng: np.random.Generator, low, high) -> tuple:
 def facade(draw: ImageDraw.ImageDraw, rng: np.random.Generator, box: tuple, floors: int, bays: int) -> None:
     """Wall colour with a ``floors x bays`` window grid in the pixel ``box`` (x0, y0, x1, y1), each window its own glass tone."""
     x0, y0, x1, y1 = box
-    draw.rectangle((x0, y0, x1 - 1, y1 - 1), fill=_colour(rng, 120, 225))
-    glass = rng.integers(40, 110, size=3)
+    grey = int(rng.integers(120, 220))
+    draw.rectangle((x0, y0, x1 - 1, y1 - 1), fill=_colour(rng, grey - 12, grey + 12))  # plaster, concrete, stone
+    glass = rng.integers([35, 55, 75], [75, 100, 135])  # blue-grey glass
     tones = np.clip(glass + rng.integers(-25, 26, size=(floors, bays, 1)), 0, 255).tolist()
     floor_h, bay_w = (y1 - y0) / floors, (x1 - x0) / bays
     for f in range(floors):
@@ -49,7 +51,7 @@ def facade(draw: ImageDraw.ImageDraw, rng: np.random.Generator, box: tuple, floo
 def roof(draw: ImageDraw.ImageDraw, rng: np.random.Generator, box: tuple) -> None:
     """Roof colour with darker tile courses every few pixels in the pixel ``box``."""
     x0, y0, x1, y1 = box
-    colour = rng.integers(60, 170, size=3)
+    colour = np.clip(np.array(ROOF_COLOURS[int(rng.integers(len(ROOF_COLOURS)))]) + rng.integers(-12, 13, size=3), 0, 255)
     draw.rectangle((x0, y0, x1 - 1, y1 - 1), fill=tuple(int(c) for c in colour))
     dark = tuple(int(c) for c in np.clip(colour - 30, 0, 255))
     for y in range(y0, y1, max(2, (y1 - y0) // 24)):

@@ -22,6 +22,14 @@ import numpy as np
 UP = np.array([0.0, 1.0, 0.0])
 
 
+@lru_cache(maxsize=1024)
+def steps(n: int) -> np.ndarray:
+    """``n + 1`` evenly spaced fractions 0..1 (read-only, cached: called for every grid line)."""
+    out = np.arange(n + 1) / max(n, 1)
+    out.flags.writeable = False
+    return out
+
+
 def triangle_normals(positions: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """Unnormalised ``(b - a) x (c - a)`` per triangle, shape (m, 3), metres squared."""
     a, b, c = (positions[triangles[:, i]] for i in range(3))
@@ -55,8 +63,8 @@ def patch(points: np.ndarray, uv_rect: tuple, outward) -> tuple:
     rows, cols = points.shape[0] - 1, points.shape[1] - 1
     u0, v0, u1, v1 = uv_rect
     uvs = np.empty((rows + 1, cols + 1, 2))
-    uvs[:, :, 0] = u0 + np.linspace(0.0, 1.0, cols + 1)[None, :] * (u1 - u0)
-    uvs[:, :, 1] = v1 - np.linspace(0.0, 1.0, rows + 1)[:, None] * (v1 - v0)
+    uvs[:, :, 0] = u0 + steps(cols)[None, :] * (u1 - u0)
+    uvs[:, :, 1] = v1 - steps(rows)[:, None] * (v1 - v0)
     uvs = uvs.reshape(-1, 2)
     positions = points.reshape(-1, 3)
     triangles = grid_triangles(rows, cols)
@@ -68,8 +76,8 @@ def patch(points: np.ndarray, uv_rect: tuple, outward) -> tuple:
 def bilinear_points(corners: np.ndarray, rows: int, cols: int) -> np.ndarray:
     """Grid points (rows+1, cols+1, 3) of the quad ``corners`` = bottom-left, bottom-right, top-right, top-left."""
     p00, p10, p11, p01 = corners
-    s = np.linspace(0.0, 1.0, cols + 1)[None, :, None]
-    t = np.linspace(0.0, 1.0, rows + 1)[:, None, None]
+    s = steps(cols)[None, :, None]
+    t = steps(rows)[:, None, None]
     return (1 - t) * ((1 - s) * p00 + s * p10) + t * ((1 - s) * p01 + s * p11)
 
 
@@ -84,7 +92,7 @@ def fan(apex, base: np.ndarray, uv_rect: tuple, outward) -> tuple:
     k = len(base)
     positions = np.vstack([base, np.asarray(apex, float)[None]])
     u0, v0, u1, v1 = uv_rect
-    s = np.linspace(0.0, 1.0, k)
+    s = steps(k - 1)
     uvs = np.vstack([np.stack([u0 + s * (u1 - u0), np.full(k, v1)], 1), [[(u0 + u1) / 2, v0]]])
     i = np.arange(k - 1)
     triangles = np.stack([i, i + 1, np.full(k - 1, k)], 1).astype(np.int64)
