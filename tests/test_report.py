@@ -398,6 +398,16 @@ def test_inside_faces_are_dimmed_not_dropped():
         assert inside == pytest.approx(outside * BACK_FACE_DIM) and inside > 0
 
 
+def test_triangle_behind_the_camera_is_skipped():
+    part = box_part(10.0, 10.0, 10.0, 1, 64)
+    box = Mesh(part.positions, part.triangles, color=np.array([0.5, 0.5, 0.5], dtype=np.float32))
+    view = fit_view([box], size=96)
+    # A broken level: one extra triangle with a corner far behind the camera.
+    spike = np.vstack([part.positions, view.eye - view.forward * 50.0])
+    broken = Mesh(spike, np.vstack([part.triangles, [[0, 1, len(spike) - 1]]]), color=box.color)
+    assert np.array_equal(render([broken], view), render([box], view))
+
+
 def test_render_is_not_mirrored():
     # A low box with a tall tower at its East end, seen from the south: the tower is on the right.
     base = box_part(30.0, 6.0, 4.0, 1, 64)

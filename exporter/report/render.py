@@ -223,6 +223,7 @@ def shadow_triangles(positions: np.ndarray, ground: float) -> np.ndarray:
 # --------------------------------------------------------------------------- rasterising
 
 FRAGMENT_CHUNK = 1 << 20  # bounding-box pixels handled per numpy batch (bounded memory)
+NEAR = 1e-3  # metres: triangles with a corner closer to the camera plane than this are not drawn
 
 
 def fragments(screen: np.ndarray, triangles: np.ndarray, size: int):
@@ -239,7 +240,9 @@ def fragments(screen: np.ndarray, triangles: np.ndarray, size: int):
     extent = np.maximum(high - low, 0)
     (x0, y0), (x1, y1), (x2, y2) = (corners[:, i].T for i in range(3))
     area = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
-    valid = np.abs(area) > 1e-9
+    # Skip degenerate triangles and any reaching behind the camera (a spike of a broken level):
+    # their screen positions are meaningless, the rest of the building still draws.
+    valid = (np.abs(area) > 1e-9) & (screen[triangles][:, :, 2] > NEAR).all(axis=1)
     area = np.where(valid, area, 1.0)
     # Edge functions are affine in the pixel centre: w_i = a_i x + b_i y + c_i, relative to the
     # bounding box corner (x = col - low_x + 0.5) to keep float32 exact enough.
@@ -293,8 +296,7 @@ def nearest_per_pixel(pixels: np.ndarray, z: np.ndarray) -> np.ndarray:
 
 
 def fill_mesh(canvas: np.ndarray, depth: np.ndarray, screen: np.ndarray, mesh: Mesh, shading: np.ndarray) -> None:
-    """Z-buffered, textured, flat-lit triangles of one mesh; ``screen`` is its (n, 3) projection
-    (all points in front of the camera, as for a fitted view)."""
+    """Z-buffered, textured, flat-lit triangles of one mesh; ``screen`` is its (n, 3) projection."""
     size = canvas.shape[0]
     inverse_depth = (1.0 / np.maximum(screen[:, 2], 1e-6)).astype(np.float32)
     textured = mesh.image is not None and mesh.uvs is not None
