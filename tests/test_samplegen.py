@@ -16,7 +16,7 @@ import pytest
 from PIL import Image
 
 from exporter.model import TileId
-from exporter.samplegen import KINDS, generate_buildings, generate_samples, generate_tile, make_building
+from exporter.samplegen import KINDS, generate_buildings, generate_samples, generate_tile, make_building, triangle_budgets
 from exporter.samplegen.kinds import FACADE
 from exporter.samplegen.mesh import triangle_normals
 from exporter.tiles import tile_of
@@ -56,7 +56,7 @@ def base_border(sample):
     return points, border[at_base]
 
 
-SHAPES = [(kind, budget, two_part) for kind in KINDS for budget in (40, 326, 1500) for two_part in (False, True)][::1]
+SHAPES = [(kind, budget, two_part) for kind in KINDS for budget in (40, 326, 1500) for two_part in (False, True)]
 
 
 @pytest.fixture(scope="module")
@@ -179,20 +179,32 @@ def test_unknown_kind_and_bad_arguments_are_refused():
 
 # --------------------------------------------------------------------------- statistics
 
-def test_triangle_counts_have_the_requested_mean_and_a_long_tail():
-    counts = np.array([b.triangle_count for b in generate_buildings(300, seed=11, atlas_size=8)])
+@pytest.fixture(scope="module")
+def town():
+    """300 buildings with the defaults (mean 326 triangles, 5 % two-part), 8-pixel atlases."""
+    return generate_samples(300, seed=11, atlas_size=8)
+
+
+def test_triangle_counts_have_the_requested_mean_and_a_long_tail(town):
+    counts = np.array([s.building.triangle_count for s in town])
     assert counts.mean() == pytest.approx(326.0, rel=0.10)
     assert np.median(counts) < counts.mean()  # right-skewed
     assert (counts < 100).sum() >= 3 and (counts > 1000).sum() >= 3
-    small = np.array([b.triangle_count for b in generate_buildings(120, seed=12, atlas_size=8, mean_triangles=150.0)])
+    small = np.array([b.triangle_count for b in generate_buildings(80, seed=12, atlas_size=8, mean_triangles=150.0)])
     assert small.mean() == pytest.approx(150.0, rel=0.15)
 
 
-def test_kinds_are_mixed_and_two_part_buildings_appear():
-    samples = generate_samples(200, seed=5, atlas_size=8, two_part_share=0.05)
-    assert {s.kind for s in samples} == set(KINDS)
-    two = [s for s in samples if len(s.building.parts) == 2]
-    assert 2 <= len(two) <= 25
+def test_budgets_follow_a_log_normal_with_the_requested_mean():
+    budgets = triangle_budgets(3000, seed=1, mean_triangles=326.0)
+    assert budgets.mean() == pytest.approx(326.0, rel=0.05)
+    assert 0.01 < (budgets > 1000).mean() < 0.06 and 0.005 < (budgets < 60).mean() < 0.05
+    assert np.std(np.log(budgets)) == pytest.approx(0.75, rel=0.1)
+
+
+def test_kinds_are_mixed_and_two_part_buildings_appear(town):
+    assert {s.kind for s in town} == set(KINDS)
+    two = [s for s in town if len(s.building.parts) == 2]
+    assert 5 <= len(two) <= 30
     for s in two:
         first, second = s.building.parts
         assert first.texture.name != second.texture.name
@@ -223,10 +235,10 @@ def test_buildings_are_placed_inside_the_tile_without_overlap():
                 assert pa.intersection(pb).area < 1e-6, f"{a} overlaps {b}"
 
 
-def test_crowded_tiles_still_keep_centres_in_the_tile():
+def test_crowded_tiles_still_keep_centres_in_the_tile(town):
     tile = TileId(15, 279418, 116113)
-    for building in generate_buildings(120, seed=1, tile=tile, atlas_size=8):
-        assert tile_of(building.reference.lon, building.reference.lat, 15) == tile
+    for s in town:
+        assert tile_of(s.building.reference.lon, s.building.reference.lat, 15) == tile
 
 
 # --------------------------------------------------------------------------- textures

@@ -21,7 +21,7 @@ import math
 
 import numpy as np
 
-from .mesh import MeshBuilder, UP, cap, edge_normals, fan, grid_triangles, inset, orient, patch, quad, ring_points, shares, steps, subdivide
+from .mesh import MeshBuilder, UP, cap, edge_normals, fan, grid_triangles, inset, orient, patch, ring_points, shares, steps, subdivide
 
 MARGIN = 0.01  # UV inset of each atlas region, so JPEG/mip bleeding stays inside the region
 FACADE = (0.0 + MARGIN, 0.0 + MARGIN, 1.0 - MARGIN, 0.625 - MARGIN)

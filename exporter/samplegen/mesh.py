@@ -73,19 +73,6 @@ def patch(points: np.ndarray, uv_rect: tuple, outward) -> tuple:
     return positions, uvs, orient(positions, triangles, outward)
 
 
-def bilinear_points(corners: np.ndarray, rows: int, cols: int) -> np.ndarray:
-    """Grid points (rows+1, cols+1, 3) of the quad ``corners`` = bottom-left, bottom-right, top-right, top-left."""
-    p00, p10, p11, p01 = corners
-    s = steps(cols)[None, :, None]
-    t = steps(rows)[:, None, None]
-    return (1 - t) * ((1 - s) * p00 + s * p10) + t * ((1 - s) * p01 + s * p11)
-
-
-def quad(corners, rows: int, cols: int, uv_rect: tuple, outward) -> tuple:
-    """A planar or bilinear quad (corners as in :func:`bilinear_points`) cut into rows x cols cells."""
-    return patch(bilinear_points(np.asarray(corners, float), rows, cols), uv_rect, outward)
-
-
 def fan(apex, base: np.ndarray, uv_rect: tuple, outward) -> tuple:
     """Triangles from ``apex`` (3,) to each segment of the polyline ``base`` (k, 3): gable ends, hip ends, spire tips."""
     base = np.asarray(base, float)
