@@ -323,6 +323,7 @@ def demo_tile() -> Path | None:
 
 
 @needs_mono
+@pytest.mark.slow  # the demo tile's export takes ~9 s on one core
 def test_csharp_plans_the_real_export_of_the_demo_tile(build, tmp_path):
     tile = demo_tile()
     if tile is None:
