@@ -408,6 +408,15 @@ def test_triangle_behind_the_camera_is_skipped():
     assert np.array_equal(render([broken], view), render([box], view))
 
 
+def test_bilinear_sampling_wraps_like_repeat():
+    from exporter.report.render import sample_bilinear
+
+    image = np.array([[[0, 0, 0], [200, 100, 0]]], dtype=np.uint8)  # 2 x 1 pixels
+    texels = np.array([[0.5, 0.5], [1.0, 0.5], [1.5, 0.5], [0.0, 0.5], [2.25, 0.5]])
+    values = sample_bilinear(image, texels)[:, 0]
+    assert values == pytest.approx([0.0, 100.0, 200.0, 100.0, 50.0])  # x = 0 and 2.25 wrap around
+
+
 def test_render_is_not_mirrored():
     # A low box with a tall tower at its East end, seen from the south: the tower is on the right.
     base = box_part(30.0, 6.0, 4.0, 1, 64)

@@ -17,12 +17,12 @@ Data form:
 - Images are (size, size, 3) uint8 RGB.
 
 Shading: Lambert with one fixed sun (``SUN``, from the south-south-west, high) plus ambient, flat
-per face, two-sided: a face seen from behind (a floorless model's inside) is lit with its flipped normal and
-darkened, so open bottoms read as "inside" rather than as holes. A ground plane at the building's
-base with the building's planar shadow anchors it. Texture lookup is nearest-texel with
-perspective-correct UVs (u/w, v/w, 1/w interpolated in screen space), then the image is rendered
-at ``supersample`` times the size and box-filtered down (anti-aliasing; the default 1.5 trades
-smoothness for time).
+per face, two-sided: a face seen from behind (a floorless model's inside) is lit with its flipped
+normal and darkened, so open bottoms read as "inside" rather than as holes. A ground disc at the
+building's base with the building's planar shadow anchors it. Texture lookup is bilinear (Unity's
+default filter) with perspective-correct UVs (u/w, v/w, 1/w interpolated in screen space); the
+image is rendered at ``supersample`` times the size and box-filtered down (anti-aliasing; the
+default 1.5 trades smoothness for time).
 
 Sources: the rasterisation follows the edge-function formulation in J. Pineda, "A Parallel Algorithm
 for Polygon Rasterization" (SIGGRAPH 1988) and perspective-correct interpolation as in
@@ -295,6 +295,20 @@ def nearest_per_pixel(pixels: np.ndarray, z: np.ndarray) -> np.ndarray:
     return order[first]
 
 
+def sample_bilinear(image: np.ndarray, texel: np.ndarray) -> np.ndarray:
+    """Bilinear lookup of (k, 2) texel coordinates (x right, y down, in pixels; pixel centres at
+    +0.5) in an (h, w, 3) uint8 image, wrapping like glTF's default REPEAT sampler; (k, 3) float32."""
+    height, width = image.shape[:2]
+    x, y = texel[:, 0] - 0.5, texel[:, 1] - 0.5
+    x0, y0 = np.floor(x), np.floor(y)
+    fx, fy = (x - x0)[:, None].astype(np.float32), (y - y0)[:, None].astype(np.float32)
+    c0, r0 = np.mod(x0.astype(np.int64), width), np.mod(y0.astype(np.int64), height)
+    c1, r1 = np.mod(c0 + 1, width), np.mod(r0 + 1, height)
+    top = image[r0, c0] * (1.0 - fx) + image[r0, c1] * fx
+    bottom = image[r1, c0] * (1.0 - fx) + image[r1, c1] * fx
+    return (top * (1.0 - fy) + bottom * fy).astype(np.float32)
+
+
 def fill_mesh(canvas: np.ndarray, depth: np.ndarray, screen: np.ndarray, mesh: Mesh, shading: np.ndarray) -> None:
     """Z-buffered, textured, flat-lit triangles of one mesh; ``screen`` is its (n, 3) projection."""
     size = canvas.shape[0]
@@ -316,9 +330,7 @@ def fill_mesh(canvas: np.ndarray, depth: np.ndarray, screen: np.ndarray, mesh: M
         rows, cols, faces, z = rows[keep], cols[keep], faces[keep], z[keep]
         if textured:
             texel = np.einsum("ki,kij->kj", perspective[keep], texels[corners[keep]]) / one_over_z[keep, None]
-            column = np.mod(np.floor(texel[:, 0]).astype(np.int64), width)  # glTF default sampler: REPEAT
-            row = np.mod(np.floor(texel[:, 1]).astype(np.int64), height)
-            colors = mesh.image[row, column].astype(np.float32) * (mesh.color / 255.0)
+            colors = sample_bilinear(mesh.image, texel) * (mesh.color / 255.0)
         else:
             colors = np.broadcast_to(mesh.color, (len(z), 3))
         depth[rows, cols] = z
