@@ -3,7 +3,8 @@
 Atlases: the real aerial atlases ``../shared/data/real/rotterdam_textured/appearances/*.jpg``
 (1024x1024 JPEG) when present, plus synthetic facade atlases (windows, brick, signs; JPEG q90).
 
-Measured, per atlas (times are medians of ``--repeat`` runs, cache cleared before each):
+Measured, per atlas (each repetition times the floor and every mode back to back with the cache
+cleared; ratios are medians over ``--repeat`` repetitions):
 
 - ``floor``: the codec floor = full decode of the source + JPEG encode of each reduced level;
 - ``careful``: ``build_texture_lods`` with ``fast_jpeg_downscale: never`` (full decode, Lanczos
@@ -38,6 +39,7 @@ from exporter.textures import build_texture_lods, clear_texture_cache, level_siz
 REAL = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "real" / "rotterdam_textured" / "appearances"
 SCALES = [1.0, 0.5, 0.25]
 FACTORS = (2, 4, 8)
+MODES = ("never", "auto", "always")
 
 
 def facade_atlas(seed: int, width: int = 1024, height: int = 1024, style: str = "vworld") -> bytes:
@@ -103,40 +105,52 @@ def atlases() -> list[tuple[str, bytes]]:
     return found + synthetic + stress
 
 
-def median_time(function, repeat: int) -> float:
-    times = []
-    for _ in range(repeat):
-        clear_texture_cache()
-        start = time.perf_counter()
-        function()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
-
-
 def pixels(image: Image.Image) -> np.ndarray:
     return np.asarray(image.convert("RGB"))
+
+
+def codec_floor(data: bytes, reduced: list[Image.Image]) -> None:
+    """The codec floor of one atlas: decode it in full, encode its reduced levels."""
+    Image.open(io.BytesIO(data)).load()
+    for image in reduced:
+        image.save(io.BytesIO(), "JPEG", quality=TextureOptions().jpeg_quality)
+
+
+def reduced_levels(data: bytes) -> list[Image.Image]:
+    full = Image.open(io.BytesIO(data))
+    sizes = level_sizes(full.width, full.height, SCALES, TextureOptions().min_size)
+    return [full.resize(size, Image.Resampling.LANCZOS) for size in sizes[1:]]
 
 
 def measure_atlas(name: str, data: bytes, repeat: int) -> dict:
     full = Image.open(io.BytesIO(data))
     full.load()
-    sizes = level_sizes(full.width, full.height, SCALES, TextureOptions().min_size)
-    reduced = sizes[1:]
-    reference = {size: full.resize(size, Image.Resampling.LANCZOS) for size in reduced}
+    reference = {image.size: image for image in reduced_levels(data)}
     texture = Texture(data, "image/jpeg", full.width, full.height, name, name)
 
     def floor() -> None:
-        decoded = Image.open(io.BytesIO(data))
-        decoded.load()
-        for size in reduced:
-            reference[size].save(io.BytesIO(), "JPEG", quality=TextureOptions().jpeg_quality)
+        codec_floor(data, list(reference.values()))
 
-    result = {"name": name, "floor": median_time(floor, repeat)}
-    for mode in ("never", "auto", "always"):
+    # Each repetition times the floor and every mode back to back; ratios are taken per
+    # repetition (the machine's load drifts between them) and their median is reported.
+    runs = {"floor": floor}
+    for mode in MODES:
         options = TextureOptions(fast_jpeg_downscale=mode)
-        result[mode] = median_time(lambda: build_texture_lods(texture, SCALES, options), repeat)
+        runs[mode] = lambda options=options: build_texture_lods(texture, SCALES, options)
+    times = {key: [] for key in runs}
+    for _ in range(repeat):
+        for key, run in runs.items():
+            clear_texture_cache()
+            start = time.perf_counter()
+            run()
+            times[key].append(time.perf_counter() - start)
+    result = {"name": name, "floor": statistics.median(times["floor"])}
+    for mode in MODES:
+        result[mode] = statistics.median(times[mode])
+        result[f"{mode}/floor"] = statistics.median(t / f for t, f in zip(times[mode], times["floor"]))
+        result[f"{mode}/never"] = statistics.median(t / f for t, f in zip(times[mode], times["never"]))
         clear_texture_cache()
-        levels = build_texture_lods(texture, SCALES, options)
+        levels = build_texture_lods(texture, SCALES, TextureOptions(fast_jpeg_downscale=mode))
         result[f"psnr_{mode}"] = [psnr(pixels(reference[(t.width, t.height)]), pixels(Image.open(io.BytesIO(t.data)))) for t in levels[1:]]
     for factor in FACTORS:
         size = (-(-full.width // factor), -(-full.height // factor))
@@ -150,23 +164,31 @@ def measure_atlas(name: str, data: bytes, repeat: int) -> dict:
     return result
 
 
-def measure_tile(label: str, atlas_list: list[tuple[str, bytes]], buildings: int, floor_total: float) -> None:
-    """Texture time of a tile of ``buildings`` buildings sharing ``atlas_list``, against the codec
-    floor of the distinct atlases; with the same bytes objects (a reader that caches files) and with
-    fresh copies (each building reads its file again, so every call hashes its bytes)."""
+def measure_tile(label: str, atlas_list: list[tuple[str, bytes]], buildings: int, repeat: int) -> None:
+    """Texture time of a tile of ``buildings`` buildings sharing ``atlas_list`` against the codec
+    floor of the distinct atlases, both timed back to back (medians of ``repeat``); with the same
+    bytes objects (a reader that caches files) and with fresh copies (each building reads its file
+    again, so every call compares its bytes)."""
     choice = np.random.default_rng(0).integers(0, len(atlas_list), buildings)
+    levels = [reduced_levels(data) for _, data in atlas_list]
     for kind, copy in (("same bytes objects", False), ("fresh copies", True)):
         textures = []
         for k, i in enumerate(choice):
             name, data = atlas_list[i]
             textures.append(Texture(bytes(bytearray(data)) if copy else data, "image/jpeg", 0, 0, name, f"b{k}/{name}"))
-        clear_texture_cache()
-        start = time.perf_counter()
-        for texture in textures:
-            build_texture_lods(texture, SCALES, TextureOptions())
-        elapsed = time.perf_counter() - start
+        ratios = []
+        for _ in range(repeat):
+            start = time.perf_counter()
+            for (_, data), reduced in zip(atlas_list, levels):
+                codec_floor(data, reduced)
+            floor = time.perf_counter() - start
+            clear_texture_cache()
+            start = time.perf_counter()
+            for texture in textures:
+                build_texture_lods(texture, SCALES, TextureOptions())
+            ratios.append((time.perf_counter() - start) / floor)
         print(f"  tile of {buildings} buildings sharing {len(atlas_list)} {label} atlases, {kind}: "
-              f"{elapsed / floor_total:.2f} x the codec floor of the distinct atlases")
+              f"{statistics.median(ratios):.2f} x the codec floor of the distinct atlases")
 
 
 def main() -> None:
@@ -180,7 +202,7 @@ def main() -> None:
     print(f"scales {SCALES}; times relative to the codec floor (decode full + encode reduced levels)")
     print(f"{'atlas':22s} {'floor ms':>8s} {'careful':>8s} {'auto':>6s} {'always':>6s} | PSNR dB draft 1/2 1/4 1/8 | levels auto / careful")
     for r in rows:
-        print(f"{r['name']:22s} {r['floor'] * 1000:8.1f} {r['never'] / r['floor']:8.2f} {r['auto'] / r['floor']:6.2f} {r['always'] / r['floor']:6.2f} | "
+        print(f"{r['name']:22s} {r['floor'] * 1000:8.1f} {r['never/floor']:8.2f} {r['auto/floor']:6.2f} {r['always/floor']:6.2f} | "
               f"{r['draft_2']:13.1f} {r['draft_4']:4.1f} {r['draft_8']:4.1f} | "
               f"{' '.join(f'{v:.1f}' for v in r['psnr_auto'])} / {' '.join(f'{v:.1f}' for v in r['psnr_never'])}")
     kinds = {"facade": "facade (synthetic, VWorld texel size)", "fine": "fine (synthetic close-range facade)",
@@ -195,17 +217,17 @@ def main() -> None:
               + ", ".join(f"1/{f} {min(r[f'draft_{f}'] for r in group):.1f}/{statistics.mean(r[f'draft_{f}'] for r in group):.1f}" for f in FACTORS)
               + "; box filter: "
               + ", ".join(f"1/{f} {min(r[f'box_{f}'] for r in group):.1f}/{statistics.mean(r[f'box_{f}'] for r in group):.1f}" for f in FACTORS))
-        for mode in ("never", "auto", "always"):
+        for mode in MODES:
             per_level = list(zip(*[r[f"psnr_{mode}"] for r in group]))
             print(f"  {mode:7s} {statistics.mean(r[mode] for r in group) * 1000:5.1f} ms per atlas; "
-                  f"time / floor: mean {statistics.mean(r[mode] / r['floor'] for r in group):.2f}, "
-                  f"time / careful: mean {statistics.mean(r[mode] / r['never'] for r in group):.2f}; "
+                  f"time / floor: mean {statistics.mean(r[f'{mode}/floor'] for r in group):.2f}, "
+                  f"time / careful: mean {statistics.mean(r[f'{mode}/never'] for r in group):.2f}; "
                   f"output PSNR min per level: {' '.join(f'{min(v):.1f}' for v in per_level)}")
     print("\ncache (auto):")
     for label, group in groups.items():
         names = {r["name"] for r in group}
         if group and not label.startswith(("fine", "sharp")):
-            measure_tile(label.split(" (")[0], [a for a in atlas_list if a[0] in names], args.buildings, sum(r["floor"] for r in group))
+            measure_tile(label.split(" (")[0], [a for a in atlas_list if a[0] in names], args.buildings, args.repeat)
 
 if __name__ == "__main__":
     main()
