@@ -34,14 +34,21 @@ def parse_tile(text: str) -> TileId:
     return TileId(level, idx, idy)
 
 
+def positive(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text} is not a positive integer")
+    return value
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0], formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", required=True, type=Path, help="tile folder to write (created; must hold no tile files unless --overwrite)")
     parser.add_argument("--demo", action="store_true", help="the committed demo tile's settings (ignores the options below)")
-    parser.add_argument("--count", type=int, default=300, help="buildings (default 300)")
+    parser.add_argument("--count", type=positive, default=300, help="buildings (default 300)")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--tile", type=parse_tile, default=TileId(15, 279418, 116113), help="<level>_<idx>_<idy> (default 15_279418_116113, Seoul City Hall)")
-    parser.add_argument("--atlas", type=int, default=1024, help="atlas side in pixels (default 1024)")
+    parser.add_argument("--atlas", type=positive, default=1024, help="atlas side in pixels (default 1024)")
     parser.add_argument("--mean-triangles", type=float, default=326.0, help="mean triangles per building (default 326, the paper's Seoul mean)")
     parser.add_argument("--two-part-share", type=float, default=0.05, help="share of buildings with two textured parts (VWorld 3.0.0.2), default 0.05")
     parser.add_argument("--overwrite", action="store_true", help="delete the .dat/.xdo/.jpg files already in --out first")

@@ -300,3 +300,20 @@ def test_demo_tile_is_small_complete_and_regenerates(tmp_path):
         elif committed.suffix == ".jpg":  # JPEG bytes may differ between libjpeg builds; pixels may not
             with Image.open(committed) as a, Image.open(fresh) as b:
                 assert np.abs(np.asarray(a, float) - np.asarray(b, float)).mean() < 2.0
+
+
+def test_generate_script_refuses_to_mix_into_an_existing_tile(tmp_path, capsys):
+    import runpy
+
+    main = runpy.run_path(str(REPO / "samples" / "generate.py"))["main"]
+    out = tmp_path / "t"
+    assert main(["--out", str(out), "--count", "2", "--atlas", "16"]) == 0
+    first = sorted(p.name for p in out.iterdir())
+    assert first == ["15_279418_116113.dat", "B0000.jpg", "B0000.xdo", "B0001.jpg", "B0001.xdo"]
+    with pytest.raises(SystemExit):
+        main(["--out", str(out), "--count", "1", "--atlas", "16"])
+    assert "already holds 5 tile files" in capsys.readouterr().err
+    assert main(["--out", str(out), "--count", "1", "--atlas", "16", "--overwrite"]) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["15_279418_116113.dat", "B0000.jpg", "B0000.xdo"]
+    with pytest.raises(SystemExit):
+        main(["--out", str(out), "--count", "0"])

@@ -48,6 +48,7 @@ def circle_ring(cx: float, cz: float, radius: float, segments: int, phase: float
 
 
 def edge_lengths(ring: np.ndarray) -> np.ndarray:
+    """Length (k,) in metres of each edge ``ring[i] -> ring[i+1]``."""
     return np.linalg.norm(np.roll(ring, -1, axis=0) - ring, axis=1)
 
 
