@@ -28,9 +28,9 @@ FIXED_RANGES = {"triangle_ratio": (0.0, 1.0), "silhouette_iou": (0.0, 1.0), "wal
 STYLE = """
 body{font:14px/1.4 system-ui,sans-serif;margin:1.5em;color:#222;background:#fff}
 h1{font-size:1.5em;margin:.2em 0}h2{font-size:1.2em;margin-top:1.6em;border-bottom:1px solid #ddd}
-table{border-collapse:collapse;margin:.5em 0}th,td{border:1px solid #ccc;padding:3px 8px;text-align:right}
+table{border-collapse:collapse;margin:.5em 0}th,td{border:1px solid #ccc;padding:3px 6px;text-align:right}
 th{background:#f0f0f3}td.text,th.text{text-align:left}
-.meta{color:#555}.plots{display:flex;flex-wrap:wrap;gap:10px}
+.meta{color:#555}.plots{display:flex;flex-wrap:wrap;gap:10px}.wide{overflow-x:auto}
 .plot-title{font-size:12px;font-weight:600}.plot-tick{font-size:10px;fill:#555}
 .plot-frame{fill:#fafafa;stroke:#ccc}.plot-grid{stroke:#e4e4e4}.plot-dot{fill:#3465a4;fill-opacity:.7}
 .plot-median{stroke:#c00;stroke-width:2}
@@ -94,7 +94,9 @@ def _fmt_share(value: Optional[float]) -> str:
 
 
 def _fmt_metric(value: Optional[float]) -> str:
-    return "–" if value is None else f"{value:.3g}"
+    if value is None:
+        return "–"
+    return "0" if abs(value) < 1e-9 else f"{value:.3g}"  # float noise of an unchanged level
 
 
 def _is_bad(key: str, value: Optional[float]) -> bool:
@@ -133,7 +135,7 @@ def level_table_html(manifest: dict) -> str:
             f'<td>{_fmt_int(row["texture_pixels"])}</td><td>{_fmt_share(row["pixel_share"])}</td>'
             f'<td class="text">{escape(_sizes(row["texture_sizes"]))}</td>'
             f'<td>{"–" if row["file_bytes"] is None else _fmt_int(row["file_bytes"])}</td></tr>')
-    return f'<table id="level-table">{head}{"".join(rows)}</table>'
+    return f'<div class="wide"><table id="level-table">{head}{"".join(rows)}</table></div>'
 
 
 def skipped_html(manifest: dict) -> str:
