@@ -335,15 +335,16 @@ def predicted_draft_psnr(decoded: Image.Image) -> tuple[float, Image.Image]:
     return image_psnr(lanczos, box if box.size == half else box.resize(half)), lanczos
 
 
-def _decode_jpeg(image: Image.Image, data: bytes, where: str, options: TextureOptions,
+def _decode_jpeg(data: bytes, where: str, options: TextureOptions,
                  target: Optional[tuple[int, int]]) -> tuple[Image.Image, bool, dict]:
-    """Decode the lazily opened JPEG ``image`` (of ``data``) once for levels no larger than
-    ``target`` pixels (None: validation only).
+    """Decode JPEG ``data`` once for levels no larger than ``target`` pixels (None: validation
+    only).
 
     Returns the image, whether each level is resized from the previous one, and Lanczos
     reductions of the image already made ({size: image}). The full-size pixels are never needed
     for themselves: LOD0 keeps the source bytes.
     """
+    image = open_header(data, where, options.max_pixels)
     if target is None:
         _draft(image, (1, 1), ALWAYS_DRAFT_FACTORS)
         return _decode(image, where), False, {}
@@ -354,7 +355,9 @@ def _decode_jpeg(image: Image.Image, data: bytes, where: str, options: TextureOp
     if decoded.width < full_width and options.fast_jpeg_downscale == "auto":
         estimate, lanczos = predicted_draft_psnr(decoded)
         if estimate < AUTO_MIN_PSNR_DB:
-            # Too much detail near the pixel size: the IDCT shortcut would alias it.
+            # Too much detail near the pixel size: the IDCT shortcut would alias it. Drop the
+            # reduced pixels first (peak memory on big atlases).
+            image = decoded = lanczos = None
             return _decode(open_header(data, where, options.max_pixels), where), chain, {}
         return decoded, chain, {lanczos.size: lanczos}
     return decoded, chain, {}
@@ -376,8 +379,9 @@ def _build_levels(data: bytes, scales: Sequence[float], options: TextureOptions,
     sizes = level_sizes(width, height, scales, options.min_size)
     reduced = [size for size in sizes if size != (width, height)]
     if source_format == "JPEG":
+        header = None  # decoded at reduced size below; holding it could pin pixels meanwhile
         largest = max(reduced, key=lambda size: size[0] * size[1]) if reduced else None
-        decoded, chain, known = _decode_jpeg(header, data, where, options, largest)
+        decoded, chain, known = _decode_jpeg(data, where, options, largest)
     else:
         decoded, chain, known = _decode(header, where), False, {}
     transparent = has_transparency(decoded)
