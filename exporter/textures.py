@@ -378,7 +378,9 @@ def _build_levels(data: bytes, scales: Sequence[float], options: TextureOptions,
     source_format, (width, height) = header.format, header.size
     sizes = level_sizes(width, height, scales, options.min_size)
     reduced = [size for size in sizes if size != (width, height)]
-    if source_format == "JPEG":
+    # CMYK JPEGs are not portable glTF images (Unity cannot load them): convert even LOD0.
+    keeps_bytes = source_format in MIME and header.mode != "CMYK"
+    if source_format == "JPEG" and keeps_bytes:
         header = None  # decoded at reduced size below; holding it could pin pixels meanwhile
         largest = max(reduced, key=lambda size: size[0] * size[1]) if reduced else None
         decoded, chain, known = _decode_jpeg(data, where, options, largest)
@@ -388,7 +390,7 @@ def _build_levels(data: bytes, scales: Sequence[float], options: TextureOptions,
     if not transparent and decoded.mode == "RGBA":
         decoded = decoded.convert("RGB")
     fmt = _output_format(source_format, transparent, options)
-    source_level = (data, source_format, width, height, True) if source_format in MIME else None
+    source_level = (data, source_format, width, height, True) if keeps_bytes else None
 
     levels: list[tuple] = []
     previous = decoded

@@ -392,3 +392,12 @@ def test_16_bit_grey_png_is_reduced_to_8_bits_not_clipped():
     assert image.mode == "L" and image.size == (32, 32)
     values = np.asarray(image)
     assert values.min() < 10 and values.max() > 245 and 100 < values.mean() < 155
+
+
+def test_cmyk_jpeg_is_converted_to_rgb_even_at_lod0():
+    data = encode(smooth_rgb(64, 64), "JPEG")
+    cmyk = io.BytesIO()
+    Image.open(io.BytesIO(data)).convert("CMYK").save(cmyk, "JPEG")
+    levels = build_texture_lods(texture_of(cmyk.getvalue()), [1.0, 0.5], TextureOptions())
+    assert levels[0].data != cmyk.getvalue()
+    assert [(decoded(t).mode, t.width) for t in levels] == [("RGB", 64), ("RGB", 32)]
