@@ -25,8 +25,8 @@ ROOF_COLOURS = ((90, 90, 95), (150, 75, 55), (70, 100, 80), (80, 85, 110), (130,
 
 @lru_cache(maxsize=4)
 def grain(size: int) -> Image.Image:
-    """Grey grain (2*size, 2*size) RGB with values 0..20 (10 = no change), the same for every call."""
-    values = np.random.default_rng(NOISE_SEED).integers(0, 21, size=(2 * size, 2 * size), dtype=np.uint8)
+    """Grey grain (size, size) RGB with values 0..20 (10 = no change), the same for every call and atlas."""
+    values = np.random.default_rng(NOISE_SEED).integers(0, 21, size=(size, size), dtype=np.uint8)
     return Image.fromarray(np.repeat(values[:, :, None], 3, axis=2), "RGB")
 
 
@@ -75,8 +75,7 @@ def draw_atlas(rng: np.random.Generator, size: int, floors: int, bays: int) -> I
     facade(draw, rng, (0, 0, size, split), max(1, floors), max(1, bays))
     roof(draw, rng, (0, split, size // 2, size))
     details(draw, rng, (size // 2, split, size, size))
-    dy, dx = (int(v) for v in rng.integers(0, size, size=2))
-    return ImageChops.add(image, grain(size).crop((dx, dy, dx + size, dy + size)), scale=1.0, offset=-10)
+    return ImageChops.add(image, grain(size), scale=1.0, offset=-10)
 
 
 def encode_jpeg(image: Image.Image) -> bytes:
