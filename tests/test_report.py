@@ -111,14 +111,14 @@ BUILDINGS = [
 EXPECTED_ORDER = ["C", "A", "D", "B"]
 
 
-def make_fake_export(out: Path, tile: str = TILE, missing: tuple = ("D", 2)) -> Path:
-    """A fake export folder ``out`` with one tile (4 buildings, 3 levels, one skipped building and
-    one level file missing); returns the tile folder."""
+def make_fake_export(out: Path, tile: str = TILE, missing: tuple = ("D", 2), only: str = "ABCD") -> Path:
+    """A fake export folder ``out`` with one tile (the ``only`` buildings of BUILDINGS, 3 levels,
+    one skipped building and one level file missing); returns the tile folder."""
     tile_dir = out / tile
     tile_dir.mkdir(parents=True)
     base = metrics(1.0, 1.0, 1.0, 0.0)
     buildings = [fake_building(tile_dir, bid, size, [base, q1, q2], missing[1] if bid == missing[0] else None)
-                 for bid, size, q1, q2 in BUILDINGS]
+                 for bid, size, q1, q2 in BUILDINGS if bid in only]
     level, idx, idy = (int(v) for v in tile.split("_"))
     placement = {"position": [0.0, 0.0, 0.0], "rotation": [0.0, 0.0, 0.0, 1.0], "scale": 1.0}
     manifest = {
@@ -310,7 +310,7 @@ def test_index_links_every_tile(tmp_path):
 
 
 def test_stale_images_removed(tmp_path):
-    tile_dir = make_fake_export(tmp_path, missing=("A", 9))
+    tile_dir = make_fake_export(tmp_path, missing=("A", 9), only="A")
     stale = tile_dir / "report" / "Z_lod0.png"
     stale.parent.mkdir()
     stale.write_bytes(b"old")
@@ -333,7 +333,7 @@ def test_bad_inputs_raise_input_error_naming_the_file(tmp_path):
 
 
 def test_broken_glb_gets_a_placeholder_not_a_crash(tmp_path):
-    tile_dir = make_fake_export(tmp_path, missing=("A", 9))
+    tile_dir = make_fake_export(tmp_path, missing=("A", 9), only="B")
     (tile_dir / "B" / "lod1.glb").write_bytes(b"glTF but not really")
     write_reports(tmp_path)
     page = Page((tile_dir / "report.html").read_text(encoding="utf-8"))
@@ -342,14 +342,13 @@ def test_broken_glb_gets_a_placeholder_not_a_crash(tmp_path):
 
 
 def test_problems_shown_and_empty_tile_still_reported(tmp_path):
-    tile_dir = make_fake_export(tmp_path, missing=("A", 9))
+    tile_dir = make_fake_export(tmp_path, missing=("A", 9), only="B")
     manifest = _manifest(tile_dir)
-    manifest["buildings"][1]["problems"] = ["texture B.jpg missing: exported untextured"]
+    manifest["buildings"][0]["problems"] = ["texture B.jpg missing: exported untextured"]
     (tile_dir / "lod_manifest.json").write_text(json.dumps(manifest), encoding="utf-8")
-    empty = make_fake_export(tmp_path, "15_279419_116113")
+    empty = make_fake_export(tmp_path, "15_279419_116113", only="")
     manifest = _manifest(empty)
-    manifest["skipped"] += [{"source": b["source"], "reason": "unreadable", "id": b["id"]} for b in manifest["buildings"]]
-    manifest["buildings"] = []
+    manifest["skipped"] += [{"source": f"src/{b}.xdo", "reason": "unreadable", "id": b} for b in "ABCD"]
     (empty / "lod_manifest.json").write_text(json.dumps(manifest), encoding="utf-8")
     write_reports(tmp_path)
     assert "<li>texture B.jpg missing: exported untextured</li>" in (tile_dir / "report.html").read_text(encoding="utf-8")
@@ -566,7 +565,7 @@ def test_report_of_real_rotterdam_textures(tmp_path, shared_real):
 def test_cli_report_command(tmp_path, capsys):
     from exporter.cli import main
 
-    make_fake_export(tmp_path)
+    make_fake_export(tmp_path, only="A")
     assert main(["report", str(tmp_path)]) == 0
     assert f"report: {tmp_path / 'index.html'}" in capsys.readouterr().out
     assert main(["report", str(tmp_path / "missing")]) == 2
