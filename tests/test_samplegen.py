@@ -278,6 +278,27 @@ def test_written_tile_reads_back_to_the_same_buildings(tmp_path):
         assert not [m for m in got.problems if "wound" in m]
 
 
+def same_model_files(a: Path, b: Path) -> None:
+    """Assert two .dat or two .xdo files hold the same content up to float rounding."""
+    from exporter.formats.vworld_binary import parse_dat, parse_xdo
+
+    if a.suffix == ".dat":
+        x, y = parse_dat(a.read_bytes(), str(a)), parse_dat(b.read_bytes(), str(b))
+        assert (x.level, x.idx, x.idy, len(x.objects)) == (y.level, y.idx, y.idy, len(y.objects))
+        for p, q in zip(x.objects, y.objects):
+            assert (p.version, p.key, p.data_file, p.img_file_name) == (q.version, q.key, q.data_file, q.img_file_name)
+            np.testing.assert_allclose([p.center_lon, p.center_lat, p.altitude], [q.center_lon, q.center_lat, q.altitude], rtol=0, atol=1e-6)
+            np.testing.assert_allclose(p.bbox, q.bbox, rtol=0, atol=1e-4)
+        return
+    x, y = parse_xdo(a.read_bytes(), str(a)), parse_xdo(b.read_bytes(), str(b))
+    assert (x.version, x.key, len(x.meshes)) == (y.version, y.key, len(y.meshes))
+    np.testing.assert_allclose(x.bbox, y.bbox, rtol=0, atol=1e-4)
+    for p, q in zip(x.meshes, y.meshes):
+        np.testing.assert_array_equal(p.indices, q.indices)
+        np.testing.assert_allclose(p.vertices, q.vertices, rtol=0, atol=1e-4)
+        assert (p.color, p.image_name) == (q.color, q.image_name)
+
+
 def test_demo_tile_is_small_complete_and_regenerates(tmp_path):
     if not DEMO.is_dir():
         pytest.skip(f"{DEMO} not committed yet")
@@ -295,8 +316,8 @@ def test_demo_tile_is_small_complete_and_regenerates(tmp_path):
     for committed in sorted(DEMO.iterdir()):
         fresh = tmp_path / DEMO.name / committed.name
         assert fresh.is_file(), f"{committed.name} is not regenerated"
-        if committed.suffix in (".dat", ".xdo"):
-            assert fresh.read_bytes() == committed.read_bytes(), f"{committed.name} differs from the regenerated one"
+        if committed.suffix in (".dat", ".xdo") and fresh.read_bytes() != committed.read_bytes():
+            same_model_files(committed, fresh)  # another libm may move a float32 by an ulp; nothing more
         elif committed.suffix == ".jpg":  # JPEG bytes may differ between libjpeg builds; pixels may not
             with Image.open(committed) as a, Image.open(fresh) as b:
                 assert np.abs(np.asarray(a, float) - np.asarray(b, float)).mean() < 2.0
