@@ -265,7 +265,7 @@ def test_one_image_per_building_per_level_worst_first(report):
             assert not src.startswith(("/", "file:", "http")), src
             assert (tile_dir / src).is_file()
     d = next(a for a in page.articles if a["id"] == "D")
-    assert any("D/lod2.glb" in text for text in d["missing"]), d["missing"]
+    assert any("D/lod2.glb: file missing" in text for text in d["missing"]), d["missing"]
 
 
 def test_renders_show_the_textured_building(report):

@@ -122,6 +122,8 @@ def load_glb(path: str | Path) -> list[Mesh]:
     East/Up/North frame, node transforms applied. Raises InputError naming the file when it cannot
     be read or holds no triangles."""
     path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: file missing")
     try:
         scene = trimesh.load(str(path), file_type="glb", force="scene", process=False)
     except Exception as error:  # trimesh raises many types for a broken file
