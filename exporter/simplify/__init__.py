@@ -21,16 +21,21 @@ Pipeline per level (each level is built from the level above, see the docs for t
 from __future__ import annotations
 
 import dataclasses
+from typing import Optional
 
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from ..config import LodSpec, SimplifyOptions
 from ..errors import ProcessError
 from ..model import Part
-from .protect import (border_vertices, face_areas, footprint_wall_faces, largest_faces,
-                      nonmanifold_vertices, part_border_vertices, seam_vertices)
-from .quadric import collapse
+from .protect import (border_vertices, face_areas, footprint_wall_faces, largest_faces, nonmanifold_vertices,
+                      part_border_vertices)
+from .guard import deviation, diagonal
+from .planar import retriangulate_planar
+from .quadric import Collapsed, collapse
 from .weld import weld_positions
 
 __all__ = ["build_mesh_lods", "clean_part"]
@@ -59,9 +64,19 @@ def clean_part(part: Part) -> Part:
     return dataclasses.replace(part, triangles=part.triangles[areas >= ZERO_AREA_M2])
 
 
+def uv_charts(faces: np.ndarray, vertex_count: int) -> np.ndarray:
+    """(m,) int64 chart of every face: faces sharing a (split, per-UV) vertex are one texture island."""
+    m = len(faces)
+    if m == 0:
+        return np.zeros(0, np.int64)
+    graph = coo_matrix((np.ones(3 * m), (np.repeat(np.arange(m), 3), faces.reshape(-1))), shape=(m, vertex_count)).tocsr()
+    _, labels = connected_components(graph @ graph.T, directed=False)
+    return labels.astype(np.int64)
+
+
 def _join(parts: list[Part], link_distance: float):
     """One welded mesh from all parts: positions (k, 3), faces (m, 3), face_part (m,),
-    corner_uvs (m, 3, 2) or None, and per input vertex its welded index."""
+    corner_uvs (m, 3, 2) or None, face_chart (m,), and per input vertex its welded index."""
     offsets = np.cumsum([0] + [p.vertex_count for p in parts])
     positions = np.concatenate([p.positions for p in parts]) if parts else np.zeros((0, 3))
     faces = np.concatenate([p.triangles + offsets[i] for i, p in enumerate(parts)]) if parts else np.zeros((0, 3), np.int64)
@@ -70,23 +85,26 @@ def _join(parts: list[Part], link_distance: float):
     uvs = np.concatenate([p.uvs if p.uvs is not None else np.zeros((p.vertex_count, 2), np.float32) for p in parts]) if has_uv else None
     welded, welded_positions = weld_positions(positions, link_distance)
     corner_uvs = uvs[faces] if has_uv else None
+    face_chart = uv_charts(faces, len(positions))
     faces = welded[faces]
     # Welding closer than link_distance can fold slivers to edges: drop those.
     distinct = (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])
-    return welded_positions, faces[distinct], face_part[distinct], None if corner_uvs is None else corner_uvs[distinct], welded, offsets
+    return (welded_positions, faces[distinct], face_part[distinct], None if corner_uvs is None else corner_uvs[distinct],
+            face_chart[distinct], welded, offsets)
 
 
-def _locks(positions, faces, face_part, corner_uvs, options: SimplifyOptions) -> np.ndarray:
+def _locks(positions, faces, face_part, options: SimplifyOptions) -> np.ndarray:
     k = len(positions)
     locked = part_border_vertices(faces, face_part, k) | nonmanifold_vertices(faces, k)
     if options.preserve_border_edges:
         locked |= border_vertices(faces, k)
-    if options.preserve_uv_seam_edges and corner_uvs is not None:
-        locked |= seam_vertices(faces, corner_uvs, k)
     return locked
 
 
 def _protected(positions, faces, options: SimplifyOptions) -> np.ndarray:
+    """(m,) bool faces the geometric filter keeps out of the quadric collapse: the largest
+    ``protect_largest`` share by area (the paper's filter) and, with ``protect_walls``, the
+    near-vertical faces standing on the open bottom border."""
     protected = largest_faces(face_areas(positions, faces), options.protect_largest)
     if options.protect_walls:
         protected |= footprint_wall_faces(positions, faces, border_vertices(faces, len(positions)))
@@ -122,18 +140,54 @@ def _split(parts: list[Part], result, face_part_in, welded_src, offsets) -> list
     return out
 
 
-def simplify_parts(parts: list[Part], target: int, options: SimplifyOptions) -> list[Part]:
-    """One level: the parts jointly simplified towards ``target`` triangles (never more than given)."""
+# Bisection steps of the error guard (the target is raised at most this many times).
+GUARD_STEPS = 5
+
+
+def simplify_parts(parts: list[Part], target: int, options: SimplifyOptions,
+                   reference: Optional[tuple[np.ndarray, np.ndarray]] = None) -> list[Part]:
+    """One level: the parts jointly simplified towards ``target`` triangles (never more than given).
+
+    ``reference``: the LOD0 mesh ``(positions (k, 3) metres, faces (m, 3))`` the error guard
+    measures against (default: ``parts`` themselves).
+    """
     total = sum(p.triangle_count for p in parts)
     if total <= target or total == 0:
         return parts
-    positions, faces, face_part, corner_uvs, welded, offsets = _join(parts, options.vertex_link_distance)
-    locked = _locks(positions, faces, face_part, corner_uvs, options)
+    positions, faces, face_part, corner_uvs, face_chart, welded, offsets = _join(parts, options.vertex_link_distance)
+    reference = reference if reference is not None else (positions, faces)
+    # Lossless first: flat polygons re-triangulated from their outlines.
+    if options.planar_retriangulation:
+        faces, corner_uvs, source = retriangulate_planar(positions, faces, corner_uvs, face_chart,
+                                                         _locks(positions, faces, face_part, options))
+        face_part, face_chart = face_part[source], face_chart[source]
+    locked = _locks(positions, faces, face_part, options)
     movable = ~_protected(positions, faces, options)
-    result = collapse(positions, faces, corner_uvs, movable, locked, target,
-                      preserve_curvature=options.preserve_surface_curvature,
-                      refuse_foldovers=options.preserve_uv_foldover_edges,
-                      max_iterations=options.max_iterations)
+
+    def attempt(goal: int):
+        result = collapse(positions, faces, corner_uvs, face_chart, movable, locked, goal,
+                          preserve_curvature=options.preserve_surface_curvature,
+                          keep_seams=options.preserve_uv_seam_edges,
+                          refuse_foldovers=options.preserve_uv_foldover_edges,
+                          max_iterations=options.max_iterations)
+        return result, deviation(reference, result.positions, result.faces)
+
+    tolerance = options.max_error * diagonal(reference[0])
+    result, error = attempt(target)
+    if options.max_error > 0 and error > tolerance:
+        # Raise the target until the level stays within the tolerance (bisection on the count).
+        flat = Collapsed(positions, faces, corner_uvs, np.arange(len(positions)), np.arange(len(faces)))
+        best, low, high = flat, target, len(faces)
+        for _ in range(GUARD_STEPS):
+            middle = (low + high) // 2
+            if middle <= low or middle >= high:
+                break
+            trial, error = attempt(middle)
+            if error <= tolerance:
+                best, high = trial, middle
+            else:
+                low = middle
+        result = best
     if len(result.faces) >= total:
         return parts
     return _split(parts, result, face_part, welded, offsets)
@@ -153,7 +207,8 @@ def build_mesh_lods(parts: list[Part], lods: list[LodSpec], options: SimplifyOpt
         _check_part(part, i)
     source_triangles = sum(p.triangle_count for p in parts)
     levels = [[clean_part(p) for p in parts]]
+    positions, faces, *_ = _join(levels[0], 0.0)  # the guard's reference: LOD0, welded
     for spec in lods[1:]:
         target = int(round(source_triangles * spec.mesh))
-        levels.append(simplify_parts(levels[-1], target, options))
+        levels.append(simplify_parts(levels[-1], target, options, reference=(positions, faces)))
     return levels

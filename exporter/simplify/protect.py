@@ -11,7 +11,16 @@ simplification); Table II's border / UV-seam options as defined by Whinarn's Uni
 """
 from __future__ import annotations
 
+from typing import Optional
+
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+# Two faces sharing an edge are one planar region when their unit normals differ by less than
+# this angle (cosine) and the second lies on the first's plane within PLANE_M metres.
+COPLANAR_COS = float(np.cos(np.radians(1.0)))
+PLANE_M = 1e-3
 
 
 def face_areas(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -61,14 +70,6 @@ def part_border_vertices(faces: np.ndarray, face_part: np.ndarray, vertex_count:
     return (high > low) & (high >= 0)
 
 
-def seam_vertices(faces: np.ndarray, corner_uvs: np.ndarray, vertex_count: int) -> np.ndarray:
-    """(k,) bool: vertices whose corners carry two or more different UVs (texture seams)."""
-    keys = np.column_stack([faces.reshape(-1).astype(np.float64), corner_uvs.reshape(-1, 2).astype(np.float64)])
-    distinct = np.unique(keys, axis=0)
-    counts = np.bincount(distinct[:, 0].astype(np.int64), minlength=vertex_count)
-    return counts > 1
-
-
 def footprint_wall_faces(positions: np.ndarray, faces: np.ndarray, border: np.ndarray,
                          max_normal_up: float = 0.2) -> np.ndarray:
     """(m,) bool: near-vertical faces (|unit normal . Up| <= ``max_normal_up``) that stand on the
@@ -85,3 +86,60 @@ def footprint_wall_faces(positions: np.ndarray, faces: np.ndarray, border: np.nd
     low = y <= y.min() + 0.01 * max(float(np.ptp(y)), 1e-9)
     on_ground = (border & low)[faces].any(axis=1)
     return (up <= max_normal_up) & on_ground & (length > 0)
+
+
+def planar_regions(positions: np.ndarray, faces: np.ndarray, groups: Optional[np.ndarray] = None) -> np.ndarray:
+    """(m,) int64 region of every face: edge-connected faces on one plane (the polygons of the
+    building's polygonal model, whatever their triangulation); with ``groups`` (m,) int64 only
+    faces of one group (e.g. one UV chart) join."""
+    m = len(faces)
+    if m == 0:
+        return np.zeros(0, np.int64)
+    a, b, c = (positions[faces[:, i]] for i in range(3))
+    normal = np.cross(b - a, c - a)
+    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-30)
+    edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    owner = np.repeat(np.arange(m), 3)
+    order = np.lexsort((edges[:, 1], edges[:, 0]))
+    edges, owner = edges[order], owner[order]
+    same = (edges[1:] == edges[:-1]).all(axis=1)
+    f, g = owner[:-1][same], owner[1:][same]
+    if groups is not None:
+        keep = groups[f] == groups[g]
+        f, g = f[keep], g[keep]
+    coplanar = ((normal[f] * normal[g]).sum(1) > COPLANAR_COS) & \
+        (np.abs(((positions[faces[g]].mean(axis=1) - a[f]) * normal[f]).sum(1)) < PLANE_M)
+    graph = coo_matrix((np.ones(coplanar.sum()), (f[coplanar], g[coplanar])), shape=(m, m))
+    _, labels = connected_components(graph, directed=False)
+    return labels.astype(np.int64)
+
+
+def region_outline_vertices(faces: np.ndarray, regions: np.ndarray, chosen: np.ndarray,
+                            border: np.ndarray) -> np.ndarray:
+    """(k,) bool: vertices on the outline of the chosen regions (``chosen`` (r,) bool): used by a
+    chosen region and by another region, or on the open border (``border`` (k,) bool)."""
+    k = len(border)
+    corner_region = np.repeat(regions, 3)
+    low = np.full(k, np.iinfo(np.int64).max)
+    high = np.full(k, -1)
+    np.minimum.at(low, faces.reshape(-1), corner_region)
+    np.maximum.at(high, faces.reshape(-1), corner_region)
+    touches = np.zeros(k, dtype=bool)
+    touches[faces[chosen[regions]].reshape(-1)] = True
+    return touches & ((high > low) | border)
+
+
+def largest_regions(positions: np.ndarray, faces: np.ndarray, regions: np.ndarray, share: float) -> np.ndarray:
+    """(r,) bool: the ``round(share * r)`` planar regions of largest area (the paper's filter)."""
+    areas = np.bincount(regions, weights=face_areas(positions, faces), minlength=regions.max() + 1 if len(regions) else 0)
+    return largest_faces(areas, share)
+
+
+def footprint_wall_regions(positions: np.ndarray, faces: np.ndarray, regions: np.ndarray,
+                           border: np.ndarray) -> np.ndarray:
+    """(r,) bool: regions holding a footprint wall face (see :func:`footprint_wall_faces`)."""
+    walls = footprint_wall_faces(positions, faces, border)
+    chosen = np.zeros(regions.max() + 1 if len(regions) else 0, dtype=bool)
+    chosen[regions[walls]] = True
+    return chosen
+

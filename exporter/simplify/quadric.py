@@ -1,20 +1,33 @@
-"""Quadric edge collapse (Garland & Heckbert 1997) through pymeshlab, with per-vertex locks.
+"""Quadric edge collapse (Garland & Heckbert 1997) through pymeshlab, with per-vertex locks and
+texture coordinates carried by the collapse, checked for seams and foldovers.
 
 Data form: a welded mesh, ``positions`` (k, 3) float64 metres (building-local East/Up/North),
-``faces`` (m, 3) int64 wound outward, ``corner_uvs`` (m, 3, 2) float32 per face corner (glTF
-UV convention) or None. ``movable`` (m,) bool marks the faces simplification may change,
-``locked`` (k,) bool the vertices that must not move.
+``faces`` (m, 3) int64 wound outward; ``corner_uvs`` (m, 3, 2) float32 per face corner (glTF UV
+convention) or None, ``face_chart`` (m,) int64 the UV chart (texture island) of every face.
+``movable`` (m,) bool marks the faces simplification may change, ``locked`` (k,) bool the
+vertices that must not move.
 
-pymeshlab (MeshLab's ``tri::TriEdgeCollapseQuadric[Tex]``, Hoppe's texture quadric when UVs are
-given) has no per-vertex lock, only "simplify the selected faces": a vertex may move only when
-all its faces are selected, and an edge collapses only when both ends may move. So a locked vertex
-gets an *anchor*: one tiny unselected triangle hung on it, removed afterwards. Face and vertex
-identity survive the filter in the per-face / per-vertex quality values (input face index + 1,
-negative when not movable, 0 for anchors; welded vertex index, -1 for anchor vertices).
+Why this shape:
 
-Wedge UVs cannot be handed to the texture filter directly (pymeshlab then marks them "no texture"),
-so the mesh is built split per corner with per-vertex UVs, converted to wedges, then re-welded with
-``meshing_remove_duplicate_vertices`` (positions are exact duplicates by construction).
+- pymeshlab has no per-vertex lock, only "simplify the selected faces": a vertex may move only
+  when all its faces are selected, and an edge collapses only when both ends may move. A locked
+  vertex therefore gets an *anchor*: one tiny unselected triangle hung on it, removed afterwards.
+  With ``selected`` MeshLab's face target counts the selected faces only (quadric_simp.cpp:
+  ``target = fn - (selected - target)``).
+- Face and vertex identity survive the filter in the per-face / per-vertex quality values (input
+  face index + 1, negative when not movable, 0 for anchors; input vertex index, -1 for anchor
+  corners).
+- The geometric collapse runs without the texture quadric: measured on VWorld-like buildings,
+  ``..._with_texture`` moves vertices off flat walls (2 % of the diagonal at 5 % reduction) where
+  the plain filter removes half the faces with zero error. Placement is restricted to the
+  collapsed edge's end points (``optimalplacement=False``), so every output vertex is an input
+  vertex and its UV in each chart is known exactly.
+- UVs of an output corner: the input face's own corner when the vertex did not change, otherwise
+  the UV the new vertex has in the face's chart. A corner whose vertex is not in that chart at
+  all is a collapse across a texture seam: with ``keep_seams`` the pass is redone with that
+  vertex locked; without, it gets the UV of the closest point of the chart. A face whose UV
+  triangle flipped against its input face is a foldover: with ``refuse_foldovers`` the pass is
+  redone with its vertices locked.
 """
 from __future__ import annotations
 
@@ -25,6 +38,7 @@ import numpy as np
 import pymeshlab
 
 # Offsets (metres) of an anchor's two extra corners; odd values so they never hit a real vertex.
+PRESERVE_TOPOLOGY = True
 _ANCHOR_OFFSETS = np.array([[7.31e-4, 0.0, 0.0], [0.0, 0.0, 6.17e-4]])
 
 
@@ -32,8 +46,8 @@ _ANCHOR_OFFSETS = np.array([[7.31e-4, 0.0, 0.0], [0.0, 0.0, 6.17e-4]])
 class Collapsed:
     """Result of :func:`collapse`: the same data form as its input plus the identity maps.
 
-    ``vertex_ids`` (k',) int64: input vertex index of every output vertex; ``face_ids`` (m',)
-    int64: input face index of every output face (surviving faces keep their identity).
+    ``vertex_ids`` (k',) int64: input vertex index of every output vertex (its position is that
+    input vertex's position); ``face_ids`` (m',) int64: input face index of every output face.
     """
 
     positions: np.ndarray
@@ -43,117 +57,141 @@ class Collapsed:
     face_ids: np.ndarray
 
 
-def _anchors(positions: np.ndarray, faces: np.ndarray, movable: np.ndarray, locked: np.ndarray):
-    """Anchor triangles for locked vertices not already held by an unmovable face."""
-    held = np.zeros(len(positions), dtype=bool)
+# --------------------------------------------------------------------------- the pymeshlab pass
+
+def _anchors(vertex_count: int, faces: np.ndarray, movable: np.ndarray, locked: np.ndarray) -> np.ndarray:
+    """Locked vertices not already held by an unmovable face: (a,) int64."""
+    held = np.zeros(vertex_count, dtype=bool)
     held[faces[~movable].reshape(-1)] = True
-    need = np.flatnonzero(locked & ~held)
-    corners = positions[need][:, None, :] + np.vstack([np.zeros(3), _ANCHOR_OFFSETS])[None]
-    return need, corners  # (a,), (a, 3, 3) metres
+    return np.flatnonzero(locked & ~held)
 
 
-def _meshset(positions, faces, corner_uvs, movable, locked) -> tuple[pymeshlab.MeshSet, int]:
-    need, anchor_corners = _anchors(positions, faces, movable, locked)
-    face_q = np.where(movable, np.arange(1, len(faces) + 1), -np.arange(1, len(faces) + 1)).astype(np.float64)
-    # Every face split into its own three corners; anchors' first corner is the locked vertex.
-    corner_pos = np.concatenate([positions[faces].reshape(-1, 3), anchor_corners.reshape(-1, 3)])
-    corner_id = np.concatenate([faces.reshape(-1), np.stack([need, -np.ones_like(need), -np.ones_like(need)], axis=1).reshape(-1)])
-    all_q = np.concatenate([face_q, np.zeros(len(need))])
-    tri = np.arange(len(corner_pos), dtype=np.int32).reshape(-1, 3)
-    kwargs = dict(v_scalar_array=corner_id.astype(np.float64), f_scalar_array=all_q)
-    if corner_uvs is not None:
-        uv = np.concatenate([corner_uvs.reshape(-1, 2), np.zeros((3 * len(need), 2))]).astype(np.float64)
-        kwargs["v_tex_coords_matrix"] = uv
+def quadric_pass(positions, faces, movable, locked, target: int, preserve_curvature: bool) -> tuple[np.ndarray, np.ndarray]:
+    """One pymeshlab collapse pass; returns ``(faces (m', 3) as input vertex indices, face_ids (m',))``."""
+    need = _anchors(len(positions), faces, movable, locked)
+    k = len(positions)
+    corners = (positions[need][:, None, :] + _ANCHOR_OFFSETS[None]).reshape(-1, 3)
+    all_positions = np.concatenate([positions, corners])
+    anchor_faces = np.column_stack([need, k + 2 * np.arange(len(need)), k + 2 * np.arange(len(need)) + 1])
+    face_q = np.where(movable, 1.0, -1.0) * np.arange(1, len(faces) + 1)
+    mesh = pymeshlab.Mesh(all_positions, np.concatenate([faces, anchor_faces]).astype(np.int32),
+                          v_scalar_array=np.concatenate([np.arange(k), -np.ones(len(corners))]).astype(np.float64),
+                          f_scalar_array=np.concatenate([face_q, np.zeros(len(need))]))
     ms = pymeshlab.MeshSet()
-    ms.add_mesh(pymeshlab.Mesh(corner_pos, tri, **kwargs))
-    if corner_uvs is not None:
-        ms.compute_texcoord_transfer_vertex_to_wedge()
-    ms.meshing_remove_duplicate_vertices()
+    ms.add_mesh(mesh)
     ms.compute_selection_by_condition_per_face(condselect="fq > 0")
-    return ms, len(need)
-
-
-def _run(positions, faces, corner_uvs, movable, locked, target, preserve_curvature) -> Collapsed:
-    ms, anchor_count = _meshset(positions, faces, corner_uvs, movable, locked)
-    # With ``selected`` MeshLab's target counts the selected faces only (quadric_simp.cpp:
-    # ``target = fn - (selected - target)``): ask for what the movable faces may keep.
     movable_target = max(0, int(target) - int((~movable).sum()))
-    common = dict(targetfacenum=movable_target, selected=True, preserveboundary=False,
-                  optimalplacement=True, planarquadric=True, preservenormal=bool(preserve_curvature))
-    if movable.any():
-        if corner_uvs is not None:
-            ms.meshing_decimation_quadric_edge_collapse_with_texture(**common)
-        else:
-            ms.meshing_decimation_quadric_edge_collapse(**common, preservetopology=True, autoclean=False)
-    mesh = ms.current_mesh()
-    face_q = mesh.face_scalar_array()
-    keep = face_q != 0
-    out_faces = mesh.face_matrix()[keep].astype(np.int64)
-    vertex_q = mesh.vertex_scalar_array().astype(np.int64)
-    used = np.unique(out_faces)
-    remap = np.full(len(vertex_q), -1, dtype=np.int64)
-    remap[used] = np.arange(len(used))
-    vertex_ids = vertex_q[used]
-    out_pos = mesh.vertex_matrix()[used].astype(np.float64)
-    # pymeshlab stores float32: put unmoved vertices back on their exact input coordinates.
-    close = np.linalg.norm(out_pos - positions[vertex_ids], axis=1) < 1e-4
-    out_pos[close] = positions[vertex_ids[close]]
-    uvs = None
-    if corner_uvs is not None:
-        uvs = mesh.wedge_tex_coord_matrix().reshape(-1, 3, 2)[keep].astype(np.float32)
-    face_ids = (np.abs(face_q[keep]) - 1).astype(np.int64)
-    return Collapsed(out_pos, remap[out_faces], uvs, vertex_ids, face_ids)
+    ms.meshing_decimation_quadric_edge_collapse(
+        targetfacenum=movable_target, selected=True, preserveboundary=False, preservetopology=PRESERVE_TOPOLOGY,
+        optimalplacement=False, planarquadric=True, preservenormal=bool(preserve_curvature), autoclean=False)
+    out = ms.current_mesh()
+    out_q = out.face_scalar_array()
+    keep = out_q != 0
+    vertex_ids = np.rint(out.vertex_scalar_array()).astype(np.int64)
+    return vertex_ids[out.face_matrix()[keep]], (np.abs(out_q[keep]) - 1).astype(np.int64)
 
 
-def uv_signs(positions: np.ndarray, faces: np.ndarray, corner_uvs: np.ndarray) -> np.ndarray:
+# --------------------------------------------------------------------------- UVs of the result
+
+def closest_barycentric(point: np.ndarray, tri: np.ndarray) -> tuple[int, np.ndarray]:
+    """Index of the triangle (t, 3, 3) closest to ``point`` (3,) and the barycentric weights (3,)
+    of the closest point on it (clamped to the triangle)."""
+    best, best_d, best_w = 0, np.inf, np.array([1.0, 0.0, 0.0])
+    for i, (a, b, c) in enumerate(tri):
+        ab, ac = b - a, c - a
+        gram = np.array([[ab @ ab, ab @ ac], [ab @ ac, ac @ ac]])
+        rhs = np.array([ab @ (point - a), ac @ (point - a)])
+        try:
+            v, w = np.linalg.solve(gram, rhs)
+        except np.linalg.LinAlgError:
+            continue
+        weights = np.clip(np.array([1.0 - v - w, v, w]), 0.0, None)
+        weights /= max(weights.sum(), 1e-30)
+        d = np.linalg.norm(weights @ np.stack([a, b, c]) - point)
+        if d < best_d:
+            best, best_d, best_w = i, d, weights
+    return best, best_w
+
+
+def assign_uvs(positions, faces, corner_uvs, face_chart, out_faces, face_ids):
+    """UVs (m', 3, 2) of the output corners and the input vertices found outside their face's
+    chart ((s,) int64, seam crossings). See the module doc."""
+    in_faces = faces[face_ids]
+    in_uvs = corner_uvs[face_ids]
+    out_uvs = in_uvs.copy()
+    # Unchanged corners: the input face's corner holding the same vertex.
+    match = out_faces[:, :, None] == in_faces[:, None, :]            # (m', 3 out, 3 in)
+    found = match.any(axis=2)
+    source_corner = match.argmax(axis=2)
+    rows = np.arange(len(out_faces))[:, None]
+    out_uvs[found] = in_uvs[np.broadcast_to(rows, found.shape)[found], source_corner[found]]
+    crossings = []
+    if (~found).any():
+        # Changed corners: the vertex's UV in the face's chart (chart, vertex) -> candidate UVs.
+        keys = face_chart[:, None] * (len(positions) + 1) + faces
+        order = np.argsort(keys.reshape(-1), kind="stable")
+        sorted_keys = keys.reshape(-1)[order]
+        flat_uvs = corner_uvs.reshape(-1, 2)[order]
+        for o, j in zip(*np.nonzero(~found)):
+            chart = face_chart[face_ids[o]]
+            vertex = out_faces[o, j]
+            key = chart * (len(positions) + 1) + vertex
+            lo, hi = np.searchsorted(sorted_keys, key, "left"), np.searchsorted(sorted_keys, key, "right")
+            if hi > lo:
+                candidates = np.unique(flat_uvs[lo:hi], axis=0)
+                # Several UVs in one chart (a wrapped seam, e.g. a cylinder): nearest to the others.
+                others = out_uvs[o, found[o]] if found[o].any() else in_uvs[o]
+                out_uvs[o, j] = candidates[np.argmin(np.linalg.norm(candidates - others.mean(axis=0), axis=1))]
+            else:
+                crossings.append(vertex)
+                in_chart = np.flatnonzero(face_chart == chart)
+                index, weights = closest_barycentric(positions[vertex], positions[faces[in_chart]])
+                out_uvs[o, j] = weights @ corner_uvs[in_chart[index]]
+    return out_uvs.astype(np.float32), np.unique(np.asarray(crossings, dtype=np.int64))
+
+
+def uv_signs(corner_uvs: np.ndarray) -> np.ndarray:
     """(m,) int8 sign of every face's signed area in UV space (0 when degenerate in UV)."""
-    d1 = corner_uvs[:, 1] - corner_uvs[:, 0]
-    d2 = corner_uvs[:, 2] - corner_uvs[:, 0]
-    cross = d1[:, 0].astype(np.float64) * d2[:, 1] - d1[:, 1].astype(np.float64) * d2[:, 0]
+    d1 = (corner_uvs[:, 1] - corner_uvs[:, 0]).astype(np.float64)
+    d2 = (corner_uvs[:, 2] - corner_uvs[:, 0]).astype(np.float64)
+    cross = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
     return np.sign(np.where(np.abs(cross) < 1e-12, 0.0, cross)).astype(np.int8)
 
 
-def foldover_faces(result: Collapsed, source_signs: np.ndarray) -> np.ndarray:
-    """(m',) bool: output faces whose UV orientation is flipped (or lost) against their source face."""
-    if result.corner_uvs is None or len(result.faces) == 0:
-        return np.zeros(len(result.faces), dtype=bool)
-    before = source_signs[result.face_ids]
-    after = uv_signs(result.positions, result.faces, result.corner_uvs)
-    return (before != 0) & (after != before)
-
+# --------------------------------------------------------------------------- entry point
 
 def collapse(positions: np.ndarray, faces: np.ndarray, corner_uvs: Optional[np.ndarray],
-             movable: np.ndarray, locked: np.ndarray, target: int, *,
-             preserve_curvature: bool = False, refuse_foldovers: bool = True,
+             face_chart: Optional[np.ndarray], movable: np.ndarray, locked: np.ndarray, target: int, *,
+             preserve_curvature: bool = False, keep_seams: bool = True, refuse_foldovers: bool = True,
              max_iterations: int = 100) -> Collapsed:
-    """Collapse edges of the movable faces until the mesh has ``target`` faces or no collapse is left.
+    """Collapse edges of the movable faces towards ``target`` faces (see the module doc).
 
-    Each iteration is one pymeshlab pass. With ``refuse_foldovers`` a pass that flipped faces in UV
-    space is redone from its input with the flipped faces' vertices locked; otherwise, a pass that
-    stopped above ``target`` while still making progress is followed by another pass from its
-    output (the heap is rebuilt, so collapses refused on stale quadrics are retried). At most
-    ``max_iterations`` passes run; the last accepted result is returned (the input when none).
+    Each iteration is one pymeshlab pass from the input. A pass that crossed a texture seam
+    (``keep_seams``) or flipped a face in UV space (``refuse_foldovers``) is redone with the
+    offending vertices locked. At most ``max_iterations`` passes run; the last clean pass is
+    returned (the input when none was clean).
     """
     locked = np.asarray(locked, dtype=bool).copy()
-    source_signs = uv_signs(positions, faces, corner_uvs) if corner_uvs is not None else None
-    best = Collapsed(positions, faces, corner_uvs, np.arange(len(positions)), np.arange(len(faces)))
-    cur = best
-    cur_movable = movable
+    source_signs = uv_signs(corner_uvs) if corner_uvs is not None else None
+    unchanged = Collapsed(positions, faces, corner_uvs, np.arange(len(positions)), np.arange(len(faces)))
+    if len(faces) <= target or not movable.any():
+        return unchanged
     for _ in range(max_iterations):
-        if len(cur.faces) <= target or not cur_movable.any():
-            break
-        cur_locked = locked[cur.vertex_ids]
-        trial = _run(cur.positions, cur.faces, cur.corner_uvs, cur_movable, cur_locked, target, preserve_curvature)
-        # Map identities back to the level's input.
-        trial.vertex_ids = cur.vertex_ids[trial.vertex_ids]
-        trial.face_ids = cur.face_ids[trial.face_ids]
-        if refuse_foldovers and source_signs is not None:
-            flipped = foldover_faces(trial, source_signs)
-            if flipped.any():
-                locked[trial.vertex_ids[np.unique(trial.faces[flipped])]] = True
+        out_faces, face_ids = quadric_pass(positions, faces, movable, locked, target, preserve_curvature)
+        uvs = None
+        if corner_uvs is not None:
+            uvs, crossings = assign_uvs(positions, faces, corner_uvs, face_chart, out_faces, face_ids)
+            offenders = crossings if keep_seams else np.zeros(0, np.int64)
+            if refuse_foldovers:
+                before = source_signs[face_ids]
+                flipped = (before != 0) & (uv_signs(uvs) != before)
+                offenders = np.union1d(offenders, out_faces[flipped].reshape(-1))
+            offenders = offenders[~locked[offenders]]
+            if len(offenders):
+                locked[offenders] = True
                 continue
-        if len(trial.faces) >= len(cur.faces):
-            break
-        cur = best = trial
-        cur_movable = movable[cur.face_ids]
-    return best
+        used = np.unique(out_faces)
+        remap = np.full(len(positions), -1, dtype=np.int64)
+        remap[used] = np.arange(len(used))
+        return Collapsed(positions[used], remap[out_faces], uvs, used, face_ids)
+    return unchanged

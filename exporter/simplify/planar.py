@@ -1,0 +1,224 @@
+"""Lossless planar retriangulation: every flat polygon of the building re-triangulated from its
+outline only (interior vertices dropped), before any lossy collapse.
+
+Data form: a welded mesh, ``positions`` (k, 3) float64 metres (building-local East/Up/North),
+``faces`` (m, 3) int64 wound outward, ``corner_uvs`` (m, 3, 2) float32 or None, ``face_chart``
+(m,) int64 UV chart per face, ``locked`` (k,) bool vertices that must stay.
+
+A planar region (edge-connected, coplanar, one chart: :func:`protect.planar_regions`) is one
+polygon of the source model, possibly with holes, that the source happened to cut into many
+triangles (VWorld walls cut into floors x window bays, earcut-triangulated CityJSON polygons).
+Its outline loops are kept vertex for vertex (so neighbours never see a T-junction) and
+re-triangulated with earcut (mapbox_earcut, Mapbox's ear-clipping with hole bridging). The UV
+mapping of one flat chart is affine, so the outline's UVs reproduce the texture exactly. Quadric
+collapse (pymeshlab) cannot do this: an edge collapses only when both ends may move, so a flat
+patch whose outline is locked keeps interior vertices.
+
+A region is left alone when the result would not be exact: a pinched outline, a vertex with two
+UVs in the region, or earcut's triangles not covering the region's area.
+"""
+from __future__ import annotations
+
+import mapbox_earcut
+import numpy as np
+
+from .protect import border_vertices, face_areas, planar_regions
+
+
+def _loops(region_faces: np.ndarray) -> list[list[int]] | None:
+    """Outline loops (vertex lists, in the faces' winding) of a face set, or None if pinched."""
+    half = region_faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    inner = {(int(a), int(b)) for a, b in half}
+    following: dict[int, int] = {}
+    for a, b in half.tolist():
+        if (b, a) not in inner:
+            if a in following:
+                return None
+            following[a] = b
+    loops, seen = [], set()
+    for start in following:
+        if start in seen:
+            continue
+        loop, v = [], start
+        while v not in seen:
+            seen.add(v)
+            loop.append(v)
+            v = following.get(v)
+            if v is None:
+                return None
+        if v != start:
+            return None
+        loops.append(loop)
+    return loops
+
+
+def _plane_basis(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    helper = np.array([1.0, 0.0, 0.0]) if abs(normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = np.cross(normal, helper)
+    u /= np.linalg.norm(u)
+    return u, np.cross(normal, u)
+
+
+def straight_vertices(positions: np.ndarray, faces: np.ndarray, regions: np.ndarray, locked: np.ndarray,
+                      tolerance: float = 1e-6, on_border: bool = True) -> np.ndarray:
+    """(k,) bool: unlocked vertices on exactly two outline edges (edges on the open border or
+    between two regions) that run straight through them (collinear within ``tolerance``
+    metres): dropping such a vertex from every region that has it changes no outline."""
+    k = len(positions)
+    edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    owner = np.repeat(regions, 3)
+    order = np.lexsort((owner, edges[:, 1], edges[:, 0]))
+    edges, owner = edges[order], owner[order]
+    unique, start, counts = np.unique(edges, axis=0, return_index=True, return_counts=True)
+    first_region = owner[start]
+    last_region = owner[start + counts - 1]
+    outline = (counts == 1) | (first_region != last_region)
+    ends = unique[outline]
+    degree = np.bincount(ends.reshape(-1), minlength=k)
+    # The two outline neighbours of every degree-2 vertex.
+    half = np.concatenate([ends, ends[:, ::-1]])
+    half = half[np.argsort(half[:, 0], kind="stable")]
+    straight = np.zeros(k, dtype=bool)
+    two = np.flatnonzero(degree == 2)
+    if not on_border:
+        border = np.zeros(k, dtype=bool)
+        border[unique[counts == 1].reshape(-1)] = True
+        two = two[~border[two]]
+    if len(two):
+        first = np.searchsorted(half[:, 0], two)
+        a, b = positions[half[first, 1]], positions[half[first + 1, 1]]
+        p = positions[two]
+        direction = b - a
+        length = np.linalg.norm(direction, axis=1)
+        off_line = np.linalg.norm(np.cross(direction, p - a), axis=1) / np.maximum(length, 1e-30)
+        between = ((p - a) * direction).sum(1) / np.maximum(length**2, 1e-30)
+        # Not where the two neighbours already share an edge (a slit / T-junction of the source):
+        # dropping would close it and change the open boundary.
+        pair = np.sort(np.stack([half[first, 1], half[first + 1, 1]], axis=1), axis=1)
+        existing = (unique[:, 0] * k + unique[:, 1])
+        closes = np.isin(pair[:, 0] * k + pair[:, 1], existing)
+        straight[two] = (off_line < tolerance) & (between > 0) & (between < 1) & ~closes
+    return straight & ~locked
+
+
+def _retriangulate(positions, region_faces, region_uvs, droppable):
+    """New (faces (t, 3), corner uvs (t, 3, 2)) for one region, or None when not exact."""
+    loops = _loops(region_faces)
+    if not loops:
+        return None
+    loops = [[v for v in loop if not droppable[v]] for loop in loops]
+    if any(len(loop) < 3 for loop in loops):
+        return None
+    uv_of: dict[int, tuple] = {}
+    for face, uvs in zip(region_faces.tolist(), region_uvs.tolist() if region_uvs is not None else [None] * len(region_faces)):
+        for j, v in enumerate(face):
+            uv = tuple(uvs[j]) if uvs is not None else None
+            if uv_of.setdefault(v, uv) != uv:
+                return None
+    a, b, c = (positions[region_faces[:, i]] for i in range(3))
+    normal = np.cross(b - a, c - a).sum(axis=0)
+    area = 0.5 * np.linalg.norm(normal)
+    if area <= 0:
+        return None
+    normal /= 2 * area
+    u, v = _plane_basis(normal)
+    # Outer ring first (largest area), then the holes.
+    flat = [positions[loop] @ np.stack([u, v], axis=1) for loop in loops]
+    signed = [0.5 * np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1]) for p in flat]
+    order = np.argsort(-np.abs(signed))
+    rings = [loops[i] for i in order]
+    vertices = np.concatenate([loop for loop in rings])
+    points = np.concatenate([flat[i] for i in order])
+    ends = np.cumsum([len(loop) for loop in rings]).astype(np.uint32)
+    tri = np.asarray(mapbox_earcut.triangulate_float64(points, ends), dtype=np.int64).reshape(-1, 3)
+    if len(tri) != len(vertices) - 2 + 2 * (len(rings) - 1):
+        return None
+    new_faces = vertices[tri]
+    # The new triangles' outline must be exactly the (dropped) loops: no edge across a hole.
+    expected = {tuple(sorted((loop[i], loop[(i + 1) % len(loop)]))) for loop in rings for i in range(len(loop))}
+    edges, counts = np.unique(np.sort(new_faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0, return_counts=True)
+    if {tuple(e) for e in edges[counts == 1].tolist()} != expected or counts.max() > 2:
+        return None
+    n = np.cross(positions[new_faces[:, 1]] - positions[new_faces[:, 0]], positions[new_faces[:, 2]] - positions[new_faces[:, 0]])
+    new_faces = np.where(((n @ normal) < 0)[:, None], new_faces[:, ::-1], new_faces)
+    areas = face_areas(positions, new_faces)
+    # Earcut may emit zero-area slivers along collinear outline vertices: not exact, refuse.
+    if abs(areas.sum() - area) > 1e-6 * max(area, 1.0) or areas.min() < 1e-9 * max(area, 1.0):
+        return None
+    new_uvs = None
+    if region_uvs is not None:
+        new_uvs = np.array([[uv_of[int(x)] for x in face] for face in new_faces], dtype=np.float32)
+    return new_faces, new_uvs
+
+
+def _boundary(positions: np.ndarray, faces: np.ndarray) -> tuple[float, int]:
+    """Open-boundary length (metres) and edge count."""
+    edges, counts = np.unique(np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0, return_counts=True)
+    border = edges[counts == 1]
+    return float(np.linalg.norm(positions[border[:, 0]] - positions[border[:, 1]], axis=1).sum()), len(border)
+
+
+def retriangulate_planar(positions: np.ndarray, faces: np.ndarray, corner_uvs, face_chart: np.ndarray,
+                         locked: np.ndarray):
+    """Every planar region with droppable vertices re-triangulated from its outline (see the
+    module doc); straight vertices on the open border are dropped too unless that would close a
+    slit of the source (the open boundary's length must not change).
+
+    Returns ``(faces (m', 3), corner_uvs (m', 3, 2) or None, source (m',) int64)`` where
+    ``source`` is, for every output face, an input face of the same region (for chart, part and
+    UV orientation). Lossless: same surface, same texture mapping, same outlines.
+    """
+    before = _boundary(positions, faces)
+    result = _retriangulate_regions(positions, faces, corner_uvs, face_chart, locked, on_border=True)
+    length, _ = _boundary(positions, result[0])
+    if abs(length - before[0]) > 1e-9 * max(before[0], 1.0):
+        result = _retriangulate_regions(positions, faces, corner_uvs, face_chart, locked, on_border=False)
+    return result
+
+
+def _retriangulate_regions(positions, faces, corner_uvs, face_chart, locked, on_border: bool):
+    m = len(faces)
+    regions = planar_regions(positions, faces, face_chart)
+    if m == 0:
+        return faces, corner_uvs, np.arange(m)
+    k = len(positions)
+    corner_region = np.repeat(regions, 3)
+    low = np.full(k, np.iinfo(np.int64).max)
+    high = np.full(k, -1)
+    np.minimum.at(low, faces.reshape(-1), corner_region)
+    np.maximum.at(high, faces.reshape(-1), corner_region)
+    interior = (low == high) & ~border_vertices(faces, k) & ~locked
+    used = np.zeros(k, dtype=bool)
+    used[faces.reshape(-1)] = True
+    droppable = (interior | straight_vertices(positions, faces, regions, locked, on_border=on_border)) & used
+    # Every region holding a droppable vertex is redone; a region that cannot be done exactly
+    # keeps its vertices, so its neighbours must keep them too: repeat until consistent.
+    for _ in range(8):
+        corner_drop = droppable[faces].any(axis=1)
+        candidates = np.unique(regions[corner_drop])
+        results, failed = {}, False
+        for region in candidates:
+            members = np.flatnonzero(regions == region)
+            result = _retriangulate(positions, faces[members], corner_uvs[members] if corner_uvs is not None else None, droppable)
+            if result is None:
+                droppable[faces[members].reshape(-1)] = False
+                failed = True
+            else:
+                results[region] = (members, result)
+        if not failed:
+            break
+    else:
+        results = {}
+    keep = np.ones(m, dtype=bool)
+    new_faces, new_uvs, new_source = [], [], []
+    for members, (tri, uvs) in results.values():
+        keep[members] = False
+        new_faces.append(tri)
+        if corner_uvs is not None:
+            new_uvs.append(uvs)
+        new_source.append(np.full(len(tri), members[0]))
+    if not new_faces:
+        return faces, corner_uvs, np.arange(m)
+    out_faces = np.concatenate([faces[keep]] + new_faces)
+    out_uvs = np.concatenate([corner_uvs[keep]] + new_uvs) if corner_uvs is not None else None
+    return out_faces, out_uvs, np.concatenate([np.flatnonzero(keep)] + new_source)
