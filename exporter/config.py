@@ -135,7 +135,9 @@ class SimplifyOptions:
     preserve_surface_curvature: bool = field(default=False, metadata=meta(parse_bool, "weigh collapses by surface curvature so curved parts (domes) keep their shape"))
     vertex_link_distance: float = field(default=0.0, metadata=meta(_number(0.0), "metres: weld vertices closer than this before simplifying (0 = only exact duplicates)"))
     max_iterations: int = field(default=100, metadata=meta(_integer(1, 100000), "maximum simplification passes per level"))
-    protect_walls: bool = field(default=True, metadata=meta(parse_bool, "also never simplify near-vertical faces standing on the open bottom border (the walls on the footprint outline)"))
+    max_error: float = field(default=0.005, metadata=meta(_number(0.0, maximum=1.0), "largest allowed deviation of a level from LOD0 (symmetric sampled Hausdorff distance) as a share of the building's bounding-box diagonal; a level that would exceed it keeps more triangles (0 = no limit)"))
+    protect_walls: bool = field(default=False, metadata=meta(parse_bool, "also keep near-vertical faces standing on the open bottom border (the walls on the footprint outline) out of the quadric collapse"))
+    planar_retriangulation: bool = field(default=True, metadata=meta(parse_bool, "first re-triangulate every flat polygon from its outline (lossless: same surface, same UV mapping, same outlines)"))
 
 
 @dataclass
