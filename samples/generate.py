@@ -51,6 +51,7 @@ def main(argv=None) -> int:
     parser.add_argument("--atlas", type=positive, default=1024, help="atlas side in pixels (default 1024)")
     parser.add_argument("--mean-triangles", type=float, default=326.0, help="mean triangles per building (default 326, the paper's Seoul mean)")
     parser.add_argument("--two-part-share", type=float, default=0.05, help="share of buildings with two textured parts (VWorld 3.0.0.2), default 0.05")
+    parser.add_argument("--jobs", type=positive, default=1, help="processes drawing buildings (same result for any number; default 1)")
     parser.add_argument("--overwrite", action="store_true", help="delete the .dat/.xdo/.jpg files already in --out first")
     args = parser.parse_args(argv)
 
@@ -63,7 +64,7 @@ def main(argv=None) -> int:
                                                  mean_triangles=args.mean_triangles, kinds=None, two_part_share=args.two_part_share)
     tile = TileId(15, 279418, 116113) if args.demo else args.tile
     folder = generate_tile(args.out, settings["count"], settings["seed"], tile, settings["atlas_size"], settings["mean_triangles"],
-                           kinds=settings["kinds"], two_part_share=settings["two_part_share"])
+                           kinds=settings["kinds"], two_part_share=settings["two_part_share"], jobs=args.jobs)
     size = sum(p.stat().st_size for p in folder.iterdir() if p.suffix.lower() in TILE_FILES)
     print(f"wrote {settings['count']} buildings of tile {tile.name} to {folder} ({size / 1e6:.2f} MB)")
     return 0

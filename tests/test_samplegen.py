@@ -83,6 +83,15 @@ def test_same_seed_gives_identical_buildings_and_bytes():
     assert any(x.parts[0].positions.shape != z.parts[0].positions.shape or x.reference != z.reference for x, z in zip(a, c))
 
 
+def test_worker_processes_give_the_same_buildings():
+    one = generate_buildings(5, seed=21, atlas_size=16)
+    two = generate_buildings(5, seed=21, atlas_size=16, jobs=2)
+    for x, y in zip(one, two):
+        assert x.reference == y.reference and len(x.parts) == len(y.parts)
+        for p, q in zip(x.parts, y.parts):
+            assert p.positions.tobytes() == q.positions.tobytes() and p.texture.data == q.texture.data
+
+
 def test_building_geometry_does_not_depend_on_count():
     few, more = generate_buildings(3, seed=9, atlas_size=16), generate_buildings(7, seed=9, atlas_size=16)
     for x, y in zip(few, more):

@@ -20,7 +20,9 @@ elevation 20-60 m).
 from __future__ import annotations
 
 import math
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Optional, Sequence
 
@@ -116,11 +118,24 @@ def make_building(rng: np.random.Generator, kind: str, budget: float = 326.0, at
     return Sample(building=building, kind=kind, footprints=footprints, budget=budget)
 
 
+def _sample(seed: int, i: int, street: float, atlas_size: int, mean_triangles: float,
+            kinds: Optional[Sequence[str]], two_part_share: float) -> Sample:
+    """Building ``i`` of the tile, from its own random stream only (so workers can draw it)."""
+    names, weights = list(KIND_WEIGHTS), np.array(list(KIND_WEIGHTS.values()))
+    rng = _building_rng(seed, i)
+    budget = triangle_budget(rng, mean_triangles)
+    kind = kinds[i % len(kinds)] if kinds else names[int(rng.choice(len(names), p=weights / weights.sum()))]
+    two_part = bool(rng.random() < two_part_share)
+    yaw = street + math.pi / 2 * int(rng.integers(4)) + rng.normal(0.0, 0.03)
+    return make_building(rng, kind, budget, atlas_size, f"B{i:04d}", yaw, two_part)
+
+
 def generate_samples(count: int, seed: int = 0, tile: TileId = DEFAULT_TILE, atlas_size: int = 1024,
                      mean_triangles: float = 326.0, kinds: Optional[Sequence[str]] = None,
-                     two_part_share: float = 0.05) -> list[Sample]:
+                     two_part_share: float = 0.05, jobs: int = 1) -> list[Sample]:
     """:func:`generate_buildings` keeping each building's kind and footprint; ``kinds`` (optional) is
-    cycled through instead of drawing kinds at random."""
+    cycled through instead of drawing kinds at random; ``jobs`` > 1 draws buildings (mostly JPEG
+    encoding) in that many processes, with the same result."""
     if count < 0:
         raise ValueError(f"count must be >= 0, got {count}")
     if atlas_size < 8:
@@ -128,15 +143,13 @@ def generate_samples(count: int, seed: int = 0, tile: TileId = DEFAULT_TILE, atl
     tile_rng = np.random.default_rng(np.random.SeedSequence([seed, 1]))
     street = tile_rng.uniform(0.0, math.pi / 2)  # the tile's street-grid bearing, radians
     elev_base, elev_slope = tile_rng.uniform(25.0, 55.0), tile_rng.uniform(-0.04, 0.04, size=2)  # metres, m/m
-    names, weights = list(KIND_WEIGHTS), np.array(list(KIND_WEIGHTS.values()))
-    samples = []
-    for i in range(count):
-        rng = _building_rng(seed, i)
-        budget = triangle_budget(rng, mean_triangles)
-        kind = kinds[i % len(kinds)] if kinds else names[int(rng.choice(len(names), p=weights / weights.sum()))]
-        two_part = bool(rng.random() < two_part_share)
-        yaw = street + math.pi / 2 * int(rng.integers(4)) + rng.normal(0.0, 0.03)
-        samples.append(make_building(rng, kind, budget, atlas_size, f"B{i:04d}", yaw, two_part))
+    draw = partial(_sample, seed, street=street, atlas_size=atlas_size, mean_triangles=mean_triangles,
+                   kinds=tuple(kinds) if kinds else None, two_part_share=two_part_share)
+    if jobs > 1 and count > 1:
+        with ProcessPoolExecutor(max_workers=jobs) as pool:
+            samples = list(pool.map(draw, range(count), chunksize=max(1, count // (4 * jobs))))
+    else:
+        samples = [draw(i) for i in range(count)]
     centres = layout.place(tile_rng, [s.footprints for s in samples], tile)
     lonlat = layout.to_lonlat(tile, centres)
     for s, (x, z), (lon, lat) in zip(samples, centres, lonlat):
@@ -159,19 +172,19 @@ def _lonlat_bounds(building: Building, lon: float, lat: float) -> tuple:
 
 def generate_buildings(count: int, seed: int = 0, tile: TileId = DEFAULT_TILE, atlas_size: int = 1024,
                        mean_triangles: float = 326.0, *, kinds: Optional[Sequence[str]] = None,
-                       two_part_share: float = 0.05) -> list[Building]:
+                       two_part_share: float = 0.05, jobs: int = 1) -> list[Building]:
     """``count`` VWorld-like floorless buildings placed in ``tile`` (see the module doc)."""
-    return [s.building for s in generate_samples(count, seed, tile, atlas_size, mean_triangles, kinds, two_part_share)]
+    return [s.building for s in generate_samples(count, seed, tile, atlas_size, mean_triangles, kinds, two_part_share, jobs)]
 
 
 def generate_tile(folder, count: int, seed: int = 0, tile: TileId = DEFAULT_TILE, atlas_size: int = 1024,
                   mean_triangles: float = 326.0, *, kinds: Optional[Sequence[str]] = None,
-                  two_part_share: float = 0.05) -> Path:
+                  two_part_share: float = 0.05, jobs: int = 1) -> Path:
     """Write ``count`` generated buildings as a VWorld tile (``.dat``, ``.xdo``, ``.jpg``) into ``folder``; returns it."""
     from ..readers.vworld import write_tile  # the writer lives with the reader
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    buildings = generate_buildings(count, seed, tile, atlas_size, mean_triangles, kinds=kinds, two_part_share=two_part_share)
+    buildings = generate_buildings(count, seed, tile, atlas_size, mean_triangles, kinds=kinds, two_part_share=two_part_share, jobs=jobs)
     write_tile(folder, tile, buildings, version=2 if any(len(b.parts) > 1 for b in buildings) else 1)
     return folder
