@@ -1,0 +1,182 @@
+"""Each SimplifyOptions key really changes the result, on a crafted mesh where it matters.
+
+Meshes are in the building-local East/Up/North frame (metres, y = Up); see test_simplify_shapes.
+Most tests switch the lossless planar stage and the error guard off (``BASE``) so the quadric
+stage and the option under test act alone.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from exporter.config import LodSpec, SimplifyOptions
+from exporter.model import Part
+from exporter.quality import boundary_loops, joined, measure_lod
+from exporter.simplify import build_mesh_lods, clean_part
+from exporter.simplify.protect import face_areas, largest_faces
+from test_simplify_shapes import Atlas, Builder, add_dome, add_flat_roof, add_walls
+
+BASE = SimplifyOptions(planar_retriangulation=False, max_error=0.0, protect_largest=0.0)
+
+
+def lod(parts, ratio, **changes):
+    options = dataclasses.replace(BASE, **changes)
+    return build_mesh_lods(parts, [LodSpec(0.5), LodSpec(0.1, mesh=ratio)], options)[1]
+
+
+def count(parts):
+    return sum(p.triangle_count for p in parts)
+
+
+@pytest.fixture(scope="module")
+def dome():
+    builder, atlas = Builder(), Atlas()
+    add_dome(builder, atlas, 0.0, 0.0, 0.0, 10.0, 8, 24)
+    return [builder.part()]
+
+
+@pytest.fixture(scope="module")
+def two_chart_plane():
+    """A 10 x 10 m wall in the x-y plane cut 12 x 12, left and right halves in separate UV islands."""
+    builder = Builder()
+    builder.grid((0, 0, 0), (5, 0, 0), (0, 10, 0), 6, 12, (0.0, 0.0, 0.2, 0.2))
+    builder.grid((5, 0, 0), (5, 0, 0), (0, 10, 0), 6, 12, (0.5, 0.5, 0.7, 0.7))
+    return [builder.part()]
+
+
+@pytest.fixture(scope="module")
+def grid_box():
+    """Floorless 12 x 9 x 8 m box, walls cut 4 x 3, flat roof cut 4 x 4 (edges match: no T-junctions)."""
+    builder, atlas = Builder(), Atlas()
+    add_walls(builder, atlas, -6, -4.5, 6, 4.5, 0.0, 8.0, 4, 3)
+    add_flat_roof(builder, atlas, -6, -4.5, 6, 4.5, 8.0, 4)
+    return [builder.part()]
+
+
+def uv_stretch(parts):
+    """(min, max) over faces of UV area / 3-D area (constant on an affine chart)."""
+    p = parts[0]
+    c, u = p.positions[p.triangles], p.uvs[p.triangles].astype(float)
+    area3 = 0.5 * np.linalg.norm(np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0]), axis=1)
+    d1, d2 = u[:, 1] - u[:, 0], u[:, 2] - u[:, 0]
+    ratio = 0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]) / area3
+    return ratio.min(), ratio.max()
+
+
+def test_protect_largest_keeps_exactly_the_largest_faces(dome):
+    part = dome[0]
+    areas = face_areas(part.positions, part.triangles)
+    protected = largest_faces(areas, 0.3)
+    assert protected.sum() == round(0.3 * len(areas))
+    assert areas[protected].min() >= areas[~protected].max()
+    with_filter, without = lod(dome, 0.3, protect_largest=0.3), lod(dome, 0.3)
+    assert count(with_filter) != count(without)
+    # Every protected triangle is still there, corner for corner.
+    out = with_filter[0]
+    kept = {tuple(sorted(map(tuple, np.round(out.positions[t], 9)))) for t in out.triangles}
+    for t in part.triangles[protected]:
+        assert tuple(sorted(map(tuple, np.round(part.positions[t], 9)))) in kept
+    # Without the filter some of them are gone.
+    out = without[0]
+    kept = {tuple(sorted(map(tuple, np.round(out.positions[t], 9)))) for t in out.triangles}
+    assert any(tuple(sorted(map(tuple, np.round(part.positions[t], 9)))) not in kept for t in part.triangles[protected])
+
+
+def test_preserve_border_edges_keeps_the_open_bottom(grid_box):
+    source_pos, source_faces = joined(grid_box)
+    bottom = {tuple(p) for p in np.round(source_pos[source_pos[:, 1] == 0.0], 9)}
+    kept = lod(grid_box, 0.2)
+    free = lod(grid_box, 0.2, preserve_border_edges=False)
+    kept_bottom = {tuple(p) for p in np.round(joined(kept)[0], 9) if p[1] == 0.0}
+    free_bottom = {tuple(p) for p in np.round(joined(free)[0], 9) if p[1] == 0.0}
+    assert kept_bottom == bottom
+    assert free_bottom != bottom
+    assert measure_lod(grid_box, kept)["boundary_length_change"] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_preserve_uv_seam_edges_keeps_the_texture_unstretched(two_chart_plane):
+    low, high = uv_stretch(two_chart_plane)
+    assert high / low == pytest.approx(1.0, abs=1e-4)
+    kept = lod(two_chart_plane, 0.2)
+    free = lod(two_chart_plane, 0.2, preserve_uv_seam_edges=False)
+    low_kept, high_kept = uv_stretch(kept)
+    low_free, high_free = uv_stretch(free)
+    assert high_kept / low_kept == pytest.approx(1.0, abs=1e-4)
+    assert high_free / low_free > 1.05
+    assert count(free) < count(kept)
+
+
+def test_preserve_uv_foldover_edges_refuses_flipped_uvs(dome):
+    def flipped(parts):
+        p = parts[0]
+        u = p.uvs[p.triangles].astype(float)
+        d1, d2 = u[:, 1] - u[:, 0], u[:, 2] - u[:, 0]
+        return int(((d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]) < -1e-12).sum())
+
+    # The source's UV triangles all have one orientation (the pole row's zero-area faces aside).
+    assert flipped([clean_part(dome[0])]) == 0
+    assert flipped(lod(dome, 0.3)) == 0
+    assert flipped(lod(dome, 0.3, preserve_uv_foldover_edges=False)) > 0
+
+
+def test_preserve_surface_curvature_changes_the_collapse(dome):
+    # pymeshlab's normal check refuses collapses that tilt a face by more than 45 degrees; on the
+    # dome that leaves collapses the UV foldover check accepts, so the level gets further.
+    plain = lod(dome, 0.3)
+    curved = lod(dome, 0.3, preserve_surface_curvature=True)
+    assert count(curved) != count(plain)
+
+
+def test_vertex_link_distance_closes_a_crack():
+    # Two wall panels 1 mm apart: a crack the source's float noise left behind.
+    builder = Builder()
+    builder.grid((0, 0, 0), (5, 0, 0), (0, 10, 0), 4, 8, (0.0, 0.0, 0.2, 0.2))
+    builder.grid((5.001, 0, 0), (5, 0, 0), (0, 10, 0), 4, 8, (0.2, 0.0, 0.4, 0.2))
+    parts = [builder.part()]
+    welded = lod(parts, 0.5, vertex_link_distance=0.01, preserve_uv_seam_edges=False)
+    apart = lod(parts, 0.5, vertex_link_distance=0.0, preserve_uv_seam_edges=False)
+    loops = lambda ps: boundary_loops(joined(ps)[1], len(joined(ps)[0]))[1]
+    assert loops(apart) == 2
+    assert loops(welded) == 1
+
+
+def test_max_iterations_bounds_the_retries(two_chart_plane):
+    # The first pass crosses the seam, so one pass is not enough: the level stays unchanged.
+    assert count(lod(two_chart_plane, 0.2, max_iterations=1)) == count(two_chart_plane)
+    assert count(lod(two_chart_plane, 0.2, max_iterations=100)) < count(two_chart_plane)
+
+
+def test_max_error_bounds_the_deviation(dome):
+    free = lod(dome, 0.3, preserve_uv_foldover_edges=False)
+    bounded = lod(dome, 0.3, preserve_uv_foldover_edges=False, max_error=0.002)
+    assert measure_lod(dome, free)["hausdorff_rel"] > 0.01
+    assert measure_lod(dome, bounded)["hausdorff_rel"] <= 0.0025  # guard samples; metric samples more
+    assert count(bounded) > count(free)
+
+
+def test_protect_walls_keeps_the_footprint_walls(grid_box):
+    walls = lod(grid_box, 0.2, protect_walls=True, preserve_border_edges=False)
+    free = lod(grid_box, 0.2, preserve_border_edges=False)
+    source = joined(grid_box)[0]
+    # The bottom row of wall cells stands on the open border: its corners stay.
+    low_wall_points = {tuple(p) for p in np.round(source[source[:, 1] <= 8.0 / 3 + 1e-9], 9)}
+    assert low_wall_points <= {tuple(p) for p in np.round(joined(walls)[0], 9)}
+    assert not low_wall_points <= {tuple(p) for p in np.round(joined(free)[0], 9)}
+
+
+def test_planar_retriangulation_is_lossless_and_reduces(grid_box):
+    options = SimplifyOptions()
+    flat = build_mesh_lods(grid_box, [LodSpec(0.5), LodSpec(0.1, mesh=0.99)], options)[1]
+    off = build_mesh_lods(grid_box, [LodSpec(0.5), LodSpec(0.1, mesh=0.99)],
+                          dataclasses.replace(options, planar_retriangulation=False))[1]
+    assert count(flat) < count(off)
+    metrics = measure_lod(grid_box, flat)
+    assert metrics["hausdorff_rel"] < 1e-9
+    assert metrics["silhouette_iou"] == 1.0 and metrics["wall_coverage"] == 1.0
+    assert metrics["boundary_length_change"] == pytest.approx(0.0, abs=1e-12) and metrics["new_holes"] == 0
+    # Four walls and a roof, each one rectangle: 5 x 2 triangles.
+    assert count(flat) == 10
+    low, high = uv_stretch([Part(flat[0].positions, flat[0].triangles[:2], uvs=flat[0].uvs)])
+    assert high / low == pytest.approx(1.0, abs=1e-4)
