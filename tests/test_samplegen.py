@@ -13,6 +13,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from PIL import Image
 
 from exporter.model import TileId
@@ -159,6 +161,27 @@ def test_open_base_outlines_the_footprint(shapes, key):
     for i, j in border:
         middle = (points[i] + points[j]) / 2
         assert min(r.distance(Point(middle[0], middle[2])) for r in rings) < 1e-6
+
+
+@settings(max_examples=25, deadline=None, derandomize=True)
+@given(seed=st.integers(0, 2**32 - 1), kind=st.sampled_from(KINDS), budget=st.floats(30.0, 3000.0),
+       yaw=st.floats(0.0, 2 * math.pi), two_part=st.booleans())
+def test_any_seed_budget_and_turn_gives_a_floorless_outward_building(seed, kind, budget, yaw, two_part):
+    sample = make_building(np.random.default_rng(seed), kind, budget, atlas_size=8, yaw=yaw, two_part=two_part)
+    positions, triangles = merged(sample.building)
+    normals = triangle_normals(positions, triangles)
+    area = np.linalg.norm(normals, axis=1)
+    assert np.all(area > 1e-9)
+    assert (normals[:, 1] / area).min() > -1e-6
+    a, b, c = (positions[triangles[:, i]] for i in range(3))
+    assert np.einsum("ij,ij->i", a, np.cross(b, c)).sum() > 0
+    points, border = base_border(sample)
+    assert np.all(np.bincount(border.ravel(), minlength=len(points)) % 2 == 0)
+    length = np.linalg.norm(points[border[:, 0]] - points[border[:, 1]], axis=1).sum()
+    assert length == pytest.approx(sum(Polygon(r).length for r in sample.footprints), rel=1e-6)
+    assert all(p.uvs.min() >= 0 and p.uvs.max() <= 1 for p in sample.building.parts)
+    low, high = positions[:, [0, 2]].min(axis=0), positions[:, [0, 2]].max(axis=0)
+    np.testing.assert_allclose((low + high) / 2, 0.0, atol=1e-9)  # reference = centre of the East/North box
 
 
 def test_walls_are_gridded_by_floors_and_use_the_facade_region(shapes):
