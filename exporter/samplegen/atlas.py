@@ -19,8 +19,8 @@ import numpy as np
 from PIL import Image, ImageChops, ImageDraw
 
 JPEG_QUALITY = 85
-NOISE_SEED = 20240101
-ROOF_COLOURS = ((90, 90, 95), (150, 75, 55), (70, 100, 80), (80, 85, 110), (130, 125, 115))  # slate, terracotta, green, blue, concrete  # fixed: the noise texture is part of the format, not of the sample seed
+NOISE_SEED = 20240101  # fixed: the grain is part of the look, not of the sample seed
+ROOF_COLOURS = ((90, 90, 95), (150, 75, 55), (70, 100, 80), (80, 85, 110), (130, 125, 115))  # slate, terracotta, green, blue, concrete
 
 
 @lru_cache(maxsize=4)
