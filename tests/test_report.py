@@ -416,6 +416,31 @@ def test_bilinear_sampling_wraps_like_repeat():
     assert values == pytest.approx([0.0, 100.0, 200.0, 100.0, 50.0])  # x = 0 and 2.25 wrap around
 
 
+def test_fragments_match_a_per_pixel_inside_test():
+    from exporter.report.render import fragments
+
+    rng = np.random.default_rng(7)
+    size = 40
+    screen = np.column_stack([rng.uniform(-10, 50, (60, 2)), rng.uniform(1, 5, 60)])  # some off-image
+    triangles = rng.integers(0, 60, (50, 3))
+    triangles = triangles[(triangles[:, 0] != triangles[:, 1]) & (triangles[:, 1] != triangles[:, 2]) & (triangles[:, 0] != triangles[:, 2])]
+    rows, cols, faces, weights = (np.concatenate(parts) for parts in zip(*fragments(screen, triangles, size)))
+    found = set(zip(rows.tolist(), cols.tolist(), faces.tolist()))
+    # The weights interpolate the corners back to the pixel centre.
+    centres = np.einsum("ki,kij->kj", weights, screen[triangles[faces], :2])
+    assert np.abs(centres - np.column_stack([cols, rows]) - 0.5).max() < 1e-3
+    expected = set()
+    ys, xs = np.mgrid[0:size, 0:size] + 0.5
+    for f, (i, j, k) in enumerate(triangles):
+        (xa, ya), (xb, yb), (xc, yc) = screen[[i, j, k], :2]
+        area = (xb - xa) * (yc - ya) - (xc - xa) * (yb - ya)
+        w0 = ((xb - xs) * (yc - ys) - (xc - xs) * (yb - ys)) / area
+        w1 = ((xc - xs) * (ya - ys) - (xa - xs) * (yc - ys)) / area
+        inside = (w0 >= 0) & (w1 >= 0) & (1 - w0 - w1 >= 0)
+        expected |= {(int(r), int(c), f) for r, c in zip(*np.nonzero(inside))}
+    assert len(expected) > 500 and found == expected and len(rows) == len(found)
+
+
 def test_render_is_not_mirrored():
     # A low box with a tall tower at its East end, seen from the south: the tower is on the right.
     base = box_part(30.0, 6.0, 4.0, 1, 64)

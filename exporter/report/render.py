@@ -224,8 +224,16 @@ def shadow_triangles(positions: np.ndarray, ground: float) -> np.ndarray:
 
 # --------------------------------------------------------------------------- rasterising
 
-FRAGMENT_CHUNK = 1 << 20  # bounding-box pixels handled per numpy batch (bounded memory)
+FRAGMENT_CHUNK = 1 << 20  # pixels handled per numpy batch (bounded memory)
+ROW_CHUNK = 1 << 18  # triangle rows handled per batch
 NEAR = 1e-3  # metres: triangles with a corner closer to the camera plane than this are not drawn
+
+
+def _expand(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For (n,) non-negative counts: (sum,) owner index and (sum,) position within its owner."""
+    owner = np.repeat(np.arange(len(counts)), counts)
+    first = np.repeat(np.cumsum(counts) - counts, counts)
+    return owner, np.arange(len(owner)) - first
 
 
 def fragments(screen: np.ndarray, triangles: np.ndarray, size: int):
@@ -233,49 +241,67 @@ def fragments(screen: np.ndarray, triangles: np.ndarray, size: int):
 
     ``screen`` (n, 3) projected points (pixel x, pixel y, depth); ``triangles`` (m, 3). Yields
     ``(rows, cols, faces, weights)``: (k,) pixel row and column, (k,) triangle index, (k, 3)
-    screen-space barycentric weights of the pixel centre. Top-left ties are not resolved: a pixel
-    on a shared edge may belong to both triangles, which only matters for depth-equal overlaps.
+    screen-space barycentric weights of the pixel centre. A pixel belongs to a triangle when its
+    centre is inside (all three edge functions >= 0); top-left ties are not resolved, which only
+    matters for depth-equal overlaps. Work follows the covered pixels, not the bounding boxes:
+    each triangle is cut into one span per pixel row (long thin triangles of retriangulated
+    walls would otherwise cost their whole bounding box).
     """
-    corners = screen[triangles][:, :, :2]  # (m, 3, 2)
+    corners = screen[triangles][:, :, :2].astype(np.float64)  # (m, 3, 2)
     low = np.maximum(np.floor(corners.min(axis=1)).astype(np.int64), 0)
     high = np.minimum(np.ceil(corners.max(axis=1)).astype(np.int64) + 1, size)
-    extent = np.maximum(high - low, 0)
     (x0, y0), (x1, y1), (x2, y2) = (corners[:, i].T for i in range(3))
     area = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
     # Skip degenerate triangles and any reaching behind the camera (a spike of a broken level):
     # their screen positions are meaningless, the rest of the building still draws.
-    valid = (np.abs(area) > 1e-9) & (screen[triangles][:, :, 2] > NEAR).all(axis=1)
+    valid = (np.abs(area) > 1e-9) & (screen[triangles][:, :, 2] > NEAR).all(axis=1) & (high > low).all(axis=1)
     area = np.where(valid, area, 1.0)
-    # Edge functions are affine in the pixel centre: w_i = a_i x + b_i y + c_i, relative to the
-    # bounding box corner (x = col - low_x + 0.5) to keep float32 exact enough.
-    ox, oy = low[:, 0] - 0.5, low[:, 1] - 0.5
-    coefficients = []
-    for (xa, ya), (xb, yb) in (((x1, y1), (x2, y2)), ((x2, y2), (x0, y0))):
-        xa, ya, xb, yb = xa - ox, ya - oy, xb - ox, yb - oy
-        coefficients.append(np.stack([(ya - yb) / area, (xb - xa) / area, (xa * yb - xb * ya) / area], axis=1))
-    coefficients = np.concatenate(coefficients, axis=1).astype(np.float32)  # (m, 6)
-    counts = np.where(valid, extent[:, 0] * extent[:, 1], 0)
+    # Edge functions (barycentric weights) are affine in the pixel centre: w_i = a_i x + b_i y + c_i,
+    # edge i opposite corner i. Shapes (m, 3).
+    a = np.stack([y1 - y2, y2 - y0, y0 - y1], axis=1) / area[:, None]
+    b = np.stack([x2 - x1, x0 - x2, x1 - x0], axis=1) / area[:, None]
+    c = np.stack([x1 * y2 - x2 * y1, x2 * y0 - x0 * y2, x0 * y1 - x1 * y0], axis=1) / area[:, None]
+    heights = np.where(valid, high[:, 1] - low[:, 1], 0)
+    for batch in _batches(heights, ROW_CHUNK):
+        yield from _span_fragments(batch, heights[batch], low, high, a, b, c, size)
+
+
+def _batches(counts: np.ndarray, limit: int):
+    """Consecutive index arrays over the non-zero ``counts`` holding about ``limit`` in total each."""
     order = np.flatnonzero(counts)
     start = 0
     while start < len(order):
-        # Take triangles until the batch holds about FRAGMENT_CHUNK bounding-box pixels.
-        running = np.cumsum(counts[order[start:]])
-        stop = start + max(1, int(np.searchsorted(running, FRAGMENT_CHUNK, side="right")))
-        batch = order[start:stop]
+        stop = start + max(1, int(np.searchsorted(np.cumsum(counts[order[start:]]), limit, side="right")))
+        yield order[start:stop]
         start = stop
-        faces = np.repeat(batch.astype(np.int32), counts[batch])
-        first = np.repeat((np.cumsum(counts[batch]) - counts[batch]).astype(np.int32), counts[batch])
-        offset = np.arange(len(faces), dtype=np.int32) - first
-        dx, dy = np.divmod(offset, extent[faces, 0].astype(np.int32))[::-1]
-        c = coefficients[faces]
-        xs, ys = dx.astype(np.float32), dy.astype(np.float32)
-        w0 = c[:, 0] * xs + c[:, 1] * ys + c[:, 2]
-        w1 = c[:, 3] * xs + c[:, 4] * ys + c[:, 5]
-        w2 = 1.0 - w0 - w1
-        inside = np.flatnonzero((w0 >= 0.0) & (w1 >= 0.0) & (w2 >= 0.0))
-        faces = faces[inside]
-        yield (low[faces, 1] + dy[inside], low[faces, 0] + dx[inside], faces,
-               np.column_stack([w0[inside], w1[inside], w2[inside]]))
+
+
+def _span_fragments(triangles: np.ndarray, heights: np.ndarray, low, high, a, b, c, size: int):
+    """Fragments of the given triangle indices (see :func:`fragments`), one span per pixel row:
+    the columns whose centre satisfies all three w_i >= 0."""
+    owner, dy = _expand(heights)
+    faces = triangles[owner]
+    y = (low[faces, 1] + dy) + 0.5
+    d = b[faces] * y[:, None] + c[faces]  # w_i = a_i x + d_i on this row
+    slope = a[faces]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        bound = -d / slope
+    x_min = np.where(slope > 0, bound, -np.inf).max(axis=1)
+    x_max = np.where(slope < 0, bound, np.inf).min(axis=1)
+    empty = ((slope == 0) & (d < 0)).any(axis=1)
+    first = np.maximum(np.ceil(np.nan_to_num(x_min - 0.5, neginf=-1.0)), low[faces, 0]).astype(np.int64)
+    last = np.minimum(np.floor(np.nan_to_num(x_max - 0.5, posinf=size)), high[faces, 0] - 1).astype(np.int64)
+    counts = np.where(empty, 0, np.maximum(last - first + 1, 0))
+    for spans in _batches(counts, FRAGMENT_CHUNK):
+        span_of, dx = _expand(counts[spans])
+        span = spans[span_of]
+        face = faces[span]
+        cols = first[span] + dx
+        xs, ys = cols + 0.5, y[span]
+        w0 = a[face, 0] * xs + b[face, 0] * ys + c[face, 0]
+        w1 = a[face, 1] * xs + b[face, 1] * ys + c[face, 1]
+        weights = np.column_stack([w0, w1, 1.0 - w0 - w1]).astype(np.float32)
+        yield (ys - 0.5).astype(np.int64), cols, face, weights
 
 
 def fill_flat(canvas: np.ndarray, screen: np.ndarray, triangles: np.ndarray, color: np.ndarray) -> None:
