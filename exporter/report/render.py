@@ -25,7 +25,8 @@ image is rendered at ``supersample`` times the size and box-filtered down (anti-
 default 1.5 trades smoothness for time).
 
 Sources: the rasterisation follows the edge-function formulation in J. Pineda, "A Parallel Algorithm
-for Polygon Rasterization" (SIGGRAPH 1988) and perspective-correct interpolation as in
+for Polygon Rasterization" (SIGGRAPH 1988), walked as one span per pixel row (scan-line order), and
+perspective-correct interpolation as in
 P. Heckbert & H. Moreton, "Interpolation for Polygon Texture Mapping and Shading" (1991).
 Planar shadows: J. Blinn, "Me and My (Fake) Shadow" (IEEE CG&A, 1988).
 """
