@@ -441,6 +441,23 @@ def test_fragments_match_a_per_pixel_inside_test():
     assert len(expected) > 500 and found == expected and len(rows) == len(found)
 
 
+def test_uv_origin_is_the_top_left_of_the_image_as_in_gltf(tmp_path):
+    image = Image.new("RGB", (64, 64), (20, 20, 220))
+    image.paste((220, 20, 20), (0, 0, 32, 32))  # only the top-left quadrant is red
+    data = io.BytesIO()
+    image.save(data, format="PNG")
+    part = box_part(10.0, 10.0, 10.0, 1, 64)
+    part.uvs = np.full((part.vertex_count, 2), 0.25, dtype=np.float32)  # glTF: top-left quadrant
+    part.texture = Texture(data.getvalue(), "image/png", 64, 64, name="quadrants.png")
+    path = tmp_path / "q.glb"
+    path.write_bytes(glb_bytes([part], "q"))
+    meshes = load_glb(path)
+    picture = render(meshes, fit_view(meshes, size=64)).astype(int)
+    red = (picture[..., 0] > picture[..., 2] + 60).mean()
+    blue = (picture[..., 2] > picture[..., 0] + 60).mean()
+    assert red > 0.2 and blue < 0.01
+
+
 def test_render_is_not_mirrored():
     # A low box with a tall tower at its East end, seen from the south: the tower is on the right.
     base = box_part(30.0, 6.0, 4.0, 1, 64)
