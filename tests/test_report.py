@@ -332,6 +332,18 @@ def test_bad_inputs_raise_input_error_naming_the_file(tmp_path):
         write_reports(tmp_path, tiles=["15_1_1"])
 
 
+def test_unreadable_manifest_of_another_tile_is_flagged_on_the_index(tmp_path):
+    make_fake_export(tmp_path, only="A")
+    bad = tmp_path / "15_279419_116113"
+    bad.mkdir()
+    (bad / "lod_manifest.json").write_text('{"format": "vworld-lod-manifest"}', encoding="utf-8")
+    write_reports(tmp_path, tiles=[TILE])
+    rows = Page((tmp_path / "index.html").read_text(encoding="utf-8")).tables["tile-table"][1:]
+    assert rows[1][0] == "15_279419_116113" and "no 'buildings' list" in rows[1][1]
+    with pytest.raises(InputError, match="15_279419_116113/lod_manifest.json: not a vworld-lod manifest"):
+        write_reports(tmp_path)
+
+
 def test_broken_glb_gets_a_placeholder_not_a_crash(tmp_path):
     tile_dir = make_fake_export(tmp_path, missing=("A", 9), only="B")
     (tile_dir / "B" / "lod1.glb").write_bytes(b"glTF but not really")
