@@ -158,10 +158,10 @@ def simplify_parts(parts: list[Part], target: int, options: SimplifyOptions,
     reference = reference if reference is not None else (positions, faces)
     # Lossless first: flat polygons re-triangulated from their outlines.
     if options.planar_retriangulation:
-        # Straight open-border vertices may go here (the outline stays in place, exactly), so
-        # only the crack-preventing locks apply.
-        hard = part_border_vertices(faces, face_part, len(positions)) | nonmanifold_vertices(faces, len(positions))
-        faces, corner_uvs, source = retriangulate_planar(positions, faces, corner_uvs, face_chart, hard)
+        # Lossless, so only non-manifold vertices are held: straight vertices on the open border or
+        # between two parts are dropped from both sides at once (no T-junction, no crack).
+        faces, corner_uvs, source = retriangulate_planar(positions, faces, corner_uvs, face_chart,
+                                                         nonmanifold_vertices(faces, len(positions)))
         face_part, face_chart = face_part[source], face_chart[source]
     locked = _locks(positions, faces, face_part, options)
     movable = ~_protected(positions, faces, options)

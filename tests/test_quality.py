@@ -1,0 +1,115 @@
+"""exporter.quality.measure_lod and its helpers behave: identical meshes score perfectly, damage is
+seen by the metric meant to see it, distances are exact.
+
+Positions are in the building-local East/Up/North frame (metres, y = Up).
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from exporter.model import Part
+from exporter.quality import distance_to_surface, measure_lod, point_triangle_distance, rasterise
+from test_simplify_shapes import Atlas, Builder, add_flat_roof, add_walls, crafted_building
+
+KEYS = {"triangle_ratio", "hausdorff_rel", "silhouette_iou", "wall_coverage", "boundary_length_change", "new_holes"}
+
+
+@pytest.fixture(scope="module")
+def box():
+    """Floorless 10 x 6 x 20 m box (x, z, height), walls cut 2 x 4, roof 2 x 2: 36 triangles."""
+    builder, atlas = Builder(), Atlas()
+    add_walls(builder, atlas, -5, -3, 5, 3, 0.0, 20.0, 2, 4)
+    add_flat_roof(builder, atlas, -5, -3, 5, 3, 20.0, 2)
+    return [builder.part()]
+
+
+def without(parts, mask):
+    part = parts[0]
+    return [dataclasses.replace(part, triangles=part.triangles[~mask])]
+
+
+def test_identical_mesh_scores_perfectly(box):
+    for parts in (box, crafted_building(2)):
+        metrics = measure_lod(parts, parts)
+        assert set(metrics) == KEYS
+        assert metrics["triangle_ratio"] == 1.0
+        assert metrics["hausdorff_rel"] < 1e-12
+        assert metrics["silhouette_iou"] == 1.0 and metrics["wall_coverage"] == 1.0
+        assert metrics["boundary_length_change"] == 0.0 and metrics["new_holes"] == 0
+
+
+def test_removed_wall_drops_coverage_and_opens_the_boundary(box):
+    part = box[0]
+    centres = part.positions[part.triangles].mean(axis=1)
+    wall = centres[:, 0] > 4.99                    # the whole east wall (x = +5 m)
+    metrics = measure_lod(box, without(box, wall))
+    # The east wall is 6 x 20 of 2 x (10 + 6) x 20 = 19 % of the wall area.
+    assert 0.7 < metrics["wall_coverage"] < 0.9
+    assert metrics["boundary_length_change"] > 1.0  # 40 m of sides and top added to 32 m of footprint
+    assert metrics["silhouette_iou"] == 1.0 or metrics["silhouette_iou"] > 0.9  # seen edge-on from the side views
+    assert metrics["triangle_ratio"] == pytest.approx(1 - wall.sum() / len(wall))
+
+
+def test_hole_in_the_roof_is_a_new_hole(box):
+    # The roof is cut 2 x 2: a triangle at its centre touches no border, so dropping it opens
+    # one new boundary loop.
+    part = box[0]
+    centres = part.positions[part.triangles].mean(axis=1)
+    roof = np.flatnonzero(centres[:, 1] > 19.99)
+    mask = np.zeros(len(part.triangles), dtype=bool)
+    mask[roof[np.argmin(centres[roof, 0] ** 2 + centres[roof, 2] ** 2)]] = True
+    metrics = measure_lod(box, without(box, mask))
+    assert metrics["new_holes"] == 1
+    assert metrics["silhouette_iou"] < 1.0
+
+
+def test_shifted_mesh_has_the_shift_as_hausdorff(box):
+    diagonal = float(np.linalg.norm([10.0, 20.0, 6.0]))
+    moved = [dataclasses.replace(box[0], positions=box[0].positions + [0.5, 0.0, 0.0])]
+    metrics = measure_lod(box, moved)
+    # Seen from the sampled points: the east wall's points are 0.5 m from the moved surface.
+    assert metrics["hausdorff_rel"] == pytest.approx(0.5 / diagonal, rel=1e-6)
+    assert metrics["silhouette_iou"] < 1.0
+
+
+def test_point_triangle_distance_against_a_dense_barycentric_grid():
+    rng = np.random.default_rng(1)
+    points = rng.normal(size=(15, 3)) * 3.0
+    tri = rng.normal(size=(15, 3, 3)) * 2.0
+    s, t = np.meshgrid(np.linspace(0, 1, 151), np.linspace(0, 1, 151))
+    inside = s + t <= 1.0
+    s, t = s[inside], t[inside]
+    samples = tri[:, None, 0] + s[None, :, None] * (tri[:, None, 1] - tri[:, None, 0]) + t[None, :, None] * (tri[:, None, 2] - tri[:, None, 0])
+    reference = np.linalg.norm(points[:, None, None, :] - samples[None], axis=-1).min(axis=-1)   # (15, 15)
+    ours = point_triangle_distance(points[:, None, :], tri[None])
+    assert (ours <= reference + 1e-9).all()           # exact is never above a sampled point
+    np.testing.assert_allclose(ours, reference, atol=0.04)
+
+
+def test_distance_to_surface_is_the_brute_force_minimum():
+    part = crafted_building(6)[0]
+    rng = np.random.default_rng(2)
+    low, high = part.positions.min(0), part.positions.max(0)
+    points = low + rng.random((300, 3)) * (high - low)
+    brute = point_triangle_distance(points[:, None, :], part.positions[part.triangles][None]).min(axis=1)
+    np.testing.assert_allclose(distance_to_surface(points, part.positions, part.triangles), brute, atol=1e-12)
+
+
+def test_rasterise_covers_the_triangle_conservatively():
+    # A right triangle with legs of 50 pixels covers about 1250 pixels (conservative: a bit more).
+    xy = np.array([[10.0, 10.0], [60.0, 10.0], [10.0, 60.0]])
+    image = rasterise(xy, np.array([[0, 1, 2]]), 128)
+    assert 1250 <= image.sum() <= 1250 + 2 * 51 + 51
+    assert image[20, 20] and not image[70, 70] and not image[55, 55]
+    # An edge-on face still draws a line.
+    line = rasterise(np.array([[5.0, 5.0], [100.0, 5.0], [50.0, 5.0]]), np.array([[0, 1, 2]]), 128)
+    assert line[5, 5:101].all() and line.sum() == 96
+
+
+def test_empty_level_scores_zero(box):
+    empty = [Part(np.zeros((0, 3)), np.zeros((0, 3), np.int64))]
+    metrics = measure_lod(box, empty)
+    assert metrics["triangle_ratio"] == 0.0 and metrics["wall_coverage"] == 0.0 and metrics["silhouette_iou"] == 0.0
