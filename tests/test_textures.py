@@ -401,3 +401,20 @@ def test_cmyk_jpeg_is_converted_to_rgb_even_at_lod0():
     levels = build_texture_lods(texture_of(cmyk.getvalue()), [1.0, 0.5], TextureOptions())
     assert levels[0].data != cmyk.getvalue()
     assert [(decoded(t).mode, t.width) for t in levels] == [("RGB", 64), ("RGB", 32)]
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(1, 96), st.integers(1, 96), st.sampled_from(["JPEG", "PNG", "BMP"]),
+       st.sampled_from(["auto", "always", "never"]), st.integers(0, 2**32 - 1))
+def test_every_level_decodes_to_its_declared_size(width, height, fmt, mode, seed):
+    data = encode(sharp_rgb(width, height, seed) if seed % 2 else smooth_rgb(width, height, seed), fmt)
+    scales = [1.0, 0.5, 0.25, 0.125]
+    options = TextureOptions(fast_jpeg_downscale=mode, min_size=4)
+    levels = build_texture_lods(texture_of(data, name="r." + fmt.lower()), scales, options)
+    assert [(t.width, t.height) for t in levels] == level_sizes(width, height, scales, 4)
+    for level in levels:
+        image = decoded(level)
+        assert image.size == (level.width, level.height)
+        assert level.mime == {"JPEG": "image/jpeg", "PNG": "image/png"}[image.format]
+    if fmt != "BMP":
+        assert levels[0].data is data
