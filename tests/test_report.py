@@ -346,11 +346,14 @@ def test_unreadable_manifest_of_another_tile_is_flagged_on_the_index(tmp_path):
 
 def test_broken_glb_gets_a_placeholder_not_a_crash(tmp_path):
     tile_dir = make_fake_export(tmp_path, missing=("A", 9), only="B")
+    write_reports(tmp_path)
+    assert (tile_dir / "report" / "B_lod1.png").is_file()
     (tile_dir / "B" / "lod1.glb").write_bytes(b"glTF but not really")
     write_reports(tmp_path)
     page = Page((tile_dir / "report.html").read_text(encoding="utf-8"))
     b = next(a for a in page.articles if a["id"] == "B")
     assert len(b["images"]) == 2 and any("B/lod1.glb" in t and "cannot be read" in t for t in b["missing"])
+    assert not (tile_dir / "report" / "B_lod1.png").exists()  # no stale picture of the broken level
 
 
 def test_problems_shown_and_empty_tile_still_reported(tmp_path):

@@ -82,7 +82,7 @@ def render_building(tile_dir: Path, building: dict, size: int = IMAGE_SIZE) -> B
 
 
 def remove_stale_images(image_dir: Path, keep: set[str]) -> None:
-    """Delete renders of buildings or levels the manifest no longer lists."""
+    """Delete renders not drawn this time (buildings or levels gone, or whose file is now broken)."""
     if image_dir.is_dir():
         for path in image_dir.glob("*.png"):
             if path.name not in keep:
@@ -94,7 +94,8 @@ def write_tile_report(tile_dir: Path, manifest: dict, size: int = IMAGE_SIZE) ->
     started = time.perf_counter()
     renders = [render_building(tile_dir, building, size) for building in manifest["buildings"]]
     seconds = time.perf_counter() - started
-    remove_stale_images(tile_dir / IMAGE_FOLDER, {image_name(r.building, level.level) for r in renders for level in r.levels})
+    drawn = {image_name(r.building, level.level) for r in renders for level in r.levels if level.image is not None}
+    remove_stale_images(tile_dir / IMAGE_FOLDER, drawn)
     return write_text_atomic(tile_dir / "report.html", tile_page(manifest, renders, seconds))
 
 
