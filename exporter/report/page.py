@@ -96,7 +96,8 @@ def _fmt_share(value: Optional[float]) -> str:
 def _fmt_metric(value: Optional[float]) -> str:
     if value is None:
         return "–"
-    return "0" if abs(value) < 1e-9 else f"{value:.3g}"  # float noise of an unchanged level
+    # Below 1e-6 is float32 noise of an unchanged level (micrometres on a building), shown as 0.
+    return "0" if abs(value) < 1e-6 else f"{value:.3g}"
 
 
 def _is_bad(key: str, value: Optional[float]) -> bool:
