@@ -25,6 +25,10 @@ Entry point: :func:`measure_lod` returns a flat dict of JSON-able numbers:
 """
 from __future__ import annotations
 
+import hashlib
+from collections import OrderedDict
+from dataclasses import dataclass
+
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
@@ -33,7 +37,7 @@ from scipy.spatial import cKDTree
 from .model import Part
 
 RESOLUTION = 128          # silhouette raster side, pixels
-SAMPLES = 384             # area-weighted surface samples per side for the Hausdorff distance
+SAMPLES = 256             # area-weighted surface samples per side for the Hausdorff distance
 WALL_SAMPLES = 256        # area-weighted samples on the source's walls
 WALL_MAX_UP = 0.3         # |unit normal . Up| below this is a wall
 COVER_TOLERANCE = 0.01    # wall sample covered when within this x diagonal of the level
@@ -211,60 +215,93 @@ def silhouettes(positions: np.ndarray, faces: np.ndarray, low: np.ndarray, high:
 
 # --------------------------------------------------------------------------- the metrics
 
+@dataclass
+class _Source:
+    """Everything measure_lod needs from the source side (computed once per source, cached)."""
+
+    positions: np.ndarray
+    faces: np.ndarray
+    triangles: int
+    low: np.ndarray
+    high: np.ndarray
+    diagonal: float
+    points: np.ndarray          # vertices + samples, (p, 3) metres
+    wall_points: np.ndarray     # samples on walls, (w, 3) metres
+    silhouettes: list
+    border_length: float
+    loops: int
+
+
+_CACHE: "OrderedDict[bytes, _Source]" = OrderedDict()
+
+
+def _source_side(parts: list[Part]) -> _Source:
+    digest = hashlib.blake2b(digest_size=16)
+    for p in parts:
+        digest.update(p.positions.tobytes())
+        digest.update(p.triangles.tobytes())
+    key = digest.digest()
+    if key in _CACHE:
+        _CACHE.move_to_end(key)
+        return _CACHE[key]
+    positions, faces = joined(parts)
+    low, high = positions.min(axis=0), positions.max(axis=0)
+    rng = np.random.default_rng(SEED)
+    normals = face_normals(positions, faces)
+    lengths = np.linalg.norm(normals, axis=1)
+    walls = (np.abs(normals[:, 1]) < WALL_MAX_UP * lengths) & (lengths > 0)
+    border, loops = boundary_loops(faces, len(positions))
+    source = _Source(
+        positions, faces, sum(p.triangle_count for p in parts), low, high,
+        max(float(np.linalg.norm(high - low)), 1e-9),
+        np.vstack([positions, sample_surface(positions, faces, SAMPLES, rng)]),
+        sample_surface(positions, faces[walls], WALL_SAMPLES, rng) if walls.any() else np.zeros((0, 3)),
+        silhouettes(positions, faces, low, high),
+        float(np.linalg.norm(np.diff(positions[border], axis=1), axis=-1).sum()), loops)
+    _CACHE[key] = source
+    if len(_CACHE) > 16:
+        _CACHE.popitem(last=False)
+    return source
+
+
 def measure_lod(source_parts: list[Part], lod_parts: list[Part]) -> dict:
     """Quality of ``lod_parts`` against ``source_parts`` (both local East/Up/North metres).
 
     Returns ``{"triangle_ratio", "hausdorff_rel", "silhouette_iou", "wall_coverage",
     "boundary_length_change", "new_holes"}`` (floats, ``new_holes`` an int); see the module doc.
-    Deterministic: the samples come from a fixed seed.
+    Deterministic: the samples come from a fixed seed. The source side is computed once and
+    cached (keyed by its bytes), so measuring every level of a building costs one source pass.
     """
-    src_pos, src_faces = joined(source_parts)
-    lod_pos, lod_faces = joined(lod_parts)
-    src_tris = sum(p.triangle_count for p in source_parts)
-    lod_tris = sum(p.triangle_count for p in lod_parts)
-    if len(src_faces) == 0:
+    if sum(p.triangle_count for p in source_parts) == 0:
         return {"triangle_ratio": 1.0, "hausdorff_rel": 0.0, "silhouette_iou": 1.0, "wall_coverage": 1.0,
                 "boundary_length_change": 0.0, "new_holes": 0}
-    low, high = src_pos.min(axis=0), src_pos.max(axis=0)
-    diagonal = max(float(np.linalg.norm(high - low)), 1e-9)
-    rng = np.random.default_rng(SEED)
+    src = _source_side(source_parts)
+    lod_pos, lod_faces = joined(lod_parts)
+    lod_tris = sum(p.triangle_count for p in lod_parts)
+    rng = np.random.default_rng(SEED + 1)
 
-    # Hausdorff: vertices + surface samples of each side against the other surface.
-    src_points = np.vstack([src_pos, sample_surface(src_pos, src_faces, SAMPLES, rng)])
-    lod_points = np.vstack([lod_pos, sample_surface(lod_pos, lod_faces, SAMPLES, rng)])
-    forward = distance_to_surface(src_points, lod_pos, lod_faces)
-    backward = distance_to_surface(lod_points, src_pos, src_faces) if len(lod_points) else np.zeros(1)
-    hausdorff = max(float(forward.max(initial=0.0)), float(backward.max(initial=0.0)))
+    # Source points (vertices, samples, wall samples) against the level's surface in one pass.
+    forward = distance_to_surface(np.vstack([src.points, src.wall_points]), lod_pos, lod_faces)
+    wall_distance = forward[len(src.points):]
+    lod_points = np.vstack([lod_pos, sample_surface(lod_pos, lod_faces, SAMPLES, rng)]) if len(lod_faces) else np.zeros((0, 3))
+    backward = distance_to_surface(lod_points, src.positions, src.faces) if len(lod_points) else np.zeros(1)
+    hausdorff = max(float(forward[: len(src.points)].max(initial=0.0)), float(backward.max(initial=0.0)))
+    wall_coverage = float((wall_distance <= COVER_TOLERANCE * src.diagonal).mean()) if len(wall_distance) else 1.0
 
-    # Wall coverage: samples on the source's near-vertical faces.
-    normals = face_normals(src_pos, src_faces)
-    lengths = np.linalg.norm(normals, axis=1)
-    walls = (np.abs(normals[:, 1]) < WALL_MAX_UP * lengths) & (lengths > 0)
-    if walls.any():
-        wall_points = sample_surface(src_pos, src_faces[walls], WALL_SAMPLES, rng)
-        covered = distance_to_surface(wall_points, lod_pos, lod_faces) <= COVER_TOLERANCE * diagonal
-        wall_coverage = float(covered.mean())
-    else:
-        wall_coverage = 1.0
-
-    # Silhouettes on the source's box.
     ious = []
-    for a, b in zip(silhouettes(src_pos, src_faces, low, high), silhouettes(lod_pos, lod_faces, low, high)):
+    for a, b in zip(src.silhouettes, silhouettes(lod_pos, lod_faces, src.low, src.high)):
         union = np.logical_or(a, b).sum()
         ious.append(float(np.logical_and(a, b).sum() / union) if union else 1.0)
 
-    # Open boundary (footprint outline of a floorless building).
-    src_border, src_loops = boundary_loops(src_faces, len(src_pos))
     lod_border, lod_loops = boundary_loops(lod_faces, len(lod_pos))
-    src_length = float(np.linalg.norm(np.diff(src_pos[src_border], axis=1), axis=-1).sum())
     lod_length = float(np.linalg.norm(np.diff(lod_pos[lod_border], axis=1), axis=-1).sum()) if len(lod_border) else 0.0
-    change = (lod_length - src_length) / src_length if src_length > 0 else lod_length / diagonal
+    change = (lod_length - src.border_length) / src.border_length if src.border_length > 0 else lod_length / src.diagonal
 
     return {
-        "triangle_ratio": float(lod_tris / src_tris) if src_tris else 1.0,
-        "hausdorff_rel": hausdorff / diagonal,
+        "triangle_ratio": float(lod_tris / src.triangles) if src.triangles else 1.0,
+        "hausdorff_rel": hausdorff / src.diagonal,
         "silhouette_iou": min(ious),
         "wall_coverage": wall_coverage,
         "boundary_length_change": float(change),
-        "new_holes": int(max(0, lod_loops - src_loops)),
+        "new_holes": int(max(0, lod_loops - src.loops)),
     }

@@ -1,0 +1,179 @@
+"""Compare mesh simplifiers on the same VWorld-like buildings at the same triangle budgets.
+
+Methods (every peer gets, per building and level, the triangle count this method produced):
+
+- ``this method``: :func:`exporter.simplify.build_mesh_lods` with the default options;
+- ``paper QEC only``: the same without the lossless planar stage (``planar_retriangulation``
+  off): pymeshlab collapse, Table II locks, the 30 % filter and the error guard;
+- ``pymeshlab QEC``: ``meshing_decimation_quadric_edge_collapse`` with its defaults on the welded
+  building (positions only);
+- ``fast-simplification``: the Fast-Quadric-Mesh-Simplification algorithm (PyPI
+  ``fast-simplification``; positions only);
+- ``gltfpack -si``: meshoptimizer's gltfpack (npm ``gltfpack``) on a .glb of the building
+  (``-si R -noq``; its default error limit ``-se 0.01`` applies, so it may stop above the budget).
+
+Prints one table of the quality metrics (:func:`exporter.quality.measure_lod`) per method and
+level, the Table III row of this method (mean triangles per level and ratio to LOD0), and times
+as ratios against pymeshlab QEC measured in the same run.
+
+Usage::
+
+    python benchmarks/compare_simplifiers.py --buildings 300 --seed 0
+    python benchmarks/compare_simplifiers.py --gltfpack ~/.cache/vworld-lod/npm/node_modules/.bin/gltfpack
+
+gltfpack: ``npm install --prefix ~/.cache/vworld-lod/npm gltfpack`` (outside the repository);
+found on PATH, in that folder or in ``benchmarks/.npm``; skipped with a note when absent.
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from exporter.config import SimplifyOptions, default_lods  # noqa: E402
+from exporter.model import Part  # noqa: E402
+from exporter.quality import joined, measure_lod  # noqa: E402
+from exporter.simplify import build_mesh_lods  # noqa: E402
+
+METRICS = ("triangle_ratio", "hausdorff_rel", "silhouette_iou", "wall_coverage", "boundary_length_change", "new_holes")
+
+
+def count(parts: list[Part]) -> int:
+    return sum(p.triangle_count for p in parts)
+
+
+# --------------------------------------------------------------------------- peers (positions only)
+
+def pymeshlab_qec(parts: list[Part], budget: int) -> list[Part]:
+    import pymeshlab
+
+    positions, faces = joined(parts)
+    ms = pymeshlab.MeshSet()
+    ms.add_mesh(pymeshlab.Mesh(positions, faces.astype(np.int32)))
+    ms.meshing_decimation_quadric_edge_collapse(targetfacenum=max(1, budget))
+    mesh = ms.current_mesh()
+    return [Part(mesh.vertex_matrix(), mesh.face_matrix())]
+
+
+def fast_simplification(parts: list[Part], budget: int) -> list[Part]:
+    import fast_simplification as fs
+
+    positions, faces = joined(parts)
+    reduction = 1.0 - budget / max(len(faces), 1)
+    if reduction <= 0:
+        return [Part(positions, faces)]
+    points, triangles = fs.simplify(positions.astype(np.float32), faces.astype(np.int32), target_reduction=reduction)
+    return [Part(points, triangles)]
+
+
+def find_gltfpack(explicit: str | None) -> str | None:
+    candidates = [explicit, shutil.which("gltfpack"),
+                  str(Path.home() / ".cache/vworld-lod/npm/node_modules/.bin/gltfpack"),
+                  str(Path(__file__).resolve().parent / ".npm/node_modules/.bin/gltfpack")]
+    return next((c for c in candidates if c and os.access(c, os.X_OK)), None)
+
+
+def gltfpack(parts: list[Part], budget: int, executable: str, workdir: Path) -> list[Part]:
+    import trimesh
+
+    positions, faces = joined(parts)
+    source, target = workdir / "in.glb", workdir / "out.glb"
+    trimesh.Trimesh(positions, faces, process=False).export(source)
+    ratio = min(1.0, budget / max(len(faces), 1))
+    subprocess.run([executable, "-i", str(source), "-o", str(target), "-si", f"{ratio:.6f}", "-noq"],
+                   check=True, capture_output=True)
+    mesh = trimesh.load(target, force="mesh", process=False)
+    return [Part(np.asarray(mesh.vertices), np.asarray(mesh.faces))]
+
+
+# --------------------------------------------------------------------------- run
+
+def run(count_buildings: int, seed: int, gltfpack_path: str | None) -> None:
+    from exporter.samplegen import generate_buildings
+
+    buildings = generate_buildings(count_buildings, seed=seed, atlas_size=16)
+    lods = default_lods()
+    options = SimplifyOptions()
+    paper_only = dataclasses.replace(options, planar_retriangulation=False)
+    executable = find_gltfpack(gltfpack_path)
+    methods = ["this method", "paper QEC only", "pymeshlab QEC", "fast-simplification"] + (["gltfpack -si"] if executable else [])
+    results = {(m, k): [] for m in methods for k in range(1, len(lods))}
+    seconds = {m: 0.0 for m in methods}
+    table3 = []
+    measure_seconds, measure_calls = 0.0, 0
+    with tempfile.TemporaryDirectory() as tmp:
+        for building in buildings:
+            source = building.parts
+            start = time.perf_counter()
+            levels = build_mesh_lods(source, lods, options)
+            seconds["this method"] += time.perf_counter() - start
+            start = time.perf_counter()
+            paper_levels = build_mesh_lods(source, lods, paper_only)
+            seconds["paper QEC only"] += time.perf_counter() - start
+            table3.append([count(level) for level in levels])
+            for k in range(1, len(lods)):
+                budget = count(levels[k])
+                outputs = {"this method": levels[k], "paper QEC only": paper_levels[k]}
+                for name, peer in (("pymeshlab QEC", pymeshlab_qec), ("fast-simplification", fast_simplification)):
+                    start = time.perf_counter()
+                    outputs[name] = peer(source, budget)
+                    seconds[name] += time.perf_counter() - start
+                if executable:
+                    start = time.perf_counter()
+                    outputs["gltfpack -si"] = gltfpack(source, budget, executable, Path(tmp))
+                    seconds["gltfpack -si"] += time.perf_counter() - start
+                for name, parts in outputs.items():
+                    start = time.perf_counter()
+                    metrics = measure_lod(source, parts)
+                    measure_seconds += time.perf_counter() - start
+                    measure_calls += 1
+                    metrics["budget_reached"] = float(count(parts) <= budget)
+                    results[(name, k)].append(metrics)
+
+    print(f"# {count_buildings} sample-generator buildings, seed {seed}; budgets = this method's triangle counts")
+    print(f"# mean source triangles {np.mean([t[0] for t in table3]):.1f}")
+    header = f"{'method':<22}{'level':>6}{'tri ratio':>10}{'at budget':>10}{'hausdorff':>10}{'IoU mean':>9}{'IoU min':>8}{'cover mean':>11}{'cover min':>10}{'|boundary|':>11}{'holes':>6}"
+    print(header)
+    print("-" * len(header))
+    for name in methods:
+        for k in range(1, len(lods)):
+            rows = results[(name, k)]
+            column = lambda key: np.array([r[key] for r in rows], dtype=float)
+            print(f"{name:<22}{k:>6}{column('triangle_ratio').mean():>10.3f}{column('budget_reached').mean():>10.2f}"
+                  f"{column('hausdorff_rel').mean():>10.4f}{column('silhouette_iou').mean():>9.3f}{column('silhouette_iou').min():>8.3f}"
+                  f"{column('wall_coverage').mean():>11.3f}{column('wall_coverage').min():>10.3f}"
+                  f"{np.abs(column('boundary_length_change')).mean():>11.4f}{int(column('new_holes').sum()):>6}")
+    means = np.mean(table3, axis=0)
+    ratios = np.mean(np.array(table3) / np.array(table3)[:, :1], axis=0)
+    print("\nTable III (this method): " + " | ".join(f"LOD{k} {m:.2f} tris ({m / means[0] * 100:.2f} %)" for k, m in enumerate(means)))
+    print("mean of per-building ratios: " + " | ".join(f"LOD{k} {r * 100:.2f} %" for k, r in enumerate(ratios)))
+    print("paper (1,248 Seoul buildings): LOD0 326.29 | LOD1 220.14 (67.46 %) | LOD2 156.86 (48.07 %)")
+    base = seconds["pymeshlab QEC"] or 1e-9
+    print("\ntime per building relative to pymeshlab QEC (same run): " +
+          ", ".join(f"{name} {seconds[name] / base:.1f}x" for name in methods))
+    print(f"measure_lod: {measure_seconds / max(measure_calls, 1) * 1000:.1f} ms per call (mean over {measure_calls} calls)")
+    if not executable:
+        print("gltfpack not found: npm install --prefix ~/.cache/vworld-lod/npm gltfpack (or pass --gltfpack PATH)")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--buildings", type=int, default=300, help="number of sample-generator buildings (default 300)")
+    parser.add_argument("--seed", type=int, default=0, help="sample-generator seed (default 0)")
+    parser.add_argument("--gltfpack", default=None, help="path of the gltfpack executable")
+    args = parser.parse_args()
+    run(args.buildings, args.seed, args.gltfpack)
+
+
+if __name__ == "__main__":
+    main()
