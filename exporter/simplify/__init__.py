@@ -42,6 +42,8 @@ __all__ = ["build_mesh_lods", "clean_part"]
 
 # Faces below this area (square metres) are degenerate: dropped from level 0.
 ZERO_AREA_M2 = 1e-12
+# Metres: positions closer than this are one vertex (the quality metrics weld the same way).
+NOISE_M = 1e-6
 
 
 def _check_part(part: Part, index: int) -> None:
@@ -83,7 +85,8 @@ def _join(parts: list[Part], link_distance: float):
     face_part = np.concatenate([np.full(p.triangle_count, i) for i, p in enumerate(parts)]).astype(np.int64)
     has_uv = any(p.uvs is not None for p in parts)
     uvs = np.concatenate([p.uvs if p.uvs is not None else np.zeros((p.vertex_count, 2), np.float32) for p in parts]) if has_uv else None
-    welded, welded_positions = weld_positions(positions, link_distance)
+    # Float noise (a vertex repeated with 1e-7 m differences) is welded whatever the option says.
+    welded, welded_positions = weld_positions(positions, max(link_distance, NOISE_M))
     corner_uvs = uvs[faces] if has_uv else None
     face_chart = uv_charts(faces, len(positions))
     faces = welded[faces]
@@ -210,7 +213,11 @@ def build_mesh_lods(parts: list[Part], lods: list[LodSpec], options: SimplifyOpt
     source_triangles = sum(p.triangle_count for p in parts)
     levels = [[clean_part(p) for p in parts]]
     positions, faces, *_ = _join(levels[0], 0.0)  # the guard's reference: LOD0, welded
-    for spec in lods[1:]:
+    for k, spec in enumerate(lods[1:], start=1):
         target = int(round(source_triangles * spec.mesh))
-        levels.append(simplify_parts(levels[-1], target, options, reference=(positions, faces)))
+        # Same error on screen at every level: level k is seen at most lods[k-1].transition of
+        # the screen high, so its allowed deviation grows as lods[0].transition / that.
+        scale = lods[0].transition / lods[k - 1].transition
+        level_options = dataclasses.replace(options, max_error=options.max_error * scale)
+        levels.append(simplify_parts(levels[-1], target, level_options, reference=(positions, faces)))
     return levels
