@@ -133,7 +133,7 @@ class SimplifyOptions:
     preserve_uv_seam_edges: bool = field(default=True, metadata=meta(parse_bool, "keep edges where one position has two different UVs (texture seams)"))
     preserve_uv_foldover_edges: bool = field(default=True, metadata=meta(parse_bool, "refuse collapses that fold the texture over itself (flip a triangle in UV space)"))
     preserve_surface_curvature: bool = field(default=False, metadata=meta(parse_bool, "weigh collapses by surface curvature so curved parts (domes) keep their shape"))
-    vertex_link_distance: float = field(default=0.0, metadata=meta(_number(0.0), "metres: weld vertices closer than this before simplifying (0 = only exact duplicates)"))
+    vertex_link_distance: float = field(default=0.0, metadata=meta(_number(0.0), "metres: weld vertices closer than this before simplifying (0 = only float noise, closer than 1 micrometre)"))
     max_iterations: int = field(default=100, metadata=meta(_integer(1, 100000), "maximum simplification passes per level"))
     max_error: float = field(default=0.005, metadata=meta(_number(0.0, maximum=1.0), "largest allowed deviation of a level from LOD0 (symmetric sampled Hausdorff distance) as a share of the building's bounding-box diagonal; a level that would exceed it keeps more triangles (0 = no limit)"))
     protect_walls: bool = field(default=False, metadata=meta(parse_bool, "also keep near-vertical faces standing on the open bottom border (the walls on the footprint outline) out of the quadric collapse"))
