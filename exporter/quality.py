@@ -117,7 +117,13 @@ def point_triangle_distance(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
     closest = np.where(((d6 >= 0) & (d5 <= d6))[..., None], c, closest)
     closest = np.where(((d3 >= 0) & (d4 <= d3))[..., None], b, closest)
     closest = np.where(((d1 <= 0) & (d2 <= 0))[..., None], a, closest)
-    return np.linalg.norm(p - closest, axis=-1)
+    distance = np.linalg.norm(p - closest, axis=-1)
+    # Degenerate (zero-area) triangles can leave NaN: their nearest corner stands in.
+    bad = np.isnan(distance)
+    if bad.any():
+        corners = np.minimum(np.minimum(np.linalg.norm(p - a, axis=-1), np.linalg.norm(p - b, axis=-1)), np.linalg.norm(p - c, axis=-1))
+        distance = np.where(bad, corners, distance)
+    return distance
 
 
 def distance_to_surface(points: np.ndarray, positions: np.ndarray, faces: np.ndarray,
