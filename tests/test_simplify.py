@@ -12,7 +12,7 @@ import numpy as np
 import pymeshlab
 import pytest
 
-from exporter.config import LodSpec, SimplifyOptions, default_lods
+from exporter.config import SimplifyOptions, default_lods
 from exporter.errors import ProcessError
 from exporter.model import Part
 from exporter.quality import joined, measure_lod

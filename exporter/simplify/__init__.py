@@ -9,14 +9,16 @@ Hoppe, "New Quadric Metric for Simplifying Meshes with Appearance Attributes" (1
 the geometric filter and Table II options of "A Method for Constructing and Managing Level of
 Detail for Non-Closed Boundary Models of Buildings" (VWorld). See ``docs/simplification.md``.
 
-Pipeline per level (each level is built from the level above, see the docs for the measurement):
+Pipeline per level (each level is built from the level above; measured, see the docs):
 
-1. join the parts into one mesh, weld positions (``vertex_link_distance``);
-2. lock: the open border, vertices shared by two parts (no cracks), UV seams, non-manifold edges;
-3. protect: the largest ``protect_largest`` share of faces by area and the walls standing on the
-   footprint (``protect_walls``) are not handed to the simplifier;
-4. collapse to ``round(source triangles x lods[k].mesh)`` faces, refusing UV foldovers;
-5. split back into parts with per-vertex UVs and normals.
+1. join the parts into one mesh, weld positions (``vertex_link_distance``, always 1 um noise);
+2. lossless: re-triangulate every flat polygon from its outline (``planar_retriangulation``);
+3. lock: vertices shared by two parts (no cracks), non-manifold edges, the open border;
+4. protect: the largest ``protect_largest`` share of faces by area (the paper's filter) and, with
+   ``protect_walls``, the walls standing on the footprint, are kept out of the collapse;
+5. collapse towards ``round(source triangles x lods[k].mesh)`` faces, refusing seam crossings and
+   UV foldovers, within ``max_error`` of LOD0 (the error guard raises the target otherwise);
+6. split back into parts with per-vertex UVs and normals.
 """
 from __future__ import annotations
 
@@ -114,7 +116,7 @@ def _protected(positions, faces, options: SimplifyOptions) -> np.ndarray:
     return protected
 
 
-def _split(parts: list[Part], result, face_part_in, welded_src, offsets) -> list[Part]:
+def _split(parts: list[Part], result, face_part_in) -> list[Part]:
     """Back to one Part per input part, vertices split where a position has several UVs."""
     out = []
     part_of_face = face_part_in[result.face_ids]
@@ -195,7 +197,7 @@ def simplify_parts(parts: list[Part], target: int, options: SimplifyOptions,
         result = best
     if len(result.faces) >= total:
         return parts
-    return _split(parts, result, face_part, welded, offsets)
+    return _split(parts, result, face_part)
 
 
 def build_mesh_lods(parts: list[Part], lods: list[LodSpec], options: SimplifyOptions) -> list[list[Part]]:

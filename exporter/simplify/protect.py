@@ -112,34 +112,3 @@ def planar_regions(positions: np.ndarray, faces: np.ndarray, groups: Optional[np
     graph = coo_matrix((np.ones(coplanar.sum()), (f[coplanar], g[coplanar])), shape=(m, m))
     _, labels = connected_components(graph, directed=False)
     return labels.astype(np.int64)
-
-
-def region_outline_vertices(faces: np.ndarray, regions: np.ndarray, chosen: np.ndarray,
-                            border: np.ndarray) -> np.ndarray:
-    """(k,) bool: vertices on the outline of the chosen regions (``chosen`` (r,) bool): used by a
-    chosen region and by another region, or on the open border (``border`` (k,) bool)."""
-    k = len(border)
-    corner_region = np.repeat(regions, 3)
-    low = np.full(k, np.iinfo(np.int64).max)
-    high = np.full(k, -1)
-    np.minimum.at(low, faces.reshape(-1), corner_region)
-    np.maximum.at(high, faces.reshape(-1), corner_region)
-    touches = np.zeros(k, dtype=bool)
-    touches[faces[chosen[regions]].reshape(-1)] = True
-    return touches & ((high > low) | border)
-
-
-def largest_regions(positions: np.ndarray, faces: np.ndarray, regions: np.ndarray, share: float) -> np.ndarray:
-    """(r,) bool: the ``round(share * r)`` planar regions of largest area (the paper's filter)."""
-    areas = np.bincount(regions, weights=face_areas(positions, faces), minlength=regions.max() + 1 if len(regions) else 0)
-    return largest_faces(areas, share)
-
-
-def footprint_wall_regions(positions: np.ndarray, faces: np.ndarray, regions: np.ndarray,
-                           border: np.ndarray) -> np.ndarray:
-    """(r,) bool: regions holding a footprint wall face (see :func:`footprint_wall_faces`)."""
-    walls = footprint_wall_faces(positions, faces, border)
-    chosen = np.zeros(regions.max() + 1 if len(regions) else 0, dtype=bool)
-    chosen[regions[walls]] = True
-    return chosen
-

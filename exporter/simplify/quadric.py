@@ -113,7 +113,7 @@ def closest_barycentric(point: np.ndarray, tri: np.ndarray) -> tuple[int, np.nda
     return best, best_w
 
 
-def assign_uvs(positions, faces, corner_uvs, face_chart, out_faces, face_ids):
+def assign_uvs(positions, faces, corner_uvs, face_chart, out_faces, face_ids, project: bool = True):
     """UVs (m', 3, 2) of the output corners and the input vertices found outside their face's
     chart ((s,) int64, seam crossings). See the module doc."""
     in_faces = faces[face_ids]
@@ -144,6 +144,8 @@ def assign_uvs(positions, faces, corner_uvs, face_chart, out_faces, face_ids):
                 out_uvs[o, j] = candidates[np.argmin(np.linalg.norm(candidates - others.mean(axis=0), axis=1))]
             else:
                 crossings.append(vertex)
+                if not project:
+                    continue
                 in_chart = np.flatnonzero(face_chart == chart)
                 index, weights = closest_barycentric(positions[vertex], positions[faces[in_chart]])
                 out_uvs[o, j] = weights @ corner_uvs[in_chart[index]]
@@ -180,7 +182,7 @@ def collapse(positions: np.ndarray, faces: np.ndarray, corner_uvs: Optional[np.n
         out_faces, face_ids = quadric_pass(positions, faces, movable, locked, target, preserve_curvature)
         uvs = None
         if corner_uvs is not None:
-            uvs, crossings = assign_uvs(positions, faces, corner_uvs, face_chart, out_faces, face_ids)
+            uvs, crossings = assign_uvs(positions, faces, corner_uvs, face_chart, out_faces, face_ids, project=not keep_seams)
             offenders = crossings if keep_seams else np.zeros(0, np.int64)
             if refuse_foldovers:
                 before = source_signs[face_ids]
