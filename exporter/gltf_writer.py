@@ -18,6 +18,7 @@ import numpy as np
 import pygltflib
 from pygltflib import GLTF2
 
+from .geometry import unit_vectors, vertex_normals
 from .model import Part
 
 GLTF_MIMES = ("image/jpeg", "image/png")
@@ -37,26 +38,11 @@ def local_to_gltf_triangles(triangles: np.ndarray) -> np.ndarray:
     return triangles[:, [0, 2, 1]]
 
 
-def vertex_normals(positions: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """Area-weighted unit vertex normals (n, 3) float32 in the frame of ``positions``; vertices with
-    no area around them get +Y (up) so the glTF stays valid (unit-length normals)."""
-    positions = np.asarray(positions, dtype=np.float64)
-    normals = np.zeros_like(positions)
-    if len(triangles):
-        a, b, c = (positions[triangles[:, i]] for i in range(3))
-        face = np.cross(b - a, c - a)  # length = 2 x area: area weighting for free
-        for i in range(3):
-            np.add.at(normals, triangles[:, i], face)
-    return _unit_or_up(normals)
-
-
-def _unit_or_up(vectors: np.ndarray) -> np.ndarray:
-    vectors = np.asarray(vectors, dtype=np.float64).reshape(-1, 3)
-    length = np.linalg.norm(vectors, axis=1)
-    good = np.isfinite(length) & (length > 1e-12)
-    out = np.zeros_like(vectors)
-    out[good] = vectors[good] / length[good, None]
-    out[~good] = (0.0, 1.0, 0.0)
+def unit_normals_or_up(normals: np.ndarray) -> np.ndarray:
+    """(n, 3) float32 unit normals; rows without a direction get +Y (up) so the glTF stays valid
+    (the validator requires unit-length normals)."""
+    out = unit_vectors(normals)
+    out[~out.any(axis=1)] = (0.0, 1.0, 0.0)
     return out.astype(np.float32)
 
 
@@ -108,7 +94,7 @@ def glb_bytes(parts: list[Part], name: str) -> bytes:
             continue
         positions = local_to_gltf_positions(part.positions)
         normals_local = part.normals if part.normals is not None and len(part.normals) == len(part.positions) else vertex_normals(part.positions, part.triangles)
-        normals = _unit_or_up(normals_local)
+        normals = unit_normals_or_up(normals_local)
         normals[:, 0] *= -1.0
         triangles = local_to_gltf_triangles(part.triangles)
         index_type = pygltflib.UNSIGNED_SHORT if len(positions) <= 65535 else pygltflib.UNSIGNED_INT

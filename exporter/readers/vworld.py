@@ -41,6 +41,7 @@ from ..formats.vworld_binary import (
     MAX_MESHES, XDO_TYPE, DatFile, DatObject, XdoFile, XdoMesh, color_bytes, color_rgba, decode_text,
     parse_dat, parse_xdo, serialise_dat, serialise_xdo, version_bytes, xml_error,
 )
+from ..geometry import unit_vectors, vertex_normals
 from ..model import Building, GeoPoint, Part, Skipped, Texture, TileId
 from . import Entry, Scan
 
@@ -116,21 +117,6 @@ def outward_triangles(positions: np.ndarray, triangles: np.ndarray, normals: np.
     if disagree > agree:
         return triangles[:, [0, 2, 1]], (disagree, agree)
     return triangles, (agree, disagree)
-
-
-def vertex_normals(positions: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """(n, 3) area-weighted unit vertex normals of outward-wound triangles (same frame)."""
-    a, b, c = (positions[triangles[:, k]] for k in range(3))
-    face = np.cross(b - a, c - a)
-    normals = np.zeros_like(positions, dtype=np.float64)
-    for k in range(3):
-        np.add.at(normals, triangles[:, k], face)
-    return _unit(normals)
-
-
-def _unit(vectors: np.ndarray) -> np.ndarray:
-    length = np.linalg.norm(vectors, axis=1, keepdims=True)
-    return np.divide(vectors, length, out=np.zeros_like(vectors, dtype=np.float64), where=length > 0)
 
 
 # --------------------------------------------------------------------------- files
@@ -264,7 +250,7 @@ def load(entry: Entry, options: Optional[ReaderOptions] = None) -> Building:
         positions = mesh.positions.astype(np.float64) @ rotation.T + center_local
         if not np.all(np.isfinite(positions)):
             raise ReadError(str(xdo_path), f"mesh {j}: positions are not finite")
-        normals = _unit(np.nan_to_num(mesh.normals.astype(np.float64)) @ rotation.T)
+        normals = unit_vectors(np.nan_to_num(mesh.normals.astype(np.float64)) @ rotation.T)
         meshes.append((j, mesh, positions, triangles, normals))
     if not meshes:
         raise ReadError(str(xdo_path), "holds no triangles")

@@ -32,7 +32,8 @@ from ..model import Building, GeoPoint, Part, Texture, TileId
 from . import atlas, layout
 from . import kinds as kind_lib
 from .kinds import KINDS
-from .mesh import MeshBuilder, vertex_normals
+from ..geometry import vertex_normals
+from .mesh import MeshBuilder
 
 __all__ = ["KINDS", "Sample", "DEFAULT_TILE", "generate_buildings", "generate_samples", "generate_tile", "make_building", "triangle_budgets"]
 

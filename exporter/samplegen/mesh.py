@@ -176,13 +176,3 @@ class MeshBuilder:
             np.vstack([self.uvs[i] for i in keep]),
             np.vstack([self.triangles[i] + o for i, o in zip(keep, offsets)]),
         )
-
-
-def vertex_normals(positions: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """Area-weighted unit vertex normals (n, 3); flat on each primitive's own vertices, smooth on curved ones."""
-    normals = np.zeros_like(positions)
-    face = triangle_normals(positions, triangles)
-    for i in range(3):
-        np.add.at(normals, triangles[:, i], face)
-    length = np.linalg.norm(normals, axis=1, keepdims=True)
-    return normals / np.where(length > 0, length, 1.0)

@@ -1,0 +1,36 @@
+"""Small pure functions on triangle meshes in indexed form.
+
+Data form: ``positions`` (n, 3) float metres in any one frame, ``triangles`` (m, 3) int indices
+into it, wound so that ``(b - a) x (c - a)`` points outward (the model's convention). Results are
+in the same frame as the input.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+def triangle_cross(positions: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(m, 3) ``(b - a) x (c - a)`` per triangle: outward normal times twice the area (m²)."""
+    positions = np.asarray(positions, dtype=np.float64)
+    a, b, c = (positions[triangles[:, k]] for k in range(3))
+    return np.cross(b - a, c - a)
+
+
+def unit_vectors(vectors: np.ndarray) -> np.ndarray:
+    """(n, 3) float64 rows scaled to length 1; rows of zero (or non-finite) length become zero."""
+    vectors = np.asarray(vectors, dtype=np.float64).reshape(-1, 3)
+    length = np.linalg.norm(vectors, axis=1, keepdims=True)
+    good = np.isfinite(length) & (length > 1e-12)
+    return np.divide(vectors, length, out=np.zeros_like(vectors), where=good)
+
+
+def vertex_normals(positions: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(n, 3) area-weighted unit vertex normals (float64); zero for vertices with no area around
+    them (callers that need a unit vector everywhere choose their own fallback)."""
+    normals = np.zeros((len(positions), 3), dtype=np.float64)
+    triangles = np.asarray(triangles).reshape(-1, 3)
+    if len(triangles):
+        face = triangle_cross(positions, triangles)  # length = 2 x area: area weighting for free
+        for k in range(3):
+            np.add.at(normals, triangles[:, k], face)
+    return unit_vectors(normals)
