@@ -126,37 +126,52 @@ def point_triangle_distance(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
     return distance
 
 
-def distance_to_surface(points: np.ndarray, positions: np.ndarray, faces: np.ndarray,
-                        candidates: int = 6) -> np.ndarray:
-    """Exact distance from each point (p, 3) to the triangle mesh, (p,) metres (inf if empty).
+class SurfaceIndex:
+    """A triangle mesh prepared for exact point-to-surface distances (see :func:`distance_to_surface`).
 
-    An upper bound first: exact distances to the triangles owning the ``candidates`` nearest
-    probes (corners, centroids and area-weighted samples, labelled with their triangle;
-    ``scipy.spatial.cKDTree``). Then every triangle whose bounding sphere comes closer than
-    that bound is checked exactly, so the result is the true distance.
+    Holds the triangles (m, 3, 3) metres, their centres and bounding radii, and a
+    ``scipy.spatial.cKDTree`` of probes (corners, centroids and 2m area-weighted samples, fixed
+    seed) labelled with their triangle.
     """
-    if len(faces) == 0:
-        return np.full(len(points), np.inf)
-    tri = positions[faces]
-    m = len(faces)
-    samples, sample_faces = sample_surface(positions, faces, 2 * m, np.random.default_rng(SEED), with_faces=True)
-    centres = tri.mean(axis=1)
-    probes = np.concatenate([tri.reshape(-1, 3), centres, samples])
-    owner = np.concatenate([np.repeat(np.arange(m), 3), np.arange(m), sample_faces])
-    k = min(candidates, len(probes))
-    _, nearest = cKDTree(probes).query(points, k=k)
-    upper = point_triangle_distance(points[:, None, :], tri[owner[nearest.reshape(len(points), k)]]).min(axis=1)
-    # Points already on the surface (most of them: unchanged regions) need no second look.
-    open_points = np.flatnonzero(upper > 1e-9)
-    if len(open_points) == 0:
+
+    def __init__(self, positions: np.ndarray, faces: np.ndarray) -> None:
+        self.tri = positions[faces]
+        m = len(faces)
+        samples, sample_faces = sample_surface(positions, faces, 2 * m, np.random.default_rng(SEED), with_faces=True)
+        self.centres = self.tri.mean(axis=1)
+        self.radii = np.sqrt(((self.tri - self.centres[:, None]) ** 2).sum(-1).max(axis=1))
+        probes = np.concatenate([self.tri.reshape(-1, 3), self.centres, samples])
+        self.owner = np.concatenate([np.repeat(np.arange(m), 3), np.arange(m), sample_faces])
+        self.tree = cKDTree(probes) if m else None
+
+    def distance(self, points: np.ndarray, candidates: int = 6) -> np.ndarray:
+        """Exact distance from each point (p, 3) to the surface, (p,) metres (inf if empty).
+
+        An upper bound first: exact distances to the triangles owning the ``candidates`` nearest
+        probes. Then every triangle whose bounding sphere comes closer than that bound is checked
+        exactly, so the result is the true distance.
+        """
+        if self.tree is None:
+            return np.full(len(points), np.inf)
+        k = min(candidates, self.tree.n)
+        _, nearest = self.tree.query(points, k=k)
+        nearest = nearest.reshape(len(points), k)
+        upper = point_triangle_distance(points[:, None, :], self.tri[self.owner[nearest]]).min(axis=1)
+        # Points already on the surface (most of them: unchanged regions) need no second look.
+        open_points = np.flatnonzero(upper > 1e-9)
+        if len(open_points) == 0:
+            return upper
+        gap = np.sqrt(((points[open_points, None, :] - self.centres[None]) ** 2).sum(-1)) - self.radii[None]
+        rows, cols = np.nonzero(gap < upper[open_points, None] - 1e-12)
+        if len(rows):
+            exact = point_triangle_distance(points[open_points[rows]], self.tri[cols])
+            np.minimum.at(upper, open_points[rows], exact)
         return upper
-    radii = np.sqrt(((tri - centres[:, None]) ** 2).sum(-1).max(axis=1))
-    gap = np.sqrt(((points[open_points, None, :] - centres[None]) ** 2).sum(-1)) - radii[None]
-    rows, cols = np.nonzero(gap < upper[open_points, None] - 1e-12)
-    if len(rows):
-        exact = point_triangle_distance(points[open_points[rows]], tri[cols])
-        np.minimum.at(upper, open_points[rows], exact)
-    return upper
+
+
+def distance_to_surface(points: np.ndarray, positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Exact distance from each point (p, 3) to the triangle mesh, (p,) metres (inf if empty)."""
+    return SurfaceIndex(positions, faces).distance(points)
 
 
 def boundary_loops(faces: np.ndarray, vertex_count: int) -> tuple[np.ndarray, int]:
@@ -236,6 +251,7 @@ class _Source:
     silhouettes: list
     border_length: float
     loops: int
+    index: SurfaceIndex
 
 
 _CACHE: "OrderedDict[bytes, _Source]" = OrderedDict()
@@ -263,7 +279,8 @@ def _source_side(parts: list[Part]) -> _Source:
         np.vstack([positions, sample_surface(positions, faces, SAMPLES, rng)]),
         sample_surface(positions, faces[walls], WALL_SAMPLES, rng) if walls.any() else np.zeros((0, 3)),
         silhouettes(positions, faces, low, high),
-        float(np.linalg.norm(np.diff(positions[border], axis=1), axis=-1).sum()), loops)
+        float(np.linalg.norm(np.diff(positions[border], axis=1), axis=-1).sum()), loops,
+        SurfaceIndex(positions, faces))
     _CACHE[key] = source
     if len(_CACHE) > 16:
         _CACHE.popitem(last=False)
@@ -290,7 +307,7 @@ def measure_lod(source_parts: list[Part], lod_parts: list[Part]) -> dict:
     forward = distance_to_surface(np.vstack([src.points, src.wall_points]), lod_pos, lod_faces)
     wall_distance = forward[len(src.points):]
     lod_points = np.vstack([lod_pos, sample_surface(lod_pos, lod_faces, SAMPLES, rng)]) if len(lod_faces) else np.zeros((0, 3))
-    backward = distance_to_surface(lod_points, src.positions, src.faces) if len(lod_points) else np.zeros(1)
+    backward = src.index.distance(lod_points) if len(lod_points) else np.zeros(1)
     hausdorff = max(float(forward[: len(src.points)].max(initial=0.0)), float(backward.max(initial=0.0)))
     wall_coverage = float((wall_distance <= COVER_TOLERANCE * src.diagonal).mean()) if len(wall_distance) else 1.0
 
