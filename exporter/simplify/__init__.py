@@ -79,8 +79,8 @@ def uv_charts(faces: np.ndarray, vertex_count: int) -> np.ndarray:
 
 
 def _join(parts: list[Part], link_distance: float):
-    """One welded mesh from all parts: positions (k, 3), faces (m, 3), face_part (m,),
-    corner_uvs (m, 3, 2) or None, face_chart (m,), and per input vertex its welded index."""
+    """One welded mesh from all parts: positions (k, 3) metres, faces (m, 3), face_part (m,),
+    corner_uvs (m, 3, 2) or None, face_chart (m,)."""
     offsets = np.cumsum([0] + [p.vertex_count for p in parts])
     positions = np.concatenate([p.positions for p in parts]) if parts else np.zeros((0, 3))
     faces = np.concatenate([p.triangles + offsets[i] for i, p in enumerate(parts)]) if parts else np.zeros((0, 3), np.int64)
@@ -95,7 +95,7 @@ def _join(parts: list[Part], link_distance: float):
     # Welding closer than link_distance can fold slivers to edges: drop those.
     distinct = (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])
     return (welded_positions, faces[distinct], face_part[distinct], None if corner_uvs is None else corner_uvs[distinct],
-            face_chart[distinct], welded, offsets)
+            face_chart[distinct])
 
 
 def _locks(positions, faces, face_part, options: SimplifyOptions) -> np.ndarray:
@@ -159,7 +159,7 @@ def simplify_parts(parts: list[Part], target: int, options: SimplifyOptions,
     total = sum(p.triangle_count for p in parts)
     if total <= target or total == 0:
         return parts
-    positions, faces, face_part, corner_uvs, face_chart, welded, offsets = _join(parts, options.vertex_link_distance)
+    positions, faces, face_part, corner_uvs, face_chart = _join(parts, options.vertex_link_distance)
     reference = reference if reference is not None else (positions, faces)
     # Lossless first: flat polygons re-triangulated from their outlines.
     if options.planar_retriangulation:
