@@ -144,29 +144,55 @@ class SurfaceIndex:
         self.owner = np.concatenate([np.repeat(np.arange(m), 3), np.arange(m), sample_faces])
         self.tree = cKDTree(probes) if m else None
 
-    def distance(self, points: np.ndarray, candidates: int = 6) -> np.ndarray:
-        """Exact distance from each point (p, 3) to the surface, (p,) metres (inf if empty).
-
-        An upper bound first: exact distances to the triangles owning the ``candidates`` nearest
-        probes. Then every triangle whose bounding sphere comes closer than that bound is checked
-        exactly, so the result is the true distance.
-        """
+    def upper(self, points: np.ndarray, candidates: int = 6) -> np.ndarray:
+        """Upper bound of each point's distance (p,) metres: exact distances to the triangles
+        owning the ``candidates`` nearest probes (inf if the surface is empty)."""
         if self.tree is None:
             return np.full(len(points), np.inf)
         k = min(candidates, self.tree.n)
         _, nearest = self.tree.query(points, k=k)
         nearest = nearest.reshape(len(points), k)
-        upper = point_triangle_distance(points[:, None, :], self.tri[self.owner[nearest]]).min(axis=1)
-        # Points already on the surface (most of them: unchanged regions) need no second look.
-        open_points = np.flatnonzero(upper > 1e-9)
-        if len(open_points) == 0:
-            return upper
+        return point_triangle_distance(points[:, None, :], self.tri[self.owner[nearest]]).min(axis=1)
+
+    def refine(self, points: np.ndarray, upper: np.ndarray) -> np.ndarray:
+        """Exact distances (p,) metres given upper bounds: every triangle whose bounding sphere
+        comes closer than the bound is checked."""
+        exact = upper.copy()
+        open_points = np.flatnonzero(upper > 1e-9)  # points on the surface need no second look
+        if len(open_points) == 0 or self.tree is None:
+            return exact
         gap = np.sqrt(((points[open_points, None, :] - self.centres[None]) ** 2).sum(-1)) - self.radii[None]
         rows, cols = np.nonzero(gap < upper[open_points, None] - 1e-12)
         if len(rows):
-            exact = point_triangle_distance(points[open_points[rows]], self.tri[cols])
-            np.minimum.at(upper, open_points[rows], exact)
-        return upper
+            np.minimum.at(exact, open_points[rows], point_triangle_distance(points[open_points[rows]], self.tri[cols]))
+        return exact
+
+    def distance(self, points: np.ndarray) -> np.ndarray:
+        """Exact distance from each point (p, 3) to the surface, (p,) metres (inf if empty)."""
+        return self.refine(points, self.upper(points))
+
+    def max_distance(self, points: np.ndarray, chunk: int = 32) -> float:
+        """Exact maximum distance of the points (metres): refines the largest upper bounds first
+        and stops once no remaining bound can beat the best exact value."""
+        if len(points) == 0:
+            return 0.0
+        upper = self.upper(points)
+        order = np.argsort(-upper)
+        best = 0.0
+        for start in range(0, len(order), chunk):
+            if upper[order[start]] <= best:
+                break
+            take = order[start:start + chunk]
+            best = max(best, float(self.refine(points[take], upper[take]).max()))
+        return best
+
+    def within(self, points: np.ndarray, tolerance: float) -> np.ndarray:
+        """(p,) bool: exact distance <= ``tolerance`` metres (only bounds above it are refined)."""
+        upper = self.upper(points)
+        inside = upper <= tolerance
+        if (~inside).any():
+            inside[~inside] = self.refine(points[~inside], upper[~inside]) <= tolerance
+        return inside
 
 
 def distance_to_surface(points: np.ndarray, positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -303,13 +329,12 @@ def measure_lod(source_parts: list[Part], lod_parts: list[Part]) -> dict:
     lod_tris = sum(p.triangle_count for p in lod_parts)
     rng = np.random.default_rng(SEED + 1)
 
-    # Source points (vertices, samples, wall samples) against the level's surface in one pass.
-    forward = distance_to_surface(np.vstack([src.points, src.wall_points]), lod_pos, lod_faces)
-    wall_distance = forward[len(src.points):]
+    # Exact where it matters: the largest distances (Hausdorff) and walls beyond the tolerance.
+    lod_index = SurfaceIndex(lod_pos, lod_faces)
     lod_points = np.vstack([lod_pos, sample_surface(lod_pos, lod_faces, SAMPLES, rng)]) if len(lod_faces) else np.zeros((0, 3))
-    backward = src.index.distance(lod_points) if len(lod_points) else np.zeros(1)
-    hausdorff = max(float(forward[: len(src.points)].max(initial=0.0)), float(backward.max(initial=0.0)))
-    wall_coverage = float((wall_distance <= COVER_TOLERANCE * src.diagonal).mean()) if len(wall_distance) else 1.0
+    hausdorff = max(lod_index.max_distance(src.points), src.index.max_distance(lod_points))
+    covered = lod_index.within(src.wall_points, COVER_TOLERANCE * src.diagonal)
+    wall_coverage = float(covered.mean()) if len(covered) else 1.0
 
     ious = []
     for a, b in zip(src.silhouettes, silhouettes(lod_pos, lod_faces, src.low, src.high)):
