@@ -20,6 +20,7 @@ Usage::
 
     python benchmarks/compare_simplifiers.py --buildings 300 --seed 0
     python benchmarks/compare_simplifiers.py --gltfpack ~/.cache/vworld-lod/npm/node_modules/.bin/gltfpack
+    python benchmarks/compare_simplifiers.py --folder ../shared/data/real --crs EPSG:7415
 
 gltfpack: ``npm install --prefix ~/.cache/vworld-lod/npm gltfpack`` (outside the repository);
 found on PATH, in that folder or in ``benchmarks/.npm``; skipped with a note when absent.
@@ -98,10 +99,24 @@ def gltfpack(parts: list[Part], budget: int, executable: str, workdir: Path) -> 
 
 # --------------------------------------------------------------------------- run
 
-def run(count_buildings: int, seed: int, gltfpack_path: str | None) -> None:
-    from exporter.samplegen import generate_buildings
+def load_folder(folder: str, crs: str | None) -> list:
+    """Every building a reader finds in ``folder`` (e.g. ../shared/data/real CityJSON)."""
+    from exporter.config import ReaderOptions
+    from exporter.readers import load_entry, scan_folder
 
-    buildings = generate_buildings(count_buildings, seed=seed, atlas_size=16)
+    options = ReaderOptions(crs=crs)
+    return [load_entry(entry, options) for entry in scan_folder(folder, options).entries]
+
+
+def run(count_buildings: int, seed: int, gltfpack_path: str | None, folder: str | None = None, crs: str | None = None) -> None:
+    if folder:
+        buildings = load_folder(folder, crs)[:count_buildings]
+        where = f"{len(buildings)} buildings from {folder}"
+    else:
+        from exporter.samplegen import generate_buildings
+
+        buildings = generate_buildings(count_buildings, seed=seed, atlas_size=16)
+        where = f"{count_buildings} sample-generator buildings, seed {seed}"
     lods = default_lods()
     options = SimplifyOptions()
     paper_only = dataclasses.replace(options, planar_retriangulation=False)
@@ -140,7 +155,7 @@ def run(count_buildings: int, seed: int, gltfpack_path: str | None) -> None:
                     metrics["budget_reached"] = float(count(parts) <= budget)
                     results[(name, k)].append(metrics)
 
-    print(f"# {count_buildings} sample-generator buildings, seed {seed}; budgets = this method's triangle counts")
+    print(f"# {where}; budgets = this method's triangle counts")
     print(f"# mean source triangles {np.mean([t[0] for t in table3]):.1f}")
     header = f"{'method':<22}{'level':>6}{'tri ratio':>10}{'at budget':>10}{'hausdorff':>10}{'IoU mean':>9}{'IoU min':>8}{'cover mean':>11}{'cover min':>10}{'|boundary|':>11}{'holes':>6}"
     print(header)
@@ -171,8 +186,10 @@ def main() -> None:
     parser.add_argument("--buildings", type=int, default=300, help="number of sample-generator buildings (default 300)")
     parser.add_argument("--seed", type=int, default=0, help="sample-generator seed (default 0)")
     parser.add_argument("--gltfpack", default=None, help="path of the gltfpack executable")
+    parser.add_argument("--folder", default=None, help="read the buildings from this input folder instead (any reader format)")
+    parser.add_argument("--crs", default=None, help="CRS for input files that declare none (with --folder), e.g. EPSG:7415")
     args = parser.parse_args()
-    run(args.buildings, args.seed, args.gltfpack)
+    run(args.buildings, args.seed, args.gltfpack, args.folder, args.crs)
 
 
 if __name__ == "__main__":

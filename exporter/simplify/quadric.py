@@ -66,8 +66,11 @@ def _anchors(vertex_count: int, faces: np.ndarray, movable: np.ndarray, locked: 
     return np.flatnonzero(locked & ~held)
 
 
-def quadric_pass(positions, faces, movable, locked, target: int, preserve_curvature: bool) -> tuple[np.ndarray, np.ndarray]:
-    """One pymeshlab collapse pass; returns ``(faces (m', 3) as input vertex indices, face_ids (m',))``."""
+def quadric_pass(positions, faces, movable, locked, target: int, preserve_curvature: bool,
+                 optimal_placement: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One pymeshlab collapse pass; returns ``(faces (m', 3) as input vertex indices, face_ids
+    (m',), positions (k, 3))`` where ``positions`` is the input with the moved vertices' new
+    positions (only with ``optimal_placement``)."""
     need = _anchors(len(positions), faces, movable, locked)
     k = len(positions)
     corners = (positions[need][:, None, :] + _ANCHOR_OFFSETS[None]).reshape(-1, 3)
@@ -83,12 +86,21 @@ def quadric_pass(positions, faces, movable, locked, target: int, preserve_curvat
     movable_target = max(0, int(target) - int((~movable).sum()))
     ms.meshing_decimation_quadric_edge_collapse(
         targetfacenum=movable_target, selected=True, preserveboundary=False, preservetopology=PRESERVE_TOPOLOGY,
-        optimalplacement=False, planarquadric=True, preservenormal=bool(preserve_curvature), autoclean=False)
+        optimalplacement=bool(optimal_placement), planarquadric=True, preservenormal=bool(preserve_curvature),
+        autoclean=False)
     out = ms.current_mesh()
     out_q = out.face_scalar_array()
     keep = out_q != 0
     vertex_ids = np.rint(out.vertex_scalar_array()).astype(np.int64)
-    return vertex_ids[out.face_matrix()[keep]], (np.abs(out_q[keep]) - 1).astype(np.int64)
+    moved = positions
+    if optimal_placement:
+        real = vertex_ids >= 0
+        moved = positions.copy()
+        new = out.vertex_matrix()[real]
+        # pymeshlab stores float32: vertices that did not move keep their exact input position.
+        shift = np.linalg.norm(new - positions[vertex_ids[real]], axis=1) > 1e-5
+        moved[vertex_ids[real][shift]] = new[shift]
+    return vertex_ids[out.face_matrix()[keep]], (np.abs(out_q[keep]) - 1).astype(np.int64), moved
 
 
 # --------------------------------------------------------------------------- UVs of the result
@@ -179,7 +191,10 @@ def collapse(positions: np.ndarray, faces: np.ndarray, corner_uvs: Optional[np.n
     if len(faces) <= target or not movable.any():
         return unchanged
     for _ in range(max_iterations):
-        out_faces, face_ids = quadric_pass(positions, faces, movable, locked, target, preserve_curvature)
+        # Without texture, vertices may go to the quadric's optimum; with texture they stay input
+        # vertices so their UVs are exact.
+        out_faces, face_ids, moved = quadric_pass(positions, faces, movable, locked, target, preserve_curvature,
+                                                  optimal_placement=corner_uvs is None)
         uvs = None
         if corner_uvs is not None:
             uvs, crossings = assign_uvs(positions, faces, corner_uvs, face_chart, out_faces, face_ids, project=not keep_seams)
@@ -195,5 +210,5 @@ def collapse(positions: np.ndarray, faces: np.ndarray, corner_uvs: Optional[np.n
         used = np.unique(out_faces)
         remap = np.full(len(positions), -1, dtype=np.int64)
         remap[used] = np.arange(len(used))
-        return Collapsed(positions[used], remap[out_faces], uvs, used, face_ids)
+        return Collapsed(moved[used], remap[out_faces], uvs, used, face_ids)
     return unchanged
