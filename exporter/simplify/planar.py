@@ -177,6 +177,7 @@ def retriangulate_planar(positions: np.ndarray, faces: np.ndarray, corner_uvs, f
 
 
 def _retriangulate_regions(positions, faces, corner_uvs, face_chart, locked, on_border: bool):
+    """One pass of :func:`retriangulate_planar`; ``on_border``: straight open-border vertices may go."""
     m = len(faces)
     regions = planar_regions(positions, faces, face_chart)
     if m == 0:

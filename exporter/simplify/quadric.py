@@ -19,9 +19,10 @@ Why this shape:
   corners).
 - The geometric collapse runs without the texture quadric: measured on VWorld-like buildings,
   ``..._with_texture`` moves vertices off flat walls (2 % of the diagonal at 5 % reduction) where
-  the plain filter removes half the faces with zero error. Placement is restricted to the
-  collapsed edge's end points (``optimalplacement=False``), so every output vertex is an input
-  vertex and its UV in each chart is known exactly.
+  the plain filter removes half the faces with zero error. With texture, placement is restricted
+  to the collapsed edge's end points (``optimalplacement=False``), so every output vertex is an
+  input vertex and its UV in each chart is known exactly; without texture a vertex goes to the
+  quadric's optimum.
 - UVs of an output corner: the input face's own corner when the vertex did not change, otherwise
   the UV the new vertex has in the face's chart. A corner whose vertex is not in that chart at
   all is a collapse across a texture seam: with ``keep_seams`` the pass is redone with that
