@@ -28,6 +28,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Iterable, Optional
 
+import numpy as np
+
 from . import __version__
 from .atomic import remove_stale_temporaries, write_bytes_atomic, write_text_atomic
 from .config import Config
@@ -113,6 +115,15 @@ def texture_levels(parts_by_level: list[list[Part]], config: Config, problems: l
     return out
 
 
+def same_geometry(parts: list[Part], other: list[Part]) -> bool:
+    """True when two levels have identical meshes (then their quality metrics are identical too)."""
+    return len(parts) == len(other) and all(
+        a.triangles.shape == b.triangles.shape and a.positions.shape == b.positions.shape
+        and np.array_equal(a.triangles, b.triangles) and np.array_equal(a.positions, b.positions)
+        for a, b in zip(parts, other)
+    )
+
+
 def lod_record(level: int, parts: list[Part], file_name: str, data: bytes, quality: dict) -> dict:
     textures = [p.texture for p in parts if p.texture is not None and p.triangle_count]
     largest = max(textures, key=lambda t: t.width * t.height, default=None)
@@ -183,7 +194,12 @@ def process_entry(entry: Entry, config: Config, out_dir: str, digest: str) -> En
         lap("simplify")
         parts_by_level = texture_levels(parts_by_level, config, problems)
         lap("textures")
-        qualities = [{"triangle_ratio": 1.0}] + [measure_lod(parts_by_level[0], parts) for parts in parts_by_level[1:]]
+        qualities = [{"triangle_ratio": 1.0}]
+        for level in range(1, len(parts_by_level)):
+            if same_geometry(parts_by_level[level], parts_by_level[level - 1]) and level > 1:
+                qualities.append(dict(qualities[-1]))  # e.g. a lossless level reached both targets
+            else:
+                qualities.append(measure_lod(parts_by_level[0], parts_by_level[level]))
         lap("quality")
         folder = safe_folder_name(building.id)
         building_dir = Path(out_dir) / tile.name / folder
