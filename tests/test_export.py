@@ -160,3 +160,20 @@ def test_killed_run_resumes_to_the_same_output_as_an_uninterrupted_one(tmp_path,
     assert leftovers == []
     names = lambda root: sorted(str(p.relative_to(root)) for p in root.rglob("*"))
     assert names(out) == names(reference)
+
+
+def test_a_tile_index_that_disagrees_with_the_centre_is_kept_and_reported(tmp_path):
+    from exporter.readers.vworld import write_tile
+    from exporter.samplegen import generate_buildings
+
+    buildings = generate_buildings(2, seed=3, tile=TILE, atlas_size=32, mean_triangles=60)
+    claimed = TileId(15, TILE.idx + 1, TILE.idy)  # the data says: the tile to the east
+    folder = tmp_path / "tile"
+    write_tile(folder, claimed, buildings)
+    out = tmp_path / "out"
+    assert export([str(folder), "--out", str(out)]) == 0
+    manifest = manifest_of(out)
+    assert manifest["tile"]["name"] == claimed.name, "the data's own tile index wins"
+    for building in manifest["buildings"]:
+        assert building["tile_from_center"] == {"level": 15, "idx": TILE.idx, "idy": TILE.idy}
+        assert any(str(TILE.idx) in problem for problem in building["problems"])
