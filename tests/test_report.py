@@ -146,7 +146,8 @@ class Page(HTMLParser):
     def __init__(self, text: str) -> None:
         super().__init__()
         self.articles: list[dict] = []
-        self.images: list[str] = []
+        self.images: list[str] = []  # renders
+        self.atlas: list[str] = []  # atlas details
         self.missing: list[str] = []
         self.tables: dict[str, list[list[str]]] = {}
         self.links: list[str] = []
@@ -158,11 +159,15 @@ class Page(HTMLParser):
     def handle_starttag(self, tag, attrs):
         attrs = dict(attrs)
         if tag == "article":
-            self.articles.append({"id": attrs.get("data-building-id"), "images": [], "missing": []})
+            self.articles.append({"id": attrs.get("data-building-id"), "images": [], "atlas": [], "missing": []})
         elif tag == "img":
-            self.images.append(attrs["src"])
+            kind = "atlas" if attrs.get("class") == "atlas" else "images"
+            if kind == "images":
+                self.images.append(attrs["src"])
+            else:
+                self.atlas.append(attrs["src"])
             if self.articles:
-                self.articles[-1]["images"].append(attrs["src"])
+                self.articles[-1][kind].append(attrs["src"])
         elif tag == "div" and attrs.get("class") == "missing":
             self._in_missing = True
         elif tag == "table" and attrs.get("id"):
@@ -279,6 +284,18 @@ def test_renders_show_the_textured_building(report):
         assert ((r > 2.5 * g) & (r > 2.5 * b) & (r > 90)).mean() > 0.01, src  # red roof
         if "lod2" not in src:  # 64 px atlas: windows still there but blurred by JPEG
             assert ((b > r + 50) & (b > g + 30)).mean() > 0.003, src  # blue windows
+
+
+def test_atlas_detail_shows_the_same_region_at_each_level_resolution(report):
+    _, tile_dir, _, page = report
+    a = next(x for x in page.articles if x["id"] == "A")
+    assert a["atlas"] == [f"report/A_lod{k}_atlas.png" for k in range(3)]
+    crops = [np.asarray(Image.open(tile_dir / src).convert("RGB")).astype(int) for src in a["atlas"]]
+    assert [c.shape[:2] for c in crops] == [(32, 32), (16, 16), (8, 8)]  # 1/8 of 256, 128, 64 px
+    # Same content: LOD0's crop reduced to LOD2's size is close to LOD2's crop.
+    reduced = crops[0].reshape(8, 4, 8, 4, 3).mean(axis=(1, 3))
+    assert np.abs(reduced - crops[2]).mean() < 40
+    assert len(page.atlas) == len(page.images)
 
 
 def test_same_view_for_every_level(report):
@@ -591,6 +608,7 @@ def test_report_of_a_real_export(tmp_path):
     write_reports(tmp_path / "out")
     manifest, page = _check_pipeline_report(tmp_path / "out")
     tile_dir = tmp_path / "out" / manifest["tile"]["name"]
+    assert len(page.atlas) == len(page.images)  # every level textured: an atlas detail each
     for src in page.images:
         pixels = _building_pixels(tile_dir / src)
         assert len(pixels) > 0.05 * 256 * 256, src  # the building is in the picture

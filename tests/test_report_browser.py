@@ -45,7 +45,7 @@ def export(tmp_path_factory):
 def test_every_image_loads_and_tables_render(export, tmp_path):
     page = export / TILE / "report.html"
     images = page.read_text(encoding="utf-8").count("<img ")
-    assert images == 11  # 4 buildings x 3 levels, one level file missing
+    assert images == 2 * 11  # render + atlas detail for 4 buildings x 3 levels, one level file missing
     marks = body_marks(page, tmp_path / "profile")
     assert marks.get("data-images-loaded") == str(images), marks
     assert marks.get("data-images-broken") == "0", marks
@@ -63,4 +63,4 @@ def test_a_missing_image_is_counted_as_broken(export, tmp_path):
     shutil.copytree(export, copy)
     next((copy / TILE / "report").glob("*_lod1.png")).unlink()
     marks = body_marks(copy / TILE / "report.html", tmp_path / "profile")
-    assert marks.get("data-images-broken") == "1" and marks.get("data-images-loaded") == "10", marks
+    assert marks.get("data-images-broken") == "1" and marks.get("data-images-loaded") == str(2 * 11 - 1), marks

@@ -2,7 +2,8 @@
 
 One public entry point, :func:`write_reports`. For each tile folder ``OUT/<level>_<idx>_<idy>/``
 holding a ``lod_manifest.json`` it writes ``OUT/<tile>/report.html`` and the renders next to it in
-``OUT/<tile>/report/<building folder>_lod<k>.png``; then ``OUT/index.html`` linking every tile.
+``OUT/<tile>/report/<building folder>_lod<k>.png`` (plus ``..._lod<k>_atlas.png``, a crop of the
+level's atlas, see :mod:`.atlas`); then ``OUT/index.html`` linking every tile.
 
 Flat pipeline per tile: read the manifest -> per building, load each level's ``.glb`` (glTF frame)
 -> fit one camera to LOD0 -> render every level from it (:mod:`.render`, numpy only, no GPU) ->
@@ -22,6 +23,7 @@ from urllib.parse import quote
 from ..atomic import write_bytes_atomic, write_text_atomic
 from ..errors import InputError
 from .page import BuildingRenders, LevelRender, TileEntry, index_page, tile_page
+from .atlas import atlas_detail
 from .render import backdrop, fit_view, load_glb, png_bytes, render
 
 __all__ = ["write_reports"]
@@ -58,6 +60,11 @@ def image_name(building: dict, level: int) -> str:
     return f"{folder}_lod{level}.png"
 
 
+def detail_name(building: dict, level: int) -> str:
+    """File name of a level's atlas detail (see :mod:`.atlas`)."""
+    return image_name(building, level).removesuffix(".png") + "_atlas.png"
+
+
 def render_building(tile_dir: Path, building: dict, size: int = IMAGE_SIZE) -> BuildingRenders:
     """Render every level of one building into ``tile_dir/report/``, all from LOD0's view."""
     result = BuildingRenders(building)
@@ -74,6 +81,11 @@ def render_building(tile_dir: Path, building: dict, size: int = IMAGE_SIZE) -> B
             name = image_name(building, level)
             write_bytes_atomic(tile_dir / IMAGE_FOLDER / name, png_bytes(render(meshes, view, background=background)))
             entry.image = f"{IMAGE_FOLDER}/{quote(name)}"
+            detail = atlas_detail(tile_dir / str(lod.get("file", "")))
+            if detail is not None:
+                name = detail_name(building, level)
+                write_bytes_atomic(tile_dir / IMAGE_FOLDER / name, png_bytes(detail))
+                entry.detail, entry.detail_size = f"{IMAGE_FOLDER}/{quote(name)}", (detail.shape[1], detail.shape[0])
         except InputError as error:
             entry.error = str(error).replace(str(tile_dir) + "/", "")
         entry.seconds = time.perf_counter() - started
@@ -95,6 +107,7 @@ def write_tile_report(tile_dir: Path, manifest: dict, size: int = IMAGE_SIZE) ->
     renders = [render_building(tile_dir, building, size) for building in manifest["buildings"]]
     seconds = time.perf_counter() - started
     drawn = {image_name(r.building, level.level) for r in renders for level in r.levels if level.image is not None}
+    drawn |= {detail_name(r.building, level.level) for r in renders for level in r.levels if level.detail is not None}
     remove_stale_images(tile_dir / IMAGE_FOLDER, drawn)
     return write_text_atomic(tile_dir / "report.html", tile_page(manifest, renders, seconds))
 

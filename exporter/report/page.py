@@ -23,6 +23,7 @@ from .summary import METRICS, level_table, lod_metric, metric_series, metric_sta
 # Display-only thresholds that colour a metric as a likely problem (not used by the exporter).
 WARN_BELOW = {"silhouette_iou": 0.9, "wall_coverage": 0.9}
 WARN_ABOVE = {"hausdorff_rel": 0.05, "new_holes": 0.0}
+DETAIL_PX = 64  # CSS pixels of the atlas detail (its own size varies with the level)
 FIXED_RANGES = {"triangle_ratio": (0.0, 1.0), "silhouette_iou": (0.0, 1.0), "wall_coverage": (0.0, 1.0)}
 
 STYLE = """
@@ -36,7 +37,9 @@ th{background:#f0f0f3}td.text,th.text{text-align:left}
 .plot-median{stroke:#c00;stroke-width:2}
 .building{border-top:1px solid #ddd;padding:.6em 0}.building h3{margin:.2em 0;font-size:1.05em}
 .lods{display:flex;flex-wrap:wrap;gap:12px}.lod{margin:0;width:256px}
-.lod img{display:block;width:256px;height:256px;background:#eee;border:1px solid #ddd}
+.lod img.render{display:block;width:256px;height:256px;background:#eee;border:1px solid #ddd}
+.detail{display:flex;gap:6px;align-items:center;font-size:11px;color:#555;margin-top:4px}
+.lod img.atlas{display:block;width:64px;height:64px;flex:none;image-rendering:pixelated;border:1px solid #ddd}
 .lod figcaption{font-size:12px}.lod table{font-size:11px;margin:.2em 0;width:100%}
 .lod td{padding:1px 4px}
 .missing{width:256px;height:256px;display:flex;align-items:center;justify-content:center;
@@ -70,13 +73,15 @@ window.addEventListener("load", function () {
 @dataclass
 class LevelRender:
     """One level's picture: ``image`` relative to the page (URL path) or ``error`` saying why not;
-    ``seconds`` the wall time to load, render and save it."""
+    ``seconds`` the wall time to load, render and save it (and its atlas detail)."""
 
     level: int
     lod: dict
     image: Optional[str] = None
     error: Optional[str] = None
     seconds: float = 0.0
+    detail: Optional[str] = None  # the atlas detail crop, relative to the page
+    detail_size: tuple = (0, 0)  # its width, height in atlas pixels
 
 
 @dataclass
@@ -189,10 +194,15 @@ def _level_figure(building_id: str, render: LevelRender) -> str:
     w, h = (list(lod.get("texture_size", [0, 0])) + [0, 0])[:2]
     texture = "untextured" if w * h == 0 else f"{w}×{h} px"
     if render.image is not None:
-        picture = (f'<img src="{escape(render.image)}" width="256" height="256" '
+        picture = (f'<img class="render" src="{escape(render.image)}" width="256" height="256" '
                    f'alt="{escape(building_id)} LOD{render.level}">')
     else:
         picture = f'<div class="missing">{escape(render.error or "no image")}</div>'
+    if render.detail is not None:
+        w_crop, h_crop = render.detail_size
+        picture += (f'<div class="detail"><img class="atlas" src="{escape(render.detail)}" width="{DETAIL_PX}" '
+                    f'height="{DETAIL_PX}" alt="{escape(building_id)} LOD{render.level} atlas detail">'
+                    f'<span>atlas centre, {w_crop}×{h_crop} px of the {w}×{h} atlas, enlarged</span></div>')
     caption = (f'<b>LOD{render.level}</b> · {_fmt_int(lod.get("triangles", 0))} triangles · '
                f'{_fmt_int(lod.get("vertices", 0))} vertices · {texture}')
     return (f'<figure class="lod" data-level="{render.level}">{picture}<figcaption>{caption}'
@@ -243,7 +253,8 @@ def tile_page(manifest: dict, renders: list[BuildingRenders], render_seconds: fl
         '<h2 id="distributions">Quality per level</h2>', plots_html(manifest),
         '<h2 id="buildings">Buildings, worst first</h2>',
         '<p class="meta">Same 3/4 view from the south-east for every level of a building, fitted to LOD0; '
-        'sun from the south-south-west; inside faces darker.</p>',
+        'sun from the south-south-west; inside faces darker. Under each render, the same central eighth '
+        'of the level\'s atlas at the atlas\' own resolution (texture LoD).</p>',
         *(building_html(rank, r) for rank, r in enumerate(ordered, 1)),
         f'<p class="meta" id="render-time">{images} images rendered in {render_seconds:.2f} s'
         f'{f" ({render_seconds / images * 1000:.0f} ms each, load + render + PNG)" if images else ""}.</p>',
