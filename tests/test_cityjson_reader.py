@@ -425,3 +425,22 @@ def test_triangulate_concave_ring_follows_outward(sign):
     n = np.cross(ring[triangles[:, 1]] - ring[triangles[:, 0]], ring[triangles[:, 2]] - ring[triangles[:, 0]])
     assert np.all(n @ outward > 0)
     assert (np.linalg.norm(n, axis=1) / 2).sum() == pytest.approx(6.0, rel=1e-3)  # m², the L's area
+
+
+def test_a_crs_that_puts_buildings_off_the_globe_skips_them_with_a_reason(tmp_path):
+    """Coordinates read in the wrong CRS can land outside lon/lat range: each such building is
+    listed as skipped with the reason, the scan goes on."""
+    from exporter.config import ReaderOptions
+    from exporter.readers import cityjson
+
+    document = {
+        "type": "CityJSON", "version": "2.0",
+        "transform": {"scale": [1.0, 1.0, 1.0], "translate": [0.0, 0.0, 0.0]},
+        "metadata": {"referenceSystem": "https://www.opengis.net/def/crs/EPSG/0/4979"},
+        "CityObjects": {"far": {"type": "Building", "geometry": [{"type": "MultiSurface", "lod": "1", "boundaries": [[[0, 1, 2]]]}]}},
+        "vertices": [[10.0, 95.0, 0.0], [10.001, 95.0, 0.0], [10.0, 95.001, 5.0]],
+    }
+    (tmp_path / "bad.city.json").write_text(__import__("json").dumps(document))
+    scan = cityjson.scan(tmp_path, ReaderOptions())
+    assert scan.entries == []
+    assert len(scan.skipped) == 1 and "far" in scan.skipped[0].reason and "CRS" in scan.skipped[0].reason

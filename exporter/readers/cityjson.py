@@ -498,7 +498,12 @@ def scan(folder: Path, options: ReaderOptions) -> Scan:
                 found = _resolve_image(path, name) if isinstance(name, str) else None
                 if found is not None and str(found) not in inputs:
                     inputs.append(str(found))
-            result.entries.append(Entry(format=FORMAT, id=building_id, source=str(path), tile=building_tile(bounds), inputs=inputs, key=building_id))
+            try:
+                tile = building_tile(bounds)
+            except ValueError as error:  # e.g. a wrong CRS put the building off the globe
+                result.skipped.append(Skipped(source=str(path), reason=f"building {building_id}: {error} (is the CRS right?)", id=building_id))
+                continue
+            result.entries.append(Entry(format=FORMAT, id=building_id, source=str(path), tile=tile, inputs=inputs, key=building_id))
     return result
 
 
