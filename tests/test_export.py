@@ -141,23 +141,32 @@ def test_init_config_writes_a_loadable_commented_file(tmp_path, capsys):
     assert load_config(path) == Config()
 
 
+INTERRUPTIBLE = (
+    "import signal, sys; signal.signal(signal.SIGINT, signal.default_int_handler); "  # as on a terminal
+    "from exporter.cli import main; sys.exit(main(sys.argv[1:]))"
+)
+
+
 @pytest.mark.slow
-def test_killed_run_resumes_to_the_same_output_as_an_uninterrupted_one(tmp_path, small_tile):
+@pytest.mark.parametrize("how, jobs", [("kill", "1"), ("ctrl-c", "2")])
+def test_interrupted_run_resumes_to_the_same_output_as_an_uninterrupted_one(tmp_path, small_tile, how, jobs):
     reference = tmp_path / "reference"
     assert export([str(small_tile), "--out", str(reference)]) == 0
     out = tmp_path / "out"
-    command = [sys.executable, "-m", "exporter", "export", str(small_tile), "--out", str(out), "--jobs", "1", "--quiet"]
-    process = subprocess.Popen(command, cwd=REPO, env={**os.environ, "PYTHONPATH": str(REPO)})
+    command = [sys.executable, "-c", INTERRUPTIBLE, "export", str(small_tile), "--out", str(out), "--jobs", jobs, "--quiet"]
+    process = subprocess.Popen(command, cwd=REPO, env={**os.environ, "PYTHONPATH": str(REPO)}, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline and len(list(out.glob("*/*/building.json"))) < 2 and process.poll() is None:
         time.sleep(0.02)
-    process.send_signal(signal.SIGKILL)
-    process.wait()
-    assert not (out / TILE.name / "lod_manifest.json").exists() or process.returncode == 0
+    process.send_signal(signal.SIGKILL if how == "kill" else signal.SIGINT)
+    _, err = process.communicate(timeout=60)
+    if process.returncode != 0:  # it was stopped midway (not finished before the signal)
+        assert not (out / TILE.name / "lod_manifest.json").exists()
+        if how == "ctrl-c":
+            assert process.returncode == 130 and "interrupted" in err
+    assert [p for p in out.rglob("*") if p.name.endswith(".tmp")] == [], "nothing half-written"
     assert export([str(small_tile), "--out", str(out)]) == 0
     assert manifest_of(out) == manifest_of(reference)
-    leftovers = [p for p in out.rglob("*") if p.name.endswith(".tmp")]
-    assert leftovers == []
     names = lambda root: sorted(str(p.relative_to(root)) for p in root.rglob("*"))
     assert names(out) == names(reference)
 
