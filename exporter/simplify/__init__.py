@@ -35,7 +35,7 @@ from ..errors import ProcessError
 from ..model import Part
 from .protect import (border_vertices, face_areas, footprint_wall_faces, largest_faces, nonmanifold_vertices,
                       part_border_vertices)
-from .guard import deviation, diagonal
+from .guard import Reference, deviation, diagonal
 from .planar import retriangulate_planar
 from .quadric import Collapsed, collapse
 from .weld import weld_positions
@@ -150,17 +150,20 @@ GUARD_STEPS = 5
 
 
 def simplify_parts(parts: list[Part], target: int, options: SimplifyOptions,
-                   reference: Optional[tuple[np.ndarray, np.ndarray]] = None) -> list[Part]:
+                   reference: Optional[tuple[np.ndarray, np.ndarray] | Reference] = None) -> list[Part]:
     """One level: the parts jointly simplified towards ``target`` triangles (never more than given).
 
     ``reference``: the LOD0 mesh ``(positions (k, 3) metres, faces (m, 3))`` the error guard
-    measures against (default: ``parts`` themselves).
+    measures against, or that mesh prepared as a :class:`~.guard.Reference` (default: ``parts``
+    themselves).
     """
     total = sum(p.triangle_count for p in parts)
     if total <= target or total == 0:
         return parts
     positions, faces, face_part, corner_uvs, face_chart = _join(parts, options.vertex_link_distance)
     reference = reference if reference is not None else (positions, faces)
+    if not isinstance(reference, Reference):
+        reference = Reference(*reference)
     # Lossless first: flat polygons re-triangulated from their outlines.
     if options.planar_retriangulation:
         # Lossless, so only non-manifold vertices are held: straight vertices on the open border or
@@ -171,17 +174,19 @@ def simplify_parts(parts: list[Part], target: int, options: SimplifyOptions,
     locked = _locks(positions, faces, face_part, options)
     movable = ~_protected(positions, faces, options)
 
-    def attempt(goal: int):
-        result = collapse(positions, faces, corner_uvs, face_chart, movable, locked, goal,
-                          preserve_curvature=options.preserve_surface_curvature,
-                          keep_seams=options.preserve_uv_seam_edges,
-                          refuse_foldovers=options.preserve_uv_foldover_edges,
-                          max_iterations=options.max_iterations)
-        return result, deviation(reference, result.positions, result.faces)
+    def attempt(goal: int) -> Collapsed:
+        return collapse(positions, faces, corner_uvs, face_chart, movable, locked, goal,
+                        preserve_curvature=options.preserve_surface_curvature,
+                        keep_seams=options.preserve_uv_seam_edges,
+                        refuse_foldovers=options.preserve_uv_foldover_edges,
+                        max_iterations=options.max_iterations)
 
-    tolerance = options.max_error * diagonal(reference[0])
-    result, error = attempt(target)
-    if options.max_error > 0 and error > tolerance:
+    tolerance = options.max_error * diagonal(reference.positions)
+    result = attempt(target)
+    # The planar pass met the target, or nothing may move: every bisection step would return this
+    # same mesh, so there is nothing to measure.
+    settled = len(faces) <= target or not movable.any()
+    if options.max_error > 0 and not settled and deviation(reference, result.positions, result.faces) > tolerance:
         # Raise the target until the level stays within the tolerance (bisection on the count).
         flat = Collapsed(positions, faces, corner_uvs, np.arange(len(positions)), np.arange(len(faces)))
         best, low, high = flat, target, len(faces)
@@ -189,8 +194,8 @@ def simplify_parts(parts: list[Part], target: int, options: SimplifyOptions,
             middle = (low + high) // 2
             if middle <= low or middle >= high:
                 break
-            trial, error = attempt(middle)
-            if error <= tolerance:
+            trial = attempt(middle)
+            if deviation(reference, trial.positions, trial.faces) <= tolerance:
                 best, high = trial, middle
             else:
                 low = middle
@@ -214,12 +219,12 @@ def build_mesh_lods(parts: list[Part], lods: list[LodSpec], options: SimplifyOpt
         _check_part(part, i)
     source_triangles = sum(p.triangle_count for p in parts)
     levels = [[clean_part(p) for p in parts]]
-    positions, faces, *_ = _join(levels[0], 0.0)  # the guard's reference: LOD0, welded
+    reference = Reference(*_join(levels[0], 0.0)[:2])  # the guard's reference: LOD0, welded
     for k, spec in enumerate(lods[1:], start=1):
         target = int(round(source_triangles * spec.mesh))
         # Same error on screen at every level: level k is seen at most lods[k-1].transition of
         # the screen high, so its allowed deviation grows as lods[0].transition / that.
         scale = lods[0].transition / lods[k - 1].transition
         level_options = dataclasses.replace(options, max_error=options.max_error * scale)
-        levels.append(simplify_parts(levels[-1], target, level_options, reference=(positions, faces)))
+        levels.append(simplify_parts(levels[-1], target, level_options, reference=reference))
     return levels

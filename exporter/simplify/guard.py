@@ -2,33 +2,58 @@
 
 Data form: meshes as ``(positions (k, 3) float64 metres, faces (m, 3) int64)`` in the
 building-local East/Up/North frame. Distances are exact point-to-triangle distances
-(:func:`exporter.quality.distance_to_surface`) from every vertex plus ``SAMPLES``
-area-weighted points (fixed seed) of each side to the other side's surface.
+(:class:`exporter.quality.SurfaceIndex`) from every vertex plus ``SAMPLES`` area-weighted points
+(fixed seed) of each side to the other side's surface.
 
 Quadric collapse ranks collapses by error but has no error bound in pymeshlab; the guard adds
 one: a level is accepted only when this deviation stays below ``max_error`` x the source's
 bounding-box diagonal, otherwise the level's target is raised by bisection.
+
+The reference side (LOD0: its probe points, its surface index, the generator state after its
+samples) is prepared once per building (:class:`Reference`) and shared by every level and every
+bisection step.
 """
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
-from ..quality import distance_to_surface, sample_surface
+from ..quality import SurfaceIndex, sample_surface
 
 SAMPLES = 96
 SEED = 7
 
 
-def deviation(reference: tuple[np.ndarray, np.ndarray], positions: np.ndarray, faces: np.ndarray) -> float:
-    """Symmetric sampled Hausdorff distance (metres) between ``reference`` and ``(positions, faces)``."""
-    ref_pos, ref_faces = reference
+class Reference:
+    """The guard's reference mesh ``(positions (k, 3) metres, faces (m, 3))``, prepared once."""
+
+    def __init__(self, positions: np.ndarray, faces: np.ndarray) -> None:
+        self.positions, self.faces = positions, faces
+        rng = np.random.default_rng(SEED)
+        self.points = np.vstack([positions[np.unique(faces)], sample_surface(positions, faces, SAMPLES, rng)])
+        self.rng_after = rng  # the level's samples continue this stream
+        self._index = None
+
+    @property
+    def index(self) -> SurfaceIndex:
+        if self._index is None:
+            self._index = SurfaceIndex(self.positions, self.faces)
+        return self._index
+
+
+def deviation(reference, positions: np.ndarray, faces: np.ndarray) -> float:
+    """Symmetric sampled Hausdorff distance (metres) between ``reference`` (a :class:`Reference`
+    or a ``(positions, faces)`` pair) and ``(positions, faces)``."""
+    if not isinstance(reference, Reference):
+        reference = Reference(*reference)
     if len(faces) == 0:
         return float("inf")
-    rng = np.random.default_rng(SEED)
-    forward = np.vstack([ref_pos[np.unique(ref_faces)], sample_surface(ref_pos, ref_faces, SAMPLES, rng)])
+    rng = copy.deepcopy(reference.rng_after)
     backward = np.vstack([positions[np.unique(faces)], sample_surface(positions, faces, SAMPLES, rng)])
-    return max(float(distance_to_surface(forward, positions, faces).max(initial=0.0)),
-               float(distance_to_surface(backward, ref_pos, ref_faces).max(initial=0.0)))
+    # Exact maxima: only the largest upper bounds are refined (same value as every exact distance).
+    return max(SurfaceIndex(positions, faces).max_distance(reference.points),
+               reference.index.max_distance(backward))
 
 
 def diagonal(positions: np.ndarray) -> float:

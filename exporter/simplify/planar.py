@@ -22,7 +22,7 @@ from __future__ import annotations
 import mapbox_earcut
 import numpy as np
 
-from .protect import border_vertices, face_areas, planar_regions
+from .protect import border_vertices, cross_rows, face_areas, planar_regions
 
 
 def _loops(region_faces: np.ndarray) -> list[list[int]] | None:
@@ -52,11 +52,18 @@ def _loops(region_faces: np.ndarray) -> list[list[int]] | None:
     return loops
 
 
+def _cross(a, b) -> np.ndarray:
+    """a x b of two 3-vectors, (3,) float64: the same arithmetic as ``np.cross`` without its
+    per-call overhead (this runs once per planar region)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
 def _plane_basis(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    helper = np.array([1.0, 0.0, 0.0]) if abs(normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    u = np.cross(normal, helper)
+    n = normal.tolist()
+    helper = (1.0, 0.0, 0.0) if abs(n[0]) < 0.9 else (0.0, 1.0, 0.0)
+    u = _cross(n, helper)
     u /= np.linalg.norm(u)
-    return u, np.cross(normal, u)
+    return u, _cross(n, u.tolist())
 
 
 def straight_vertices(positions: np.ndarray, faces: np.ndarray, regions: np.ndarray, locked: np.ndarray,
@@ -90,7 +97,7 @@ def straight_vertices(positions: np.ndarray, faces: np.ndarray, regions: np.ndar
         p = positions[two]
         direction = b - a
         length = np.linalg.norm(direction, axis=1)
-        off_line = np.linalg.norm(np.cross(direction, p - a), axis=1) / np.maximum(length, 1e-30)
+        off_line = np.linalg.norm(cross_rows(direction, p - a), axis=1) / np.maximum(length, 1e-30)
         between = ((p - a) * direction).sum(1) / np.maximum(length**2, 1e-30)
         # Not where the two neighbours already share an edge (a slit / T-junction of the source):
         # dropping would close it and change the open boundary.
@@ -116,7 +123,7 @@ def _retriangulate(positions, region_faces, region_uvs, droppable):
             if uv_of.setdefault(v, uv) != uv:
                 return None
     a, b, c = (positions[region_faces[:, i]] for i in range(3))
-    normal = np.cross(b - a, c - a).sum(axis=0)
+    normal = cross_rows(b - a, c - a).sum(axis=0)
     area = 0.5 * np.linalg.norm(normal)
     if area <= 0:
         return None
@@ -136,10 +143,14 @@ def _retriangulate(positions, region_faces, region_uvs, droppable):
     new_faces = vertices[tri]
     # The new triangles' outline must be exactly the (dropped) loops: no edge across a hole.
     expected = {tuple(sorted((loop[i], loop[(i + 1) % len(loop)]))) for loop in rings for i in range(len(loop))}
-    edges, counts = np.unique(np.sort(new_faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0, return_counts=True)
-    if {tuple(e) for e in edges[counts == 1].tolist()} != expected or counts.max() > 2:
+    # Regions are small (tens of faces): counting edges in a dict beats np.unique's overhead.
+    use: dict[tuple, int] = {}
+    for x, y in new_faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2).tolist():
+        edge = (x, y) if x < y else (y, x)
+        use[edge] = use.get(edge, 0) + 1
+    if {e for e, count in use.items() if count == 1} != expected or max(use.values()) > 2:
         return None
-    n = np.cross(positions[new_faces[:, 1]] - positions[new_faces[:, 0]], positions[new_faces[:, 2]] - positions[new_faces[:, 0]])
+    n = cross_rows(positions[new_faces[:, 1]] - positions[new_faces[:, 0]], positions[new_faces[:, 2]] - positions[new_faces[:, 0]])
     new_faces = np.where(((n @ normal) < 0)[:, None], new_faces[:, ::-1], new_faces)
     areas = face_areas(positions, new_faces)
     # Earcut may emit zero-area slivers along collinear outline vertices: not exact, refuse.
@@ -194,13 +205,22 @@ def _retriangulate_regions(positions, faces, corner_uvs, face_chart, locked, on_
     droppable = (interior | straight_vertices(positions, faces, regions, locked, on_border=on_border)) & used
     # Every region holding a droppable vertex is redone; a region that cannot be done exactly
     # keeps its vertices, so its neighbours must keep them too: repeat until consistent.
+    # Faces of every region, ascending (one stable sort instead of a scan per region).
+    by_region = np.argsort(regions, kind="stable")
+    region_start = np.searchsorted(regions[by_region], np.arange(regions.max() + 2))
+    done: dict = {}  # region -> (droppable bits of its vertices, result): redo only what changed
     for _ in range(8):
         corner_drop = droppable[faces].any(axis=1)
         candidates = np.unique(regions[corner_drop])
         results, failed = {}, False
-        for region in candidates:
-            members = np.flatnonzero(regions == region)
-            result = _retriangulate(positions, faces[members], corner_uvs[members] if corner_uvs is not None else None, droppable)
+        for region in candidates.tolist():
+            members = by_region[region_start[region]:region_start[region + 1]]
+            key = droppable[faces[members]].tobytes()
+            if region in done and done[region][0] == key:
+                result = done[region][1]
+            else:
+                result = _retriangulate(positions, faces[members], corner_uvs[members] if corner_uvs is not None else None, droppable)
+                done[region] = (key, result)
             if result is None:
                 droppable[faces[members].reshape(-1)] = False
                 failed = True
