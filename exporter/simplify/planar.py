@@ -27,10 +27,10 @@ from .protect import border_vertices, cross_rows, face_areas, planar_regions
 
 def _loops(region_faces: np.ndarray) -> list[list[int]] | None:
     """Outline loops (vertex lists, in the faces' winding) of a face set, or None if pinched."""
-    half = region_faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    inner = {(int(a), int(b)) for a, b in half}
+    half = region_faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2).tolist()
+    inner = set(map(tuple, half))
     following: dict[int, int] = {}
-    for a, b in half.tolist():
+    for a, b in half:
         if (b, a) not in inner:
             if a in following:
                 return None
@@ -131,8 +131,10 @@ def _retriangulate(positions, region_faces, region_uvs, droppable):
     u, v = _plane_basis(normal)
     # Outer ring first (largest area), then the holes.
     flat = [positions[loop] @ np.stack([u, v], axis=1) for loop in loops]
-    signed = [0.5 * np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1]) for p in flat]
-    order = np.argsort(-np.abs(signed))
+    order = [0]
+    if len(loops) > 1:
+        signed = [0.5 * np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1]) for p in flat]
+        order = np.argsort(-np.abs(signed))
     rings = [loops[i] for i in order]
     vertices = np.concatenate([loop for loop in rings])
     points = np.concatenate([flat[i] for i in order])
@@ -152,7 +154,7 @@ def _retriangulate(positions, region_faces, region_uvs, droppable):
         return None
     n = cross_rows(positions[new_faces[:, 1]] - positions[new_faces[:, 0]], positions[new_faces[:, 2]] - positions[new_faces[:, 0]])
     new_faces = np.where(((n @ normal) < 0)[:, None], new_faces[:, ::-1], new_faces)
-    areas = face_areas(positions, new_faces)
+    areas = 0.5 * np.linalg.norm(n, axis=1)  # reversing a face keeps its area
     # Earcut may emit zero-area slivers along collinear outline vertices: not exact, refuse.
     if abs(areas.sum() - area) > 1e-6 * max(area, 1.0) or areas.min() < 1e-9 * max(area, 1.0):
         return None
@@ -180,17 +182,19 @@ def retriangulate_planar(positions: np.ndarray, faces: np.ndarray, corner_uvs, f
     UV orientation). Lossless: same surface, same texture mapping, same outlines.
     """
     before = _boundary(positions, faces)
-    result = _retriangulate_regions(positions, faces, corner_uvs, face_chart, locked, on_border=True)
+    regions = planar_regions(positions, faces, face_chart)
+    done: dict = {}  # both passes share the regions their different border choice does not touch
+    result = _retriangulate_regions(positions, faces, corner_uvs, regions, locked, done, on_border=True)
     length, _ = _boundary(positions, result[0])
     if abs(length - before[0]) > 1e-9 * max(before[0], 1.0):
-        result = _retriangulate_regions(positions, faces, corner_uvs, face_chart, locked, on_border=False)
+        result = _retriangulate_regions(positions, faces, corner_uvs, regions, locked, done, on_border=False)
     return result
 
 
-def _retriangulate_regions(positions, faces, corner_uvs, face_chart, locked, on_border: bool):
-    """One pass of :func:`retriangulate_planar`; ``on_border``: straight open-border vertices may go."""
+def _retriangulate_regions(positions, faces, corner_uvs, regions, locked, done: dict, on_border: bool):
+    """One pass of :func:`retriangulate_planar`; ``on_border``: straight open-border vertices may go.
+    ``done``: region -> (droppable bits of its corners, result), reused when the bits are the same."""
     m = len(faces)
-    regions = planar_regions(positions, faces, face_chart)
     if m == 0:
         return faces, corner_uvs, np.arange(m)
     k = len(positions)
@@ -208,7 +212,6 @@ def _retriangulate_regions(positions, faces, corner_uvs, face_chart, locked, on_
     # Faces of every region, ascending (one stable sort instead of a scan per region).
     by_region = np.argsort(regions, kind="stable")
     region_start = np.searchsorted(regions[by_region], np.arange(regions.max() + 2))
-    done: dict = {}  # region -> (droppable bits of its vertices, result): redo only what changed
     for _ in range(8):
         corner_drop = droppable[faces].any(axis=1)
         candidates = np.unique(regions[corner_drop])
