@@ -150,9 +150,14 @@ class SurfaceIndex:
         if self.tree is None:
             return np.full(len(points), np.inf)
         k = min(candidates, self.tree.n)
-        _, nearest = self.tree.query(points, k=k)
+        probe_distance, nearest = self.tree.query(points, k=k)
         nearest = nearest.reshape(len(points), k)
-        return point_triangle_distance(points[:, None, :], self.tri[self.owner[nearest]]).min(axis=1)
+        # A point on a probe (a shared vertex: most of them when a level keeps input vertices) is
+        # on the surface: 0, which is also what its triangles would give.
+        upper = np.zeros(len(points))
+        off = probe_distance.reshape(len(points), k)[:, 0] > 0
+        upper[off] = point_triangle_distance(points[off, None, :], self.tri[self.owner[nearest[off]]]).min(axis=1)
+        return upper
 
     def refine(self, points: np.ndarray, upper: np.ndarray) -> np.ndarray:
         """Exact distances (p,) metres given upper bounds: every triangle whose bounding sphere
@@ -188,10 +193,17 @@ class SurfaceIndex:
 
     def within(self, points: np.ndarray, tolerance: float) -> np.ndarray:
         """(p,) bool: exact distance <= ``tolerance`` metres (only bounds above it are refined)."""
-        upper = self.upper(points)
-        inside = upper <= tolerance
+        if self.tree is None:
+            return np.zeros(len(points), dtype=bool)
+        # A probe lies on the surface, so the nearest probe's distance is a first upper bound.
+        inside = self.tree.query(points)[0] <= tolerance
         if (~inside).any():
-            inside[~inside] = self.refine(points[~inside], upper[~inside]) <= tolerance
+            rest = points[~inside]
+            upper = self.upper(rest)
+            near = upper <= tolerance
+            if (~near).any():
+                near[~near] = self.refine(rest[~near], upper[~near]) <= tolerance
+            inside[~inside] = near
         return inside
 
 
@@ -221,6 +233,8 @@ def rasterise(xy: np.ndarray, faces: np.ndarray, size: int) -> np.ndarray:
     """
     tri = xy[faces]                                        # (m, 3, 2)
     y_low, y_high = tri[:, :, 1].min(axis=1), tri[:, :, 1].max(axis=1)
+    if len(tri) == 0:
+        return np.zeros((size, size), dtype=bool)
     r0 = np.clip(np.ceil(y_low - 0.5), 0, size - 1).astype(np.int64)
     r1 = np.clip(np.floor(y_high + 0.5), 0, size - 1).astype(np.int64)
     counts = np.maximum(r1 - r0 + 1, 0)
@@ -230,16 +244,18 @@ def rasterise(xy: np.ndarray, faces: np.ndarray, size: int) -> np.ndarray:
     lo = np.full(len(rows), np.inf)
     hi = np.full(len(rows), -np.inf)
     for i, j in ((0, 1), (1, 2), (2, 0)):
-        # Each edge, clipped to the strip, contributes the x at both clipped ends.
-        p, q = tri[owner, i], tri[owner, j]
+        # Each edge, clipped to the strip, contributes the x at both clipped ends. The edge's
+        # own numbers (ends ordered bottom-up, slope) are per triangle, gathered per pair.
+        p, q = tri[:, i], tri[:, j]
         down = p[:, 1] > q[:, 1]
         p, q = np.where(down[:, None], q, p), np.where(down[:, None], p, q)
-        a = np.maximum(p[:, 1], strip_low)
-        b = np.minimum(q[:, 1], strip_high)
         dy = q[:, 1] - p[:, 1]
         slope = np.divide(q[:, 0] - p[:, 0], dy, out=np.zeros_like(dy), where=dy > 0)
-        xa = np.where(dy > 0, p[:, 0] + (a - p[:, 1]) * slope, p[:, 0])
-        xb = np.where(dy > 0, p[:, 0] + (b - p[:, 1]) * slope, q[:, 0])
+        px, py, qx, qy, slope, rising = p[owner, 0], p[owner, 1], q[owner, 0], q[owner, 1], slope[owner], (dy > 0)[owner]
+        a = np.maximum(py, strip_low)
+        b = np.minimum(qy, strip_high)
+        xa = np.where(rising, px + (a - py) * slope, px)
+        xb = np.where(rising, px + (b - py) * slope, qx)
         valid = a <= b
         lo = np.where(valid, np.minimum(lo, np.minimum(xa, xb)), lo)
         hi = np.where(valid, np.maximum(hi, np.maximum(xa, xb)), hi)
