@@ -83,19 +83,27 @@ def sample_surface(positions: np.ndarray, faces: np.ndarray, count: int, rng: np
     return (points, chosen) if with_faces else points
 
 
+def _dot(u: list, v: list) -> np.ndarray:
+    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+
+
 def point_triangle_distance(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
     """Distance from points (..., 3) to triangles (..., 3, 3) (broadcast), (...) metres.
 
-    Ericson, "Real-Time Collision Detection" (2005) 5.1.5, vectorised.
+    Ericson, "Real-Time Collision Detection" (2005) 5.1.5, vectorised over coordinates held as
+    three separate arrays (x, y, z), so no step reduces over a length-3 axis.
     """
-    a, b, c = tri[..., 0, :], tri[..., 1, :], tri[..., 2, :]
-    p = points
-    ab, ac, ap = b - a, c - a, p - a
-    d1, d2 = (ab * ap).sum(-1), (ac * ap).sum(-1)
-    bp = p - b
-    d3, d4 = (ab * bp).sum(-1), (ac * bp).sum(-1)
-    cp = p - c
-    d5, d6 = (ab * cp).sum(-1), (ac * cp).sum(-1)
+    shape = np.broadcast_shapes(points.shape[:-1], tri.shape[:-2])
+    p = [np.broadcast_to(points[..., i], shape) for i in range(3)]
+    a, b, c = ([np.broadcast_to(tri[..., k, i], shape) for i in range(3)] for k in range(3))
+    ab = [b[i] - a[i] for i in range(3)]
+    ac = [c[i] - a[i] for i in range(3)]
+    ap = [p[i] - a[i] for i in range(3)]
+    d1, d2 = _dot(ab, ap), _dot(ac, ap)
+    bp = [p[i] - b[i] for i in range(3)]
+    d3, d4 = _dot(ab, bp), _dot(ac, bp)
+    cp = [p[i] - c[i] for i in range(3)]
+    d5, d6 = _dot(ab, cp), _dot(ac, cp)
     va = d3 * d6 - d5 * d4
     vb = d5 * d2 - d1 * d6
     vc = d1 * d4 - d3 * d2
@@ -103,25 +111,30 @@ def point_triangle_distance(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
         denom = va + vb + vc
         v = np.where(denom != 0, vb / denom, 0.0)
         w = np.where(denom != 0, vc / denom, 0.0)
-        closest = a + ab * v[..., None] + ac * w[..., None]
+        closest = [a[i] + ab[i] * v + ac[i] * w for i in range(3)]
         # Edge then vertex regions, applied last-wins from the most general to the most specific.
         t_bc = np.clip((d4 - d3) / ((d4 - d3) + (d5 - d6)), 0, 1)
         edge_bc = (va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0)
-        closest = np.where(edge_bc[..., None], b + t_bc[..., None] * (c - b), closest)
         t_ac = np.clip(d2 / (d2 - d6), 0, 1)
         edge_ac = (vb <= 0) & (d2 >= 0) & (d6 <= 0)
-        closest = np.where(edge_ac[..., None], a + t_ac[..., None] * ac, closest)
         t_ab = np.clip(d1 / (d1 - d3), 0, 1)
         edge_ab = (vc <= 0) & (d1 >= 0) & (d3 <= 0)
-        closest = np.where(edge_ab[..., None], a + t_ab[..., None] * ab, closest)
-    closest = np.where(((d6 >= 0) & (d5 <= d6))[..., None], c, closest)
-    closest = np.where(((d3 >= 0) & (d4 <= d3))[..., None], b, closest)
-    closest = np.where(((d1 <= 0) & (d2 <= 0))[..., None], a, closest)
-    distance = np.linalg.norm(p - closest, axis=-1)
+        at_c = (d6 >= 0) & (d5 <= d6)
+        at_b = (d3 >= 0) & (d4 <= d3)
+        at_a = (d1 <= 0) & (d2 <= 0)
+        for i in range(3):
+            x = np.where(edge_bc, b[i] + t_bc * (c[i] - b[i]), closest[i])
+            x = np.where(edge_ac, a[i] + t_ac * ac[i], x)
+            x = np.where(edge_ab, a[i] + t_ab * ab[i], x)
+            x = np.where(at_c, c[i], x)
+            x = np.where(at_b, b[i], x)
+            closest[i] = np.where(at_a, a[i], x)
+    offset = [p[i] - closest[i] for i in range(3)]
+    distance = np.sqrt(_dot(offset, offset))
     # Degenerate (zero-area) triangles can leave NaN: their nearest corner stands in.
     bad = np.isnan(distance)
     if bad.any():
-        corners = np.minimum(np.minimum(np.linalg.norm(p - a, axis=-1), np.linalg.norm(p - b, axis=-1)), np.linalg.norm(p - c, axis=-1))
+        corners = np.minimum(np.minimum(np.sqrt(_dot(ap, ap)), np.sqrt(_dot(bp, bp))), np.sqrt(_dot(cp, cp)))
         distance = np.where(bad, corners, distance)
     return distance
 
