@@ -11,8 +11,16 @@ in Unity as x = East, y = Up, z = North with outward faces still outward.
 One mesh, one primitive per part (one material each), one node, ``"scene": 0`` (glTFast's editor
 importer only creates a main object when the file names a default scene). Textures are embedded
 as they are given (JPEG/PNG bytes, no re-encoding).
+
+The document is built with pygltflib's dataclasses and serialised by :func:`_glb`: the same JSON
+as pygltflib's ``save_to_bytes`` (same fields, same order, same empty-value pruning, same
+``json.dumps`` options), without its deep copies of every value (most of the writer's time).
 """
 from __future__ import annotations
+
+import dataclasses
+import json
+import struct
 
 import numpy as np
 import pygltflib
@@ -76,6 +84,42 @@ class _GlbBuilder:
         view = self._view(data)
         self.gltf.images.append(pygltflib.Image(bufferView=view, mimeType=mime, name=name or None))
         return len(self.gltf.images) - 1
+
+
+_FIELDS: dict[type, tuple[str, ...]] = {}
+_SCALARS = frozenset({int, float, str, bool, type(None)})
+
+
+def _plain(value):
+    """pygltflib's ``gltf_asdict`` without the deep copies: dataclasses to dicts (field order),
+    ``Attributes`` as their ``__dict__``."""
+    kind = type(value)
+    if kind in _SCALARS:
+        return value
+    if kind is pygltflib.Attributes:
+        return dict(value.__dict__)
+    names = _FIELDS.get(kind)
+    if names is None and dataclasses.is_dataclass(value) and not isinstance(value, type):
+        names = _FIELDS[kind] = tuple(f.name for f in dataclasses.fields(value))
+    if names is not None:
+        return {name: _plain(getattr(value, name)) for name in names}
+    if kind is list or kind is tuple:
+        return kind(_plain(v) for v in value)
+    if kind is dict:
+        return {k: _plain(v) for k, v in value.items()}
+    return value
+
+
+def _glb(gltf: GLTF2, blob: bytes | bytearray) -> bytes:
+    """The GLB container (header, JSON chunk padded with spaces, BIN chunk) of ``gltf`` whose
+    single buffer is ``blob`` (4-byte aligned views): byte for byte what pygltflib writes."""
+    data = pygltflib.delete_empty_keys(_plain(gltf))
+    text = json.dumps(data, cls=pygltflib.JsonEncoder, skipkeys=True, allow_nan=False, separators=(",", ":"),
+                      default=pygltflib.json_serial).encode("utf-8")
+    text += b" " * (-len(text) % 4)
+    length = 12 + 8 + len(text) + 8 + len(blob)
+    return b"".join([b"glTF", struct.pack("<III", 2, length, len(text)), b"JSON", text,
+                     struct.pack("<I", len(blob)), b"BIN\x00", blob])
 
 
 def glb_bytes(parts: list[Part], name: str) -> bytes:
@@ -150,5 +194,4 @@ def glb_bytes(parts: list[Part], name: str) -> bytes:
     while len(builder.blob) % 4:
         builder.blob.append(0)
     gltf.buffers.append(pygltflib.Buffer(byteLength=len(builder.blob)))
-    gltf.set_binary_blob(bytes(builder.blob))
-    return b"".join(gltf.save_to_bytes())
+    return _glb(gltf, builder.blob)
