@@ -228,8 +228,8 @@ def distance_to_surface(points: np.ndarray, positions: np.ndarray, faces: np.nda
 def boundary_loops(faces: np.ndarray, vertex_count: int) -> tuple[np.ndarray, int]:
     """Open-boundary edges (e, 2) int64 (used by one face) and the number of loops they form."""
     edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    unique, counts = np.unique(edges, axis=0, return_counts=True)
-    border = unique[counts == 1]
+    keys, counts = np.unique(edges[:, 0] * (vertex_count + 1) + edges[:, 1], return_counts=True)
+    border = np.column_stack(np.divmod(keys[counts == 1], vertex_count + 1))
     if len(border) == 0:
         return border, 0
     graph = coo_matrix((np.ones(len(border)), (border[:, 0], border[:, 1])), shape=(vertex_count, vertex_count))

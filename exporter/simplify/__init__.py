@@ -69,13 +69,17 @@ def clean_part(part: Part) -> Part:
 
 
 def uv_charts(faces: np.ndarray, vertex_count: int) -> np.ndarray:
-    """(m,) int64 chart of every face: faces sharing a (split, per-UV) vertex are one texture island."""
+    """(m,) int64 chart of every face: faces sharing a (split, per-UV) vertex are one texture island.
+
+    Components of the face-vertex graph (faces numbered first, so charts are numbered by their
+    lowest face as with a face-face graph, without its sparse product)."""
     m = len(faces)
     if m == 0:
         return np.zeros(0, np.int64)
-    graph = coo_matrix((np.ones(3 * m), (np.repeat(np.arange(m), 3), faces.reshape(-1))), shape=(m, vertex_count)).tocsr()
-    _, labels = connected_components(graph @ graph.T, directed=False)
-    return labels.astype(np.int64)
+    graph = coo_matrix((np.ones(3 * m), (np.repeat(np.arange(m), 3), m + faces.reshape(-1))),
+                       shape=(m + vertex_count, m + vertex_count))
+    _, labels = connected_components(graph, directed=False)
+    return labels[:m].astype(np.int64)
 
 
 def _join(parts: list[Part], link_distance: float):

@@ -22,7 +22,7 @@ from __future__ import annotations
 import mapbox_earcut
 import numpy as np
 
-from .protect import border_vertices, cross_rows, face_areas, planar_regions
+from .protect import border_vertices, cross_rows, face_areas, planar_regions, unique_rows
 
 
 def _loops(region_faces: np.ndarray) -> list[list[int]] | None:
@@ -76,7 +76,7 @@ def straight_vertices(positions: np.ndarray, faces: np.ndarray, regions: np.ndar
     owner = np.repeat(regions, 3)
     order = np.lexsort((owner, edges[:, 1], edges[:, 0]))
     edges, owner = edges[order], owner[order]
-    unique, start, counts = np.unique(edges, axis=0, return_index=True, return_counts=True)
+    unique, start, counts = unique_rows(edges, return_index=True, return_counts=True)
     first_region = owner[start]
     last_region = owner[start + counts - 1]
     outline = (counts == 1) | (first_region != last_region)
@@ -166,7 +166,7 @@ def _retriangulate(positions, region_faces, region_uvs, droppable):
 
 def _boundary(positions: np.ndarray, faces: np.ndarray) -> tuple[float, int]:
     """Open-boundary length (metres) and edge count."""
-    edges, counts = np.unique(np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0, return_counts=True)
+    edges, counts = unique_rows(np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), return_counts=True)
     border = edges[counts == 1]
     return float(np.linalg.norm(positions[border[:, 0]] - positions[border[:, 1]], axis=1).sum()), len(border)
 

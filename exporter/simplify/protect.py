@@ -47,10 +47,22 @@ def largest_faces(areas: np.ndarray, share: float) -> np.ndarray:
     return mask
 
 
+def unique_rows(pairs: np.ndarray, **options):
+    """``np.unique(pairs, axis=0, **options)`` for (e, 2) non-negative int64 rows, through one
+    int64 key per row (the same rows in the same order, several times faster than ``axis=0``)."""
+    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    base = int(pairs.max()) + 1 if len(pairs) else 1
+    result = np.unique(pairs[:, 0] * base + pairs[:, 1], **options)
+    if not options:
+        return np.column_stack(np.divmod(result, base))
+    keys, *rest = result
+    return (np.column_stack(np.divmod(keys, base)), *(r.reshape(-1) for r in rest))
+
+
 def edge_use(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unique undirected edges (e, 2) int64 (sorted pairs) and how many faces use each (e,)."""
     edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    unique, counts = np.unique(edges, axis=0, return_counts=True)
+    unique, counts = unique_rows(edges, return_counts=True)
     return unique, counts
 
 
