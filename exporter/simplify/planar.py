@@ -116,12 +116,18 @@ def _retriangulate(positions, region_faces, region_uvs, droppable):
     loops = [[v for v in loop if not droppable[v]] for loop in loops]
     if any(len(loop) < 3 for loop in loops):
         return None
-    uv_of: dict[int, tuple] = {}
-    for face, uvs in zip(region_faces.tolist(), region_uvs.tolist() if region_uvs is not None else [None] * len(region_faces)):
-        for j, v in enumerate(face):
-            uv = tuple(uvs[j]) if uvs is not None else None
-            if uv_of.setdefault(v, uv) != uv:
-                return None
+    if region_uvs is not None:
+        # One UV per vertex in the region (the first corner's, compared exactly).
+        corners = region_faces.reshape(-1)
+        order = np.argsort(corners, kind="stable")
+        ordered = corners[order]
+        first = np.ones(len(order), dtype=bool)
+        first[1:] = ordered[1:] != ordered[:-1]
+        corner_uv = region_uvs.reshape(-1, 2)[order]
+        owner_uv = corner_uv[np.maximum.accumulate(np.where(first, np.arange(len(order)), 0))]
+        if not ((corner_uv == owner_uv).all(axis=1) | first).all():
+            return None
+        uv_vertices, uv_values = ordered[first], corner_uv[first]
     a, b, c = (positions[region_faces[:, i]] for i in range(3))
     normal = cross_rows(b - a, c - a).sum(axis=0)
     area = 0.5 * np.linalg.norm(normal)
@@ -160,7 +166,7 @@ def _retriangulate(positions, region_faces, region_uvs, droppable):
         return None
     new_uvs = None
     if region_uvs is not None:
-        new_uvs = np.array([[uv_of[int(x)] for x in face] for face in new_faces], dtype=np.float32)
+        new_uvs = uv_values[np.searchsorted(uv_vertices, new_faces)].astype(np.float32)
     return new_faces, new_uvs
 
 

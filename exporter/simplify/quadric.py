@@ -151,7 +151,11 @@ def assign_uvs(positions, faces, corner_uvs, face_chart, out_faces, face_ids, pr
             key = chart * (len(positions) + 1) + vertex
             lo, hi = np.searchsorted(sorted_keys, key, "left"), np.searchsorted(sorted_keys, key, "right")
             if hi > lo:
-                candidates = np.unique(flat_uvs[lo:hi], axis=0)
+                block = flat_uvs[lo:hi]
+                if (block == block[0]).all():  # the usual case: one UV per vertex in a chart
+                    out_uvs[o, j] = block[0]
+                    continue
+                candidates = np.unique(block, axis=0)
                 # Several UVs in one chart (a wrapped seam, e.g. a cylinder): nearest to the others.
                 others = out_uvs[o, found[o]] if found[o].any() else in_uvs[o]
                 out_uvs[o, j] = candidates[np.argmin(np.linalg.norm(candidates - others.mean(axis=0), axis=1))]
