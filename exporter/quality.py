@@ -168,8 +168,17 @@ class SurfaceIndex:
         # A point on a probe (a shared vertex: most of them when a level keeps input vertices) is
         # on the surface: 0, which is also what its triangles would give.
         upper = np.zeros(len(points))
-        off = probe_distance.reshape(len(points), k)[:, 0] > 0
-        upper[off] = point_triangle_distance(points[off, None, :], self.tri[self.owner[nearest[off]]]).min(axis=1)
+        off = np.flatnonzero(probe_distance.reshape(len(points), k)[:, 0] > 0)
+        if len(off) == 0:
+            return upper
+        # Probes of one triangle are often among the nearest: each (point, triangle) pair once.
+        owners = np.sort(self.owner[nearest[off]], axis=1)
+        fresh = np.ones(owners.shape, dtype=bool)
+        fresh[:, 1:] = owners[:, 1:] != owners[:, :-1]
+        rows = np.repeat(np.arange(len(off)), fresh.sum(axis=1))
+        distance = point_triangle_distance(points[off[rows]], self.tri[owners[fresh]])
+        starts = np.concatenate([[0], np.cumsum(fresh.sum(axis=1))[:-1]])
+        upper[off] = np.minimum.reduceat(distance, starts)
         return upper
 
     def refine(self, points: np.ndarray, upper: np.ndarray) -> np.ndarray:
