@@ -10,6 +10,10 @@ ratios: the machine is shared, so only ratios measured in one run mean anything.
 
 where ``/tmp/perf100`` is ``exporter.samplegen.generate_tile('/tmp/perf100', count=100, seed=3,
 atlas_size=1024)``.
+
+Measured (issue 8, 2 shared cores, best of 3, baseline = commit 4e6dace in the same run): simplify
+0.37x, quality 0.78x (every level >= 1 measured), write (``glb_bytes`` only) 0.47x; the exported
+files are byte-identical to the baseline's on that tile.
 """
 from __future__ import annotations
 
