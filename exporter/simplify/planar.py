@@ -22,7 +22,7 @@ from __future__ import annotations
 import mapbox_earcut
 import numpy as np
 
-from .protect import border_vertices, cross_rows, face_areas, planar_regions, unique_rows
+from .protect import border_vertices, cross_rows, edge_use, face_areas, planar_regions, unique_rows
 
 
 def _loops(region_faces: np.ndarray) -> list[list[int]] | None:
@@ -172,7 +172,7 @@ def _retriangulate(positions, region_faces, region_uvs, droppable):
 
 def _boundary(positions: np.ndarray, faces: np.ndarray) -> tuple[float, int]:
     """Open-boundary length (metres) and edge count."""
-    edges, counts = unique_rows(np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), return_counts=True)
+    edges, counts = edge_use(faces)
     border = edges[counts == 1]
     return float(np.linalg.norm(positions[border[:, 0]] - positions[border[:, 1]], axis=1).sum()), len(border)
 

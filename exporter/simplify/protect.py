@@ -59,10 +59,22 @@ def unique_rows(pairs: np.ndarray, **options):
     return (np.column_stack(np.divmod(keys, base)), *(r.reshape(-1) for r in rest))
 
 
+# The last face array edge_use saw and its result: one level asks for the border, the
+# non-manifold edges and the boundary of the same faces several times. The array is held, so its
+# identity cannot pass to another; callers never modify face arrays in place.
+_last_edge_use: tuple = (None, None)
+
+
 def edge_use(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unique undirected edges (e, 2) int64 (sorted pairs) and how many faces use each (e,)."""
+    global _last_edge_use
+    seen, result = _last_edge_use
+    if seen is faces:
+        return result
     edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
     unique, counts = unique_rows(edges, return_counts=True)
+    unique.flags.writeable = counts.flags.writeable = False
+    _last_edge_use = (faces, (unique, counts))
     return unique, counts
 
 
