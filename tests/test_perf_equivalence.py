@@ -132,3 +132,14 @@ def test_glb_bytes_are_pygltflib_bytes(monkeypatch, mime, mode):
     fast = gltf_writer.glb_bytes(parts, "B1_LOD0")
     monkeypatch.setattr(gltf_writer, "_glb", pygltflib_glb)
     assert fast == gltf_writer.glb_bytes(parts, "B1_LOD0")
+
+
+def test_unique_points_matches_numpy_unique_axis_0():
+    from exporter.quality import _unique_points
+    rng = np.random.default_rng(6)
+    keys = np.round(rng.integers(-20, 20, size=(2000, 3)) * 1.37 / 1e-6)
+    keys[::4] *= -1.0  # includes -0.0 next to 0.0
+    _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    fast_first, fast_inverse = _unique_points(keys)
+    assert np.array_equal(fast_first, first)
+    assert np.array_equal(fast_inverse, inverse.reshape(-1))
