@@ -12,7 +12,7 @@ import pytest
 
 from exporter.model import Part
 from exporter.quality import distance_to_surface, measure_lod, point_triangle_distance, rasterise
-from test_simplify_shapes import Atlas, Builder, add_flat_roof, add_walls, crafted_building
+from test_simplify_shapes import box_building, crafted_building
 
 KEYS = {"triangle_ratio", "hausdorff_rel", "silhouette_iou", "wall_coverage", "boundary_length_change", "new_holes"}
 
@@ -20,10 +20,7 @@ KEYS = {"triangle_ratio", "hausdorff_rel", "silhouette_iou", "wall_coverage", "b
 @pytest.fixture(scope="module")
 def box():
     """Floorless 10 x 6 x 20 m box (x, z, height), walls cut 2 x 4, roof 2 x 2: 36 triangles."""
-    builder, atlas = Builder(), Atlas()
-    add_walls(builder, atlas, -5, -3, 5, 3, 0.0, 20.0, 2, 4)
-    add_flat_roof(builder, atlas, -5, -3, 5, 3, 20.0, 2)
-    return [builder.part()]
+    return box_building(5, 3, 20.0, (2, 4), 2)
 
 
 def without(parts, mask):

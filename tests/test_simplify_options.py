@@ -16,7 +16,7 @@ from exporter.model import Part
 from exporter.quality import boundary_loops, joined, measure_lod
 from exporter.simplify import build_mesh_lods, clean_part
 from exporter.simplify.protect import face_areas, largest_faces
-from test_simplify_shapes import Atlas, Builder, add_dome, add_flat_roof, add_walls
+from test_simplify_shapes import Atlas, Builder, add_dome, box_building
 
 BASE = SimplifyOptions(planar_retriangulation=False, max_error=0.0, protect_largest=0.0)
 
@@ -49,10 +49,7 @@ def two_chart_plane():
 @pytest.fixture(scope="module")
 def grid_box():
     """Floorless 12 x 9 x 8 m box, walls cut 4 x 3, flat roof cut 4 x 4 (edges match: no T-junctions)."""
-    builder, atlas = Builder(), Atlas()
-    add_walls(builder, atlas, -6, -4.5, 6, 4.5, 0.0, 8.0, 4, 3)
-    add_flat_roof(builder, atlas, -6, -4.5, 6, 4.5, 8.0, 4)
-    return [builder.part()]
+    return box_building(6, 4.5, 8.0, (4, 3), 4)
 
 
 def uv_stretch(parts):

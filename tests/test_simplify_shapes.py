@@ -135,6 +135,15 @@ def _orient(pos, tri, outward):
     return np.where(flip[:, None], tri[:, ::-1], tri)
 
 
+def box_building(half_x, half_z, height, wall_cuts, roof_cuts):
+    """A floorless box centred on the origin (local East/Up/North metres), walls cut
+    ``wall_cuts`` = (columns, rows), flat roof cut ``roof_cuts`` per side: one textured part."""
+    builder, atlas = Builder(), Atlas()
+    add_walls(builder, atlas, -half_x, -half_z, half_x, half_z, 0.0, height, *wall_cuts)
+    add_flat_roof(builder, atlas, -half_x, -half_z, half_x, half_z, height, roof_cuts)
+    return [builder.part()]
+
+
 def crafted_building(seed: int) -> list[Part]:
     """A VWorld-like floorless building: walls (subdivided), a flat / gable / dome / spire top and
     rooftop clutter in a second part with its own texture; a few hundred triangles."""
