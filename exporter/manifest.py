@@ -9,8 +9,10 @@ Frames: ``tile.placement`` and ``buildings[].placement`` are in the paper's Unit
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import math
+import re
 from importlib import resources
 from typing import Iterable, Optional
 
@@ -21,6 +23,20 @@ from .model import Skipped, TileId
 FORMAT = "vworld-lod-manifest"
 VERSION = "1.0"
 MANIFEST_NAME = "lod_manifest.json"
+
+
+def slug(text: str) -> str:
+    """``text`` with every run of characters other than ASCII letters, digits, ``.``, ``_``, ``-``
+    replaced by ``_`` (never empty)."""
+    return re.sub(r"[^0-9A-Za-z._-]+", "_", text).strip("._") or "building"
+
+
+def safe_folder_name(building_id: str) -> str:
+    """A file-system-safe, still readable folder name for a building id (stable across runs)."""
+    name = slug(building_id)
+    if name != building_id:  # keep distinct ids distinct after replacement
+        name = f"{name[:80]}_{hashlib.sha1(building_id.encode('utf-8')).hexdigest()[:8]}"
+    return name
 
 
 def load_schema() -> dict:

@@ -20,7 +20,6 @@ import hashlib
 import itertools
 import json
 import os
-import re
 import shutil
 import time
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
@@ -34,8 +33,8 @@ from . import __version__
 from .atomic import remove_stale_temporaries, write_bytes_atomic, write_text_atomic
 from .config import Config
 from .errors import InputError, ProcessError, ReadError
-from .manifest import MANIFEST_NAME, build_manifest, dumps
-from .model import Building, GeoPoint, Part, Skipped, Texture, TileId
+from .manifest import MANIFEST_NAME, build_manifest, dumps, safe_folder_name
+from .model import Building, Part, Skipped, Texture, TileId
 from .readers import Entry, load_entry, scan_folder
 
 RECORD_NAME = "building.json"
@@ -43,14 +42,6 @@ STAGES = ("read", "simplify", "textures", "quality", "write")
 
 
 # --------------------------------------------------------------------------- small pure helpers
-
-def safe_folder_name(building_id: str) -> str:
-    """A file-system-safe, still readable folder name for a building id (stable across runs)."""
-    name = re.sub(r"[^0-9A-Za-z._-]+", "_", building_id).strip("._") or "building"
-    if name != building_id:  # keep distinct ids distinct after replacement
-        name = f"{name[:80]}_{hashlib.sha1(building_id.encode('utf-8')).hexdigest()[:8]}"
-    return name
-
 
 def config_fingerprint(config: Config) -> str:
     """Hash of everything in the config that changes a building's output."""

@@ -1,5 +1,4 @@
 """Atomic output: an interrupted write never leaves a truncated file under the final name."""
-import os
 
 import pytest
 

@@ -1,7 +1,5 @@
 """glTF writer: frame change (local East/Up/North -> glTF West/Up/North), winding, validity."""
 import io
-import json
-import struct
 
 import numpy as np
 import pygltflib

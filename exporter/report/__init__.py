@@ -22,13 +22,13 @@ from urllib.parse import quote
 
 from ..atomic import write_bytes_atomic, write_text_atomic
 from ..errors import InputError
+from ..manifest import MANIFEST_NAME, slug
 from .page import BuildingRenders, LevelRender, TileEntry, index_page, tile_page
 from .atlas import atlas_detail
 from .render import backdrop, fit_view, load_glb, png_bytes, render
 
 __all__ = ["write_reports"]
 
-MANIFEST = "lod_manifest.json"
 TILE_NAME = re.compile(r"^[0-9]+_[0-9]+_[0-9]+$")
 IMAGE_FOLDER = "report"
 IMAGE_SIZE = 256  # pixels per side of each render
@@ -56,7 +56,7 @@ def image_name(building: dict, level: int) -> str:
     lods = building.get("lods") or [{}]
     folder = Path(str(lods[0].get("file", ""))).parent.name
     if not folder:
-        folder = re.sub(r"[^0-9A-Za-z._-]+", "_", str(building.get("id", "building"))).strip("._") or "building"
+        folder = slug(str(building.get("id", "building")))
     return f"{folder}_lod{level}.png"
 
 
@@ -114,7 +114,7 @@ def write_tile_report(tile_dir: Path, manifest: dict, size: int = IMAGE_SIZE) ->
 
 def find_tiles(out_dir: Path) -> list[Path]:
     """Tile folders of an export (named ``<level>_<idx>_<idy>`` and holding a manifest), sorted."""
-    return sorted(p for p in out_dir.iterdir() if p.is_dir() and TILE_NAME.match(p.name) and (p / MANIFEST).is_file())
+    return sorted(p for p in out_dir.iterdir() if p.is_dir() and TILE_NAME.match(p.name) and (p / MANIFEST_NAME).is_file())
 
 
 def write_reports(out_dir: Path, tiles: Optional[list[str]] = None) -> list[Path]:
@@ -129,22 +129,22 @@ def write_reports(out_dir: Path, tiles: Optional[list[str]] = None) -> list[Path
         raise InputError(f"{out_dir}: not a folder (expected the output folder of 'vworld-lod export')")
     tile_dirs = find_tiles(out_dir)
     if not tile_dirs:
-        raise InputError(f"{out_dir}: no <level>_<idx>_<idy>/{MANIFEST} found (run 'vworld-lod export' first)")
+        raise InputError(f"{out_dir}: no <level>_<idx>_<idy>/{MANIFEST_NAME} found (run 'vworld-lod export' first)")
     names = [p.name for p in tile_dirs]
     if tiles is not None:
         unknown = [t for t in tiles if t not in names]
         if unknown:
-            raise InputError(f"{out_dir}: no tile folder with a {MANIFEST} for {', '.join(unknown)} (found: {', '.join(names)})")
+            raise InputError(f"{out_dir}: no tile folder with a {MANIFEST_NAME} for {', '.join(unknown)} (found: {', '.join(names)})")
     selected = set(names if tiles is None else tiles)
     pages, entries = [], []
     for tile_dir in tile_dirs:
         manifest, error = None, None
         if tile_dir.name in selected:
-            manifest = read_tile_manifest(tile_dir / MANIFEST)
+            manifest = read_tile_manifest(tile_dir / MANIFEST_NAME)
             pages.append(write_tile_report(tile_dir, manifest))
         else:
             try:
-                manifest = read_tile_manifest(tile_dir / MANIFEST)
+                manifest = read_tile_manifest(tile_dir / MANIFEST_NAME)
             except InputError as problem:
                 error = str(problem)
         entries.append(TileEntry(tile_dir.name, manifest, (tile_dir / "report.html").is_file(), error))

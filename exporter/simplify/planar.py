@@ -22,7 +22,7 @@ from __future__ import annotations
 import mapbox_earcut
 import numpy as np
 
-from .protect import border_vertices, cross_rows, edge_use, face_areas, planar_regions, unique_rows
+from .protect import border_vertices, cross_rows, edge_use, planar_regions, unique_rows
 
 
 def _loops(region_faces: np.ndarray) -> list[list[int]] | None:
