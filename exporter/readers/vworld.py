@@ -41,11 +41,11 @@ from ..formats.vworld_binary import (
     MAX_MESHES, XDO_TYPE, DatFile, DatObject, XdoFile, XdoMesh, color_bytes, color_rgba, decode_text,
     parse_dat, parse_xdo, serialise_dat, serialise_xdo, version_bytes, xml_error,
 )
+from ..geodesy import EARTH_RADIUS_M, east_up_north, sphere_ecef, sphere_lonlath
 from ..geometry import unit_vectors, vertex_normals
 from ..model import Building, GeoPoint, Part, Skipped, Texture, TileId
 from . import Entry, Scan
 
-EARTH_RADIUS_M = 6378137.0  # VWorld's sphere
 MAX_PART_VERTICES = 65535  # u16 indices
 ALTITUDE_MISMATCH_M = 10.0  # report when the model's base is further than this from the .dat altitude
 CENTRE_MISMATCH_M = 100.0  # report when the model's centre is further than this from the .dat lon/lat
@@ -55,25 +55,22 @@ DISAGREEING_SHARE = 0.1  # report a mesh whose winding disagrees with its normal
 
 # --------------------------------------------------------------------------- frames
 
+# The VWorld global frame is the sphere frame of ``exporter.geodesy`` with its Y axis mirrored.
+MIRROR_Y = np.array([1.0, -1.0, 1.0])
+
+
 def enu_rotation(lon: float, lat: float) -> np.ndarray:
     """(3, 3) rotation, rows = local East, Up, North unit vectors in the VWorld global frame.
 
-    ``local = rotation @ global`` for directions; ``lon``/``lat`` in degrees. Determinant +1.
+    ``local = rotation @ global`` for directions; ``lon``/``lat`` in degrees. Determinant +1 (the
+    mirrored Y axis and VWorld's left-handed East/Up/North cancel out).
     """
-    lam, phi = math.radians(lon), math.radians(lat)
-    sl, cl, sp, cp = math.sin(lam), math.cos(lam), math.sin(phi), math.cos(phi)
-    return np.array([
-        [-sl, -cl, 0.0],
-        [cp * cl, -cp * sl, sp],
-        [-sp * cl, sp * sl, cp],
-    ])
+    return east_up_north(lon, lat) * MIRROR_Y
 
 
 def global_point(point: GeoPoint) -> np.ndarray:
     """(3,) VWorld global position, metres, of a lon/lat (degrees) at ``elev`` metres."""
-    lam, phi = math.radians(point.lon), math.radians(point.lat)
-    h = EARTH_RADIUS_M + point.elev
-    return np.array([h * math.cos(phi) * math.cos(lam), -h * math.cos(phi) * math.sin(lam), h * math.sin(phi)])
+    return sphere_ecef([[point.lon, point.lat, point.elev]])[0] * MIRROR_Y
 
 
 def global_to_local(points: np.ndarray, reference: GeoPoint) -> np.ndarray:
@@ -88,8 +85,8 @@ def local_to_global(points: np.ndarray, reference: GeoPoint) -> np.ndarray:
 
 def lonlat_of(points: np.ndarray) -> tuple:
     """(lon, lat) arrays in degrees of (n, 3) VWorld global positions (metres)."""
-    x, y, z = points[:, 0], points[:, 1], points[:, 2]
-    return np.degrees(np.arctan2(-y, x)), np.degrees(np.arctan2(z, np.hypot(x, y)))
+    lonlath = sphere_lonlath(np.asarray(points, dtype=np.float64) * MIRROR_Y)
+    return lonlath[:, 0], lonlath[:, 1]
 
 
 # --------------------------------------------------------------------------- winding

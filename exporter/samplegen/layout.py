@@ -19,10 +19,10 @@ import math
 import numpy as np
 from PIL import Image, ImageDraw, ImageFilter
 
+from ..geodesy import EARTH_RADIUS_M  # VWorld's sphere
 from ..model import TileId
 from ..tiles import tile_bounds, tile_center
 
-EARTH_RADIUS_M = 6378137.0  # VWorld's sphere
 
 
 def tile_extent_m(tile: TileId) -> tuple[float, float]:
