@@ -40,7 +40,6 @@ loading many buildings of one file do not re-parse it.
 """
 from __future__ import annotations
 
-import io
 import json
 from collections import OrderedDict
 from dataclasses import dataclass, field
@@ -49,7 +48,6 @@ from typing import Any, Iterator, Optional
 
 import mapbox_earcut
 import numpy as np
-from PIL import Image
 
 from .. import geodesy
 from ..config import ReaderOptions
@@ -57,6 +55,7 @@ from ..errors import InputError, ReadError
 from ..model import Building, Part, Skipped, Texture
 from ..tiles import building_tile
 from . import Entry, Scan
+from .images import TextureFileError, read_texture_file
 
 FORMAT = "cityjson"
 BUILDING_TYPES = ("Building",)
@@ -390,13 +389,9 @@ def _load_texture(json_path: Path, texture: Any) -> tuple[Optional[Texture], Opt
     if image_path is None:
         return None, None, f"texture {name} missing: exported untextured"
     try:
-        data = image_path.read_bytes()
-        with Image.open(io.BytesIO(data)) as image:
-            width, height, kind = image.width, image.height, image.format
-    except (OSError, Image.DecompressionBombError) as error:
-        return None, str(image_path), f"texture {name} unreadable ({error}): exported untextured"
-    mime = Image.MIME.get(kind, f"image/{(kind or 'unknown').lower()}")
-    return Texture(data, mime, width, height, name=Path(name).name, source=str(image_path)), str(image_path), None
+        return read_texture_file(image_path, Path(name).name), str(image_path), None
+    except TextureFileError as problem:
+        return None, str(image_path), f"texture {name} {problem}: exported untextured"
 
 
 def _part(local: np.ndarray, uv: Optional[np.ndarray], corners: np.ndarray, texture: Optional[Texture], name: str) -> Part:

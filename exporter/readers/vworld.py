@@ -25,7 +25,6 @@ part's texture under its own file name (``Texture.name``) or ``<xdo stem>_<part>
 """
 from __future__ import annotations
 
-import io
 import math
 import os
 import re
@@ -39,10 +38,11 @@ from ..config import ReaderOptions
 from ..errors import ReadError
 from ..formats.vworld_binary import (
     MAX_MESHES, XDO_TYPE, DatFile, DatObject, XdoFile, XdoMesh, color_bytes, color_rgba, decode_text,
-    parse_dat, parse_xdo, serialise_dat, serialise_xdo, version_bytes, xml_error,
+    parse_dat, parse_xdo, serialise_dat, serialise_xdo, version_bytes,
 )
 from ..geodesy import EARTH_RADIUS_M, east_up_north, sphere_ecef, sphere_lonlath
 from ..geometry import unit_vectors, vertex_normals
+from .images import TextureFileError, read_texture_file
 from ..model import Building, GeoPoint, Part, Skipped, Texture, TileId
 from . import Entry, Scan
 
@@ -347,37 +347,10 @@ def _texture(folder: Path, raw_name: bytes, problems: list) -> Optional[Texture]
         problems.append(f"texture {name} missing: exported untextured")
         return None
     try:
-        data = path.read_bytes()
-    except OSError as error:
-        problems.append(f"texture {name} cannot be read ({error.strerror or error}): exported untextured")
+        return read_texture_file(path, path.name)
+    except TextureFileError as problem:
+        problems.append(f"texture {name} {problem}: exported untextured")
         return None
-    code = xml_error(data) if data else "empty file"
-    if code is not None:
-        problems.append(f"texture {name} is an XML error page ({code}), not an image: exported untextured")
-        return None
-    try:
-        from PIL import Image
-
-        with Image.open(io.BytesIO(data)) as image:  # reads the header only
-            fmt, (width, height) = image.format, image.size
-            mime = Image.MIME.get(fmt or "", "")
-    except Exception as error:  # Pillow raises many types for bad headers
-        problems.append(f"texture {name} is not a readable image ({type(error).__name__}: {error}): exported untextured")
-        return None
-    if _truncated(data, fmt):
-        problems.append(f"texture {name} is truncated ({len(data)} bytes): exported untextured")
-        return None
-    return Texture(data=data, mime=mime or "application/octet-stream", width=width, height=height, name=path.name, source=str(path))
-
-
-def _truncated(data: bytes, fmt: Optional[str]) -> bool:
-    """True when an encoded image visibly stops early (JPEG without EOI after its scan, PNG without IEND)."""
-    if fmt == "JPEG":
-        # 0xFFD9 cannot occur inside entropy-coded data (0xFF is byte-stuffed there).
-        return not (0 <= data.find(b"\xff\xda") < data.rfind(b"\xff\xd9"))
-    if fmt == "PNG":
-        return b"IEND" not in data[-64:]
-    return False
 
 
 # --------------------------------------------------------------------------- write
