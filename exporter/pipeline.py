@@ -109,9 +109,7 @@ def texture_levels(parts_by_level: list[list[Part]], config: Config, problems: l
 def same_geometry(parts: list[Part], other: list[Part]) -> bool:
     """True when two levels have identical meshes (then their quality metrics are identical too)."""
     return len(parts) == len(other) and all(
-        a.triangles.shape == b.triangles.shape and a.positions.shape == b.positions.shape
-        and np.array_equal(a.triangles, b.triangles) and np.array_equal(a.positions, b.positions)
-        for a, b in zip(parts, other)
+        np.array_equal(a.triangles, b.triangles) and np.array_equal(a.positions, b.positions) for a, b in zip(parts, other)
     )
 
 
@@ -187,24 +185,26 @@ def process_entry(entry: Entry, config: Config, out_dir: str, digest: str) -> En
         lap("textures")
         qualities = [{"triangle_ratio": 1.0}]
         for level in range(1, len(parts_by_level)):
-            if same_geometry(parts_by_level[level], parts_by_level[level - 1]) and level > 1:
+            if level > 1 and same_geometry(parts_by_level[level], parts_by_level[level - 1]):
                 qualities.append(dict(qualities[-1]))  # e.g. a lossless level reached both targets
             else:
                 qualities.append(measure_lod(parts_by_level[0], parts_by_level[level]))
         lap("quality")
-        folder = safe_folder_name(building.id)
+        # The entry's id, not the reader's: the run made entry ids unique across folders and files.
+        folder = safe_folder_name(entry.id)
         building_dir = Path(out_dir) / tile.name / folder
         lods = []
         for level, parts in enumerate(parts_by_level):
-            data = glb_bytes(parts, f"{building.id}_LOD{level}")
+            data = glb_bytes(parts, f"{entry.id}_LOD{level}")
             file_name = f"{folder}/lod{level}.glb"
             write_bytes_atomic(building_dir / f"lod{level}.glb", data)
             lods.append(lod_record(level, parts, file_name, data, qualities[level]))
+        written = {f"lod{level}.glb" for level in range(len(lods))}
         for stale in building_dir.glob("lod*.glb"):  # levels a previous config had and this one has not
-            if stale.name not in {f"lod{k}.glb" for k in range(len(lods))}:
+            if stale.name not in written:
                 stale.unlink(missing_ok=True)
         record = {
-            "id": building.id,
+            "id": entry.id,
             "folder": folder,
             "source": entry.source,
             "input_hash": digest,
@@ -221,7 +221,7 @@ def process_entry(entry: Entry, config: Config, out_dir: str, digest: str) -> En
         return EntryResult(tile=tile, record=record, seconds=seconds)
     except Exception as error:  # one broken building never stops the tile
         reason = error.problem if isinstance(error, ReadError) else f"{type(error).__name__}: {error}"
-        return EntryResult(tile=entry.tile, skipped=Skipped(entry.source, f"processing failed: {reason}", building.id, entry.tile), seconds=seconds)
+        return EntryResult(tile=entry.tile, skipped=Skipped(entry.source, f"processing failed: {reason}", entry.id, entry.tile), seconds=seconds)
 
 
 # --------------------------------------------------------------------------- previous runs

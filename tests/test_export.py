@@ -186,3 +186,43 @@ def test_a_tile_index_that_disagrees_with_the_centre_is_kept_and_reported(tmp_pa
     for building in manifest["buildings"]:
         assert building["tile_from_center"] == {"level": 15, "idx": TILE.idx, "idy": TILE.idy}
         assert any(str(TILE.idx) in problem for problem in building["problems"])
+
+
+def test_the_same_building_id_in_two_folders_of_one_tile_gets_two_outputs(tmp_path):
+    from exporter.samplegen import generate_tile
+
+    folders = [generate_tile(tmp_path / name, count=2, seed=seed, tile=TILE, atlas_size=32, mean_triangles=60) for name, seed in (("a", 1), ("b", 2))]
+    out = tmp_path / "out"
+    assert export([str(f) for f in folders] + ["--out", str(out)]) == 0
+    manifest = manifest_of(out)
+    ids = [b["id"] for b in manifest["buildings"]]
+    assert len(ids) == 4 and len(set(ids)) == 4, ids
+    files = {lod["file"] for b in manifest["buildings"] for lod in b["lods"]}
+    assert len(files) == 4 * 3 and all((out / TILE.name / f).is_file() for f in files)
+    assert export([str(f) for f in folders] + ["--out", str(out)]) == 0
+    assert manifest_of(out) == manifest, "a re-run finds every building's record again"
+
+
+def test_the_same_cityjson_object_id_in_two_files_of_one_tile_gets_two_outputs(tmp_path):
+    """CityJSON readers name buildings by their CityObject id; two files may repeat one."""
+    lon, lat = 126.97833, 37.56610  # inside TILE
+    d = 0.00005
+    document = {
+        "type": "CityJSON", "version": "2.0",
+        "transform": {"scale": [1.0, 1.0, 1.0], "translate": [0.0, 0.0, 0.0]},
+        "metadata": {"referenceSystem": "https://www.opengis.net/def/crs/EPSG/0/4979"},
+        "CityObjects": {"hall": {"type": "Building", "geometry": [{"type": "MultiSurface", "lod": "1", "boundaries": [[[0, 1, 2, 3]]]}]}},
+        "vertices": [[lon, lat, 0.0], [lon + d, lat, 0.0], [lon + d, lat, 10.0], [lon, lat, 10.0]],
+    }
+    folders = []
+    for name in ("a", "b"):
+        folder = tmp_path / name
+        folder.mkdir()
+        (folder / "hall.city.json").write_text(json.dumps(document))
+        folders.append(folder)
+    out = tmp_path / "out"
+    assert export([str(f) for f in folders] + ["--out", str(out)]) == 0
+    manifest = manifest_of(out)
+    assert [b["id"] for b in manifest["buildings"]] == ["hall", "hall~1"]
+    folders_out = {b["lods"][0]["file"].split("/")[0] for b in manifest["buildings"]}
+    assert len(folders_out) == 2
