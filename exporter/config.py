@@ -9,7 +9,6 @@ Percentages are accepted as ``50%`` or ``0.5``.
 """
 from __future__ import annotations
 
-import copy
 import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -325,6 +324,3 @@ def default_config_yaml(config: Optional[Config] = None) -> str:
             lines.append(f"  {f.name}: {shown}  # {f.metadata['doc']}")
     return "\n".join(lines) + "\n"
 
-
-def copy_config(config: Config) -> Config:
-    return copy.deepcopy(config)

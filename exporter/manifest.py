@@ -14,7 +14,7 @@ import json
 import math
 import re
 from importlib import resources
-from typing import Iterable, Optional
+from typing import Iterable
 
 from . import __version__
 from .config import Config
@@ -151,12 +151,3 @@ def build_manifest(
 def dumps(manifest: dict) -> str:
     return json.dumps(manifest, indent=1, ensure_ascii=False, allow_nan=False) + "\n"
 
-
-def read_manifest(path) -> Optional[dict]:
-    """The manifest at ``path``, or None when absent or unreadable (a previous run's output)."""
-    try:
-        with open(path, encoding="utf-8") as handle:
-            data = json.load(handle)
-    except (OSError, ValueError):
-        return None
-    return data if isinstance(data, dict) and data.get("format") == FORMAT else None

@@ -237,7 +237,7 @@ def load(entry: Entry, options: Optional[ReaderOptions] = None) -> Building:
     center = xdo.bbox_center
     if not np.all(np.isfinite(center)):
         raise ReadError(str(xdo_path), "bounding box is not finite")
-    center_local = (center - global_point(reference)) @ rotation.T  # metres, local East/Up/North
+    center_local = global_to_local(center[None, :], reference)[0]  # metres, local East/Up/North
 
     meshes = []
     for j, mesh in enumerate(xdo.meshes):
@@ -271,7 +271,7 @@ def load(entry: Entry, options: Optional[ReaderOptions] = None) -> Building:
 
     everything = np.concatenate([p.positions for p in parts])
     _check_base(everything, center, reference, xdo_path, problems)
-    lon, lat = lonlat_of(everything @ rotation + global_point(reference))
+    lon, lat = lonlat_of(local_to_global(everything, reference))
     bounds = (float(lon.min()), float(lat.min()), float(lon.max()), float(lat.max()))
     return Building(id=entry.id, source=str(xdo_path), reference=reference, parts=parts,
                     tile=entry.tile, problems=problems, lonlat_bounds=bounds)
