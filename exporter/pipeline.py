@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import itertools
 import json
 import os
 import shutil
@@ -266,19 +265,23 @@ class RunStats:
 Progress = Callable[[int, int], None]
 
 
-def _results(tasks: list[tuple], jobs: int) -> Iterable[EntryResult]:
-    """Run ``process_entry`` over ``tasks``, in this process for one job, else in a process pool
-    with a bounded number of tasks in flight (memory stays bounded by the work in flight)."""
+def _results(work: Iterable[tuple], jobs: int) -> Iterable[EntryResult]:
+    """Run ``process_entry`` over ``work`` (task tuples, or finished results passed through as
+    they come), in this process for one job, else in a process pool with a bounded number of
+    tasks in flight (memory stays bounded by the work in flight). ``work`` is consumed lazily,
+    so the caller's per-entry checks (input hashing) overlap the workers."""
     if jobs <= 1:
-        for task in tasks:
-            yield process_entry(*task)
+        for item in work:
+            yield item if isinstance(item, EntryResult) else process_entry(*item)
         return
     with ProcessPoolExecutor(max_workers=jobs) as pool:
         pending = set()
-        queue = iter(tasks)
         try:
-            for task in queue:
-                pending.add(pool.submit(process_entry, *task))
+            for item in work:
+                if isinstance(item, EntryResult):
+                    yield item
+                    continue
+                pending.add(pool.submit(process_entry, *item))
                 if len(pending) >= jobs * 4:
                     done, pending = wait(pending, return_when=FIRST_COMPLETED)
                     for future in done:
@@ -319,17 +322,16 @@ def export_tiles(
         seen_ids[entry.id] = count + 1
         if count:
             entry.id = f"{entry.id}~{count}"
-    # Unchanged buildings are recognised here, in the main process: hashing is cheap I/O, and a
-    # re-run that changes nothing then starts no worker at all.
-    reused_results = []
-    tasks = []
-    for entry in entries:
-        digest = input_hash(entry, config_hash)
-        previous_run = reusable_record(previous.get((entry.source, entry.id)), digest, out_dir)
-        if previous_run is not None:
-            reused_results.append(EntryResult(tile=previous_run["tile"], record=previous_run["record"], reused=True))
-        else:
-            tasks.append((entry, config, str(out_dir), digest))
+    # Unchanged buildings are recognised here, in the main process, entry by entry as the pool
+    # takes work: hashing is cheap I/O, and a re-run that changes nothing starts no worker at all.
+    def work() -> Iterable[tuple | EntryResult]:
+        for entry in entries:
+            digest = input_hash(entry, config_hash)
+            previous_run = reusable_record(previous.get((entry.source, entry.id)), digest, out_dir)
+            if previous_run is not None:
+                yield EntryResult(tile=previous_run["tile"], record=previous_run["record"], reused=True)
+            else:
+                yield (entry, config, str(out_dir), digest)
 
     records: dict[TileId, list[dict]] = {}
     reused: dict[TileId, int] = {}
@@ -340,7 +342,7 @@ def export_tiles(
     stats = RunStats()
     done = 0
     total = len(entries)
-    for result in itertools.chain(reused_results, _results(tasks, min(jobs, max(1, len(tasks))))):
+    for result in _results(work(), min(jobs, max(1, len(entries)))):
         done += 1
         for stage, value in result.seconds.items():
             stats.seconds[stage] += value
