@@ -10,9 +10,11 @@ run, because the machines are shared and noisy):
   (Pillow, same scales and JPEG quality; resampling and file I/O not counted), summed over the
   atlases and divided by the number of processes -> export / codec floor;
 - an unchanged re-run -> re-run / first run;
-- scaling: seconds per building and peak memory at a small size vs the full size.
+- scaling: seconds per building and peak memory at a small size (100) and a large size (5,000)
+  vs the full size.
 
-Usage: ``python benchmarks/bench_throughput.py [--buildings 1248] [--atlas 1024] [--small 100]``.
+Usage: ``python benchmarks/bench_throughput.py [--buildings 1248] [--atlas 1024] [--small 100]
+[--large 5000]`` (``--large 0`` leaves the large tile out; generating it takes ~3 min and ~1.1 GB).
 Each measured export runs in its own child process so its peak memory is its own.
 """
 from __future__ import annotations
@@ -100,6 +102,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--buildings", type=int, default=1248, help="buildings in the full tile (the paper's 1,248)")
     parser.add_argument("--small", type=int, default=100, help="buildings in the small tile (scaling baseline)")
+    parser.add_argument("--large", type=int, default=5000, help="buildings in the large tile (scaling; 0: none)")
     parser.add_argument("--atlas", type=int, default=1024, help="atlas size in pixels")
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     parser.add_argument("--seed", type=int, default=0)
@@ -111,7 +114,8 @@ def main() -> None:
     work = Path(args.workdir or tempfile.mkdtemp(prefix="vworld-lod-bench-"))
     print(f"work folder: {work}")
     tiles = {}
-    for name, count in (("small", args.small), ("full", args.buildings)):
+    sizes = (("small", args.small), ("full", args.buildings)) + ((("large", args.large),) if args.large else ())
+    for name, count in sizes:
         tiles[name] = work / f"tile_{count}"
         if not list(tiles[name].glob("*.dat")):
             started = time.perf_counter()
@@ -122,6 +126,7 @@ def main() -> None:
     rerun = run_export(tiles["full"], work / "out_full", args.jobs)
     single = run_export(tiles["full"], work / "out_single", 1, force=True)
     small = run_export(tiles["small"], work / "out_small", args.jobs, force=True)
+    large = run_export(tiles["large"], work / "out_large", args.jobs, force=True) if args.large else None
     floor = codec_floor(tiles["full"], args.jobs)
 
     n = full["buildings"]
@@ -140,6 +145,13 @@ def main() -> None:
         (f"peak memory MiB: {args.buildings} buildings", f"{full['peak_rss_mb']:.0f}"),
         ("peak memory ratio full / small", f"{full['peak_rss_mb'] / small['peak_rss_mb']:.2f}"),
     ]
+    if large:
+        per_small = small["seconds"] / small["buildings"]
+        rows += [
+            (f"s per building: {args.large} vs {args.small} buildings", f"{(large['seconds'] / large['buildings']) / per_small:.2f}"),
+            (f"peak memory MiB: {args.large} buildings", f"{large['peak_rss_mb']:.0f}"),
+            ("peak memory ratio large / small", f"{large['peak_rss_mb'] / small['peak_rss_mb']:.2f}"),
+        ]
     for label, value in rows:
         print(f"{label:44} {value:>12}")
     total = sum(full["stages"].values()) or 1.0
