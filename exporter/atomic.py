@@ -1,10 +1,14 @@
-"""Atomic file output: write to a temporary name in the same folder, fsync, then rename.
+"""Atomic file output: write to a temporary name in the same folder, [fsync,] then rename.
 
 An interrupted run therefore never leaves a truncated file under the final name: readers see
 either the old complete file or the new complete one. The rename alone gives that for a killed
 process; ``durable=True`` adds an fsync (about 3 ms a file here) so that the file also survives a
-power loss: the pipeline asks for it for the manifest, the file that marks a tile complete. Temporary files end in ``.tmp`` and carry the
-writer's pid, so a later run can recognise and remove leftovers.
+power loss: the pipeline asks for it for the manifest, the file that marks a tile complete.
+Temporary files end in ``.tmp`` and carry the writer's pid, so a later run can recognise and
+remove leftovers.
+
+A write is four system calls (open with O_EXCL, write, close, rename); the folder is made only
+when the open finds it missing, since the pipeline writes several files into each folder.
 """
 from __future__ import annotations
 
@@ -14,26 +18,56 @@ from pathlib import Path
 TMP_SUFFIX = ".tmp"
 
 
+_CREATE = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0) | getattr(os, "O_BINARY", 0)
+
+
 def temporary_name(path: Path) -> Path:
-    return path.with_name(f".{path.name}.{os.getpid()}{TMP_SUFFIX}")
+    return Path(_temporary(os.fspath(path)))
+
+
+def _temporary(path: str) -> str:
+    folder, name = os.path.split(path)
+    return os.path.join(folder, f".{name}.{os.getpid()}{TMP_SUFFIX}")
+
+
+def _create(tmp: str) -> int:
+    """A new file descriptor for ``tmp``, making its folder only when it is missing (the pipeline
+    writes several files to each folder) and replacing a leftover of an earlier process with
+    the same pid (O_EXCL: never write through whatever else sits under that name)."""
+    try:
+        return os.open(tmp, _CREATE, 0o666)
+    except FileNotFoundError:
+        os.makedirs(os.path.dirname(tmp) or ".", exist_ok=True)
+    except FileExistsError:
+        os.unlink(tmp)
+    return os.open(tmp, _CREATE, 0o666)
 
 
 def write_bytes_atomic(path: str | Path, data: bytes, durable: bool = False) -> Path:
-    """Write ``data`` to ``path`` atomically (same-folder temporary file, [fsync,] rename)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = temporary_name(path)
+    """Write ``data`` to ``path`` atomically (same-folder temporary file, [fsync,] rename).
+
+    Folders are made as needed. Returns ``path`` as a :class:`~pathlib.Path`.
+    """
+    target = os.fspath(path)
+    tmp = _temporary(target)
+    fd = _create(tmp)
     try:
-        with open(tmp, "wb") as handle:
-            handle.write(data)
+        try:
+            view, written = memoryview(data).cast("B"), 0
+            while written < len(view):  # os.write may write less than asked (e.g. over 2 GiB)
+                written += os.write(fd, view[written:])
             if durable:
-                handle.flush()
-                os.fsync(handle.fileno())
-        os.replace(tmp, path)
+                os.fsync(fd)
+        finally:
+            os.close(fd)
+        os.replace(tmp, target)
     except BaseException:
-        tmp.unlink(missing_ok=True)
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
         raise
-    return path
+    return path if isinstance(path, Path) else Path(path)
 
 
 def write_text_atomic(path: str | Path, text: str, durable: bool = False) -> Path:

@@ -54,20 +54,47 @@ def unit_normals_or_up(normals: np.ndarray) -> np.ndarray:
     return out.astype(np.float32)
 
 
+class _Blob:
+    """The binary chunk as its pieces (views and the zero padding that 4-byte aligns them), so the
+    GLB is assembled with one copy of the (large) image bytes; ``bytes(blob)`` is the chunk."""
+
+    def __init__(self) -> None:
+        self.pieces: list = []
+        self.size = 0  # bytes
+
+    def __len__(self) -> int:
+        return self.size
+
+    def __bytes__(self) -> bytes:
+        return b"".join(self.pieces)
+
+    def align(self) -> None:
+        padding = -self.size % 4
+        if padding:
+            self.pieces.append(bytes(padding))
+            self.size += padding
+
+    def append(self, data: bytes) -> int:
+        """Append ``data`` at the next 4-byte boundary; returns its byte offset."""
+        self.align()
+        offset = self.size
+        self.pieces.append(data)
+        self.size += len(data)
+        return offset
+
+
 class _GlbBuilder:
     """Accumulates buffer views and accessors into one binary chunk (4-byte aligned)."""
 
     def __init__(self) -> None:
         self.gltf = GLTF2(asset=pygltflib.Asset(version="2.0", generator="vworld-lod"))
-        self.blob = bytearray()
+        self.blob = _Blob()
 
     def _view(self, data: bytes, target: int | None = None) -> int:
-        while len(self.blob) % 4:
-            self.blob.append(0)
-        view = pygltflib.BufferView(buffer=0, byteOffset=len(self.blob), byteLength=len(data))
+        offset = self.blob.append(data)
+        view = pygltflib.BufferView(buffer=0, byteOffset=offset, byteLength=len(data))
         if target is not None:
             view.target = target
-        self.blob += data
         self.gltf.bufferViews.append(view)
         return len(self.gltf.bufferViews) - 1
 
@@ -88,6 +115,16 @@ class _GlbBuilder:
 
 _FIELDS: dict[type, tuple[str, ...]] = {}
 _SCALARS = frozenset({int, float, str, bool, type(None)})
+_NUMBERS = frozenset({int, float, bool})  # never pruned (no __iter__)
+_NESTED = frozenset({dict, list, tuple})  # list items the fast path leaves to the generic one
+
+
+def _field_names(kind: type) -> tuple[str, ...] | None:
+    """A dataclass's field names in declaration order (cached per type); None for other types."""
+    names = _FIELDS.get(kind)
+    if names is None and dataclasses.is_dataclass(kind):
+        names = _FIELDS[kind] = tuple(f.name for f in dataclasses.fields(kind))
+    return names
 
 
 def _plain(value):
@@ -98,9 +135,7 @@ def _plain(value):
         return value
     if kind is pygltflib.Attributes:
         return dict(value.__dict__)
-    names = _FIELDS.get(kind)
-    if names is None and dataclasses.is_dataclass(value) and not isinstance(value, type):
-        names = _FIELDS[kind] = tuple(f.name for f in dataclasses.fields(value))
+    names = _field_names(kind)
     if names is not None:
         return {name: _plain(getattr(value, name)) for name in names}
     if kind is list or kind is tuple:
@@ -110,16 +145,74 @@ def _plain(value):
     return value
 
 
-def _glb(gltf: GLTF2, blob: bytes | bytearray) -> bytes:
+def _generic_json(gltf: GLTF2) -> str:
+    """The JSON text exactly as pygltflib's ``gltf_to_json(separators=(",", ":"), indent=None)``."""
+    data = pygltflib.delete_empty_keys(_plain(gltf))
+    return json.dumps(data, cls=pygltflib.JsonEncoder, skipkeys=True, allow_nan=False, separators=(",", ":"),
+                      default=pygltflib.json_serial)
+
+
+class _Unusual(Exception):
+    """Internal: a value :func:`_pruned_fields` does not cover; the generic path takes the document."""
+
+
+def _pruned_fields(obj) -> dict:
+    """``json.dumps`` default: one dataclass (or ``Attributes``) as a dict of its fields, pruned as
+    ``delete_empty_keys`` prunes them (None and empty strings/lists/dicts dropped).
+
+    Nested objects stay objects: the encoder calls back here for each, so there is no Python
+    recursion and no intermediate copy of the document. Values whose pruning the two formulations
+    could do differently (non-empty dicts, tuples, lists holding containers, non-JSON scalars) raise
+    :class:`_Unusual`.
+    """
+    kind = type(obj)
+    if kind is pygltflib.Attributes:
+        items = obj.__dict__.items()
+    else:
+        names = _field_names(kind)
+        if names is None:
+            raise _Unusual(kind.__name__)
+        items = [(name, getattr(obj, name)) for name in names]
+    out = {}
+    for name, value in items:
+        kind = type(value)
+        if kind in _NUMBERS:
+            out[name] = value
+        elif value is None:
+            continue
+        elif kind is str or kind is list:
+            if value:
+                if kind is list and not _NESTED.isdisjoint(map(type, value)):
+                    raise _Unusual(name)
+                out[name] = value
+        elif kind is dict:
+            if value:
+                raise _Unusual(name)
+        elif kind is pygltflib.Attributes or _field_names(kind) is not None:
+            out[name] = value  # no __iter__: never pruned itself, its fields are (by the callback)
+        else:
+            raise _Unusual(name)
+    return out
+
+
+def _gltf_json(gltf: GLTF2) -> str:
+    """The JSON text of ``gltf``, equal to :func:`_generic_json`'s (the encoder walks the
+    dataclasses through :func:`_pruned_fields`; anything unusual goes the generic way)."""
+    try:
+        return json.dumps(gltf, allow_nan=False, separators=(",", ":"), default=_pruned_fields)
+    except _Unusual:
+        return _generic_json(gltf)
+
+
+def _glb(gltf: GLTF2, blob: bytes | bytearray | _Blob) -> bytes:
     """The GLB container (header, JSON chunk padded with spaces, BIN chunk) of ``gltf`` whose
     single buffer is ``blob`` (4-byte aligned views): byte for byte what pygltflib writes."""
-    data = pygltflib.delete_empty_keys(_plain(gltf))
-    text = json.dumps(data, cls=pygltflib.JsonEncoder, skipkeys=True, allow_nan=False, separators=(",", ":"),
-                      default=pygltflib.json_serial).encode("utf-8")
+    text = _gltf_json(gltf).encode("utf-8")
     text += b" " * (-len(text) % 4)
     length = 12 + 8 + len(text) + 8 + len(blob)
     return b"".join([b"glTF", struct.pack("<III", 2, length, len(text)), b"JSON", text,
-                     struct.pack("<I", len(blob)), b"BIN\x00", blob])
+                     struct.pack("<I", len(blob)), b"BIN\x00",
+                     *(blob.pieces if isinstance(blob, _Blob) else [blob])])
 
 
 def glb_bytes(parts: list[Part], name: str) -> bytes:
@@ -191,7 +284,6 @@ def glb_bytes(parts: list[Part], name: str) -> bytes:
     gltf.nodes.append(pygltflib.Node(name=name, mesh=0))
     gltf.scenes.append(pygltflib.Scene(name=name, nodes=[0]))
     gltf.scene = 0
-    while len(builder.blob) % 4:
-        builder.blob.append(0)
+    builder.blob.align()
     gltf.buffers.append(pygltflib.Buffer(byteLength=len(builder.blob)))
     return _glb(gltf, builder.blob)
