@@ -170,6 +170,150 @@ def _retriangulate(positions, region_faces, region_uvs, droppable):
     return new_faces, new_uvs
 
 
+def _region_loops(half: np.ndarray, half_region: np.ndarray, region_count: int, k: int,
+                  droppable: list) -> list:
+    """:func:`_loops` of many regions at once, droppable vertices already removed: per region a
+    list of loops (vertex lists) or None (pinched, open chain, no outline, or a loop under 3).
+
+    ``half`` (h, 2) int64 directed half-edges of all regions' faces in face order, ``half_region``
+    (h,) their region (0..region_count-1, ascending), ``k`` the vertex count. The outline is a
+    permutation of its half-edges exactly when sources and targets are unique and every target is
+    a source; then every walk of :func:`_loops` closes, starting at the region's first outline
+    half-edge in face order.
+    """
+    key = (half_region * k + half[:, 0]) * k + half[:, 1]
+    reverse = (half_region * k + half[:, 1]) * k + half[:, 0]
+    outline = ~np.isin(reverse, key)
+    edges, owner = half[outline], half_region[outline]
+    source, target = owner * k + edges[:, 0], owner * k + edges[:, 1]
+    bad = np.bincount(owner, minlength=region_count) == 0
+    for ends in (source, target):
+        ordered = np.sort(ends)
+        bad[ordered[1:][ordered[1:] == ordered[:-1]] // k] = True
+    bad[owner[~np.isin(target, source)]] = True
+    by_source = np.argsort(source)
+    following = by_source[np.minimum(np.searchsorted(source[by_source], target), len(source) - 1)]
+    loops: list = [None if b else [] for b in bad.tolist()]
+    following, starts, owners = following.tolist(), edges[:, 0].tolist(), owner.tolist()
+    seen = bytearray(len(starts))
+    for first, region in enumerate(owners):
+        if seen[first] or loops[region] is None:
+            continue
+        loop, e = [], first
+        while not seen[e]:
+            seen[e] = 1
+            if not droppable[starts[e]]:
+                loop.append(starts[e])
+            e = following[e]
+        if len(loop) < 3:
+            loops[region] = None
+        else:
+            loops[region].append(loop)
+    return loops
+
+
+def _retriangulate_many(positions, faces, corner_uvs, members: list, droppable: np.ndarray) -> list:
+    """``[_retriangulate(positions, faces[m], corner_uvs[m], droppable) for m in members]``, bit for
+    bit, with the per-region work batched: loops, UV checks, cross products, the outline check and
+    the UV lookup run once over all regions; per region only the float reductions whose summation
+    order numpy fixes per call (normal sum, projection, area sum, orientation) and earcut remain.
+    """
+    count, k = len(members), len(positions)
+    if count == 0:
+        return []
+    if count * k * k >= 2**62:  # keys would overflow int64: one region at a time
+        return [_retriangulate(positions, faces[m], None if corner_uvs is None else corner_uvs[m], droppable)
+                for m in members]
+    sizes = np.array([len(m) for m in members])
+    region_faces = faces[np.concatenate(members)]
+    face_region = np.repeat(np.arange(count), sizes)
+    bounds = np.concatenate([[0], np.cumsum(sizes)]).tolist()
+    loops = _region_loops(region_faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), np.repeat(face_region, 3), count, k,
+                          droppable.tolist())
+    ok = np.array([loop is not None for loop in loops])
+    if corner_uvs is not None:
+        # One UV per vertex in each region (the first corner's in face order, compared exactly).
+        corner_key = np.repeat(face_region, 3) * k + region_faces.reshape(-1)
+        order = np.argsort(corner_key, kind="stable")
+        ordered = corner_key[order]
+        first = np.ones(len(order), dtype=bool)
+        first[1:] = ordered[1:] != ordered[:-1]
+        corner_uv = corner_uvs[np.concatenate(members)].reshape(-1, 2)[order]
+        owner_uv = corner_uv[np.maximum.accumulate(np.where(first, np.arange(len(order)), 0))]
+        ok[(ordered // k)[~((corner_uv == owner_uv).all(axis=1) | first)]] = False
+        uv_keys, uv_values = ordered[first], corner_uv[first]
+    a, b, c = (positions[region_faces[:, i]] for i in range(3))
+    cross = cross_rows(b - a, c - a)
+    normal = np.stack([cross[bounds[r]:bounds[r + 1]].sum(axis=0) for r in range(count)])
+    area = 0.5 * np.sqrt(np.vecdot(normal, normal))  # = np.linalg.norm of each row (its dot)
+    ok &= area > 0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        normal = normal / (2 * area)[:, None]
+        x, y, z = normal[:, 0], normal[:, 1], normal[:, 2]
+        # _plane_basis with helper (1, 0, 0) or (0, 1, 0), the same IEEE operations per row.
+        hx = np.where(np.abs(x) < 0.9, 1.0, 0.0)
+        hy = 1.0 - hx
+        u = np.stack([y * 0.0 - z * hy, z * hx - x * 0.0, x * hy - y * hx], axis=1)
+        u = u / np.sqrt(np.vecdot(u, u))[:, None]
+        v = np.stack([y * u[:, 2] - z * u[:, 1], z * u[:, 0] - x * u[:, 2], x * u[:, 1] - y * u[:, 0]], axis=1)
+    basis = np.stack([u, v], axis=2)  # (regions, 3, 2): each [r] C-contiguous like np.stack([u, v], axis=1)
+    results: list = [None] * count
+    done_faces, done_region, expected = [], [], []
+    for r in np.flatnonzero(ok).tolist():
+        rings = loops[r]
+        vertices = np.concatenate(rings)
+        points = positions[vertices] @ basis[r]
+        if len(rings) > 1:
+            # Outer ring first (largest area), then the holes.
+            ends = np.cumsum([0] + [len(ring) for ring in rings])
+            flat = [points[ends[i]:ends[i + 1]] for i in range(len(rings))]
+            signed = [0.5 * np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1]) for p in flat]
+            order = np.argsort(-np.abs(signed))
+            rings = [rings[i] for i in order]
+            vertices = np.concatenate(rings)
+            points = np.concatenate([flat[i] for i in order])
+        ends = np.cumsum([len(ring) for ring in rings]).astype(np.uint32)
+        tri = np.asarray(mapbox_earcut.triangulate_float64(points, ends), dtype=np.int64).reshape(-1, 3)
+        if len(tri) != len(vertices) - 2 + 2 * (len(rings) - 1):
+            continue
+        done_faces.append(vertices[tri])
+        done_region.append(np.full(len(tri), r))
+        expected.extend((r, ring[i], ring[i - 1]) for ring in rings for i in range(len(ring)))
+    if not done_faces:
+        return results
+    new_faces, new_region = np.concatenate(done_faces), np.concatenate(done_region)
+    # The new triangles' outline must be exactly the (dropped) loops: no edge across a hole.
+    pairs = np.sort(new_faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    edge_key = (np.repeat(new_region, 3) * k + pairs[:, 0]) * k + pairs[:, 1]
+    edges, uses = np.unique(edge_key, return_counts=True)
+    loop_edges = np.array(expected, dtype=np.int64)
+    loop_key = (loop_edges[:, 0] * k + loop_edges[:, 1:].min(axis=1)) * k + loop_edges[:, 1:].max(axis=1)
+    wrong = np.setxor1d(edges[uses == 1], loop_key)
+    ok[wrong // (k * k)] = False
+    ok[edges[uses > 2] // (k * k)] = False
+    n = cross_rows(positions[new_faces[:, 1]] - positions[new_faces[:, 0]],
+                   positions[new_faces[:, 2]] - positions[new_faces[:, 0]])
+    areas = 0.5 * np.linalg.norm(n, axis=1)  # reversing a face keeps its area
+    face_bounds = np.concatenate([[0], np.cumsum([len(f) for f in done_faces])]).tolist()
+    if corner_uvs is not None:
+        new_uvs = uv_values[np.searchsorted(uv_keys, new_region[:, None] * k + new_faces)].astype(np.float32)
+    for i, r in enumerate(np.unique(new_region).tolist()):
+        if not ok[r]:
+            continue
+        lo, hi = face_bounds[i], face_bounds[i + 1]
+        total = area[r]
+        # Earcut may emit zero-area slivers along collinear outline vertices: not exact, refuse.
+        if abs(areas[lo:hi].sum() - total) > 1e-6 * max(total, 1.0) or areas[lo:hi].min() < 1e-9 * max(total, 1.0):
+            continue
+        flip = (n[lo:hi] @ normal[r]) < 0
+        tri = new_faces[lo:hi]
+        results[r] = (np.where(flip[:, None], tri[:, ::-1], tri), None)
+        if corner_uvs is not None:
+            uvs = new_uvs[lo:hi]
+            results[r] = (results[r][0], np.where(flip[:, None, None], uvs[:, ::-1], uvs))
+    return results
+
+
 def _boundary(positions: np.ndarray, faces: np.ndarray) -> tuple[float, int]:
     """Open-boundary length (metres) and edge count."""
     edges, counts = edge_use(faces)
@@ -220,11 +364,22 @@ def _retriangulate_regions(positions, faces, corner_uvs, regions, locked, done: 
     region_start = np.searchsorted(regions[by_region], np.arange(regions.max() + 2))
     for _ in range(8):
         corner_drop = droppable[faces].any(axis=1)
-        candidates = np.unique(regions[corner_drop])
+        candidates = np.unique(regions[corner_drop]).tolist()
+        bits = droppable[faces[by_region]]
+        keys = [bits[region_start[region]:region_start[region + 1]].tobytes() for region in candidates]
+        # All regions not cached are done in one batch with this pass's droppable bits; a region
+        # whose bits a failure earlier in the pass changed is redone alone below (as before).
+        todo = [i for i, region in enumerate(candidates) if not (region in done and done[region][0] == keys[i])]
+        batch = _retriangulate_many(positions, faces, corner_uvs,
+                                    [by_region[region_start[candidates[i]]:region_start[candidates[i] + 1]] for i in todo],
+                                    droppable)
+        for i, result in zip(todo, batch):
+            done[candidates[i]] = (keys[i], result)
         results, failed = {}, False
-        for region in candidates.tolist():
+        for region, key in zip(candidates, keys):
             members = by_region[region_start[region]:region_start[region + 1]]
-            key = droppable[faces[members]].tobytes()
+            if failed:
+                key = droppable[faces[members]].tobytes()
             if region in done and done[region][0] == key:
                 result = done[region][1]
             else:
