@@ -13,18 +13,28 @@ cleared; ratios are medians over ``--repeat`` repetitions):
 - PSNR (dB) of an IDCT-scaled decode at 1/2, 1/4, 1/8 against Lanczos from the full image (no
   encoding involved), and of each level's decoded output against that same reference;
 - a tile of ``--buildings`` buildings sharing the atlases: whole texture time vs the codec floor of
-  the distinct atlases (the cache's effect).
+  the distinct atlases (the cache's effect);
+- ``--folder DIR``: the ``*.jpg`` atlases of a tile folder (e.g. ``exporter.samplegen.generate_tile``
+  output) as one more group, with the PSNR of each mode's levels against what the default writes;
+- ``--export DIR --baseline CHECKOUT``: the ``textures`` stage seconds of a real export of ``DIR``
+  (``export_tiles(..., jobs=1)``) with this checkout and with ``CHECKOUT`` (e.g. ``git archive REV |
+  tar -x -C /tmp/base``), alternated in fresh processes; median ratio.
 
 Times are process CPU time (the work is single-threaded), printed as ratios against the baseline
 measured in the same run.
-Run: ``python benchmarks/bench_textures.py [--repeat 5] [--buildings 1000]``.
+Run: ``python benchmarks/bench_textures.py [--repeat 5] [--buildings 1000]``, or only a tile:
+``python benchmarks/bench_textures.py --only-folder --folder /tmp/p100 --limit 40 --export /tmp/p100
+--baseline /tmp/base``.
 """
 from __future__ import annotations
 
 import argparse
 import io
+import json
 import statistics
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -169,6 +179,11 @@ def measure_atlas(name: str, data: bytes, repeat: int) -> dict:
         clear_texture_cache()
         levels = build_texture_lods(texture, SCALES, TextureOptions(fast_jpeg_downscale=mode))
         result[f"psnr_{mode}"] = [psnr(pixels(reference[(t.width, t.height)]), pixels(Image.open(io.BytesIO(t.data)))) for t in levels[1:]]
+        result[f"out_{mode}"] = [pixels(Image.open(io.BytesIO(t.data))) for t in levels[1:]]
+    # Each mode's output against the default's (what a default export writes), per level.
+    default = result[f"out_{TextureOptions().fast_jpeg_downscale}"]
+    for mode in MODES:
+        result[f"vs_default_{mode}"] = [psnr(a, b) for a, b in zip(default, result.pop(f"out_{mode}"))]
     for factor in FACTORS:
         size = (-(-full.width // factor), -(-full.height // factor))
         drafted = Image.open(io.BytesIO(data))
@@ -210,12 +225,55 @@ def measure_tile(label: str, atlas_list: list[tuple[str, bytes]], buildings: int
               f"{statistics.median(ratios):.2f} x the codec floor of the distinct atlases")
 
 
+_EXPORT_SCRIPT = """
+import json, sys, tempfile
+sys.path.insert(0, sys.argv[1])
+from exporter.config import Config
+from exporter.pipeline import export_tiles
+with tempfile.TemporaryDirectory() as out:
+    print(json.dumps(export_tiles([sys.argv[2]], out, Config(), jobs=1, force=True).seconds))
+"""
+
+
+def export_stage_seconds(checkout: Path, folder: str) -> dict:
+    """Seconds per stage of a one-process export of ``folder`` with the exporter at ``checkout``."""
+    done = subprocess.run([sys.executable, "-c", _EXPORT_SCRIPT, str(checkout), folder],
+                          capture_output=True, text=True, check=True, cwd=tempfile.gettempdir())
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def measure_export(folder: str, baseline: Path, repeat: int) -> None:
+    """``textures`` stage seconds of a real export, this checkout vs ``baseline``, alternated."""
+    here = Path(__file__).resolve().parents[1]
+    ratios, times = [], {"this": [], "baseline": []}
+    for _ in range(repeat):
+        now, before = export_stage_seconds(here, folder)["textures"], export_stage_seconds(baseline, folder)["textures"]
+        times["this"].append(now)
+        times["baseline"].append(before)
+        ratios.append(now / before)
+    print(f"\nexport of {folder} (jobs=1), textures stage: this / baseline = {statistics.median(ratios):.2f} "
+          f"(median of {repeat}; {statistics.median(times['this']):.2f} s vs {statistics.median(times['baseline']):.2f} s)")
+
+
+def folder_atlases(folder: str, limit: int) -> list[tuple[str, bytes]]:
+    """The ``*.jpg`` atlases of a tile folder, named ``tile_<file>``."""
+    paths = sorted(Path(folder).glob("*.jpg"))[:limit]
+    return [(f"tile_{path.name}", path.read_bytes()) for path in paths]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--buildings", type=int, default=1000)
+    parser.add_argument("--folder", help="also measure the *.jpg atlases of this tile folder")
+    parser.add_argument("--limit", type=int, default=40, help="at most this many atlases of --folder")
+    parser.add_argument("--only-folder", action="store_true", help="skip the built-in atlas sets and the cache runs")
+    parser.add_argument("--export", help="a tile folder to export with this checkout and --baseline")
+    parser.add_argument("--baseline", type=Path, help="another checkout of the project (for --export)")
     args = parser.parse_args()
-    atlas_list = atlases()
+    atlas_list = [] if args.only_folder else atlases()
+    if args.folder:
+        atlas_list += folder_atlases(args.folder, args.limit)
     rows = [measure_atlas(name, data, args.repeat) for name, data in atlas_list]
 
     print(f"scales {SCALES}; times relative to the codec floor (decode full + encode reduced levels)")
@@ -227,6 +285,7 @@ def main() -> None:
     kinds = {"facade": "facade (synthetic, VWorld texel size)", "fine": "fine (synthetic close-range facade)",
              "sharp": "sharp (synthetic stress case)"}
     kinds["samplegen"] = "samplegen (the project's sample atlases)"
+    kinds["tile_"] = f"tile ({args.folder})"
     groups = {"real aerial": [r for r in rows if not r["name"].startswith(tuple(kinds))]}
     groups.update({label: [r for r in rows if r["name"].startswith(prefix)] for prefix, label in kinds.items()})
     print()
@@ -244,15 +303,22 @@ def main() -> None:
         print(f"  auto's estimate on the same side of {AUTO_MIN_PSNR_DB:g} dB as the truth: {agree}")
         for mode in MODES:
             per_level = list(zip(*[r[f"psnr_{mode}"] for r in group]))
+            vs_default = list(zip(*[r[f"vs_default_{mode}"] for r in group]))
             print(f"  {mode:7s} {statistics.mean(r[mode] for r in group) * 1000:5.1f} ms per atlas; "
                   f"time / floor: mean {statistics.mean(r[f'{mode}/floor'] for r in group):.2f}, "
                   f"time / careful: mean {statistics.mean(r[f'{mode}/never'] for r in group):.2f}; "
-                  f"output PSNR min per level: {' '.join(f'{min(v):.1f}' for v in per_level)}")
-    print("\ncache (auto):")
-    for label, group in groups.items():
-        names = {r["name"] for r in group}
-        if group and not label.startswith(("fine", "sharp", "samplegen")):
-            measure_tile(label.split(" (")[0], [a for a in atlas_list if a[0] in names], args.buildings, args.repeat)
+                  f"output PSNR min/mean per level: {' '.join(f'{min(v):.1f}/{statistics.mean(v):.1f}' for v in per_level)}; "
+                  f"vs the default's output min/mean: {' '.join(f'{min(v):.1f}/{statistics.mean(v):.1f}' for v in vs_default)}")
+    if not args.only_folder:
+        print("\ncache (auto):")
+        for label, group in groups.items():
+            names = {r["name"] for r in group}
+            if group and not label.startswith(("fine", "sharp", "samplegen", "tile")):
+                measure_tile(label.split(" (")[0], [a for a in atlas_list if a[0] in names], args.buildings, args.repeat)
+    if args.export:
+        if args.baseline is None:
+            parser.error("--export needs --baseline")
+        measure_export(args.export, args.baseline, args.repeat)
 
 if __name__ == "__main__":
     main()
