@@ -5,7 +5,8 @@ in the building-local East/Up/North frame, y = Up; triangles (m, 3) wound outwar
 joined and welded by exact position (to 1e-6 m) so texture seams and part junctions do not count
 as open boundary. Every length is relative to the source's bounding-box diagonal (metres / metres).
 
-Entry point: :func:`measure_lod` returns a flat dict of JSON-able numbers:
+Entry point: :func:`measure_lod` returns a flat dict of JSON-able numbers (:func:`exact_quality`
+gives the same keys without measuring, for a level known to be a lossless re-triangulation):
 
 - ``triangle_ratio``: level triangles / source triangles.
 - ``hausdorff_rel``: symmetric Hausdorff distance / diagonal, measured from every vertex plus a
@@ -44,7 +45,7 @@ COVER_TOLERANCE = 0.01    # wall sample covered when within this x diagonal of t
 WELD_M = 1e-6             # metres: positions equal to this are one vertex
 SEED = 20240521           # samples are the same on every run
 
-__all__ = ["measure_lod", "RESOLUTION", "COVER_TOLERANCE"]
+__all__ = ["measure_lod", "exact_quality", "RESOLUTION", "COVER_TOLERANCE"]
 
 
 # --------------------------------------------------------------------------- mesh helpers
@@ -169,18 +170,26 @@ class SurfaceIndex:
         self.owner = np.concatenate([np.repeat(np.arange(m), 3), np.arange(m), sample_faces])
         self.tree = cKDTree(probes) if m else None
 
-    def upper(self, points: np.ndarray, candidates: int = 6) -> np.ndarray:
+    CANDIDATES = 6  # nearest probes whose triangles give the upper bound
+
+    def _nearest(self, points: np.ndarray, candidates: int) -> tuple[np.ndarray, np.ndarray]:
+        """Distances (p, k) metres and indices (p, k) of the k nearest probes, k <= candidates."""
+        k = min(candidates, self.tree.n)
+        probe_distance, nearest = self.tree.query(points, k=k)
+        return probe_distance.reshape(len(points), k), nearest.reshape(len(points), k)
+
+    def upper(self, points: np.ndarray, candidates: int = CANDIDATES) -> np.ndarray:
         """Upper bound of each point's distance (p,) metres: exact distances to the triangles
         owning the ``candidates`` nearest probes (inf if the surface is empty)."""
         if self.tree is None:
             return np.full(len(points), np.inf)
-        k = min(candidates, self.tree.n)
-        probe_distance, nearest = self.tree.query(points, k=k)
-        nearest = nearest.reshape(len(points), k)
+        return self._upper(points, *self._nearest(points, candidates))
+
+    def _upper(self, points: np.ndarray, probe_distance: np.ndarray, nearest: np.ndarray) -> np.ndarray:
         # A point on a probe (a shared vertex: most of them when a level keeps input vertices) is
         # on the surface: 0, which is also what its triangles would give.
         upper = np.zeros(len(points))
-        off = np.flatnonzero(probe_distance.reshape(len(points), k)[:, 0] > 0)
+        off = np.flatnonzero(probe_distance[:, 0] > 0)
         if len(off) == 0:
             return upper
         # Probes of one triangle are often among the nearest: each (point, triangle) pair once.
@@ -200,10 +209,20 @@ class SurfaceIndex:
         open_points = np.flatnonzero(upper > 1e-9)  # points on the surface need no second look
         if len(open_points) == 0 or self.tree is None:
             return exact
-        gap = np.sqrt(((points[open_points, None, :] - self.centres[None]) ** 2).sum(-1)) - self.radii[None]
+        # Per coordinate, so no (p, m, 3) temporary: dx^2 + dy^2 + dz^2 is the same sum, in the
+        # same order, as ((p - c) ** 2).sum(-1).
+        near = points[open_points]
+        squared = (near[:, 0, None] - self.centres[None, :, 0]) ** 2
+        squared += (near[:, 1, None] - self.centres[None, :, 1]) ** 2
+        squared += (near[:, 2, None] - self.centres[None, :, 2]) ** 2
+        gap = np.sqrt(squared) - self.radii[None]
         rows, cols = np.nonzero(gap < upper[open_points, None] - 1e-12)
         if len(rows):
-            np.minimum.at(exact, open_points[rows], point_triangle_distance(points[open_points[rows]], self.tri[cols]))
+            # rows come sorted (row-major nonzero): one minimum per point over its triangles.
+            distance = point_triangle_distance(near[rows], self.tri[cols])
+            starts = np.flatnonzero(np.concatenate([[True], rows[1:] != rows[:-1]]))
+            which = open_points[rows[starts]]
+            exact[which] = np.minimum(exact[which], np.minimum.reduceat(distance, starts))
         return exact
 
     def distance(self, points: np.ndarray) -> np.ndarray:
@@ -227,13 +246,15 @@ class SurfaceIndex:
 
     def within(self, points: np.ndarray, tolerance: float) -> np.ndarray:
         """(p,) bool: exact distance <= ``tolerance`` metres (only bounds above it are refined)."""
-        if self.tree is None:
+        if self.tree is None or len(points) == 0:
             return np.zeros(len(points), dtype=bool)
-        # A probe lies on the surface, so the nearest probe's distance is a first upper bound.
-        inside = self.tree.query(points)[0] <= tolerance
+        # A probe lies on the surface, so the nearest probe's distance is a first upper bound;
+        # the same query's nearest probes give the others their upper bound (one query, not two).
+        probe_distance, nearest = self._nearest(points, self.CANDIDATES)
+        inside = probe_distance[:, 0] <= tolerance
         if (~inside).any():
             rest = points[~inside]
-            upper = self.upper(rest)
+            upper = self._upper(rest, probe_distance[~inside], nearest[~inside])
             near = upper <= tolerance
             if (~near).any():
                 near[~near] = self.refine(rest[~near], upper[~near]) <= tolerance
@@ -262,13 +283,27 @@ def rasterise(xy: np.ndarray, faces: np.ndarray, size: int) -> np.ndarray:
     """Conservative raster of 2-D triangles: (size, size) bool, pixel (row, col) covers
     [row - 0.5, row + 0.5] x [col - 0.5, col + 0.5] of ``xy`` (n, 2) pixel coordinates (x = col).
 
-    Every pixel a triangle touches is set, so edge-on faces still draw a line. Vectorised over
-    (triangle, row) pairs: each pair's x-extent inside the row's strip becomes one span.
+    Every pixel a triangle touches is set, so edge-on faces still draw a line. One view of
+    :func:`rasterise_views`.
     """
-    tri = xy[faces]                                        # (m, 3, 2)
-    y_low, y_high = tri[:, :, 1].min(axis=1), tri[:, :, 1].max(axis=1)
+    return rasterise_views(np.asarray(xy, dtype=np.float64)[None], faces, size)[0]
+
+
+def rasterise_views(xy: np.ndarray, faces: np.ndarray, size: int) -> np.ndarray:
+    """:func:`rasterise` of several views of one mesh in one pass: ``xy`` (v, n, 2) pixel
+    coordinates per view, result (v, size, size) bool.
+
+    Vectorised over (triangle, row) pairs of all views at once: each pair's x-extent inside the
+    row's strip (every edge clipped to the strip, its x at both clipped ends) becomes one span.
+    The arithmetic per pair and edge is that of the one-view loop it replaced, so the pixels
+    are the same bit for bit (tests/test_perf_quality.py).
+    """
+    views = len(xy)
+    tri = xy[:, faces].reshape(-1, 3, 2)                   # (v m, 3, 2), view-major
     if len(tri) == 0:
-        return np.zeros((size, size), dtype=bool)
+        return np.zeros((views, size, size), dtype=bool)
+    view = np.repeat(np.arange(views), len(faces))
+    y_low, y_high = tri[:, :, 1].min(axis=1), tri[:, :, 1].max(axis=1)
     r0 = np.clip(np.ceil(y_low - 0.5), 0, size - 1).astype(np.int64)
     r1 = np.clip(np.floor(y_high + 0.5), 0, size - 1).astype(np.int64)
     counts = np.maximum(r1 - r0 + 1, 0)
@@ -294,20 +329,21 @@ def rasterise(xy: np.ndarray, faces: np.ndarray, size: int) -> np.ndarray:
         lo = np.where(valid, np.minimum(lo, np.minimum(xa, xb)), lo)
         hi = np.where(valid, np.maximum(hi, np.maximum(xa, xb)), hi)
     keep = lo <= hi
-    rows = rows[keep]
+    rows = rows[keep] + size * view[owner[keep]]
     c0 = np.clip(np.ceil(lo[keep] - 0.5), 0, size - 1).astype(np.int64)
     c1 = np.clip(np.floor(hi[keep] + 0.5), 0, size - 1).astype(np.int64)
     width = size + 1
-    spans = np.bincount(rows * width + c0, minlength=size * width) - np.bincount(rows * width + c1 + 1, minlength=size * width)
-    return np.cumsum(spans[: size * width].reshape(size, width)[:, :size], axis=1) > 0
+    cells = views * size * width
+    spans = np.bincount(rows * width + c0, minlength=cells) - np.bincount(rows * width + c1 + 1, minlength=cells)
+    return np.cumsum(spans[:cells].reshape(views * size, width)[:, :size], axis=1).reshape(views, size, size) > 0
 
 
-def silhouettes(positions: np.ndarray, faces: np.ndarray, low: np.ndarray, high: np.ndarray) -> list[np.ndarray]:
-    """Top (x, z), front (x, y) and side (z, y) silhouettes, each (RESOLUTION, RESOLUTION) bool,
+def silhouettes(positions: np.ndarray, faces: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+    """Top (x, z), front (x, y) and side (z, y) silhouettes, (3, RESOLUTION, RESOLUTION) bool,
     on the box [low, high] (metres, local East/Up/North)."""
     span = np.maximum(high - low, 1e-9)
     pixels = (positions - low) / span * (RESOLUTION - 1)
-    return [rasterise(pixels[:, [u, v]], faces, RESOLUTION) for u, v in ((0, 2), (0, 1), (2, 1))]
+    return rasterise_views(pixels[:, [[0, 2], [0, 1], [2, 1]]].transpose(1, 0, 2), faces, RESOLUTION)
 
 
 # --------------------------------------------------------------------------- the metrics
@@ -402,4 +438,28 @@ def measure_lod(source_parts: list[Part], lod_parts: list[Part]) -> dict:
         "wall_coverage": wall_coverage,
         "boundary_length_change": float(change),
         "new_holes": int(max(0, lod_loops - src.loops)),
+    }
+
+
+def exact_quality(source_parts: list[Part], lod_parts: list[Part]) -> dict:
+    """What :func:`measure_lod` would ideally give for a level whose surface *is* the source's.
+
+    For a lossless level (the source re-triangulated: same surface, same outline, same UV
+    mapping, e.g. ``planar_retriangulation`` meeting the target) the geometric metrics follow
+    from "same surface": ``hausdorff_rel`` 0, ``silhouette_iou`` and ``wall_coverage`` 1,
+    ``boundary_length_change`` 0, ``new_holes`` 0. Only ``triangle_ratio`` depends on the
+    triangulation and is computed as measure_lod does. No sampling or rasterising: the caller
+    vouches for exactness (this function does not check it). measure_lod on such a level agrees
+    within its own sampling and raster tolerance (distances ~1e-8 x diagonal from the 1 um weld,
+    an IoU pixel or so of rounding on the raster's edges; see tests/test_quality.py).
+    """
+    source_tris = sum(p.triangle_count for p in source_parts)
+    lod_tris = sum(p.triangle_count for p in lod_parts)
+    return {
+        "triangle_ratio": float(lod_tris / source_tris) if source_tris else 1.0,
+        "hausdorff_rel": 0.0,
+        "silhouette_iou": 1.0,
+        "wall_coverage": 1.0,
+        "boundary_length_change": 0.0,
+        "new_holes": 0,
     }

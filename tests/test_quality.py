@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from exporter.model import Part
-from exporter.quality import distance_to_surface, measure_lod, point_triangle_distance, rasterise
+from exporter.quality import distance_to_surface, exact_quality, measure_lod, point_triangle_distance, rasterise
 from test_simplify_shapes import box_building, crafted_building
 
 KEYS = {"triangle_ratio", "hausdorff_rel", "silhouette_iou", "wall_coverage", "boundary_length_change", "new_holes"}
@@ -110,3 +110,57 @@ def test_empty_level_scores_zero(box):
     empty = [Part(np.zeros((0, 3)), np.zeros((0, 3), np.int64))]
     metrics = measure_lod(box, empty)
     assert metrics["triangle_ratio"] == 0.0 and metrics["wall_coverage"] == 0.0 and metrics["silhouette_iou"] == 0.0
+
+
+# --------------------------------------------------------------------------- exact_quality
+
+def lossless_level(parts):
+    """LOD0 and a level that is only its planar re-triangulation: every face protected from the
+    quadric collapse, so only the lossless planar pass changes the mesh."""
+    from exporter.config import Config, SimplifyOptions
+    from exporter.simplify import build_mesh_lods, simplify_parts
+    lod0 = build_mesh_lods(parts, Config().lods[:1], Config().simplify)[0]
+    return lod0, simplify_parts(lod0, 1, SimplifyOptions(protect_largest=1.0))
+
+
+def samplegen_buildings(folder, count):
+    from exporter.config import Config
+    from exporter.readers import load_entry, scan_folder
+    from exporter.samplegen import generate_tile
+    generate_tile(folder, count=count, seed=7, atlas_size=32)
+    options = Config().readers
+    return [load_entry(entry, options).parts for entry in scan_folder(folder, options).entries]
+
+
+def test_exact_quality_agrees_with_measure_lod_on_lossless_levels(box, tmp_path):
+    """Tolerances of measure_lod on a re-triangulated surface: distances are float rounding (the
+    samplegen walls are float32 .xdo vertices, flat only to ~1e-7 m), so within 1e-6 x diagonal;
+    the conservative raster and the outline length are the same up to rounding."""
+    buildings = [box, crafted_building(2), crafted_building(4)] + samplegen_buildings(tmp_path / "tile", 3)
+    for parts in buildings:
+        lod0, level = lossless_level(parts)
+        assert sum(p.triangle_count for p in level) < sum(p.triangle_count for p in lod0)  # it did change
+        measured, exact = measure_lod(lod0, level), exact_quality(lod0, level)
+        assert set(exact) == KEYS
+        assert exact["triangle_ratio"] == measured["triangle_ratio"]
+        assert exact["hausdorff_rel"] == 0.0 and measured["hausdorff_rel"] < 1e-6
+        assert exact["silhouette_iou"] == 1.0 and measured["silhouette_iou"] >= 0.999
+        assert exact["wall_coverage"] == measured["wall_coverage"] == 1.0
+        assert exact["boundary_length_change"] == 0.0 and abs(measured["boundary_length_change"]) < 1e-9
+        assert exact["new_holes"] == measured["new_holes"] == 0
+        assert type(exact["new_holes"]) is int and all(type(exact[k]) is float for k in KEYS - {"new_holes"})
+
+
+def test_exact_quality_differs_from_measure_lod_on_a_changed_level():
+    from exporter.config import Config
+    from exporter.simplify import build_mesh_lods
+    chain = build_mesh_lods(crafted_building(2), Config().lods, Config().simplify)
+    measured, exact = measure_lod(chain[0], chain[2]), exact_quality(chain[0], chain[2])
+    assert exact["triangle_ratio"] == measured["triangle_ratio"] < 1.0
+    assert measured["hausdorff_rel"] > 1e-3 > exact["hausdorff_rel"]   # the dome was collapsed
+    assert measured["silhouette_iou"] < 1.0 == exact["silhouette_iou"]
+
+
+def test_exact_quality_of_an_empty_source_is_measure_lods():
+    empty = [Part(np.zeros((0, 3)), np.zeros((0, 3), np.int64))]
+    assert exact_quality(empty, empty) == measure_lod(empty, empty)
