@@ -1,6 +1,7 @@
 """Mesh levels of detail the paper's way: quadric edge collapse with locks and a geometric filter.
 
-Entry point: :func:`build_mesh_lods`. Data form: :class:`~exporter.model.Part` lists (positions
+Entry point: :func:`build_mesh_chain` (levels with their ``exact`` flag); :func:`build_mesh_lods`
+is the same without the flags. Data form: :class:`~exporter.model.Part` lists (positions
 (n, 3) float64 metres in the building-local East/Up/North frame, triangles (m, 3) wound outward,
 per-vertex UVs (n, 2) in glTF convention, optional normals).
 
@@ -40,7 +41,7 @@ from .planar import retriangulate_planar
 from .quadric import Collapsed, collapse
 from .weld import weld_positions
 
-__all__ = ["build_mesh_lods", "clean_part"]
+__all__ = ["MeshLevel", "build_mesh_chain", "build_mesh_lods", "clean_part"]
 
 # Faces below this area (square metres) are degenerate: dropped from level 0.
 ZERO_AREA_M2 = 1e-12
@@ -84,7 +85,8 @@ def uv_charts(faces: np.ndarray, vertex_count: int) -> np.ndarray:
 
 def _join(parts: list[Part], link_distance: float):
     """One welded mesh from all parts: positions (k, 3) metres, faces (m, 3), face_part (m,),
-    corner_uvs (m, 3, 2) or None, face_chart (m,)."""
+    corner_uvs (m, 3, 2) or None, face_chart (m,), and whether welding merged vertices further
+    apart than ``NOISE_M`` (only possible with ``link_distance > NOISE_M``)."""
     offsets = np.cumsum([0] + [p.vertex_count for p in parts])
     positions = np.concatenate([p.positions for p in parts]) if parts else np.zeros((0, 3))
     faces = np.concatenate([p.triangles + offsets[i] for i, p in enumerate(parts)]) if parts else np.zeros((0, 3), np.int64)
@@ -93,13 +95,14 @@ def _join(parts: list[Part], link_distance: float):
     uvs = np.concatenate([p.uvs if p.uvs is not None else np.zeros((p.vertex_count, 2), np.float32) for p in parts]) if has_uv else None
     # Float noise (a vertex repeated with 1e-7 m differences) is welded whatever the option says.
     welded, welded_positions = weld_positions(positions, max(link_distance, NOISE_M))
+    merged = link_distance > NOISE_M and len(welded_positions) < len(weld_positions(positions, NOISE_M)[1])
     corner_uvs = uvs[faces] if has_uv else None
     face_chart = uv_charts(faces, len(positions))
     faces = welded[faces]
     # Welding closer than link_distance can fold slivers to edges: drop those.
     distinct = (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])
     return (welded_positions, faces[distinct], face_part[distinct], None if corner_uvs is None else corner_uvs[distinct],
-            face_chart[distinct])
+            face_chart[distinct], merged)
 
 
 def _locks(positions, faces, face_part, options: SimplifyOptions) -> np.ndarray:
@@ -161,10 +164,19 @@ def simplify_parts(parts: list[Part], target: int, options: SimplifyOptions,
     measures against, or that mesh prepared as a :class:`~.guard.Reference` (default: ``parts``
     themselves).
     """
+    return _simplify_level(parts, target, options, reference)[0]
+
+
+def _simplify_level(parts: list[Part], target: int, options: SimplifyOptions,
+                    reference: Optional[tuple[np.ndarray, np.ndarray] | Reference] = None,
+                    joined: Optional[tuple] = None) -> tuple[list[Part], bool]:
+    """:func:`simplify_parts` and whether the step was lossless (the same surface: only noise
+    welding and the planar re-triangulation). ``joined``: ``_join(parts, link distance)`` when
+    the caller has it already (level 1 shares LOD0's with the guard's reference)."""
     total = sum(p.triangle_count for p in parts)
     if total <= target or total == 0:
-        return parts
-    positions, faces, face_part, corner_uvs, face_chart = _join(parts, options.vertex_link_distance)
+        return parts, True
+    positions, faces, face_part, corner_uvs, face_chart, merged = joined or _join(parts, options.vertex_link_distance)
     reference = reference if reference is not None else (positions, faces)
     if not isinstance(reference, Reference):
         reference = Reference(*reference)
@@ -186,13 +198,13 @@ def simplify_parts(parts: list[Part], target: int, options: SimplifyOptions,
                         max_iterations=options.max_iterations)
 
     tolerance = options.max_error * diagonal(reference.positions)
-    result = attempt(target)
-    # The planar pass met the target, or nothing may move: every bisection step would return this
-    # same mesh, so there is nothing to measure.
+    flat = Collapsed(positions, faces, corner_uvs, np.arange(len(positions)), np.arange(len(faces)))
+    # The planar pass met the target, or nothing may move: the collapse would return the flat mesh
+    # unchanged and every bisection step the same, so there is nothing to run or measure.
     settled = len(faces) <= target or not movable.any()
+    result = flat if settled else attempt(target)
     if options.max_error > 0 and not settled and deviation(reference, result.positions, result.faces) > tolerance:
         # Raise the target until the level stays within the tolerance (bisection on the count).
-        flat = Collapsed(positions, faces, corner_uvs, np.arange(len(positions)), np.arange(len(faces)))
         best, low, high = flat, target, len(faces)
         for _ in range(GUARD_STEPS):
             middle = (low + high) // 2
@@ -205,12 +217,28 @@ def simplify_parts(parts: list[Part], target: int, options: SimplifyOptions,
                 low = middle
         result = best
     if len(result.faces) >= total:
-        return parts
-    return _split(parts, result, face_part)
+        return parts, True
+    # A collapse that removed no face moved nothing either (placement is at edge ends or checked).
+    lossless = not merged and len(result.faces) == len(faces) and \
+        np.array_equal(result.positions, positions[result.vertex_ids])
+    return _split(parts, result, face_part), lossless
 
 
-def build_mesh_lods(parts: list[Part], lods: list[LodSpec], options: SimplifyOptions) -> list[list[Part]]:
-    """Mesh LoD chain: one list of parts per level, LOD0 first.
+@dataclasses.dataclass(frozen=True)
+class MeshLevel:
+    """One level of :func:`build_mesh_chain`: its parts and whether its surface is exactly LOD0's.
+
+    ``exact``: only zero-area cleaning, noise welding (<= ``NOISE_M``) and the lossless planar
+    re-triangulation happened since LOD0 (no quadric collapse, no welding of distinct vertices),
+    so every distance to LOD0 is zero. Level 0 is always exact.
+    """
+
+    parts: list[Part]
+    exact: bool
+
+
+def build_mesh_chain(parts: list[Part], lods: list[LodSpec], options: SimplifyOptions) -> list[MeshLevel]:
+    """Mesh LoD chain: one :class:`MeshLevel` per level, LOD0 first.
 
     ``parts``: the building's source parts (local East/Up/North metres). Level 0 is the source
     with zero-area faces removed (nothing else changes). Level k aims at
@@ -222,13 +250,23 @@ def build_mesh_lods(parts: list[Part], lods: list[LodSpec], options: SimplifyOpt
     for i, part in enumerate(parts):
         _check_part(part, i)
     source_triangles = sum(p.triangle_count for p in parts)
-    levels = [[clean_part(p) for p in parts]]
-    reference = Reference(*_join(levels[0], 0.0)[:2])  # the guard's reference: LOD0, welded
+    chain = [MeshLevel([clean_part(p) for p in parts], True)]
+    joined = _join(chain[0].parts, 0.0)
+    reference = Reference(*joined[:2])  # the guard's reference: LOD0, welded
     for k, spec in enumerate(lods[1:], start=1):
         target = int(round(source_triangles * spec.mesh))
         # Same error on screen at every level: level k is seen at most lods[k-1].transition of
         # the screen high, so its allowed deviation grows as lods[0].transition / that.
         scale = lods[0].transition / lods[k - 1].transition
         level_options = dataclasses.replace(options, max_error=options.max_error * scale)
-        levels.append(simplify_parts(levels[-1], target, level_options, reference=reference))
-    return levels
+        # Level 1 starts from LOD0 welded the same way as the reference: joined once.
+        shared = joined if k == 1 and options.vertex_link_distance <= NOISE_M else None
+        level, lossless = _simplify_level(chain[-1].parts, target, level_options, reference, shared)
+        chain.append(MeshLevel(level, chain[-1].exact and lossless))
+    return chain
+
+
+def build_mesh_lods(parts: list[Part], lods: list[LodSpec], options: SimplifyOptions) -> list[list[Part]]:
+    """Mesh LoD chain: one list of parts per level, LOD0 first (:func:`build_mesh_chain` without
+    the ``exact`` flags)."""
+    return [level.parts for level in build_mesh_chain(parts, lods, options)]
