@@ -19,6 +19,8 @@ UVs in the region, or earcut's triangles not covering the region's area.
 """
 from __future__ import annotations
 
+import itertools
+
 import mapbox_earcut
 import numpy as np
 
@@ -170,6 +172,11 @@ def _retriangulate(positions, region_faces, region_uvs, droppable):
     return new_faces, new_uvs
 
 
+def _member(values: np.ndarray, ordered: np.ndarray) -> np.ndarray:
+    """``np.isin(values, ordered)`` for an ascending non-empty ``ordered`` (one binary search)."""
+    return ordered[np.minimum(np.searchsorted(ordered, values), len(ordered) - 1)] == values
+
+
 def _region_loops(half: np.ndarray, half_region: np.ndarray, region_count: int, k: int,
                   droppable: list) -> list:
     """:func:`_loops` of many regions at once, droppable vertices already removed: per region a
@@ -183,16 +190,19 @@ def _region_loops(half: np.ndarray, half_region: np.ndarray, region_count: int, 
     """
     key = (half_region * k + half[:, 0]) * k + half[:, 1]
     reverse = (half_region * k + half[:, 1]) * k + half[:, 0]
-    outline = ~np.isin(reverse, key)
+    outline = ~_member(reverse, np.sort(key))
     edges, owner = half[outline], half_region[outline]
     source, target = owner * k + edges[:, 0], owner * k + edges[:, 1]
     bad = np.bincount(owner, minlength=region_count) == 0
-    for ends in (source, target):
-        ordered = np.sort(ends)
-        bad[ordered[1:][ordered[1:] == ordered[:-1]] // k] = True
-    bad[owner[~np.isin(target, source)]] = True
+    if not len(source):
+        return [None] * region_count
     by_source = np.argsort(source)
-    following = by_source[np.minimum(np.searchsorted(source[by_source], target), len(source) - 1)]
+    sources, targets = source[by_source], np.sort(target)
+    bad[sources[1:][sources[1:] == sources[:-1]] // k] = True
+    bad[targets[1:][targets[1:] == targets[:-1]] // k] = True
+    at = np.minimum(np.searchsorted(sources, target), len(source) - 1)
+    bad[owner[sources[at] != target]] = True
+    following = by_source[at]
     loops: list = [None if b else [] for b in bad.tolist()]
     following, starts, owners = following.tolist(), edges[:, 0].tolist(), owner.tolist()
     seen = bytearray(len(starts))
@@ -257,12 +267,18 @@ def _retriangulate_many(positions, faces, corner_uvs, members: list, droppable: 
         u = u / np.sqrt(np.vecdot(u, u))[:, None]
         v = np.stack([y * u[:, 2] - z * u[:, 1], z * u[:, 0] - x * u[:, 2], x * u[:, 1] - y * u[:, 0]], axis=1)
     basis = np.stack([u, v], axis=2)  # (regions, 3, 2): each [r] C-contiguous like np.stack([u, v], axis=1)
-    results: list = [None] * count
-    done_faces, done_region, expected = [], [], []
-    for r in np.flatnonzero(ok).tolist():
-        rings = loops[r]
-        vertices = np.concatenate(rings)
-        points = positions[vertices] @ basis[r]
+    todo = np.flatnonzero(ok).tolist()
+    if not todo:
+        return [None] * count
+    rings_of = [loops[r] for r in todo]
+    ring_vertices = np.array([v for rings in rings_of for ring in rings for v in ring], dtype=np.int64)
+    projected_from = positions[ring_vertices]
+    tris, done, expected, at = [], [], [], 0
+    for r, rings in zip(todo, rings_of):
+        size = sum(len(ring) for ring in rings)
+        vertices = ring_vertices[at:at + size]
+        points = projected_from[at:at + size] @ basis[r]
+        at += size
         if len(rings) > 1:
             # Outer ring first (largest area), then the holes.
             ends = np.cumsum([0] + [len(ring) for ring in rings])
@@ -272,45 +288,47 @@ def _retriangulate_many(positions, faces, corner_uvs, members: list, droppable: 
             rings = [rings[i] for i in order]
             vertices = np.concatenate(rings)
             points = np.concatenate([flat[i] for i in order])
-        ends = np.cumsum([len(ring) for ring in rings]).astype(np.uint32)
-        tri = np.asarray(mapbox_earcut.triangulate_float64(points, ends), dtype=np.int64).reshape(-1, 3)
-        if len(tri) != len(vertices) - 2 + 2 * (len(rings) - 1):
+        ends = np.array(list(itertools.accumulate(len(ring) for ring in rings)), dtype=np.uint32)
+        tri = mapbox_earcut.triangulate_float64(points, ends)
+        if len(tri) != 3 * (size - 2 + 2 * (len(rings) - 1)):
             continue
-        done_faces.append(vertices[tri])
-        done_region.append(np.full(len(tri), r))
+        tris.append(vertices[tri.reshape(-1, 3)])
+        done.append(r)
         expected.extend((r, ring[i], ring[i - 1]) for ring in rings for i in range(len(ring)))
-    if not done_faces:
+    results: list = [None] * count
+    if not done:
         return results
-    new_faces, new_region = np.concatenate(done_faces), np.concatenate(done_region)
+    new_faces = np.concatenate(tris)
+    face_bounds = [0] + list(itertools.accumulate(len(t) for t in tris))
+    new_region = np.repeat(done, np.diff(face_bounds))
     # The new triangles' outline must be exactly the (dropped) loops: no edge across a hole.
     pairs = np.sort(new_faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
     edge_key = (np.repeat(new_region, 3) * k + pairs[:, 0]) * k + pairs[:, 1]
     edges, uses = np.unique(edge_key, return_counts=True)
     loop_edges = np.array(expected, dtype=np.int64)
     loop_key = (loop_edges[:, 0] * k + loop_edges[:, 1:].min(axis=1)) * k + loop_edges[:, 1:].max(axis=1)
-    wrong = np.setxor1d(edges[uses == 1], loop_key)
-    ok[wrong // (k * k)] = False
+    ok[np.setxor1d(edges[uses == 1], loop_key) // (k * k)] = False
     ok[edges[uses > 2] // (k * k)] = False
     n = cross_rows(positions[new_faces[:, 1]] - positions[new_faces[:, 0]],
                    positions[new_faces[:, 2]] - positions[new_faces[:, 0]])
     areas = 0.5 * np.linalg.norm(n, axis=1)  # reversing a face keeps its area
-    face_bounds = np.concatenate([[0], np.cumsum([len(f) for f in done_faces])]).tolist()
+    smallest = np.minimum.reduceat(areas, face_bounds[:-1]).tolist()
+    flip = np.zeros(len(new_faces), dtype=bool)
+    for i, r in enumerate(done):
+        lo, hi = face_bounds[i], face_bounds[i + 1]
+        total = float(area[r])
+        # Earcut may emit zero-area slivers along collinear outline vertices: not exact, refuse.
+        if abs(areas[lo:hi].sum() - total) > 1e-6 * max(total, 1.0) or smallest[i] < 1e-9 * max(total, 1.0):
+            ok[r] = False
+        flip[lo:hi] = (n[lo:hi] @ normal[r]) < 0
+    new_faces = np.where(flip[:, None], new_faces[:, ::-1], new_faces)
+    new_uvs = None
     if corner_uvs is not None:
         new_uvs = uv_values[np.searchsorted(uv_keys, new_region[:, None] * k + new_faces)].astype(np.float32)
-    for i, r in enumerate(np.unique(new_region).tolist()):
-        if not ok[r]:
-            continue
-        lo, hi = face_bounds[i], face_bounds[i + 1]
-        total = area[r]
-        # Earcut may emit zero-area slivers along collinear outline vertices: not exact, refuse.
-        if abs(areas[lo:hi].sum() - total) > 1e-6 * max(total, 1.0) or areas[lo:hi].min() < 1e-9 * max(total, 1.0):
-            continue
-        flip = (n[lo:hi] @ normal[r]) < 0
-        tri = new_faces[lo:hi]
-        results[r] = (np.where(flip[:, None], tri[:, ::-1], tri), None)
-        if corner_uvs is not None:
-            uvs = new_uvs[lo:hi]
-            results[r] = (results[r][0], np.where(flip[:, None, None], uvs[:, ::-1], uvs))
+    for i, r in enumerate(done):
+        if ok[r]:
+            lo, hi = face_bounds[i], face_bounds[i + 1]
+            results[r] = (new_faces[lo:hi], None if new_uvs is None else new_uvs[lo:hi])
     return results
 
 
