@@ -45,7 +45,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from exporter.config import TextureOptions  # noqa: E402
 from exporter.model import Texture  # noqa: E402
-from exporter.textures import AUTO_MIN_PSNR_DB, build_texture_lods, clear_texture_cache, level_sizes, predicted_draft_psnr, psnr  # noqa: E402
+from exporter.textures import AUTO_MIN_PSNR_DB, build_texture_lods, clear_texture_cache, image_psnr, level_sizes, predicted_draft_psnr, psnr  # noqa: E402
 
 # CPU time of this process: the codecs and resizes are single-threaded, and on a shared machine
 # wall-clock time mostly measures the neighbours' load.
@@ -255,6 +255,51 @@ def measure_export(folder: str, baseline: Path, repeat: int) -> None:
           f"(median of {repeat}; {statistics.median(times['this']):.2f} s vs {statistics.median(times['baseline']):.2f} s)")
 
 
+def cost_breakdown(atlas_list: list[tuple[str, bytes]], repeat: int) -> None:
+    """What the steps of the default fast path cost against the codec floor (same atlases, one
+    run): why ``auto`` cannot go below the floor while LOD2 keeps Lanczos quality."""
+    def decode(data, size=None):
+        image = Image.open(io.BytesIO(data))
+        if size:
+            image.draft("RGB", size)
+        image.load()
+        return image
+
+    steps = {"floor: full decode + encode levels": [], "draft decode 1/2": [], "Lanczos 1/2 -> 1/4": [],
+             "auto's check (box 1/2 -> 1/4, PSNR)": [], "box 1/2 -> 1/4 (Image.reduce)": [], "encode levels": []}
+    for _ in range(repeat):
+        spent = dict.fromkeys(steps, 0.0)
+        for _, data in atlas_list:
+            width, height = Image.open(io.BytesIO(data)).size
+            half_size, quarter_size = (width // 2, height // 2), (width // 4, height // 4)
+            start = clock()
+            decode(data)
+            full_decode = clock() - start
+            start = clock()
+            half = decode(data, half_size)
+            spent["draft decode 1/2"] += clock() - start
+            start = clock()
+            quarter = half.resize(quarter_size, Image.Resampling.LANCZOS)
+            spent["Lanczos 1/2 -> 1/4"] += clock() - start
+            start = clock()
+            image_psnr(quarter, half.reduce(2))
+            spent["auto's check (box 1/2 -> 1/4, PSNR)"] += clock() - start
+            start = clock()
+            half.reduce(2)
+            spent["box 1/2 -> 1/4 (Image.reduce)"] += clock() - start
+            start = clock()
+            for image in (half, quarter):
+                image.save(io.BytesIO(), "JPEG", quality=TextureOptions().jpeg_quality)
+            encode = clock() - start
+            spent["encode levels"] += encode
+            spent["floor: full decode + encode levels"] += full_decode + encode
+        for key, value in spent.items():
+            steps[key].append(value / spent["floor: full decode + encode levels"])
+    print(f"\ncost of each step / codec floor ({len(atlas_list)} atlases, median of {repeat}):")
+    for key, ratios in steps.items():
+        print(f"  {key:40s} {statistics.median(ratios):.2f}")
+
+
 def folder_atlases(folder: str, limit: int) -> list[tuple[str, bytes]]:
     """The ``*.jpg`` atlases of a tile folder, named ``tile_<file>``."""
     paths = sorted(Path(folder).glob("*.jpg"))[:limit]
@@ -315,6 +360,8 @@ def main() -> None:
             names = {r["name"] for r in group}
             if group and not label.startswith(("fine", "sharp", "samplegen", "tile")):
                 measure_tile(label.split(" (")[0], [a for a in atlas_list if a[0] in names], args.buildings, args.repeat)
+    if args.folder:
+        cost_breakdown(folder_atlases(args.folder, args.limit), args.repeat)
     if args.export:
         if args.baseline is None:
             parser.error("--export needs --baseline")

@@ -28,7 +28,9 @@ level is a Lanczos reduction of the previous one. The scaled IDCT filters about 
 fine on photographs, aliasing on detail near the pixel size, so ``fast_jpeg_downscale: auto``
 keeps it for an atlas only when a PSNR estimate against a careful Lanczos reduction of the full
 image is >= 35 dB, and otherwise decodes the full image (:func:`predicted_draft_psnr`; numbers in
-``benchmarks/bench_textures.py`` and ``docs/textures.md``). Results are kept in a process-wide LRU
+``benchmarks/bench_textures.py`` and ``docs/textures.md``). ``always`` skips the check and also
+reduces each later level from the previous one with a box (``Image.reduce``) where the size divides
+evenly: below the codec floor, at box-filter quality. Results are kept in a process-wide LRU
 cache bounded in bytes, so an atlas shared by many buildings is processed once per process.
 
 Bounded memory: the declared size is read from the header and checked against ``max_pixels``
