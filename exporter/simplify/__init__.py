@@ -27,8 +27,6 @@ import dataclasses
 from typing import Optional
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from ..config import LodSpec, SimplifyOptions
@@ -72,15 +70,25 @@ def clean_part(part: Part) -> Part:
 def uv_charts(faces: np.ndarray, vertex_count: int) -> np.ndarray:
     """(m,) int64 chart of every face: faces sharing a (split, per-UV) vertex are one texture island.
 
-    Components of the face-vertex graph (faces numbered first, so charts are numbered by their
-    lowest face as with a face-face graph, without its sparse product)."""
+    Components of the face-vertex graph, numbered by their lowest face (as ``connected_components``
+    of the face-face graph numbers them): every face takes the lowest face label among its
+    vertices' faces until nothing changes, with pointer jumping between rounds."""
     m = len(faces)
     if m == 0:
         return np.zeros(0, np.int64)
-    graph = coo_matrix((np.ones(3 * m), (np.repeat(np.arange(m), 3), m + faces.reshape(-1))),
-                       shape=(m + vertex_count, m + vertex_count))
-    _, labels = connected_components(graph, directed=False)
-    return labels[:m].astype(np.int64)
+    corners = faces.reshape(-1)
+    corner_face = np.repeat(np.arange(m), 3)
+    labels = np.arange(m)
+    while True:
+        at_vertex = np.full(vertex_count, m)
+        np.minimum.at(at_vertex, corners, labels[corner_face])
+        new = at_vertex[faces].min(axis=1)
+        new = new[new]
+        if np.array_equal(new, labels):
+            break
+        labels = new
+    root = labels == np.arange(m)
+    return (np.cumsum(root) - 1)[labels]
 
 
 def _join(parts: list[Part], link_distance: float):
@@ -123,6 +131,19 @@ def _protected(positions, faces, options: SimplifyOptions) -> np.ndarray:
     return protected
 
 
+def unique_float_rows(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``np.unique(keys, axis=0, return_index=True, return_inverse=True)[1:]`` for (c, w) float64
+    rows: one stable lexsort (rows equal when every column compares equal, lowest index first)
+    instead of a sort of a structured view."""
+    order = np.lexsort(keys.T[::-1])
+    ordered = keys[order]
+    start = np.ones(len(order), dtype=bool)
+    start[1:] = (ordered[1:] != ordered[:-1]).any(axis=1)
+    inverse = np.empty(len(order), dtype=np.int64)
+    inverse[order] = np.cumsum(start) - 1
+    return order[start], inverse
+
+
 def _split(parts: list[Part], result, face_part_in) -> list[Part]:
     """Back to one Part per input part, vertices split where a position has several UVs."""
     out = []
@@ -135,7 +156,7 @@ def _split(parts: list[Part], result, face_part_in) -> list[Part]:
             keys = np.column_stack([corners.astype(np.float64), uv.astype(np.float64)])
         else:
             keys = corners.astype(np.float64)[:, None]
-        unique, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+        first, inverse = unique_float_rows(keys)
         vertex = corners[first]
         positions = result.positions[vertex]
         uvs = result.corner_uvs[mine].reshape(-1, 2)[first] if part.uvs is not None else None
@@ -150,6 +171,11 @@ def _split(parts: list[Part], result, face_part_in) -> list[Part]:
         out.append(dataclasses.replace(part, positions=positions, triangles=inverse.reshape(-1, 3),
                                        uvs=uvs, normals=normals))
     return out
+
+
+def _unchanged(positions, faces, corner_uvs) -> Collapsed:
+    """The mesh as a :class:`Collapsed` result that collapsed nothing."""
+    return Collapsed(positions, faces, corner_uvs, np.arange(len(positions)), np.arange(len(faces)))
 
 
 # Bisection steps of the error guard (the target is raised at most this many times).
@@ -187,6 +213,9 @@ def _simplify_level(parts: list[Part], target: int, options: SimplifyOptions,
         faces, corner_uvs, source = retriangulate_planar(positions, faces, corner_uvs, face_chart,
                                                          nonmanifold_vertices(faces, len(positions)))
         face_part, face_chart = face_part[source], face_chart[source]
+    if len(faces) <= target:
+        # The planar pass met the target: no collapse, nothing to lock or protect.
+        return (parts, True) if len(faces) >= total else (_split(parts, _unchanged(positions, faces, corner_uvs), face_part), not merged)
     locked = _locks(positions, faces, face_part, options)
     movable = ~_protected(positions, faces, options)
 
@@ -198,10 +227,10 @@ def _simplify_level(parts: list[Part], target: int, options: SimplifyOptions,
                         max_iterations=options.max_iterations)
 
     tolerance = options.max_error * diagonal(reference.positions)
-    flat = Collapsed(positions, faces, corner_uvs, np.arange(len(positions)), np.arange(len(faces)))
-    # The planar pass met the target, or nothing may move: the collapse would return the flat mesh
-    # unchanged and every bisection step the same, so there is nothing to run or measure.
-    settled = len(faces) <= target or not movable.any()
+    flat = _unchanged(positions, faces, corner_uvs)
+    # Nothing may move: the collapse would return the flat mesh unchanged and every bisection step
+    # the same, so there is nothing to run or measure.
+    settled = not movable.any()
     result = flat if settled else attempt(target)
     if options.max_error > 0 and not settled and deviation(reference, result.positions, result.faces) > tolerance:
         # Raise the target until the level stays within the tolerance (bisection on the count).

@@ -30,10 +30,28 @@ class Reference:
 
     def __init__(self, positions: np.ndarray, faces: np.ndarray) -> None:
         self.positions, self.faces = positions, faces
+        self._points = self._rng_after = self._index = None
+
+    def _sample(self) -> None:
+        # Lazily: most buildings never run the guard (the planar pass alone meets the targets).
         rng = np.random.default_rng(SEED)
-        self.points = np.vstack([positions[np.unique(faces)], sample_surface(positions, faces, SAMPLES, rng)])
-        self.rng_after = rng  # the level's samples continue this stream
-        self._index = None
+        self._points = np.vstack([self.positions[np.unique(self.faces)],
+                                  sample_surface(self.positions, self.faces, SAMPLES, rng)])
+        self._rng_after = rng  # the level's samples continue this stream
+
+    @property
+    def points(self) -> np.ndarray:
+        """(p, 3) metres: the reference's vertices and its ``SAMPLES`` surface samples."""
+        if self._points is None:
+            self._sample()
+        return self._points
+
+    @property
+    def rng_after(self) -> np.random.Generator:
+        """The generator state after the reference's samples."""
+        if self._rng_after is None:
+            self._sample()
+        return self._rng_after
 
     @property
     def index(self) -> SurfaceIndex:

@@ -398,11 +398,17 @@ def _retriangulate_regions(positions, faces, corner_uvs, regions, locked, done: 
             members = by_region[region_start[region]:region_start[region + 1]]
             if failed:
                 key = droppable[faces[members]].tobytes()
-            if region in done and done[region][0] == key:
-                result = done[region][1]
-            else:
-                result = _retriangulate(positions, faces[members], corner_uvs[members] if corner_uvs is not None else None, droppable)
-                done[region] = (key, result)
+            if not (region in done and done[region][0] == key):
+                # A failure earlier in this pass changed this region's bits: redo it together with
+                # every later region whose bits changed too (results depend on the bits only).
+                later = candidates[candidates.index(region):]
+                members_of = [by_region[region_start[r]:region_start[r + 1]] for r in later]
+                bits_of = [droppable[faces[m]].tobytes() for m in members_of]
+                stale = [i for i, r in enumerate(later) if not (r in done and done[r][0] == bits_of[i])]
+                redone = _retriangulate_many(positions, faces, corner_uvs, [members_of[i] for i in stale], droppable)
+                for i, result in zip(stale, redone):
+                    done[later[i]] = (bits_of[i], result)
+            result = done[region][1]
             if result is None:
                 droppable[faces[members].reshape(-1)] = False
                 failed = True

@@ -5,14 +5,12 @@ the result maps every input vertex to a cluster (``welded``, (n,) int64) whose p
 position of its lowest-index member, so welding never invents a coordinate.
 
 Clusters are the connected components of the "closer than ``distance`` metres" graph
-(``scipy.spatial.cKDTree.query_pairs`` + ``scipy.sparse.csgraph.connected_components``);
+(``scipy.spatial.cKDTree.query_pairs``, components by :func:`lowest_member`);
 ``distance == 0`` merges exact duplicates only.
 """
 from __future__ import annotations
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 
@@ -29,15 +27,35 @@ def weld_positions(positions: np.ndarray, distance: float = 0.0) -> tuple[np.nda
     if distance <= 0.0:
         _, first, inverse = np.unique(positions, axis=0, return_index=True, return_inverse=True)
         labels = inverse.reshape(-1)
-    else:
-        pairs = cKDTree(positions).query_pairs(r=float(distance), output_type="ndarray")
-        graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
-        _, labels = connected_components(graph, directed=False)
-    # Renumber clusters by their lowest member so the order follows the input.
-    first = np.full(labels.max() + 1, n, dtype=np.int64)
-    np.minimum.at(first, labels, np.arange(n))
-    order = np.argsort(first)
-    rank = np.empty_like(order)
-    rank[order] = np.arange(len(order))
-    welded = rank[labels].astype(np.int64)
-    return welded, positions[first[order]]
+        # Renumber clusters by their lowest member so the order follows the input.
+        first = np.full(labels.max() + 1, n, dtype=np.int64)
+        np.minimum.at(first, labels, np.arange(n))
+        order = np.argsort(first)
+        rank = np.empty_like(order)
+        rank[order] = np.arange(len(order))
+        welded = rank[labels].astype(np.int64)
+        return welded, positions[first[order]]
+    pairs = cKDTree(positions).query_pairs(r=float(distance), output_type="ndarray")
+    lowest = lowest_member(n, pairs[:, 0], pairs[:, 1])
+    # Clusters numbered by their lowest member, so the order follows the input.
+    root = lowest == np.arange(n)
+    return (np.cumsum(root) - 1)[lowest], positions[root]
+
+
+def lowest_member(n: int, left: np.ndarray, right: np.ndarray) -> np.ndarray:
+    """(n,) int64: the lowest node of every node's connected component in the undirected graph
+    with edges ``left[i] -- right[i]`` (the partition of ``connected_components``, without scipy's
+    per-call sparse-matrix overhead: min-label propagation with pointer jumping, a few rounds for
+    the small clusters here)."""
+    labels = np.arange(n)
+    if len(left) == 0:
+        return labels
+    while True:
+        low = np.minimum(labels[left], labels[right])
+        new = labels.copy()
+        np.minimum.at(new, left, low)
+        np.minimum.at(new, right, low)
+        new = new[new]
+        if np.array_equal(new, labels):
+            return labels
+        labels = new
