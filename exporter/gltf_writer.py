@@ -166,13 +166,17 @@ def _pruned_fields(obj) -> dict:
     :class:`_Unusual`.
     """
     kind = type(obj)
+    names = _field_names(kind)
     if kind is pygltflib.Attributes:
         items = obj.__dict__.items()
+    elif names is None:
+        raise _Unusual(kind.__name__)
     else:
-        names = _field_names(kind)
-        if names is None:
-            raise _Unusual(kind.__name__)
-        items = [(name, getattr(obj, name)) for name in names]
+        values = getattr(obj, "__dict__", None)
+        if values is not None and tuple(values) == names:
+            items = values.items()
+        else:  # attributes besides the fields (or slots): the fields only, as asdict
+            items = [(name, getattr(obj, name)) for name in names]
     out = {}
     for name, value in items:
         kind = type(value)
