@@ -154,8 +154,8 @@ def process_entry(entry: Entry, config: Config, out_dir: str, digest: str) -> En
     the reason."""
     from .gltf_writer import glb_bytes
     from .placement import building_placement, relative_placement
-    from .quality import measure_lod
-    from .simplify import build_mesh_lods
+    from .quality import exact_quality, measure_lod
+    from .simplify import build_mesh_chain
 
     seconds = {stage: 0.0 for stage in STAGES}
     clock = time.perf_counter()
@@ -178,14 +178,17 @@ def process_entry(entry: Entry, config: Config, out_dir: str, digest: str) -> En
             problems.append(tile_message)
         if building.triangle_count == 0:
             raise ProcessError("no triangles to export")
-        parts_by_level = build_mesh_lods(building.parts, config.lods, config.simplify)
+        chain = build_mesh_chain(building.parts, config.lods, config.simplify)
+        parts_by_level = [level.parts for level in chain]
         lap("simplify")
         parts_by_level = texture_levels(parts_by_level, config, problems)
         lap("textures")
         qualities = [{"triangle_ratio": 1.0}]
         for level in range(1, len(parts_by_level)):
-            if level > 1 and same_geometry(parts_by_level[level], parts_by_level[level - 1]):
-                qualities.append(dict(qualities[-1]))  # e.g. a lossless level reached both targets
+            if chain[level].exact:  # a lossless re-triangulation: nothing to measure
+                qualities.append(exact_quality(parts_by_level[0], parts_by_level[level]))
+            elif level > 1 and same_geometry(parts_by_level[level], parts_by_level[level - 1]):
+                qualities.append(dict(qualities[-1]))  # e.g. the level above already met this target
             else:
                 qualities.append(measure_lod(parts_by_level[0], parts_by_level[level]))
         lap("quality")

@@ -226,3 +226,31 @@ def test_the_same_cityjson_object_id_in_two_files_of_one_tile_gets_two_outputs(t
     assert [b["id"] for b in manifest["buildings"]] == ["hall", "hall~1"]
     folders_out = {b["lods"][0]["file"].split("/")[0] for b in manifest["buildings"]}
     assert len(folders_out) == 2
+
+
+def test_exact_levels_carry_identity_metrics_and_changed_levels_are_measured(tmp_path, small_tile):
+    """A level the lossless planar pass settled is not measured (its metrics are identity's and
+    agree with measuring it); a level the quadric collapse changed is measured (without the planar
+    pass, collapses are what makes the levels)."""
+    from exporter.config import Config, config_from_dict
+    from exporter.pipeline import process_entry
+    from exporter.quality import measure_lod
+    from exporter.readers import load_entry, scan_folder
+    from exporter.simplify import build_mesh_chain
+
+    seen = {True: 0, False: 0}
+    for config in (Config(), config_from_dict({"simplify": {"planar_retriangulation": False}})):
+        for entry in scan_folder(small_tile, config.readers).entries:
+            record = process_entry(entry, config, str(tmp_path / "out"), "digest").record
+            chain = build_mesh_chain(load_entry(entry, config.readers).parts, config.lods, config.simplify)
+            for level in range(1, len(chain)):
+                quality = record["lods"][level]["quality"]
+                measured = measure_lod(chain[0].parts, chain[level].parts)
+                seen[chain[level].exact] += 1
+                if chain[level].exact:
+                    assert (quality["hausdorff_rel"], quality["silhouette_iou"], quality["new_holes"]) == (0.0, 1.0, 0)
+                    assert measured["hausdorff_rel"] < 1e-6 and measured["silhouette_iou"] > 0.99
+                else:
+                    assert quality == pytest.approx(measured)
+                assert quality["triangle_ratio"] == pytest.approx(measured["triangle_ratio"])
+    assert seen[True] and seen[False], seen  # both paths ran
