@@ -37,3 +37,48 @@ def test_a_killed_writer_leaves_only_a_hidden_temporary_that_the_next_run_remove
     assert not target.exists()
     assert remove_stale_temporaries(tmp_path) == 1
     assert list((tmp_path / "t").iterdir()) == []
+
+
+def test_a_leftover_temporary_of_this_pid_is_replaced_not_written_through(tmp_path):
+    target = tmp_path / "lod0.glb"
+    leftover = atomic.temporary_name(target)
+    leftover.write_bytes(b"stale bytes from a killed writer that had this pid")
+    assert write_bytes_atomic(target, b"new") == target
+    assert target.read_bytes() == b"new"
+    assert [p.name for p in tmp_path.iterdir()] == ["lod0.glb"]
+
+
+def test_failed_write_keeps_the_old_file_and_leaves_no_temporary(tmp_path, monkeypatch):
+    target = tmp_path / "lod0.glb"
+    write_bytes_atomic(target, b"old")
+
+    def disk_full(fd, data):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(atomic.os, "write", disk_full)
+    with pytest.raises(OSError, match="No space"):
+        write_bytes_atomic(target, b"new")
+    assert target.read_bytes() == b"old"
+    assert [p.name for p in tmp_path.iterdir()] == ["lod0.glb"]
+
+
+def test_short_writes_are_continued(tmp_path, monkeypatch):
+    real_write = atomic.os.write
+    monkeypatch.setattr(atomic.os, "write", lambda fd, data: real_write(fd, bytes(data[:3])))
+    data = bytes(range(256)) * 3
+    write_bytes_atomic(tmp_path / "x.bin", bytearray(data))
+    assert (tmp_path / "x.bin").read_bytes() == data
+
+
+def test_folder_is_made_once_and_durable_writes_fsync_before_the_rename(tmp_path, monkeypatch):
+    calls = []
+    real_makedirs, real_fsync, real_replace = atomic.os.makedirs, atomic.os.fsync, atomic.os.replace
+    monkeypatch.setattr(atomic.os, "makedirs", lambda *a, **k: calls.append("makedirs") or real_makedirs(*a, **k))
+    monkeypatch.setattr(atomic.os, "fsync", lambda fd: calls.append("fsync") or real_fsync(fd))
+    monkeypatch.setattr(atomic.os, "replace", lambda a, b: calls.append("replace") or real_replace(a, b))
+    folder = tmp_path / "B1"  # missing: made by the first write only
+    for level in range(3):
+        write_bytes_atomic(folder / f"lod{level}.glb", b"glb")
+    atomic.write_text_atomic(folder / "building.json", "{}", durable=True)
+    assert calls == ["makedirs", "replace", "replace", "replace", "fsync", "replace"]
+    assert sorted(p.name for p in folder.iterdir()) == ["building.json", "lod0.glb", "lod1.glb", "lod2.glb"]
