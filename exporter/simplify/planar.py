@@ -104,8 +104,8 @@ def straight_vertices(positions: np.ndarray, faces: np.ndarray, regions: np.ndar
         # Not where the two neighbours already share an edge (a slit / T-junction of the source):
         # dropping would close it and change the open boundary.
         pair = np.sort(np.stack([half[first, 1], half[first + 1, 1]], axis=1), axis=1)
-        existing = (unique[:, 0] * k + unique[:, 1])
-        closes = np.isin(pair[:, 0] * k + pair[:, 1], existing)
+        existing = (unique[:, 0] * k + unique[:, 1])  # ascending: unique rows are sorted
+        closes = _member(pair[:, 0] * k + pair[:, 1], existing)
         straight[two] = (off_line < tolerance) & (between > 0) & (between < 1) & ~closes
     return straight & ~locked
 

@@ -14,8 +14,8 @@ from __future__ import annotations
 from typing import Optional
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
+
+from .weld import lowest_member
 
 # Two faces sharing an edge are one planar region when their unit normals differ by less than
 # this angle (cosine) and the second lies on the first's plane within PLANE_M metres.
@@ -143,6 +143,7 @@ def planar_regions(positions: np.ndarray, faces: np.ndarray, groups: Optional[np
         f, g = f[keep], g[keep]
     coplanar = ((normal[f] * normal[g]).sum(1) > COPLANAR_COS) & \
         (np.abs(((positions[faces[g]].mean(axis=1) - a[f]) * normal[f]).sum(1)) < PLANE_M)
-    graph = coo_matrix((np.ones(coplanar.sum()), (f[coplanar], g[coplanar])), shape=(m, m))
-    _, labels = connected_components(graph, directed=False)
-    return labels.astype(np.int64)
+    # Components numbered by their lowest face, as scipy's connected_components numbers them.
+    lowest = lowest_member(m, f[coplanar], g[coplanar])
+    root = lowest == np.arange(m)
+    return (np.cumsum(root) - 1)[lowest]
