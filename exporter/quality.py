@@ -31,7 +31,7 @@ from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.sparse import coo_matrix
+from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
@@ -229,14 +229,16 @@ class SurfaceIndex:
         """Exact distance from each point (p, 3) to the surface, (p,) metres (inf if empty)."""
         return self.refine(points, self.upper(points))
 
-    def max_distance(self, points: np.ndarray, chunk: int = 32) -> float:
-        """Exact maximum distance of the points (metres): refines the largest upper bounds first
-        and stops once no remaining bound can beat the best exact value."""
+    def max_distance(self, points: np.ndarray, chunk: int = 32, floor: float = 0.0) -> float:
+        """Exact maximum distance of the points (metres), or ``floor`` (metres) when that is
+        larger: refines the largest upper bounds first and stops once no remaining bound can
+        beat the best exact value (a known floor, e.g. the other direction of a Hausdorff
+        distance, stops it sooner; the result is still max(floor, exact maximum))."""
         if len(points) == 0:
-            return 0.0
+            return max(0.0, floor)
         upper = self.upper(points)
         order = np.argsort(-upper)
-        best = 0.0
+        best = max(0.0, floor)
         for start in range(0, len(order), chunk):
             if upper[order[start]] <= best:
                 break
@@ -274,7 +276,9 @@ def boundary_loops(faces: np.ndarray, vertex_count: int) -> tuple[np.ndarray, in
     border = np.column_stack(np.divmod(keys[counts == 1], vertex_count + 1))
     if len(border) == 0:
         return border, 0
-    graph = coo_matrix((np.ones(len(border)), (border[:, 0], border[:, 1])), shape=(vertex_count, vertex_count))
+    # The keys are sorted, so the border's rows come in order: the CSR form directly (no COO).
+    indptr = np.searchsorted(border[:, 0], np.arange(vertex_count + 1))
+    graph = csr_matrix((np.ones(len(border)), border[:, 1], indptr), shape=(vertex_count, vertex_count))
     count, labels = connected_components(graph, directed=False)
     return border, int(len(np.unique(labels[np.unique(border)])))
 
@@ -283,27 +287,13 @@ def rasterise(xy: np.ndarray, faces: np.ndarray, size: int) -> np.ndarray:
     """Conservative raster of 2-D triangles: (size, size) bool, pixel (row, col) covers
     [row - 0.5, row + 0.5] x [col - 0.5, col + 0.5] of ``xy`` (n, 2) pixel coordinates (x = col).
 
-    Every pixel a triangle touches is set, so edge-on faces still draw a line. One view of
-    :func:`rasterise_views`.
+    Every pixel a triangle touches is set, so edge-on faces still draw a line. Vectorised over
+    (triangle, row) pairs: each pair's x-extent inside the row's strip becomes one span.
     """
-    return rasterise_views(np.asarray(xy, dtype=np.float64)[None], faces, size)[0]
-
-
-def rasterise_views(xy: np.ndarray, faces: np.ndarray, size: int) -> np.ndarray:
-    """:func:`rasterise` of several views of one mesh in one pass: ``xy`` (v, n, 2) pixel
-    coordinates per view, result (v, size, size) bool.
-
-    Vectorised over (triangle, row) pairs of all views at once: each pair's x-extent inside the
-    row's strip (every edge clipped to the strip, its x at both clipped ends) becomes one span.
-    The arithmetic per pair and edge is that of the one-view loop it replaced, so the pixels
-    are the same bit for bit (tests/test_perf_quality.py).
-    """
-    views = len(xy)
-    tri = xy[:, faces].reshape(-1, 3, 2)                   # (v m, 3, 2), view-major
-    if len(tri) == 0:
-        return np.zeros((views, size, size), dtype=bool)
-    view = np.repeat(np.arange(views), len(faces))
+    tri = xy[faces]                                        # (m, 3, 2)
     y_low, y_high = tri[:, :, 1].min(axis=1), tri[:, :, 1].max(axis=1)
+    if len(tri) == 0:
+        return np.zeros((size, size), dtype=bool)
     r0 = np.clip(np.ceil(y_low - 0.5), 0, size - 1).astype(np.int64)
     r1 = np.clip(np.floor(y_high + 0.5), 0, size - 1).astype(np.int64)
     counts = np.maximum(r1 - r0 + 1, 0)
@@ -329,21 +319,20 @@ def rasterise_views(xy: np.ndarray, faces: np.ndarray, size: int) -> np.ndarray:
         lo = np.where(valid, np.minimum(lo, np.minimum(xa, xb)), lo)
         hi = np.where(valid, np.maximum(hi, np.maximum(xa, xb)), hi)
     keep = lo <= hi
-    rows = rows[keep] + size * view[owner[keep]]
+    rows = rows[keep]
     c0 = np.clip(np.ceil(lo[keep] - 0.5), 0, size - 1).astype(np.int64)
     c1 = np.clip(np.floor(hi[keep] + 0.5), 0, size - 1).astype(np.int64)
     width = size + 1
-    cells = views * size * width
-    spans = np.bincount(rows * width + c0, minlength=cells) - np.bincount(rows * width + c1 + 1, minlength=cells)
-    return np.cumsum(spans[:cells].reshape(views * size, width)[:, :size], axis=1).reshape(views, size, size) > 0
+    spans = np.bincount(rows * width + c0, minlength=size * width) - np.bincount(rows * width + c1 + 1, minlength=size * width)
+    return np.cumsum(spans[: size * width].reshape(size, width)[:, :size], axis=1) > 0
 
 
-def silhouettes(positions: np.ndarray, faces: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
-    """Top (x, z), front (x, y) and side (z, y) silhouettes, (3, RESOLUTION, RESOLUTION) bool,
+def silhouettes(positions: np.ndarray, faces: np.ndarray, low: np.ndarray, high: np.ndarray) -> list[np.ndarray]:
+    """Top (x, z), front (x, y) and side (z, y) silhouettes, each (RESOLUTION, RESOLUTION) bool,
     on the box [low, high] (metres, local East/Up/North)."""
     span = np.maximum(high - low, 1e-9)
     pixels = (positions - low) / span * (RESOLUTION - 1)
-    return rasterise_views(pixels[:, [[0, 2], [0, 1], [2, 1]]].transpose(1, 0, 2), faces, RESOLUTION)
+    return [rasterise(pixels[:, [u, v]], faces, RESOLUTION) for u, v in ((0, 2), (0, 1), (2, 1))]
 
 
 # --------------------------------------------------------------------------- the metrics
@@ -418,7 +407,7 @@ def measure_lod(source_parts: list[Part], lod_parts: list[Part]) -> dict:
     # Exact where it matters: the largest distances (Hausdorff) and walls beyond the tolerance.
     lod_index = SurfaceIndex(lod_pos, lod_faces)
     lod_points = np.vstack([lod_pos, sample_surface(lod_pos, lod_faces, SAMPLES, rng)]) if len(lod_faces) else np.zeros((0, 3))
-    hausdorff = max(lod_index.max_distance(src.points), src.index.max_distance(lod_points))
+    hausdorff = src.index.max_distance(lod_points, floor=lod_index.max_distance(src.points))
     covered = lod_index.within(src.wall_points, COVER_TOLERANCE * src.diagonal)
     wall_coverage = float(covered.mean()) if len(covered) else 1.0
 
