@@ -224,9 +224,12 @@ class _Cursor:
     def left(self) -> int:
         return len(self.data) - self.pos
 
-    def take(self, size: int, what: str) -> bytes:
+    def need(self, size: int, what: str) -> None:
         if size > self.left:
             raise _Malformed(f"truncated: {what} needs {size} bytes at offset {self.pos}, only {self.left} left", self.pos)
+
+    def take(self, size: int, what: str) -> bytes:
+        self.need(size, what)
         chunk = self.data[self.pos:self.pos + size]
         self.pos += size
         return chunk
@@ -256,8 +259,12 @@ class _Cursor:
         return count
 
     def array(self, count: int, dtype: str, what: str) -> np.ndarray:
-        itemsize = np.dtype(dtype).itemsize
-        return np.frombuffer(self.take(count * itemsize, what), dtype=dtype).copy()
+        """``count`` items read straight from the file's bytes (one copy, owned and writeable)."""
+        size = count * np.dtype(dtype).itemsize
+        self.need(size, what)
+        out = np.frombuffer(self.data, dtype=dtype, count=count, offset=self.pos).copy()
+        self.pos += size
+        return out
 
 
 def _check_bytes(data, path: str, kind: str) -> bytes:
