@@ -338,14 +338,15 @@ def predicted_draft_psnr(decoded: Image.Image) -> tuple[float, Image.Image]:
     return image_psnr(lanczos, box if box.size == half else box.resize(half)), lanczos
 
 
-def _decode_jpeg(header: Image.Image, data: bytes, where: str, options: TextureOptions,
-                 target: Optional[tuple[int, int]]) -> tuple[Image.Image, bool, dict]:
-    """Decode the JPEG opened lazily as ``header`` (from ``data``) once for levels no larger than
-    ``target`` pixels (None: validation only).
+def _decode_jpeg(header: Image.Image, where: str, options: TextureOptions,
+                 target: Optional[tuple[int, int]]) -> tuple[Optional[Image.Image], bool, dict]:
+    """Decode the JPEG opened lazily as ``header`` once for levels no larger than ``target``
+    pixels (None: validation only).
 
-    Returns the image, whether each level is resized from the previous one, and Lanczos
-    reductions of the image already made ({size: image}). The full-size pixels are never needed
-    for themselves: LOD0 keeps the source bytes.
+    Returns the image (None when ``auto``'s check asks for the full image instead), whether each
+    level is resized from the previous one, and Lanczos reductions of the image already made
+    ({size: image}). The full-size pixels are never needed for themselves: LOD0 keeps the source
+    bytes.
     """
     if target is None:
         _draft(header, (1, 1), ALWAYS_DRAFT_FACTORS)
@@ -357,10 +358,8 @@ def _decode_jpeg(header: Image.Image, data: bytes, where: str, options: TextureO
     if decoded.width < full_width and options.fast_jpeg_downscale == "auto":
         estimate, lanczos = predicted_draft_psnr(decoded)
         if estimate < AUTO_MIN_PSNR_DB:
-            # Too much detail near the pixel size: the IDCT shortcut would alias it. Drop the
-            # reduced pixels first (peak memory on big atlases).
-            header = decoded = lanczos = None
-            return _decode(open_header(data, where, options.max_pixels), where), chain, {}
+            # Too much detail near the pixel size: the IDCT shortcut would alias it.
+            return None, chain, {}
         return decoded, chain, {lanczos.size: lanczos}
     return decoded, chain, {}
 
@@ -398,8 +397,12 @@ def _build_levels(data: bytes, scales: Sequence[float], options: TextureOptions,
     if source_format == "JPEG" and keeps_bytes:
         largest = max(reduced, key=lambda size: size[0] * size[1]) if reduced else None
         # The header opened above is decoded in place (at reduced size): no second parse.
-        decoded, chain, known = _decode_jpeg(header, data, where, options, largest)
-        header = None  # holding it could pin pixels while the levels are made
+        decoded, chain, known = _decode_jpeg(header, where, options, largest)
+        # Holding the header could pin its reduced pixels: dropped before a full decode (peak
+        # memory on big atlases) and while the levels are made.
+        header = None
+        if decoded is None:
+            decoded = _decode(open_header(data, where, options.max_pixels), where)
     else:
         decoded, chain, known = _decode(header, where), False, {}
     transparent = has_transparency(decoded)
