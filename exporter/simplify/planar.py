@@ -400,8 +400,10 @@ def _retriangulate_regions(positions, faces, corner_uvs, regions, locked, done: 
                 key = droppable[faces[members]].tobytes()
             if not (region in done and done[region][0] == key):
                 # A failure earlier in this pass changed this region's bits: redo it together with
-                # every later region whose bits changed too (results depend on the bits only).
-                later = candidates[candidates.index(region):]
+                # every later region and every next-round candidate whose bits changed too (results
+                # depend on the bits only, so whatever is computed ahead is reused or ignored).
+                ahead = np.unique(regions[droppable[faces].any(axis=1)]).tolist()
+                later = sorted(set(candidates[candidates.index(region):]) | set(ahead))
                 members_of = [by_region[region_start[r]:region_start[r + 1]] for r in later]
                 bits_of = [droppable[faces[m]].tobytes() for m in members_of]
                 stale = [i for i, r in enumerate(later) if not (r in done and done[r][0] == bits_of[i])]
