@@ -163,7 +163,7 @@ class TextureOptions:
 
     jpeg_quality: int = field(default=90, metadata=meta(_integer(1, 100), "JPEG quality of the reduced atlases (LOD0 keeps the source bytes)"))
     min_size: int = field(default=16, metadata=meta(_integer(1, 16384), "pixels: no atlas side is reduced below this"))
-    fast_jpeg_downscale: str = field(default="auto", metadata=meta(_choice("auto", "always", "never"), "decode JPEG at reduced size (DCT scaling) and derive each level from the previous one; auto = where measured PSNR >= 35 dB"))
+    fast_jpeg_downscale: str = field(default="auto", metadata=meta(_choice("auto", "always", "never"), "decode JPEG at reduced size (DCT scaling), each later level from the previous one; auto = where predicted PSNR >= 35 dB (Lanczos), always = every atlas, later levels by box filter (fastest, ~2 dB lower at LOD2)"))
     opaque_png_to_jpeg: bool = field(default=False, metadata=meta(parse_bool, "write reduced levels of fully opaque PNG atlases as JPEG"))
     max_pixels: int = field(default=16384 * 16384, metadata=meta(_integer(1), "refuse a source atlas with more pixels than this (bounded memory)"))
 
