@@ -172,6 +172,10 @@ def _retriangulate(positions, region_faces, region_uvs, droppable):
     return new_faces, new_uvs
 
 
+# Batches of at most this many regions are done one region at a time (same results).
+SMALL_BATCH = 2
+
+
 def _member(values: np.ndarray, ordered: np.ndarray) -> np.ndarray:
     """``np.isin(values, ordered)`` for an ascending non-empty ``ordered`` (one binary search)."""
     return ordered[np.minimum(np.searchsorted(ordered, values), len(ordered) - 1)] == values
@@ -231,7 +235,9 @@ def _retriangulate_many(positions, faces, corner_uvs, members: list, droppable: 
     count, k = len(members), len(positions)
     if count == 0:
         return []
-    if count * k * k >= 2**62:  # keys would overflow int64: one region at a time
+    # One or two regions: the batch's fixed cost (measured ~2 regions' worth) is not worth it; keys
+    # that would overflow int64: one region at a time as well.
+    if count <= SMALL_BATCH or count * k * k >= 2**62:
         return [_retriangulate(positions, faces[m], None if corner_uvs is None else corner_uvs[m], droppable)
                 for m in members]
     sizes = np.array([len(m) for m in members])
