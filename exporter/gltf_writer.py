@@ -12,9 +12,12 @@ One mesh, one primitive per part (one material each), one node, ``"scene": 0`` (
 importer only creates a main object when the file names a default scene). Textures are embedded
 as they are given (JPEG/PNG bytes, no re-encoding).
 
-The document is built with pygltflib's dataclasses and serialised by :func:`_glb`: the same JSON
-as pygltflib's ``save_to_bytes`` (same fields, same order, same empty-value pruning, same
-``json.dumps`` options), without its deep copies of every value (most of the writer's time).
+The document is built with pygltflib's dataclasses and serialised by :func:`_glb`: byte for byte
+what pygltflib's ``save_to_bytes`` writes (same fields, same order, same empty-value pruning, same
+``json.dumps`` options), but cheaply: ``json.dumps`` walks the dataclasses itself, asking
+:func:`_pruned_fields` for one pruned dict per object (no deep copies, no intermediate document;
+documents it does not cover go through :func:`_generic_json`, the plain formulation), and the
+binary chunk is kept as its pieces, so the (large) image bytes are copied once, into the GLB.
 """
 from __future__ import annotations
 
@@ -192,10 +195,17 @@ def _pruned_fields(obj) -> dict:
         elif kind is dict:
             if value:
                 raise _Unusual(name)
-        elif kind is pygltflib.Attributes or _field_names(kind) is not None:
-            out[name] = value  # no __iter__: never pruned itself, its fields are (by the callback)
-        else:
+        elif name == "extensions":  # delete_empty_keys leaves what converts to a dict here unpruned
             raise _Unusual(name)
+        elif kind is pygltflib.Attributes:
+            if value.__dict__:  # converted to an empty dict, it would be pruned
+                out[name] = value
+        else:
+            fields = _field_names(kind)
+            if fields is None:
+                raise _Unusual(name)
+            if fields:  # no __iter__: kept unless it converts to {}; its own fields pruned by the callback
+                out[name] = value
     return out
 
 
@@ -203,7 +213,7 @@ def _gltf_json(gltf: GLTF2) -> str:
     """The JSON text of ``gltf``, equal to :func:`_generic_json`'s (the encoder walks the
     dataclasses through :func:`_pruned_fields`; anything unusual goes the generic way)."""
     try:
-        return json.dumps(gltf, allow_nan=False, separators=(",", ":"), default=_pruned_fields)
+        return json.dumps(gltf, skipkeys=True, allow_nan=False, separators=(",", ":"), default=_pruned_fields)
     except _Unusual:
         return _generic_json(gltf)
 

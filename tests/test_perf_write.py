@@ -88,8 +88,13 @@ def unusual_documents():
     nested.extras = {"rows": [[{"a": None}], []]}
     targets = base()
     targets.meshes[0].primitives[0].targets = [pygltflib.Attributes(POSITION=1)]
+    emptied = base()
+    emptied.meshes[0].primitives[0].attributes.__dict__.clear()  # converts to {}: pruned
+    extension_object = base()
+    extension_object.nodes[0].extensions = pygltflib.Asset(version="x")  # converted, left unpruned
     return {"plain": plain, "extras": extras, "extensions": extensions, "custom": custom,
-            "extra_attribute": extra_attribute, "nested": nested, "targets": targets}
+            "extra_attribute": extra_attribute, "nested": nested, "targets": targets,
+            "emptied": emptied, "extension_object": extension_object}
 
 
 @pytest.mark.parametrize("name", sorted(unusual_documents()))
@@ -100,9 +105,9 @@ def test_unusual_documents_equal_pygltflib_json(name):
 
 def test_fast_path_refuses_what_it_could_prune_differently():
     documents_ = unusual_documents()
-    for name in ("plain", "custom", "extra_attribute", "targets"):
+    for name in ("plain", "custom", "extra_attribute", "targets", "emptied"):
         json.dumps(documents_[name], separators=(",", ":"), default=gltf_writer._pruned_fields)  # covered
-    for name in ("extras", "extensions", "nested"):
+    for name in ("extras", "extensions", "nested", "extension_object"):
         with pytest.raises(gltf_writer._Unusual):
             json.dumps(documents_[name], separators=(",", ":"), default=gltf_writer._pruned_fields)
 
