@@ -21,6 +21,7 @@ from exporter.quality import measure_lod
 from exporter.simplify import (NOISE_M, MeshLevel, build_mesh_chain, build_mesh_lods, uv_charts,
                                unique_float_rows)
 from exporter.simplify.planar import _loops, _plane_basis, _region_loops, _retriangulate, _retriangulate_many
+from exporter.simplify.quadric import assign_uvs, closest_barycentric
 from exporter.simplify.protect import COPLANAR_COS, PLANE_M, border_vertices, cross_rows, planar_regions
 from exporter.simplify.weld import lowest_member, weld_positions
 from test_simplify_shapes import Atlas, Builder, add_dome, box_building, crafted_building
@@ -288,3 +289,66 @@ def test_link_distance_welding_distinct_vertices_is_not_exact():
     apart = chain(two_panels(1.0), 0.9, vertex_link_distance=0.01)[1]
     assert count(apart.parts) < count(panels) and apart.exact
     assert chain(panels, 0.9)[1].exact
+
+
+# --------------------------------------------------------------------------- collapse UVs
+
+def reference_assign_uvs(positions, faces, corner_uvs, face_chart, out_faces, face_ids, project=True):
+    """The former assign_uvs: every changed corner looked up one at a time."""
+    in_faces, in_uvs = faces[face_ids], corner_uvs[face_ids]
+    out_uvs = in_uvs.copy()
+    match = out_faces[:, :, None] == in_faces[:, None, :]
+    found = match.any(axis=2)
+    source_corner = match.argmax(axis=2)
+    rows = np.arange(len(out_faces))[:, None]
+    out_uvs[found] = in_uvs[np.broadcast_to(rows, found.shape)[found], source_corner[found]]
+    crossings = []
+    if (~found).any():
+        keys = face_chart[:, None] * (len(positions) + 1) + faces
+        order = np.argsort(keys.reshape(-1), kind="stable")
+        sorted_keys = keys.reshape(-1)[order]
+        flat_uvs = corner_uvs.reshape(-1, 2)[order]
+        for o, j in zip(*np.nonzero(~found)):
+            chart = face_chart[face_ids[o]]
+            vertex = out_faces[o, j]
+            key = chart * (len(positions) + 1) + vertex
+            lo, hi = np.searchsorted(sorted_keys, key, "left"), np.searchsorted(sorted_keys, key, "right")
+            if hi > lo:
+                block = flat_uvs[lo:hi]
+                if (block == block[0]).all():
+                    out_uvs[o, j] = block[0]
+                    continue
+                candidates = np.unique(block, axis=0)
+                others = out_uvs[o, found[o]] if found[o].any() else in_uvs[o]
+                out_uvs[o, j] = candidates[np.argmin(np.linalg.norm(candidates - others.mean(axis=0), axis=1))]
+            else:
+                crossings.append(vertex)
+                if not project:
+                    continue
+                in_chart = np.flatnonzero(face_chart == chart)
+                index, weights = closest_barycentric(positions[vertex], positions[faces[in_chart]])
+                out_uvs[o, j] = weights @ corner_uvs[in_chart[index]]
+    return out_uvs.astype(np.float32), np.unique(np.asarray(crossings, dtype=np.int64))
+
+
+def test_assign_uvs_equals_the_corner_by_corner_lookup():
+    rng = np.random.default_rng(17)
+    for seed in range(6):
+        positions, faces, corner_uvs, charts = welded_mesh(crafted_building(seed))
+        if seed % 2:  # a chart where one vertex has two UVs (a wrapped seam)
+            corner_uvs = corner_uvs.copy()
+            corner_uvs[0, 0] += np.float32(0.125)
+            charts = charts.copy()
+            charts[faces[:, 0] == faces[0, 0]] = charts[0]
+        face_ids = np.sort(rng.choice(len(faces), size=len(faces) // 2, replace=False))
+        out_faces = faces[face_ids].copy()
+        # Move corners to another vertex: mostly within the face's chart, some across a seam.
+        moved = rng.random(out_faces.shape) < 0.3
+        same_chart = [np.unique(faces[charts == charts[f]]) for f in face_ids]
+        for o, j in zip(*np.nonzero(moved)):
+            pool = same_chart[o] if rng.random() < 0.85 else np.arange(len(positions))
+            out_faces[o, j] = rng.choice(pool)
+        for project in (True, False):
+            fast = assign_uvs(positions, faces, corner_uvs, charts, out_faces, face_ids, project=project)
+            expected = reference_assign_uvs(positions, faces, corner_uvs, charts, out_faces, face_ids, project=project)
+            assert same(fast[0], expected[0]) and same(fast[1], expected[1])

@@ -145,7 +145,20 @@ def assign_uvs(positions, faces, corner_uvs, face_chart, out_faces, face_ids, pr
         order = np.argsort(keys.reshape(-1), kind="stable")
         sorted_keys = keys.reshape(-1)[order]
         flat_uvs = corner_uvs.reshape(-1, 2)[order]
-        for o, j in zip(*np.nonzero(~found)):
+        changed_o, changed_j = np.nonzero(~found)
+        wanted = face_chart[face_ids[changed_o]] * (len(positions) + 1) + out_faces[changed_o, changed_j]
+        lo = np.searchsorted(sorted_keys, wanted, "left")
+        # The usual case at once: the vertex has one UV in the chart (every corner of its
+        # (chart, vertex) group equal to the group's first, which is taken).
+        start = np.ones(len(sorted_keys), dtype=bool)
+        start[1:] = sorted_keys[1:] != sorted_keys[:-1]
+        group_first = np.maximum.accumulate(np.where(start, np.arange(len(start)), 0))
+        same = (flat_uvs == flat_uvs[group_first]).all(axis=1)
+        uniform = np.logical_and.reduceat(same, np.flatnonzero(start))[np.cumsum(start) - 1]
+        present = sorted_keys[np.minimum(lo, len(sorted_keys) - 1)] == wanted
+        easy = present & uniform[np.minimum(lo, len(sorted_keys) - 1)]
+        out_uvs[changed_o[easy], changed_j[easy]] = flat_uvs[lo[easy]]
+        for o, j in zip(changed_o[~easy], changed_j[~easy]):
             chart = face_chart[face_ids[o]]
             vertex = out_faces[o, j]
             key = chart * (len(positions) + 1) + vertex
