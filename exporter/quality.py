@@ -107,8 +107,12 @@ def point_triangle_distance(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
     three separate arrays (x, y, z), so no step reduces over a length-3 axis.
     """
     shape = np.broadcast_shapes(points.shape[:-1], tri.shape[:-2])
-    p = [np.broadcast_to(points[..., i], shape) for i in range(3)]
-    a, b, c = ([np.broadcast_to(tri[..., k, i], shape) for i in range(3)] for k in range(3))
+    if points.shape[:-1] == tri.shape[:-2]:  # (point, triangle) pairs: the columns as they are
+        p = [points[..., i] for i in range(3)]
+        a, b, c = ([tri[..., k, i] for i in range(3)] for k in range(3))
+    else:
+        p = [np.broadcast_to(points[..., i], shape) for i in range(3)]
+        a, b, c = ([np.broadcast_to(tri[..., k, i], shape) for i in range(3)] for k in range(3))
     ab = [b[i] - a[i] for i in range(3)]
     ac = [c[i] - a[i] for i in range(3)]
     ap = [p[i] - a[i] for i in range(3)]
@@ -287,8 +291,13 @@ def rasterise(xy: np.ndarray, faces: np.ndarray, size: int) -> np.ndarray:
     """Conservative raster of 2-D triangles: (size, size) bool, pixel (row, col) covers
     [row - 0.5, row + 0.5] x [col - 0.5, col + 0.5] of ``xy`` (n, 2) pixel coordinates (x = col).
 
-    Every pixel a triangle touches is set, so edge-on faces still draw a line. Vectorised over
-    (triangle, row) pairs: each pair's x-extent inside the row's strip becomes one span.
+    Every pixel a triangle touches is set, so edge-on faces still draw a line. A row's span of a
+    triangle is the x-extent of its edges clipped to the row's strip (the x at both clipped ends
+    of each edge). Vectorised over (triangle, strip line) pairs: every edge is evaluated once at
+    each line ``k - 0.5`` of its triangle's rows, clipped to the edge's y-range, and row k reads
+    its two lines as neighbours in one flat array (no gathers per row; rows straddling two
+    triangles are dropped). The arithmetic is that of the (triangle, row) form it replaced, so
+    the pixels are the same bit for bit (tests/test_perf_quality.py).
     """
     tri = xy[faces]                                        # (m, 3, 2)
     y_low, y_high = tri[:, :, 1].min(axis=1), tri[:, :, 1].max(axis=1)
@@ -296,30 +305,31 @@ def rasterise(xy: np.ndarray, faces: np.ndarray, size: int) -> np.ndarray:
         return np.zeros((size, size), dtype=bool)
     r0 = np.clip(np.ceil(y_low - 0.5), 0, size - 1).astype(np.int64)
     r1 = np.clip(np.floor(y_high + 0.5), 0, size - 1).astype(np.int64)
-    counts = np.maximum(r1 - r0 + 1, 0)
-    owner = np.repeat(np.arange(len(tri)), counts)
-    rows = r0[owner] + np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
-    strip_low, strip_high = rows - 0.5, rows + 0.5
-    lo = np.full(len(rows), np.inf)
-    hi = np.full(len(rows), -np.inf)
+    lines = np.maximum(r1 - r0 + 1, 0) + 1                 # rows r0..r1 have lines r0..r1 + 1
+    owner = np.repeat(np.arange(len(tri)), lines)
+    line = r0[owner] + np.arange(len(owner)) - np.repeat(np.cumsum(lines) - lines, lines)
+    y = line - 0.5                                         # exact: the strips' bottoms and tops
+    lo = hi = None
     for i, j in ((0, 1), (1, 2), (2, 0)):
-        # Each edge, clipped to the strip, contributes the x at both clipped ends. The edge's
-        # own numbers (ends ordered bottom-up, slope) are per triangle, gathered per pair.
         p, q = tri[:, i], tri[:, j]
         down = p[:, 1] > q[:, 1]
         p, q = np.where(down[:, None], q, p), np.where(down[:, None], p, q)
         dy = q[:, 1] - p[:, 1]
         slope = np.divide(q[:, 0] - p[:, 0], dy, out=np.zeros_like(dy), where=dy > 0)
-        px, py, qx, qy, slope, rising = p[owner, 0], p[owner, 1], q[owner, 0], q[owner, 1], slope[owner], (dy > 0)[owner]
-        a = np.maximum(py, strip_low)
-        b = np.minimum(qy, strip_high)
-        xa = np.where(rising, px + (a - py) * slope, px)
-        xb = np.where(rising, px + (b - py) * slope, qx)
-        valid = a <= b
-        lo = np.where(valid, np.minimum(lo, np.minimum(xa, xb)), lo)
-        hi = np.where(valid, np.maximum(hi, np.maximum(xa, xb)), hi)
-    keep = lo <= hi
-    rows = rows[keep]
+        px, py, qx, qy, slope, rising = (np.repeat(v, lines) for v in (p[:, 0], p[:, 1], q[:, 0], q[:, 1], slope, dy))
+        # x where the line meets the edge, the line clipped to the edge's y-range: a flat edge
+        # (slope 0) gives px at a strip's bottom and qx at its top, as its two ends.
+        x = px + (np.clip(y, py, qy) - py) * slope
+        x_top = np.where(rising > 0, x, qx)
+        # Row k (strip [y_k, y_k+1]): the edge meets it when py <= y_k+1 and qy >= y_k.
+        valid = (py[:-1] <= y[1:]) & (qy[:-1] >= y[:-1])
+        low, high = np.minimum(x[:-1], x_top[1:]), np.maximum(x[:-1], x_top[1:])
+        if lo is None:
+            lo, hi = np.where(valid, low, np.inf), np.where(valid, high, -np.inf)
+        else:
+            lo, hi = np.where(valid, np.minimum(lo, low), lo), np.where(valid, np.maximum(hi, high), hi)
+    keep = (owner[:-1] == owner[1:]) & (lo <= hi)
+    rows = line[:-1][keep]
     c0 = np.clip(np.ceil(lo[keep] - 0.5), 0, size - 1).astype(np.int64)
     c1 = np.clip(np.floor(hi[keep] + 0.5), 0, size - 1).astype(np.int64)
     width = size + 1
@@ -444,6 +454,8 @@ def exact_quality(source_parts: list[Part], lod_parts: list[Part]) -> dict:
     """
     source_tris = sum(p.triangle_count for p in source_parts)
     lod_tris = sum(p.triangle_count for p in lod_parts)
+    if source_tris and not lod_tris:
+        raise ValueError("exact_quality: an empty level cannot be a re-triangulation of a non-empty source")
     return {
         "triangle_ratio": float(lod_tris / source_tris) if source_tris else 1.0,
         "hausdorff_rel": 0.0,

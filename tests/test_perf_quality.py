@@ -13,12 +13,49 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from exporter.config import Config
-from exporter.quality import SurfaceIndex, boundary_loops, joined, measure_lod, point_triangle_distance
+from exporter.quality import SurfaceIndex, boundary_loops, joined, measure_lod, point_triangle_distance, rasterise, silhouettes
 from exporter.simplify import build_mesh_lods
 from test_simplify_shapes import box_building, crafted_building
 
 
 # --------------------------------------------------------------------------- reference formulations
+
+def reference_rasterise(xy, faces, size):
+    """Conservative raster over (triangle, row) pairs, every edge gathered per pair (af57811)."""
+    tri = xy[faces]
+    y_low, y_high = tri[:, :, 1].min(axis=1), tri[:, :, 1].max(axis=1)
+    if len(tri) == 0:
+        return np.zeros((size, size), dtype=bool)
+    r0 = np.clip(np.ceil(y_low - 0.5), 0, size - 1).astype(np.int64)
+    r1 = np.clip(np.floor(y_high + 0.5), 0, size - 1).astype(np.int64)
+    counts = np.maximum(r1 - r0 + 1, 0)
+    owner = np.repeat(np.arange(len(tri)), counts)
+    rows = r0[owner] + np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+    strip_low, strip_high = rows - 0.5, rows + 0.5
+    lo = np.full(len(rows), np.inf)
+    hi = np.full(len(rows), -np.inf)
+    for i, j in ((0, 1), (1, 2), (2, 0)):
+        p, q = tri[:, i], tri[:, j]
+        down = p[:, 1] > q[:, 1]
+        p, q = np.where(down[:, None], q, p), np.where(down[:, None], p, q)
+        dy = q[:, 1] - p[:, 1]
+        slope = np.divide(q[:, 0] - p[:, 0], dy, out=np.zeros_like(dy), where=dy > 0)
+        px, py, qx, qy, slope, rising = p[owner, 0], p[owner, 1], q[owner, 0], q[owner, 1], slope[owner], (dy > 0)[owner]
+        a = np.maximum(py, strip_low)
+        b = np.minimum(qy, strip_high)
+        xa = np.where(rising, px + (a - py) * slope, px)
+        xb = np.where(rising, px + (b - py) * slope, qx)
+        valid = a <= b
+        lo = np.where(valid, np.minimum(lo, np.minimum(xa, xb)), lo)
+        hi = np.where(valid, np.maximum(hi, np.maximum(xa, xb)), hi)
+    keep = lo <= hi
+    rows = rows[keep]
+    c0 = np.clip(np.ceil(lo[keep] - 0.5), 0, size - 1).astype(np.int64)
+    c1 = np.clip(np.floor(hi[keep] + 0.5), 0, size - 1).astype(np.int64)
+    width = size + 1
+    spans = np.bincount(rows * width + c0, minlength=size * width) - np.bincount(rows * width + c1 + 1, minlength=size * width)
+    return np.cumsum(spans[: size * width].reshape(size, width)[:, :size], axis=1) > 0
+
 
 def reference_boundary_loops(faces, vertex_count):
     """Open-boundary edges and loop count through a COO matrix (af57811)."""
@@ -172,3 +209,59 @@ def test_moved_level_keeps_its_values_through_the_floor():
     assert backward > forward  # the level's raised roof is far from the source, not the reverse
     diagonal = float(np.linalg.norm(source_pos.max(0) - source_pos.min(0)))
     assert measure_lod(box, moved)["hausdorff_rel"] == backward / diagonal
+
+
+def tricky_pixels(rng, count, size):
+    """Pixel coordinates that hit the rasteriser's edge cases: on strip lines (k - 0.5) and
+    pixel centres, flat and vertical edges, outside the raster, near-flat slopes."""
+    xy = rng.random((count, 2)) * (size + 8) - 4
+    xy[::3, 1] = np.round(xy[::3, 1]) - 0.5                 # on a strip line
+    xy[1::5] = np.round(xy[1::5])                           # on pixel centres
+    xy[2::4, 1] = xy[0::4, 1][: len(xy[2::4])]              # flat edges
+    xy[3::4, 0] = xy[1::4, 0][: len(xy[3::4])]              # vertical edges
+    xy[1::6, 1] = xy[0::6, 1][: len(xy[1::6])] + 1e-13      # nearly flat: huge slopes
+    return xy
+
+
+@pytest.mark.parametrize("size", [1, 7, 128])
+def test_rasterise_equals_the_reference_bit_for_bit(size):
+    rng = np.random.default_rng(size)
+    for _ in range(30):
+        xy = tricky_pixels(rng, int(rng.integers(3, 60)), size)
+        faces = rng.integers(0, len(xy), size=(int(rng.integers(1, 80)), 3))
+        assert np.array_equal(rasterise(xy, faces, size), reference_rasterise(xy, faces, size))
+    # Large triangles, slivers and single lines.
+    xy = np.array([[-50.0, -50.0], [300.0, 20.5], [10.0, 400.0], [3.5, 3.5], [90.25, 3.5], [3.5, 3.5 + 1e-12]])
+    faces = np.array([[0, 1, 2], [3, 4, 5], [3, 4, 4], [5, 5, 5], [2, 1, 0]])
+    assert np.array_equal(rasterise(xy, faces, size), reference_rasterise(xy, faces, size))
+    assert not rasterise(xy, faces[:0], size).any()
+
+
+def test_silhouettes_of_buildings_equal_the_reference():
+    config = Config()
+    for seed in (1, 2, 6):
+        for level in build_mesh_lods(crafted_building(seed), config.lods, config.simplify):
+            positions, faces = joined(level)
+            low, high = positions.min(0) + 0.3, positions.max(0) - 0.2   # some corners outside
+            span = np.maximum(high - low, 1e-9)
+            pixels = (positions - low) / span * 127
+            expected = [reference_rasterise(pixels[:, [u, v]], faces, 128) for u, v in ((0, 2), (0, 1), (2, 1))]
+            assert all(np.array_equal(a, b) for a, b in zip(silhouettes(positions, faces, low, high), expected))
+
+
+def test_flat_top_edge_ends_are_exact_where_the_slanted_edges_round():
+    """A flat edge contributes both its end x; the slanted edge reaching the same corner gives it
+    only up to rounding, which moves a span's end when the corner sits on a pixel border."""
+    rng = np.random.default_rng(21)
+    top, left, right = 60.3, 5.5, 40.5                  # the flat edge's corners on pixel borders
+    checked = 0
+    for rx, ry in rng.random((3000, 2)) * [30.0, 20.0]:
+        lossy = [rx + (top - ry) * ((x - rx) / (top - ry)) != x for x in (left, right)]
+        if not any(lossy):
+            continue                                     # exact here: nothing to tell apart
+        xy = np.array([[rx, ry], [left, top], [right, top]])
+        for faces in ([[0, 1, 2]], [[0, 2, 1]]):          # each corner once as the flat edge's end
+            faces = np.array(faces)
+            assert np.array_equal(rasterise(xy, faces, 128), reference_rasterise(xy, faces, 128))
+        checked += 1
+    assert checked >= 10

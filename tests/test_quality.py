@@ -161,6 +161,8 @@ def test_exact_quality_differs_from_measure_lod_on_a_changed_level():
     assert measured["silhouette_iou"] < 1.0 == exact["silhouette_iou"]
 
 
-def test_exact_quality_of_an_empty_source_is_measure_lods():
+def test_exact_quality_of_an_empty_source_is_measure_lods(box):
     empty = [Part(np.zeros((0, 3)), np.zeros((0, 3), np.int64))]
     assert exact_quality(empty, empty) == measure_lod(empty, empty)
+    with pytest.raises(ValueError, match="empty level"):
+        exact_quality(box, empty)  # nothing left cannot be the same surface
