@@ -361,35 +361,42 @@ def retriangulate_planar(positions: np.ndarray, faces: np.ndarray, corner_uvs, f
     """
     before = _boundary(positions, faces)
     regions = planar_regions(positions, faces, face_chart)
-    done: dict = {}  # both passes share the regions their different border choice does not touch
-    result = _retriangulate_regions(positions, faces, corner_uvs, regions, locked, done, on_border=True)
-    length, _ = _boundary(positions, result[0])
-    if abs(length - before[0]) > 1e-9 * max(before[0], 1.0):
-        result = _retriangulate_regions(positions, faces, corner_uvs, regions, locked, done, on_border=False)
-    return result
-
-
-def _retriangulate_regions(positions, faces, corner_uvs, regions, locked, done: dict, on_border: bool):
-    """One pass of :func:`retriangulate_planar`; ``on_border``: straight open-border vertices may go.
-    ``done``: region -> (droppable bits of its corners, result), reused when the bits are the same."""
-    m = len(faces)
+    m, k = len(faces), len(positions)
     if m == 0:
         return faces, corner_uvs, np.arange(m)
-    k = len(positions)
+    # Vertices inside one region (off the open border) go; so do straight outline vertices.
     corner_region = np.repeat(regions, 3)
     low = np.full(k, np.iinfo(np.int64).max)
     high = np.full(k, -1)
     np.minimum.at(low, faces.reshape(-1), corner_region)
     np.maximum.at(high, faces.reshape(-1), corner_region)
-    interior = (low == high) & ~border_vertices(faces, k) & ~locked
+    border = border_vertices(faces, k)
+    interior = (low == high) & ~border & ~locked
     used = np.zeros(k, dtype=bool)
     used[faces.reshape(-1)] = True
-    droppable = (interior | straight_vertices(positions, faces, regions, locked, on_border=on_border)) & used
-    # Every region holding a droppable vertex is redone; a region that cannot be done exactly
-    # keeps its vertices, so its neighbours must keep them too: repeat until consistent.
+    straight = straight_vertices(positions, faces, regions, locked, on_border=True)
     # Faces of every region, ascending (one stable sort instead of a scan per region).
     by_region = np.argsort(regions, kind="stable")
     region_start = np.searchsorted(regions[by_region], np.arange(regions.max() + 2))
+    done: dict = {}  # both passes share the regions their different border choice does not touch
+    result = _retriangulate_regions(positions, faces, corner_uvs, regions, (interior | straight) & used, done,
+                                    by_region, region_start)
+    length, _ = _boundary(positions, result[0])
+    if abs(length - before[0]) > 1e-9 * max(before[0], 1.0):
+        # Keep the open border's straight vertices (straight_vertices(on_border=False)).
+        result = _retriangulate_regions(positions, faces, corner_uvs, regions, (interior | straight & ~border) & used,
+                                        done, by_region, region_start)
+    return result
+
+
+def _retriangulate_regions(positions, faces, corner_uvs, regions, droppable, done: dict, by_region, region_start):
+    """One pass of :func:`retriangulate_planar` with the vertices ``droppable`` (k,) bool (changed
+    in place where a region fails). ``done``: region -> (droppable bits of its corners, result),
+    reused when the bits are the same; ``by_region`` / ``region_start``: faces of region r are
+    ``by_region[region_start[r]:region_start[r + 1]]``."""
+    m = len(faces)
+    # Every region holding a droppable vertex is redone; a region that cannot be done exactly
+    # keeps its vertices, so its neighbours must keep them too: repeat until consistent.
     for _ in range(8):
         corner_drop = droppable[faces].any(axis=1)
         candidates = np.unique(regions[corner_drop]).tolist()
