@@ -352,3 +352,13 @@ def test_assign_uvs_equals_the_corner_by_corner_lookup():
             fast = assign_uvs(positions, faces, corner_uvs, charts, out_faces, face_ids, project=project)
             expected = reference_assign_uvs(positions, faces, corner_uvs, charts, out_faces, face_ids, project=project)
             assert same(fast[0], expected[0]) and same(fast[1], expected[1])
+
+
+def test_guard_resumes_the_reference_stream_like_deepcopy():
+    import copy
+
+    from exporter.simplify.guard import _resume
+    rng = np.random.default_rng(7)
+    rng.random(37)
+    assert same(_resume(rng).random(100), copy.deepcopy(rng).random(100))
+    assert same(_resume(rng).random(3), rng.random(3))  # and leaves the original where it was

@@ -15,8 +15,6 @@ bisection step.
 """
 from __future__ import annotations
 
-import copy
-
 import numpy as np
 
 from ..quality import SurfaceIndex, sample_surface
@@ -60,6 +58,14 @@ class Reference:
         return self._index
 
 
+def _resume(rng: np.random.Generator) -> np.random.Generator:
+    """A new generator continuing ``rng``'s stream from its current state (``copy.deepcopy``'s
+    stream, without its pickling round trip)."""
+    bit_generator = type(rng.bit_generator)(0)
+    bit_generator.state = rng.bit_generator.state
+    return np.random.Generator(bit_generator)
+
+
 def deviation(reference, positions: np.ndarray, faces: np.ndarray) -> float:
     """Symmetric sampled Hausdorff distance (metres) between ``reference`` (a :class:`Reference`
     or a ``(positions, faces)`` pair) and ``(positions, faces)``."""
@@ -67,7 +73,7 @@ def deviation(reference, positions: np.ndarray, faces: np.ndarray) -> float:
         reference = Reference(*reference)
     if len(faces) == 0:
         return float("inf")
-    rng = copy.deepcopy(reference.rng_after)
+    rng = _resume(reference.rng_after)
     backward = np.vstack([positions[np.unique(faces)], sample_surface(positions, faces, SAMPLES, rng)])
     # Exact maxima: only the largest upper bounds are refined (same value as every exact distance).
     return max(SurfaceIndex(positions, faces).max_distance(reference.points),
