@@ -317,7 +317,9 @@ def _retriangulate_many(positions, faces, corner_uvs, members: list, droppable: 
     edges, uses = np.unique(edge_key, return_counts=True)
     loop_edges = np.array(expected, dtype=np.int64)
     loop_key = (loop_edges[:, 0] * k + loop_edges[:, 1:].min(axis=1)) * k + loop_edges[:, 1:].max(axis=1)
-    ok[np.setxor1d(edges[uses == 1], loop_key) // (k * k)] = False
+    single = edges[uses == 1]
+    if not np.array_equal(single, np.sort(loop_key)):  # the usual case: every region's sets agree
+        ok[np.setxor1d(single, loop_key) // (k * k)] = False
     ok[edges[uses > 2] // (k * k)] = False
     n = cross_rows(positions[new_faces[:, 1]] - positions[new_faces[:, 0]],
                    positions[new_faces[:, 2]] - positions[new_faces[:, 0]])
