@@ -35,7 +35,7 @@ from ..model import Part
 from .protect import (border_vertices, face_areas, footprint_wall_faces, largest_faces, nonmanifold_vertices,
                       part_border_vertices)
 from .guard import Reference, deviation, diagonal
-from .planar import retriangulate_planar
+from .planar import retriangulate_planar_checked
 from .quadric import Collapsed, collapse
 from .weld import weld_positions
 
@@ -196,13 +196,14 @@ def simplify_parts(parts: list[Part], target: int, options: SimplifyOptions,
 def _simplify_level(parts: list[Part], target: int, options: SimplifyOptions,
                     reference: Optional[tuple[np.ndarray, np.ndarray] | Reference] = None,
                     joined: Optional[tuple] = None) -> tuple[list[Part], bool]:
-    """:func:`simplify_parts` and whether the step was lossless (the same surface: only noise
-    welding and the planar re-triangulation). ``joined``: ``_join(parts, link distance)`` when
-    the caller has it already (level 1 shares LOD0's with the guard's reference)."""
+    """:func:`simplify_parts` and whether the step was lossless (the same surface and open
+    boundary: only noise welding and a planar re-triangulation that kept the boundary's length).
+    ``joined``: ``_join(parts, link distance)`` when the caller has it already (level 1 shares
+    LOD0's with the guard's reference)."""
     total = sum(p.triangle_count for p in parts)
     if total <= target or total == 0:
         return parts, True
-    positions, faces, face_part, corner_uvs, face_chart, merged = joined or _join(parts, options.vertex_link_distance)
+    positions, faces, face_part, corner_uvs, face_chart, altered = joined or _join(parts, options.vertex_link_distance)
     reference = reference if reference is not None else (positions, faces)
     if not isinstance(reference, Reference):
         reference = Reference(*reference)
@@ -210,12 +211,14 @@ def _simplify_level(parts: list[Part], target: int, options: SimplifyOptions,
     if options.planar_retriangulation:
         # Lossless, so only non-manifold vertices are held: straight vertices on the open border or
         # between two parts are dropped from both sides at once (no T-junction, no crack).
-        faces, corner_uvs, source = retriangulate_planar(positions, faces, corner_uvs, face_chart,
-                                                         nonmanifold_vertices(faces, len(positions)))
+        faces, corner_uvs, source, boundary_kept = retriangulate_planar_checked(
+            positions, faces, corner_uvs, face_chart, nonmanifold_vertices(faces, len(positions)))
         face_part, face_chart = face_part[source], face_chart[source]
+        # Closing a slit of the source keeps the surface but not its open boundary: not exact.
+        altered = altered or not boundary_kept
     if len(faces) <= target:
         # The planar pass met the target: no collapse, nothing to lock or protect.
-        return (parts, True) if len(faces) >= total else (_split(parts, _unchanged(positions, faces, corner_uvs), face_part), not merged)
+        return (parts, True) if len(faces) >= total else (_split(parts, _unchanged(positions, faces, corner_uvs), face_part), not altered)
     locked = _locks(positions, faces, face_part, options)
     movable = ~_protected(positions, faces, options)
 
@@ -248,7 +251,7 @@ def _simplify_level(parts: list[Part], target: int, options: SimplifyOptions,
     if len(result.faces) >= total:
         return parts, True
     # A collapse that removed no face moved nothing either (placement is at edge ends or checked).
-    lossless = not merged and len(result.faces) == len(faces) and \
+    lossless = not altered and len(result.faces) == len(faces) and \
         np.array_equal(result.positions, positions[result.vertex_ids])
     return _split(parts, result, face_part), lossless
 
@@ -258,8 +261,9 @@ class MeshLevel:
     """One level of :func:`build_mesh_chain`: its parts and whether its surface is exactly LOD0's.
 
     ``exact``: only zero-area cleaning, noise welding (<= ``NOISE_M``) and the lossless planar
-    re-triangulation happened since LOD0 (no quadric collapse, no welding of distinct vertices),
-    so every distance to LOD0 is zero. Level 0 is always exact.
+    re-triangulation happened since LOD0 (no quadric collapse, no welding of distinct vertices, no
+    slit of the source closed: the open boundary kept its length), so every distance to LOD0 is
+    zero and the open boundary is LOD0's. Level 0 is always exact.
     """
 
     parts: list[Part]

@@ -361,11 +361,20 @@ def retriangulate_planar(positions: np.ndarray, faces: np.ndarray, corner_uvs, f
     ``source`` is, for every output face, an input face of the same region (for chart, part and
     UV orientation). Lossless: same surface, same texture mapping, same outlines.
     """
+    return retriangulate_planar_checked(positions, faces, corner_uvs, face_chart, locked)[:3]
+
+
+def retriangulate_planar_checked(positions: np.ndarray, faces: np.ndarray, corner_uvs, face_chart: np.ndarray,
+                                 locked: np.ndarray):
+    """:func:`retriangulate_planar` plus whether the open boundary kept its length (within 1e-9
+    relative): False when even the border-keeping pass closed a slit or T-junction of the source
+    (same surface, but edges that were open are shared now), so the result is not LOD0's mesh
+    in every metric."""
     before = _boundary(positions, faces)
     regions = planar_regions(positions, faces, face_chart)
     m, k = len(faces), len(positions)
     if m == 0:
-        return faces, corner_uvs, np.arange(m)
+        return faces, corner_uvs, np.arange(m), True
     # Vertices inside one region (off the open border) go; so do straight outline vertices.
     corner_region = np.repeat(regions, 3)
     low = np.full(k, np.iinfo(np.int64).max)
@@ -388,7 +397,8 @@ def retriangulate_planar(positions: np.ndarray, faces: np.ndarray, corner_uvs, f
         # Keep the open border's straight vertices (straight_vertices(on_border=False)).
         result = _retriangulate_regions(positions, faces, corner_uvs, regions, (interior | straight & ~border) & used,
                                         done, by_region, region_start)
-    return result
+        length, _ = _boundary(positions, result[0])
+    return (*result, abs(length - before[0]) <= 1e-9 * max(before[0], 1.0))
 
 
 def _retriangulate_regions(positions, faces, corner_uvs, regions, droppable, done: dict, by_region, region_start):
