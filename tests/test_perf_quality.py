@@ -13,7 +13,8 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from exporter.config import Config
-from exporter.quality import SurfaceIndex, boundary_loops, joined, measure_lod, point_triangle_distance, rasterise, silhouettes
+from exporter.quality import (SurfaceIndex, boundary_loops, face_normals, joined, measure_lod, point_triangle_distance,
+                              rasterise, row_lengths, silhouettes)
 from exporter.simplify import build_mesh_lods
 from test_simplify_shapes import box_building, crafted_building
 
@@ -160,7 +161,7 @@ def test_refine_within_and_max_distance_equal_the_references():
         plain = reference_max_distance(index, points)
         assert index.max_distance(points) == plain
         # A floor only stops the search sooner: the result is max(floor, the exact maximum).
-        for floor in (0.0, plain * 0.5, float(np.median(exact)), plain, plain * 1.5):
+        for floor in (0.0, plain * 0.5, plain * 0.9, plain * 0.999, float(np.median(exact)), plain, plain * 1.5):
             assert index.max_distance(points, floor=floor) == max(floor, plain)
 
 
@@ -265,3 +266,26 @@ def test_flat_top_edge_ends_are_exact_where_the_slanted_edges_round():
             assert np.array_equal(rasterise(xy, faces, 128), reference_rasterise(xy, faces, 128))
         checked += 1
     assert checked >= 10
+
+
+@pytest.mark.parametrize("scale", [1e-3, 1.0, 1e3])
+def test_face_normals_and_lengths_are_numpys(scale):
+    rng = np.random.default_rng(int(scale * 1000) + 3)
+    positions = rng.normal(size=(300, 3)) * scale
+    faces = rng.integers(0, 300, size=(2000, 3))
+    faces[::7, 2] = faces[::7, 1]                          # degenerate: zero normals
+    a, b, c = (positions[faces[:, i]] for i in range(3))
+    expected = np.cross(b - a, c - a)
+    assert np.array_equal(face_normals(positions, faces), expected)
+    assert np.array_equal(row_lengths(expected), np.linalg.norm(expected, axis=1))
+
+
+def test_a_point_as_far_as_its_nearest_probe_still_counts_above_a_close_floor():
+    """The floor skips points whose nearest probe is closer than it; a point whose distance is
+    its probe distance (nearest to a corner) and just above the floor must still be measured."""
+    index = SurfaceIndex(np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]), np.array([[0, 1, 2]]))
+    point = np.array([[-0.3, -0.4, 0.0]])                  # 0.5 m from corner (0, 0, 0)
+    assert reference_max_distance(index, point) == 0.5
+    for floor in (0.5 * (1 - 1e-12), 0.5 * (1 - 1e-6), 0.5, 0.25):
+        assert index.max_distance(point, floor=floor) == 0.5
+    assert index.max_distance(point, floor=0.75) == 0.75
