@@ -218,7 +218,9 @@ def _simplify_level(parts: list[Part], target: int, options: SimplifyOptions,
         altered = altered or not boundary_kept
     if len(faces) <= target:
         # The planar pass met the target: no collapse, nothing to lock or protect.
-        return (parts, True) if len(faces) >= total else (_split(parts, _unchanged(positions, faces, corner_uvs), face_part), not altered)
+        if len(faces) >= total:
+            return parts, True
+        return _split(parts, _unchanged(positions, faces, corner_uvs), face_part), not altered
     locked = _locks(positions, faces, face_part, options)
     movable = ~_protected(positions, faces, options)
 
@@ -250,7 +252,7 @@ def _simplify_level(parts: list[Part], target: int, options: SimplifyOptions,
         result = best
     if len(result.faces) >= total:
         return parts, True
-    # A collapse that removed no face moved nothing either (placement is at edge ends or checked).
+    # Lossless only if the collapse changed nothing: no face removed, every vertex where it was.
     lossless = not altered and len(result.faces) == len(faces) and \
         np.array_equal(result.positions, positions[result.vertex_ids])
     return _split(parts, result, face_part), lossless

@@ -414,8 +414,8 @@ def _retriangulate_regions(positions, faces, corner_uvs, regions, droppable, don
         candidates = np.unique(regions[corner_drop]).tolist()
         bits = droppable[faces[by_region]]
         keys = [bits[region_start[region]:region_start[region + 1]].tobytes() for region in candidates]
-        # All regions not cached are done in one batch with this pass's droppable bits; a region
-        # whose bits a failure earlier in the pass changed is redone alone below (as before).
+        # All regions not cached are done in one batch with this round's droppable bits; regions
+        # whose bits a failure earlier in the round changed are redone below, in one batch too.
         todo = [i for i, region in enumerate(candidates) if not (region in done and done[region][0] == keys[i])]
         batch = _retriangulate_many(positions, faces, corner_uvs,
                                     [by_region[region_start[candidates[i]]:region_start[candidates[i] + 1]] for i in todo],
