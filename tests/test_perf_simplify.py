@@ -20,7 +20,7 @@ from exporter.config import LodSpec, SimplifyOptions, default_lods
 from exporter.quality import measure_lod
 from exporter.simplify import (NOISE_M, MeshLevel, build_mesh_chain, build_mesh_lods, uv_charts,
                                unique_float_rows)
-from exporter.simplify.planar import _loops, _plane_basis, _region_loops, _retriangulate, _retriangulate_many
+from exporter.simplify.planar import _loops, _plane_basis, _row_dots, _region_loops, _retriangulate, _retriangulate_many
 from exporter.simplify.quadric import assign_uvs, closest_barycentric
 from exporter.simplify.protect import COPLANAR_COS, PLANE_M, border_vertices, cross_rows, planar_regions
 from exporter.simplify.weld import lowest_member, weld_positions
@@ -139,19 +139,19 @@ def test_unique_float_rows_equals_numpy_unique_axis0():
 
 
 def test_batched_norms_and_plane_bases_equal_the_per_region_calls():
-    # The batch replaces np.linalg.norm of one 3-vector (its dot) by sqrt(vecdot) and
+    # The batch replaces np.linalg.norm of one 3-vector (its dot) by sqrt of a stacked matmul and
     # _plane_basis by the same IEEE operations on arrays; both must agree bit for bit.
     rng = np.random.default_rng(9)
     normals = rng.normal(size=(3000, 3)) * rng.choice([1e-4, 1.0, 300.0], (3000, 1))
     normals[::7, 0] = 0.95  # the other helper axis
-    batched = np.sqrt(np.vecdot(normals, normals))
+    batched = np.sqrt(_row_dots(normals))
     assert same(batched, np.array([np.linalg.norm(n) for n in normals]))
     unit = normals / batched[:, None]
     x, y, z = unit[:, 0], unit[:, 1], unit[:, 2]
     hx = np.where(np.abs(x) < 0.9, 1.0, 0.0)
     hy = 1.0 - hx
     u = np.stack([y * 0.0 - z * hy, z * hx - x * 0.0, x * hy - y * hx], axis=1)
-    u = u / np.sqrt(np.vecdot(u, u))[:, None]
+    u = u / np.sqrt(_row_dots(u))[:, None]
     v = np.stack([y * u[:, 2] - z * u[:, 1], z * u[:, 0] - x * u[:, 2], x * u[:, 1] - y * u[:, 0]], axis=1)
     reference = [_plane_basis(n) for n in unit]
     assert same(u, np.array([r[0] for r in reference])) and same(v, np.array([r[1] for r in reference]))

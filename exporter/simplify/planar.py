@@ -180,6 +180,12 @@ def _retriangulate(positions, region_faces, region_uvs, droppable):
 SMALL_BATCH = 2
 
 
+def _row_dots(rows: np.ndarray) -> np.ndarray:
+    """(n,) ``row @ row`` of (n, 3) rows with the arithmetic of ``np.dot`` on one row (which
+    ``np.linalg.norm`` of a vector uses): a stacked matmul, not an elementwise sum."""
+    return np.matmul(rows[:, None, :], rows[:, :, None])[:, 0, 0]
+
+
 def _member(values: np.ndarray, ordered: np.ndarray) -> np.ndarray:
     """``np.isin(values, ordered)`` for an ascending non-empty ``ordered`` (one binary search)."""
     return ordered[np.minimum(np.searchsorted(ordered, values), len(ordered) - 1)] == values
@@ -265,7 +271,7 @@ def _retriangulate_many(positions, faces, corner_uvs, members: list, droppable: 
     a, b, c = (positions[region_faces[:, i]] for i in range(3))
     cross = cross_rows(b - a, c - a)
     normal = np.stack([cross[bounds[r]:bounds[r + 1]].sum(axis=0) for r in range(count)])
-    area = 0.5 * np.sqrt(np.vecdot(normal, normal))  # = np.linalg.norm of each row (its dot)
+    area = 0.5 * np.sqrt(_row_dots(normal))
     ok &= area > 0
     with np.errstate(invalid="ignore", divide="ignore"):
         normal = normal / (2 * area)[:, None]
@@ -274,7 +280,7 @@ def _retriangulate_many(positions, faces, corner_uvs, members: list, droppable: 
         hx = np.where(np.abs(x) < 0.9, 1.0, 0.0)
         hy = 1.0 - hx
         u = np.stack([y * 0.0 - z * hy, z * hx - x * 0.0, x * hy - y * hx], axis=1)
-        u = u / np.sqrt(np.vecdot(u, u))[:, None]
+        u = u / np.sqrt(_row_dots(u))[:, None]
         v = np.stack([y * u[:, 2] - z * u[:, 1], z * u[:, 0] - x * u[:, 2], x * u[:, 1] - y * u[:, 0]], axis=1)
     basis = np.stack([u, v], axis=2)  # (regions, 3, 2): each [r] C-contiguous like np.stack([u, v], axis=1)
     todo = np.flatnonzero(ok).tolist()
