@@ -482,8 +482,9 @@ def exact_quality(source_parts: list[Part], lod_parts: list[Part]) -> dict:
     ``boundary_length_change`` 0, ``new_holes`` 0. Only ``triangle_ratio`` depends on the
     triangulation and is computed as measure_lod does. No sampling or rasterising: the caller
     vouches for exactness (this function does not check it). measure_lod on such a level agrees
-    within its own sampling and raster tolerance (distances ~1e-8 x diagonal from the 1 um weld,
-    an IoU pixel or so of rounding on the raster's edges; see tests/test_quality.py).
+    up to the flatness of the source's polygons: hausdorff_rel <= 3e-8 on generated VWorld-like
+    tiles (float32 vertices), <= 1.1e-5 on real Zürich LoD2 roofs; every other metric within
+    2e-13 (levels the simplifier reports exact; see tests/test_quality.py).
     """
     source_tris = sum(p.triangle_count for p in source_parts)
     lod_tris = sum(p.triangle_count for p in lod_parts)
