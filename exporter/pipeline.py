@@ -3,7 +3,7 @@
 Per building (``process_entry``, run in worker processes): read -> mesh LoDs -> texture LoDs ->
 quality -> placement -> write ``lod<k>.glb`` files -> write the building's record
 (``building.json``) last. A record's presence therefore means the building's files are complete;
-its ``input_hash`` (source bytes + effective config + generator version) lets a re-run skip
+its ``input_hash`` (input files' sha256 + effective config + generator version) lets a re-run skip
 unchanged buildings, and an interrupted run resume where it stopped.
 
 Per tile (``export_tiles``): collect the records, remove what a previous run left that this run no
@@ -48,19 +48,56 @@ def config_fingerprint(config: Config) -> str:
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode("utf-8")).hexdigest()
 
 
-def input_hash(entry: Entry, config_hash: str) -> str:
-    """Content hash of a building's inputs (every input file's bytes), the effective config and
-    the generator version; missing input files hash as missing (the load reports them)."""
+# A file modified this close (ns) to when it was hashed may change again within one mtime tick
+# without its (size, mtime) changing: its recorded stat is not trusted (git's "racy" rule).
+RACY_NS = 2_000_000_000
+
+
+def _sha256_file(name: str) -> Optional[str]:
+    digest = hashlib.sha256()
+    try:
+        with open(name, "rb") as handle:
+            for block in iter(lambda: handle.read(1 << 20), b""):
+                digest.update(block)
+    except OSError:
+        return None
+    return digest.hexdigest()
+
+
+def input_fingerprints(names: list[str], known: dict[str, dict]) -> list[dict]:
+    """``[{"path", "size", "mtime_ns", "sha256", "hashed_ns"}]`` of every input file.
+
+    A file whose size and mtime equal what ``known`` (a previous run's fingerprints by path)
+    recorded, and that was not modified within ``RACY_NS`` of being hashed then, keeps its recorded
+    sha256 without being read again (as make, rsync and git trust stat data); any other file is
+    hashed. A missing file has ``sha256`` None."""
+    out = []
+    for name in names:
+        try:
+            stat = os.stat(name)
+        except OSError:
+            out.append({"path": name, "sha256": None})
+            continue
+        previous = known.get(name)
+        if (previous and previous.get("sha256") and previous.get("size") == stat.st_size
+                and previous.get("mtime_ns") == stat.st_mtime_ns
+                and stat.st_mtime_ns < previous.get("hashed_ns", 0) - RACY_NS):
+            out.append(previous)
+            continue
+        hashed_ns = time.time_ns()
+        out.append({"path": name, "size": stat.st_size, "mtime_ns": stat.st_mtime_ns,
+                    "sha256": _sha256_file(name), "hashed_ns": hashed_ns})
+    return out
+
+
+def input_hash(entry: Entry, config_hash: str, fingerprints: list[dict]) -> str:
+    """Content hash of a building's inputs (the sha256 of every input file's bytes, from
+    :func:`input_fingerprints`), the effective config and the generator version; missing input
+    files hash as missing (the load reports them)."""
     digest = hashlib.sha256()
     digest.update(f"vworld-lod {__version__}\n{config_hash}\n{entry.format}\n{entry.id}\n{entry.key!r}\n".encode("utf-8"))
-    for name in entry.inputs:
-        digest.update(f"\n{os.path.basename(name)}\n".encode("utf-8"))
-        try:
-            with open(name, "rb") as handle:
-                for block in iter(lambda: handle.read(1 << 20), b""):
-                    digest.update(block)
-        except OSError:
-            digest.update(b"<missing>")
+    for fingerprint in fingerprints:
+        digest.update(f"\n{os.path.basename(fingerprint['path'])}\n{fingerprint['sha256'] or '<missing>'}".encode("utf-8"))
     return digest.hexdigest()
 
 
@@ -148,9 +185,10 @@ def reusable_record(previous: Optional[dict], digest: str, out_dir: Path) -> Opt
     return None
 
 
-def process_entry(entry: Entry, config: Config, out_dir: str, digest: str) -> EntryResult:
+def process_entry(entry: Entry, config: Config, out_dir: str, digest: str, fingerprints: tuple = ()) -> EntryResult:
     """Run the whole per-building pipeline for one entry (see module doc); ``digest`` is its input
-    hash, recorded for the next run. Never raises for a bad building: returns it as skipped with
+    hash and ``fingerprints`` its input files' (:func:`input_fingerprints`), recorded for the next
+    run. Never raises for a bad building: returns it as skipped with
     the reason."""
     from .gltf_writer import glb_bytes
     from .placement import building_placement, relative_placement
@@ -218,7 +256,7 @@ def process_entry(entry: Entry, config: Config, out_dir: str, digest: str) -> En
         }
         if centre_tile is not None:
             record["tile_from_center"] = {"level": centre_tile.level, "idx": centre_tile.idx, "idy": centre_tile.idy}
-        write_text_atomic(building_dir / RECORD_NAME, json.dumps({"tile": dataclasses.asdict(tile), "record": record}, allow_nan=False))
+        write_text_atomic(building_dir / RECORD_NAME, json.dumps({"tile": dataclasses.asdict(tile), "record": record, "inputs": list(fingerprints)}, allow_nan=False))
         lap("write")
         return EntryResult(tile=tile, record=record, seconds=seconds)
     except Exception as error:  # one broken building never stops the tile
@@ -229,17 +267,27 @@ def process_entry(entry: Entry, config: Config, out_dir: str, digest: str) -> En
 # --------------------------------------------------------------------------- previous runs
 
 def previous_records(out_dir: Path) -> dict[tuple[str, str], dict]:
-    """Records a previous run left in ``out_dir``, keyed by (source, id): ``{"tile", "record"}``."""
+    """Records a previous run left in ``out_dir``, keyed by (source, id): ``{"tile", "record",
+    "inputs"}`` (inputs: that run's input fingerprints)."""
     found = {}
     for path in out_dir.glob(f"*/*/{RECORD_NAME}"):
         try:
             data = json.loads(path.read_text(encoding="utf-8"))
             tile = TileId(**data["tile"])
             record = data["record"]
-            found[(record["source"], record["id"])] = {"tile": tile, "record": record}
+            inputs = [item for item in data.get("inputs", []) if isinstance(item, dict) and "path" in item]
+            found[(record["source"], record["id"])] = {"tile": tile, "record": record, "inputs": inputs}
         except (OSError, ValueError, KeyError, TypeError):
             continue  # unreadable leftovers are simply redone
     return found
+
+
+def _refresh_fingerprints(out_dir: Path, previous: dict, fingerprints: list[dict]) -> None:
+    """Rewrite a reused building's record file with its inputs' current fingerprints, so the next
+    run trusts their stat instead of hashing them again."""
+    path = out_dir / previous["tile"].name / previous["record"]["folder"] / RECORD_NAME
+    data = {"tile": dataclasses.asdict(previous["tile"]), "record": previous["record"], "inputs": fingerprints}
+    write_text_atomic(path, json.dumps(data, allow_nan=False))
 
 
 # --------------------------------------------------------------------------- the run
@@ -326,15 +374,20 @@ def export_tiles(
         if count:
             entry.id = f"{entry.id}~{count}"
     # Unchanged buildings are recognised here, in the main process, entry by entry as the pool
-    # takes work: hashing is cheap I/O, and a re-run that changes nothing starts no worker at all.
+    # takes work: hashing is cheap I/O (and skipped for files whose stat is unchanged), and a
+    # re-run that changes nothing starts no worker at all.
     def work() -> Iterable[tuple | EntryResult]:
         for entry in entries:
-            digest = input_hash(entry, config_hash)
-            previous_run = reusable_record(previous.get((entry.source, entry.id)), digest, out_dir)
+            before = previous.get((entry.source, entry.id))
+            fingerprints = input_fingerprints(entry.inputs, {f["path"]: f for f in before["inputs"]} if before else {})
+            digest = input_hash(entry, config_hash, fingerprints)
+            previous_run = reusable_record(before, digest, out_dir)
             if previous_run is not None:
+                if fingerprints != before["inputs"]:  # e.g. touched, same bytes: record the new stat
+                    _refresh_fingerprints(out_dir, previous_run, fingerprints)
                 yield EntryResult(tile=previous_run["tile"], record=previous_run["record"], reused=True)
             else:
-                yield (entry, config, str(out_dir), digest)
+                yield (entry, config, str(out_dir), digest, tuple(fingerprints))
 
     records: dict[TileId, list[dict]] = {}
     reused: dict[TileId, int] = {}

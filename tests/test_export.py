@@ -254,3 +254,58 @@ def test_exact_levels_carry_identity_metrics_and_changed_levels_are_measured(tmp
                     assert quality == pytest.approx(measured)
                 assert quality["triangle_ratio"] == pytest.approx(measured["triangle_ratio"])
     assert seen[True] and seen[False], seen  # both paths ran
+
+
+def _age(folder: Path, seconds: float) -> None:
+    """Set every file's mtime ``seconds`` in the past (out of the racy window)."""
+    when = time.time() - seconds
+    for path in folder.iterdir():
+        os.utime(path, (when, when))
+
+
+def test_rerun_trusts_unchanged_stat_and_rehashes_touched_or_recent_files(tmp_path, small_tile, monkeypatch):
+    import exporter.pipeline as pipeline
+    from exporter.config import Config
+
+    tile = tmp_path / "tile"
+    shutil.copytree(small_tile, tile)
+    _age(tile, 3600)
+    out = tmp_path / "out"
+    assert pipeline.export_tiles([tile], out, Config(), jobs=1).reused == 0
+    hashed = []
+    real_sha = pipeline._sha256_file
+    monkeypatch.setattr(pipeline, "_sha256_file", lambda name: hashed.append(name) or real_sha(name))
+
+    # Unchanged: nothing is read again.
+    assert pipeline.export_tiles([tile], out, Config(), jobs=1).reused == 6 and hashed == []
+
+    # Touched, same bytes: hashed once, reused, and its new stat recorded (not hashed next time).
+    jpg = sorted(tile.glob("*.jpg"))[0]
+    os.utime(jpg, (time.time() - 1800, time.time() - 1800))
+    assert pipeline.export_tiles([tile], out, Config(), jobs=1).reused == 6 and hashed == [str(jpg)]
+    hashed.clear()
+    assert pipeline.export_tiles([tile], out, Config(), jobs=1).reused == 6 and hashed == []
+
+    def rewrite_keeping_size_and_mtime(path: Path) -> None:
+        stat = path.stat()
+        data = bytearray(path.read_bytes())
+        data[-3] ^= 0xFF
+        path.write_bytes(bytes(data))
+        os.utime(path, ns=(stat.st_atime_ns, stat.st_mtime_ns))
+
+    # A file hashed within the racy window of its mtime is hashed again even with its stat
+    # unchanged: a second write in the same mtime tick is caught.
+    recent = sorted(tile.glob("*.jpg"))[1]
+    os.utime(recent, None)  # modified just now ...
+    assert pipeline.export_tiles([tile], out, Config(), jobs=1).reused == 6  # ... and hashed just after
+    rewrite_keeping_size_and_mtime(recent)
+    hashed.clear()
+    racy = pipeline.export_tiles([tile], out, Config(), jobs=1)
+    assert str(recent) in hashed and racy.reused == 5 and racy.buildings == 6
+
+    # An old file rewritten with the same size and its old mtime put back by hand is trusted (as
+    # make, rsync and git do); --force redoes such a building.
+    rewrite_keeping_size_and_mtime(jpg)
+    hashed.clear()
+    assert pipeline.export_tiles([tile], out, Config(), jobs=1).reused == 6 and str(jpg) not in hashed
+    assert pipeline.export_tiles([tile], out, Config(), jobs=1, force=True).reused == 0
