@@ -252,7 +252,8 @@ def test_chain_is_build_mesh_lods_with_flags():
 def test_exact_when_the_planar_pass_alone_meets_the_target():
     box = box_building(6, 4.5, 8.0, (4, 3), 4)  # every wall and the roof one flat polygon
     lod0, lod1 = chain(box, 0.5)
-    assert count(lod1.parts) <= round(0.5 * count(box)) and lod1.exact
+    assert count(lod1.parts) <= round(0.5 * count(box)) and lod1.exact and lod1.surface_exact
+    assert lod0.exact and lod0.surface_exact
     metrics = measure_lod(lod0.parts, lod1.parts)
     assert metrics["hausdorff_rel"] < 1e-9 and metrics["silhouette_iou"] == 1.0
 
@@ -263,13 +264,40 @@ def test_not_exact_when_the_collapse_removed_faces():
     dome = [builder.part()]
     lod0, lod1 = chain(dome, 0.5, max_error=0.0, protect_largest=0.0, preserve_uv_foldover_edges=False)
     assert count(lod1.parts) < count(lod0.parts)
-    assert not lod1.exact
+    assert not lod1.exact and not lod1.surface_exact
     assert measure_lod(lod0.parts, lod1.parts)["hausdorff_rel"] > 0
     # The flag is passed down: a level built from an inexact one is inexact even when unchanged.
     levels = build_mesh_chain(dome, [LodSpec(0.5), LodSpec(0.2, mesh=0.5), LodSpec(0.1, mesh=0.5)],
                               dataclasses.replace(SimplifyOptions(), max_error=0.0, protect_largest=0.0,
                                                   preserve_uv_foldover_edges=False))
     assert [level.exact for level in levels] == [True, False, False]
+    assert [level.surface_exact for level in levels] == [True, False, False]
+
+
+def gable_under_a_roof():
+    """A 4 m gable wall (z = 0, outline from (4, 0) m, fanned around one interior vertex) and a
+    flat 4 x 5 m roof at y = 3 m whose open edge runs along the gable's chord (0, 3)-(4, 3): a
+    T-junction the source leaves open. Earcut's triangulation of the gable cuts the chord, so the
+    edge becomes shared: same surface, shorter open boundary."""
+    outline = [(4, 0), (4, 3), (2, 4), (0, 3), (0, 0)]
+    builder = Builder()
+    wall = [(x, y, 0.0) for x, y in outline] + [(2.0, 1.5, 0.0)]
+    builder.add(wall, [(5, i, (i + 1) % 5) for i in range(5)], [(0.1 + x / 40, 0.1 + y / 40) for x, y, _ in wall])
+    roof = [(0, 3, 0), (4, 3, 0), (4, 3, 5), (0, 3, 5)]
+    builder.add(roof, [(0, 2, 1), (0, 3, 2)], [(0.6 + x / 40, 0.6 + z / 40) for x, _, z in roof])
+    return [builder.part()]
+
+
+def test_slit_closed_by_the_planar_pass_is_surface_exact_not_exact():
+    gable = gable_under_a_roof()
+    levels = build_mesh_chain(gable, [LodSpec(0.5), LodSpec(0.2, mesh=0.8), LodSpec(0.1, mesh=0.5)], SimplifyOptions())
+    assert count(levels[1].parts) == 5 < count(gable)  # the fan's 5 faces became earcut's 3
+    metrics = measure_lod(levels[0].parts, levels[1].parts)
+    assert metrics["hausdorff_rel"] < 1e-9 and metrics["boundary_length_change"] < -0.1, metrics
+    assert [(level.exact, level.surface_exact) for level in levels] == [(True, True), (False, True), (False, True)]
+    # The same gable without the roof: nothing to close, exact.
+    alone = dataclasses.replace(gable[0], triangles=gable[0].triangles[:5])
+    assert [(level.exact, level.surface_exact) for level in chain([alone], 0.5)] == [(True, True), (True, True)]
 
 
 def two_panels(gap):
@@ -283,11 +311,11 @@ def two_panels(gap):
 def test_link_distance_welding_distinct_vertices_is_not_exact():
     panels = two_panels(0.001)
     welded = chain(panels, 0.9, vertex_link_distance=0.01, preserve_uv_seam_edges=False)[1]
-    assert count(welded.parts) < count(panels) and not welded.exact
+    assert count(welded.parts) < count(panels) and not welded.exact and not welded.surface_exact
     # The same distance merging nothing (panels 1 m apart) leaves the planar-only level exact,
     # as does the default noise-only welding.
     apart = chain(two_panels(1.0), 0.9, vertex_link_distance=0.01)[1]
-    assert count(apart.parts) < count(panels) and apart.exact
+    assert count(apart.parts) < count(panels) and apart.exact and apart.surface_exact
     assert chain(panels, 0.9)[1].exact
 
 
@@ -377,13 +405,18 @@ def test_exact_levels_measure_as_identity_and_slit_closing_is_not_exact(tmp_path
     exact, slit_closed = 0, 0
     for building in [load_entry(entry, readers) for entry in scan_folder(tmp_path, readers).entries]:
         levels = build_mesh_chain(building.parts, default_lods(), SimplifyOptions())
-        for level in levels[1:]:
+        for above, level in zip(levels, levels[1:]):
             metrics = measure_lod(levels[0].parts, level.parts)
+            assert level.surface_exact or not level.exact
+            assert above.surface_exact or not level.surface_exact
+            if level.surface_exact:
+                assert metrics["hausdorff_rel"] < 1e-6, metrics
             if level.exact:
                 exact += 1
                 assert metrics["hausdorff_rel"] < 1e-6 and metrics["new_holes"] == 0, metrics
                 assert abs(metrics["boundary_length_change"]) < 1e-9, metrics
                 assert metrics["silhouette_iou"] == 1.0 and metrics["wall_coverage"] == 1.0, metrics
             elif metrics["hausdorff_rel"] < 1e-6 and metrics["boundary_length_change"] < -1e-3:
+                assert level.surface_exact or not above.surface_exact
                 slit_closed += 1
     assert exact > 10 and slit_closed > 0, (exact, slit_closed)

@@ -195,15 +195,16 @@ def simplify_parts(parts: list[Part], target: int, options: SimplifyOptions,
 
 def _simplify_level(parts: list[Part], target: int, options: SimplifyOptions,
                     reference: Optional[tuple[np.ndarray, np.ndarray] | Reference] = None,
-                    joined: Optional[tuple] = None) -> tuple[list[Part], bool]:
-    """:func:`simplify_parts` and whether the step was lossless (the same surface and open
-    boundary: only noise welding and a planar re-triangulation that kept the boundary's length).
-    ``joined``: ``_join(parts, link distance)`` when the caller has it already (level 1 shares
-    LOD0's with the guard's reference)."""
+                    joined: Optional[tuple] = None) -> tuple[list[Part], bool, bool]:
+    """:func:`simplify_parts`, whether the step kept the surface (only noise welding and the
+    planar re-triangulation: no collapse, no link-distance welding) and whether it also kept the
+    open boundary's length (lossless). ``joined``: ``_join(parts, link distance)`` when the caller
+    has it already (level 1 shares LOD0's with the guard's reference)."""
     total = sum(p.triangle_count for p in parts)
     if total <= target or total == 0:
-        return parts, True
-    positions, faces, face_part, corner_uvs, face_chart, altered = joined or _join(parts, options.vertex_link_distance)
+        return parts, True, True
+    positions, faces, face_part, corner_uvs, face_chart, welded = joined or _join(parts, options.vertex_link_distance)
+    boundary_kept = True
     reference = reference if reference is not None else (positions, faces)
     if not isinstance(reference, Reference):
         reference = Reference(*reference)
@@ -214,13 +215,13 @@ def _simplify_level(parts: list[Part], target: int, options: SimplifyOptions,
         faces, corner_uvs, source, boundary_kept = retriangulate_planar_checked(
             positions, faces, corner_uvs, face_chart, nonmanifold_vertices(faces, len(positions)))
         face_part, face_chart = face_part[source], face_chart[source]
-        # Closing a slit of the source keeps the surface but not its open boundary: not exact.
-        altered = altered or not boundary_kept
     if len(faces) <= target:
         # The planar pass met the target: no collapse, nothing to lock or protect.
         if len(faces) >= total:
-            return parts, True
-        return _split(parts, _unchanged(positions, faces, corner_uvs), face_part), not altered
+            return parts, True, True
+        # Closing a slit of the source keeps the surface but not its open boundary.
+        return _split(parts, _unchanged(positions, faces, corner_uvs), face_part), not welded, \
+            not welded and boundary_kept
     locked = _locks(positions, faces, face_part, options)
     movable = ~_protected(positions, faces, options)
 
@@ -251,25 +252,29 @@ def _simplify_level(parts: list[Part], target: int, options: SimplifyOptions,
                 low = middle
         result = best
     if len(result.faces) >= total:
-        return parts, True
-    # Lossless only if the collapse changed nothing: no face removed, every vertex where it was.
-    lossless = not altered and len(result.faces) == len(faces) and \
+        return parts, True, True
+    # The surface stays only if the collapse changed nothing: no face removed, every vertex where it was.
+    surface_kept = not welded and len(result.faces) == len(faces) and \
         np.array_equal(result.positions, positions[result.vertex_ids])
-    return _split(parts, result, face_part), lossless
+    return _split(parts, result, face_part), surface_kept, surface_kept and boundary_kept
 
 
 @dataclasses.dataclass(frozen=True)
 class MeshLevel:
-    """One level of :func:`build_mesh_chain`: its parts and whether its surface is exactly LOD0's.
+    """One level of :func:`build_mesh_chain`: its parts and whether it is exactly LOD0's surface.
 
-    ``exact``: only zero-area cleaning, noise welding (<= ``NOISE_M``) and the lossless planar
-    re-triangulation happened since LOD0 (no quadric collapse, no welding of distinct vertices, no
-    slit of the source closed: the open boundary kept its length), so every distance to LOD0 is
-    zero and the open boundary is LOD0's. Level 0 is always exact.
+    ``surface_exact``: only zero-area cleaning, noise welding (<= ``NOISE_M``) and the lossless
+    planar re-triangulation happened since LOD0 (no quadric collapse removed or moved anything, no
+    ``vertex_link_distance`` welding of distinct vertices), so every distance to LOD0 is zero; the
+    planar pass may still have closed a zero-width slit of the source (shared edges that were open).
+    ``exact``: ``surface_exact`` and the open boundary kept its length too (no slit closed), so
+    every metric is LOD0's. ``exact`` implies ``surface_exact``; level 0 is both; a level built
+    from a level that is not (surface-)exact is not either.
     """
 
     parts: list[Part]
     exact: bool
+    surface_exact: bool
 
 
 def build_mesh_chain(parts: list[Part], lods: list[LodSpec], options: SimplifyOptions) -> list[MeshLevel]:
@@ -285,7 +290,7 @@ def build_mesh_chain(parts: list[Part], lods: list[LodSpec], options: SimplifyOp
     for i, part in enumerate(parts):
         _check_part(part, i)
     source_triangles = sum(p.triangle_count for p in parts)
-    chain = [MeshLevel([clean_part(p) for p in parts], True)]
+    chain = [MeshLevel([clean_part(p) for p in parts], True, True)]
     joined = _join(chain[0].parts, 0.0)
     reference = Reference(*joined[:2])  # the guard's reference: LOD0, welded
     for k, spec in enumerate(lods[1:], start=1):
@@ -296,8 +301,8 @@ def build_mesh_chain(parts: list[Part], lods: list[LodSpec], options: SimplifyOp
         level_options = dataclasses.replace(options, max_error=options.max_error * scale)
         # Level 1 starts from LOD0 welded the same way as the reference: joined once.
         shared = joined if k == 1 and options.vertex_link_distance <= NOISE_M else None
-        level, lossless = _simplify_level(chain[-1].parts, target, level_options, reference, shared)
-        chain.append(MeshLevel(level, chain[-1].exact and lossless))
+        level, surface_kept, lossless = _simplify_level(chain[-1].parts, target, level_options, reference, shared)
+        chain.append(MeshLevel(level, chain[-1].exact and lossless, chain[-1].surface_exact and surface_kept))
     return chain
 
 
