@@ -6,7 +6,9 @@ joined and welded by exact position (to 1e-6 m) so texture seams and part juncti
 as open boundary. Every length is relative to the source's bounding-box diagonal (metres / metres).
 
 Entry point: :func:`measure_lod` returns a flat dict of JSON-able numbers (:func:`exact_quality`
-gives the same keys without measuring, for a level known to be a lossless re-triangulation):
+gives the same keys without measuring, for a level known to be a lossless re-triangulation;
+:func:`boundary_quality` for a level with the source's surface but a changed open boundary
+measures only the boundary keys):
 
 - ``triangle_ratio``: level triangles / source triangles.
 - ``hausdorff_rel``: symmetric Hausdorff distance / diagonal, measured from every vertex plus a
@@ -59,7 +61,7 @@ WELD_M = 1e-6             # metres: positions equal to this are one vertex
 SEED = 20240521           # samples are the same on every run
 PROBE_MARGIN_M = 1e-9     # metres (+ the same share of the distance): rounding of a probe's distance
 
-__all__ = ["measure_lod", "exact_quality", "RESOLUTION", "COVER_TOLERANCE"]
+__all__ = ["measure_lod", "exact_quality", "boundary_quality", "RESOLUTION", "COVER_TOLERANCE"]
 
 
 # --------------------------------------------------------------------------- mesh helpers
@@ -320,6 +322,13 @@ def boundary_loops(faces: np.ndarray, vertex_count: int) -> tuple[np.ndarray, in
     return border, int(len(np.unique(labels[np.unique(border)])))
 
 
+def open_boundary(positions: np.ndarray, faces: np.ndarray) -> tuple[float, int]:
+    """Length of the open boundary (metres) of a welded mesh and its number of loops."""
+    border, loops = boundary_loops(faces, len(positions))
+    length = float(np.linalg.norm(np.diff(positions[border], axis=1), axis=-1).sum()) if len(border) else 0.0
+    return length, loops
+
+
 def rasterise(xy: np.ndarray, faces: np.ndarray, size: int) -> np.ndarray:
     """Conservative raster of 2-D triangles: (size, size) bool, pixel (row, col) covers
     [row - 0.5, row + 0.5] x [col - 0.5, col + 0.5] of ``xy`` (n, 2) pixel coordinates (x = col).
@@ -399,14 +408,50 @@ class _Source:
 
 
 _CACHE: "OrderedDict[bytes, _Source]" = OrderedDict()
+_OUTLINES: "OrderedDict[bytes, _Outline]" = OrderedDict()
 
 
-def _source_side(parts: list[Part]) -> _Source:
+@dataclass
+class _Outline:
+    """The source side of :func:`boundary_quality`: what the boundary keys need, nothing more."""
+
+    triangles: int
+    diagonal: float             # metres
+    border_length: float        # metres
+    loops: int
+
+
+def _source_key(parts: list[Part]) -> bytes:
     digest = hashlib.blake2b(digest_size=16)
     for p in parts:
         digest.update(p.positions.tobytes())
         digest.update(p.triangles.tobytes())
-    key = digest.digest()
+    return digest.digest()
+
+
+def _remember(cache: OrderedDict, key: bytes, value):
+    cache[key] = value
+    if len(cache) > 16:
+        cache.popitem(last=False)
+    return value
+
+
+def _source_outline(parts: list[Part]) -> _Outline:
+    key = _source_key(parts)
+    for cache in (_CACHE, _OUTLINES):
+        if key in cache:
+            cache.move_to_end(key)
+            s = cache[key]
+            return _Outline(s.triangles, s.diagonal, s.border_length, s.loops)
+    positions, faces = joined(parts)
+    # The diagonal and the outline exactly as _source_side computes them.
+    diagonal = max(float(np.linalg.norm(positions.max(axis=0) - positions.min(axis=0))), 1e-9)
+    border_length, loops = open_boundary(positions, faces)
+    return _remember(_OUTLINES, key, _Outline(sum(p.triangle_count for p in parts), diagonal, border_length, loops))
+
+
+def _source_side(parts: list[Part]) -> _Source:
+    key = _source_key(parts)
     if key in _CACHE:
         _CACHE.move_to_end(key)
         return _CACHE[key]
@@ -416,19 +461,29 @@ def _source_side(parts: list[Part]) -> _Source:
     normals = face_normals(positions, faces)
     lengths = row_lengths(normals)
     walls = (np.abs(normals[:, 1]) < WALL_MAX_UP * lengths) & (lengths > 0)
-    border, loops = boundary_loops(faces, len(positions))
+    border_length, loops = open_boundary(positions, faces)
     source = _Source(
         positions, faces, sum(p.triangle_count for p in parts), low, high,
         max(float(np.linalg.norm(high - low)), 1e-9),
         np.vstack([positions, sample_surface(positions, faces, SAMPLES, rng)]),
         sample_surface(positions, faces[walls], WALL_SAMPLES, rng) if walls.any() else np.zeros((0, 3)),
         silhouettes(positions, faces, low, high),
-        float(np.linalg.norm(np.diff(positions[border], axis=1), axis=-1).sum()), loops,
+        border_length, loops,
         SurfaceIndex(positions, faces))
-    _CACHE[key] = source
-    if len(_CACHE) > 16:
-        _CACHE.popitem(last=False)
-    return source
+    return _remember(_CACHE, key, source)
+
+
+def _boundary_keys(src, lod_parts: list[Part], lod_pos: np.ndarray, lod_faces: np.ndarray) -> dict:
+    """``triangle_ratio``, ``boundary_length_change`` and ``new_holes`` of a welded level
+    (positions metres, local East/Up/North) against a source side (_Source or _Outline)."""
+    lod_tris = sum(p.triangle_count for p in lod_parts)
+    lod_length, lod_loops = open_boundary(lod_pos, lod_faces)
+    change = (lod_length - src.border_length) / src.border_length if src.border_length > 0 else lod_length / src.diagonal
+    return {
+        "triangle_ratio": float(lod_tris / src.triangles) if src.triangles else 1.0,
+        "boundary_length_change": float(change),
+        "new_holes": int(max(0, lod_loops - src.loops)),
+    }
 
 
 def measure_lod(source_parts: list[Part], lod_parts: list[Part]) -> dict:
@@ -444,7 +499,6 @@ def measure_lod(source_parts: list[Part], lod_parts: list[Part]) -> dict:
                 "boundary_length_change": 0.0, "new_holes": 0}
     src = _source_side(source_parts)
     lod_pos, lod_faces = joined(lod_parts)
-    lod_tris = sum(p.triangle_count for p in lod_parts)
     rng = np.random.default_rng(SEED + 1)
 
     # Exact where it matters: the largest distances (Hausdorff) and walls beyond the tolerance.
@@ -459,17 +513,43 @@ def measure_lod(source_parts: list[Part], lod_parts: list[Part]) -> dict:
         union = np.logical_or(a, b).sum()
         ious.append(float(np.logical_and(a, b).sum() / union) if union else 1.0)
 
-    lod_border, lod_loops = boundary_loops(lod_faces, len(lod_pos))
-    lod_length = float(np.linalg.norm(np.diff(lod_pos[lod_border], axis=1), axis=-1).sum()) if len(lod_border) else 0.0
-    change = (lod_length - src.border_length) / src.border_length if src.border_length > 0 else lod_length / src.diagonal
-
+    keys = _boundary_keys(src, lod_parts, lod_pos, lod_faces)
     return {
-        "triangle_ratio": float(lod_tris / src.triangles) if src.triangles else 1.0,
+        "triangle_ratio": keys["triangle_ratio"],
         "hausdorff_rel": hausdorff / src.diagonal,
         "silhouette_iou": min(ious),
         "wall_coverage": wall_coverage,
-        "boundary_length_change": float(change),
-        "new_holes": int(max(0, lod_loops - src.loops)),
+        "boundary_length_change": keys["boundary_length_change"],
+        "new_holes": keys["new_holes"],
+    }
+
+
+def boundary_quality(source_parts: list[Part], lod_parts: list[Part]) -> dict:
+    """:func:`measure_lod`'s metrics for a level whose *surface* is the source's but whose open
+    boundary may not be (both local East/Up/North metres).
+
+    The lossless planar pass can close a zero-width slit or T-junction of the source: the
+    surface stays the same, part of the open boundary becomes shared edges. The surface keys are
+    then identity's (``hausdorff_rel`` 0, ``silhouette_iou`` and ``wall_coverage`` 1, as in
+    :func:`exact_quality`); ``triangle_ratio``, ``boundary_length_change`` and ``new_holes`` are
+    computed as measure_lod computes them (the same values bit for bit). Cost: the two welds and
+    open-boundary passes only (the source's cached). The caller vouches that the surface is
+    unchanged (not checked).
+    """
+    if sum(p.triangle_count for p in source_parts) == 0:
+        return measure_lod(source_parts, lod_parts)
+    src = _source_outline(source_parts)
+    lod_pos, lod_faces = joined(lod_parts)
+    keys = _boundary_keys(src, lod_parts, lod_pos, lod_faces)
+    if src.triangles and not keys["triangle_ratio"]:
+        raise ValueError("boundary_quality: an empty level cannot have the surface of a non-empty source")
+    return {
+        "triangle_ratio": keys["triangle_ratio"],
+        "hausdorff_rel": 0.0,
+        "silhouette_iou": 1.0,
+        "wall_coverage": 1.0,
+        "boundary_length_change": keys["boundary_length_change"],
+        "new_holes": keys["new_holes"],
     }
 
 

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from exporter.model import Part
-from exporter.quality import distance_to_surface, exact_quality, measure_lod, point_triangle_distance, rasterise
+from exporter.quality import (boundary_quality, distance_to_surface, exact_quality, measure_lod, point_triangle_distance,
+                              rasterise)
 from test_simplify_shapes import box_building, crafted_building
 
 KEYS = {"triangle_ratio", "hausdorff_rel", "silhouette_iou", "wall_coverage", "boundary_length_change", "new_holes"}
@@ -195,3 +196,83 @@ def test_exact_quality_agrees_with_measure_lod_on_real_exact_levels(tmp_path):
             assert measured["wall_coverage"] == 1.0 and abs(measured["boundary_length_change"]) < 1e-9
             assert measured["new_holes"] == 0
     assert exact_levels > 0
+
+
+# --------------------------------------------------------------------------- boundary_quality
+
+SURFACE_KEYS = ("hausdorff_rel", "silhouette_iou", "wall_coverage")
+BOUNDARY_KEYS = ("triangle_ratio", "boundary_length_change", "new_holes")
+
+
+def t_junction_roof():
+    """A flat 2 x 2 m roof at 5 m (local East/Up/North): the left half two triangles, the right
+    half a fan around (1, 1) on the shared line, so the line is a T-junction (open boundary of
+    4 m inside the 8 m outline); and the same surface as two triangles (the junction closed)."""
+    positions = np.array([[x, 5.0, z] for x, z in [(0, 0), (1, 0), (1, 2), (0, 2), (2, 0), (2, 2), (1, 1)]], float)
+    source = [Part(positions, np.array([[0, 2, 1], [0, 3, 2], [1, 6, 4], [6, 5, 4], [6, 2, 5]]))]
+    closed = [Part(positions[[0, 3, 4, 5]], np.array([[0, 1, 3], [0, 3, 2]]))]
+    return source, closed
+
+
+def assert_boundary_quality_is_measure_lods(source, level):
+    """Boundary keys bit for bit, surface keys within measure_lod's rounding on a same surface."""
+    measured, bounded = measure_lod(source, level), boundary_quality(source, level)
+    assert set(bounded) == KEYS
+    for key in BOUNDARY_KEYS:
+        assert bounded[key] == measured[key] and type(bounded[key]) is type(measured[key])
+    assert bounded["hausdorff_rel"] == 0.0 and measured["hausdorff_rel"] < 1e-6
+    assert bounded["silhouette_iou"] == 1.0 and measured["silhouette_iou"] >= 0.999
+    assert bounded["wall_coverage"] == measured["wall_coverage"] == 1.0
+    exact = exact_quality(source, level)
+    assert exact["boundary_length_change"] == 0.0 != bounded["boundary_length_change"]
+    return bounded
+
+
+def test_boundary_quality_sees_a_closed_t_junction_as_measure_lod_does():
+    source, closed = t_junction_roof()
+    bounded = assert_boundary_quality_is_measure_lods(source, closed)
+    assert bounded["boundary_length_change"] == pytest.approx((8.0 - 12.0) / 12.0, abs=1e-12)
+    assert bounded["triangle_ratio"] == 2 / 5 and bounded["new_holes"] == 0
+
+
+def test_boundary_quality_counts_a_new_loop():
+    """A 3 x 3 m roof and the same roof with an interior T-junction from (1, 1) to (2, 1) m
+    (one side has the edge, the other goes through (1.5, 1)): 2 m more open boundary in a loop
+    of its own."""
+    corners = [(0, 0), (3, 0), (3, 3), (0, 3)]
+    source = [Part(np.array([[x, 5.0, z] for x, z in corners], float), np.array([[0, 2, 1], [0, 3, 2]]))]
+    a, b, c, d, p, q, m = range(7)
+    positions = np.array([[x, 5.0, z] for x, z in corners + [(1, 1), (2, 1), (1.5, 1)]], float)
+    slit = [Part(positions, np.array([[a, q, b], [a, p, q], [a, d, p], [p, d, m], [m, d, c], [m, c, q], [q, c, b]]))]
+    bounded = boundary_quality(source, slit)
+    assert bounded["new_holes"] == measure_lod(source, slit)["new_holes"] == 1
+    assert bounded["boundary_length_change"] == pytest.approx(2.0 / 12.0, abs=1e-12)
+    assert_boundary_quality_is_measure_lods(source, slit)
+
+
+def test_boundary_quality_agrees_with_measure_lod_on_slits_the_planar_pass_closed(tmp_path):
+    """Generated buildings whose level 1 the simplifier reports inexact only because the planar
+    pass closed slits of the source: same surface, shorter open boundary."""
+    from exporter.config import Config
+    from exporter.readers import load_entry, scan_folder
+    from exporter.samplegen import generate_tile
+    from exporter.simplify import build_mesh_chain
+    generate_tile(tmp_path / "tile", count=40, seed=7, atlas_size=32)
+    config = Config()
+    closed = 0
+    for entry in scan_folder(tmp_path / "tile", config.readers).entries:
+        chain = build_mesh_chain(load_entry(entry, config.readers).parts, config.lods, config.simplify)
+        lod0, level = chain[0].parts, chain[1]
+        if level.exact or measure_lod(lod0, level.parts)["boundary_length_change"] == 0.0:
+            continue
+        closed += 1
+        assert assert_boundary_quality_is_measure_lods(lod0, level.parts)["boundary_length_change"] < 0
+    assert closed >= 3
+
+
+def test_boundary_quality_of_empty_sides():
+    source, _ = t_junction_roof()
+    empty = [Part(np.zeros((0, 3)), np.zeros((0, 3), np.int64))]
+    assert boundary_quality(empty, empty) == measure_lod(empty, empty)
+    with pytest.raises(ValueError, match="empty level"):
+        boundary_quality(source, empty)
