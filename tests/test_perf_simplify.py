@@ -420,3 +420,32 @@ def test_exact_levels_measure_as_identity_and_slit_closing_is_not_exact(tmp_path
                 assert level.surface_exact or not above.surface_exact
                 slit_closed += 1
     assert exact > 10 and slit_closed > 0, (exact, slit_closed)
+
+
+# --------------------------------------------------------------------------- error guard
+
+def test_guard_exceeds_is_deviation_above_the_tolerance():
+    # The guard's decision with floors and shared corners skipped equals the full symmetric
+    # deviation compared with the tolerance, also at the deviation itself and one ulp around it.
+    from exporter.simplify import simplify_parts
+    from exporter.simplify.guard import Reference, deviation, exceeds
+    builder, atlas = Builder(), Atlas()
+    add_dome(builder, atlas, 0.0, 0.0, 0.0, 10.0, 8, 24)
+    shapes = [[builder.part()]] + [crafted_building(seed) for seed in range(3)]
+    rng = np.random.default_rng(3)
+    checked = 0
+    for parts in shapes:
+        positions, faces, _, _ = welded_mesh(parts)
+        reference = Reference(positions, faces)
+        options = SimplifyOptions(max_error=0.0, protect_largest=0.0, preserve_uv_foldover_edges=False,
+                                  preserve_uv_seam_edges=False)
+        levels = [simplify_parts(parts, int(count(parts) * ratio), options) for ratio in (0.8, 0.5, 0.2)]
+        jitter = positions + rng.normal(size=positions.shape) * 0.01  # no corner shared with LOD0
+        for level_positions, level_faces in [welded_mesh(level)[:2] for level in levels] + [(jitter, faces),
+                                                                                          (positions, faces)]:
+            d = deviation(reference, level_positions, level_faces)
+            for tolerance in (0.0, 0.5 * d, np.nextafter(d, 0.0), d, np.nextafter(d, np.inf), 2.0 * d + 1e-3):
+                assert exceeds(reference, level_positions, level_faces, tolerance) == (d > tolerance)
+                checked += 1
+        assert exceeds(reference, positions, faces[:0], 1.0)  # nothing left: infinitely far
+    assert checked == 4 * 5 * 6

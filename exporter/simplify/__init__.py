@@ -34,7 +34,7 @@ from ..errors import ProcessError
 from ..model import Part
 from .protect import (border_vertices, face_areas, footprint_wall_faces, largest_faces, nonmanifold_vertices,
                       part_border_vertices)
-from .guard import Reference, deviation, diagonal
+from .guard import Reference, diagonal, exceeds
 from .planar import retriangulate_planar_checked
 from .quadric import Collapsed, collapse
 from .weld import weld_positions
@@ -238,7 +238,7 @@ def _simplify_level(parts: list[Part], target: int, options: SimplifyOptions,
     # the same, so there is nothing to run or measure.
     settled = not movable.any()
     result = flat if settled else attempt(target)
-    if options.max_error > 0 and not settled and deviation(reference, result.positions, result.faces) > tolerance:
+    if options.max_error > 0 and not settled and exceeds(reference, result.positions, result.faces, tolerance):
         # Raise the target until the level stays within the tolerance (bisection on the count).
         best, low, high = flat, target, len(faces)
         for _ in range(GUARD_STEPS):
@@ -246,7 +246,7 @@ def _simplify_level(parts: list[Part], target: int, options: SimplifyOptions,
             if middle <= low or middle >= high:
                 break
             trial = attempt(middle)
-            if deviation(reference, trial.positions, trial.faces) <= tolerance:
+            if not exceeds(reference, trial.positions, trial.faces, tolerance):
                 best, high = trial, middle
             else:
                 low = middle

@@ -33,8 +33,9 @@ class Reference:
     def _sample(self) -> None:
         # Lazily: most buildings never run the guard (the planar pass alone meets the targets).
         rng = np.random.default_rng(SEED)
-        self._points = np.vstack([self.positions[np.unique(self.faces)],
-                                  sample_surface(self.positions, self.faces, SAMPLES, rng)])
+        corners = self.positions[np.unique(self.faces)]
+        self._corner_count = len(corners)
+        self._points = np.vstack([corners, sample_surface(self.positions, self.faces, SAMPLES, rng)])
         self._rng_after = rng  # the level's samples continue this stream
 
     @property
@@ -43,6 +44,11 @@ class Reference:
         if self._points is None:
             self._sample()
         return self._points
+
+    @property
+    def corners(self) -> np.ndarray:
+        """(c, 3) metres: the reference's vertices used by a face (the first rows of ``points``)."""
+        return self.points[:self._corner_count]
 
     @property
     def rng_after(self) -> np.random.Generator:
@@ -78,6 +84,32 @@ def deviation(reference, positions: np.ndarray, faces: np.ndarray) -> float:
     # Exact maxima: only the largest upper bounds are refined (same value as every exact distance).
     return max(SurfaceIndex(positions, faces).max_distance(reference.points),
                reference.index.max_distance(backward))
+
+
+def exceeds(reference: Reference, positions: np.ndarray, faces: np.ndarray, tolerance: float) -> bool:
+    """``deviation(reference, positions, faces) > tolerance`` (metres), decided with less work:
+    each direction's maximum is taken with ``tolerance`` as its floor (points whose nearest probe
+    is within it are not refined; :meth:`~exporter.quality.SurfaceIndex.max_distance` returns
+    max(floor, exact maximum), so it exceeds the floor exactly when the exact maximum does), and
+    the level's own surface index is built only when the level's points stay within it."""
+    if len(faces) == 0:
+        return True
+    rng = _resume(reference.rng_after)
+    corners = positions[np.unique(faces)]
+    backward = np.vstack([corners, sample_surface(positions, faces, SAMPLES, rng)])
+    # A point equal to a corner of the other side is on its surface (distance 0, never above the
+    # floor): only the others are looked up (most vertices are kept from LOD0).
+    if reference.index.max_distance(backward[_off(backward, reference.corners)], floor=tolerance) > tolerance:
+        return True
+    forward = reference.points[_off(reference.points, corners)]
+    return len(forward) > 0 and SurfaceIndex(positions, faces).max_distance(forward, floor=tolerance) > tolerance
+
+
+def _off(points: np.ndarray, corners: np.ndarray) -> np.ndarray:
+    """(p,) bool: the points (p, 3) metres not bit for bit equal to any of ``corners`` (c, 3)."""
+    row = np.dtype((np.void, 3 * points.dtype.itemsize))
+    return ~np.isin(np.ascontiguousarray(points).view(row).reshape(-1),
+                    np.ascontiguousarray(corners, dtype=points.dtype).view(row).reshape(-1))
 
 
 def diagonal(positions: np.ndarray) -> float:
