@@ -45,7 +45,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from exporter.config import TextureOptions  # noqa: E402
 from exporter.model import Texture  # noqa: E402
-from exporter.textures import AUTO_MIN_PSNR_DB, build_texture_lods, clear_texture_cache, image_psnr, level_sizes, predicted_draft_psnr, psnr  # noqa: E402
+from exporter.textures import AUTO_MIN_PSNR_DB, build_texture_lods, clear_texture_cache, image_psnr, level_sizes, psnr, sampled_box_psnr  # noqa: E402
 
 # CPU time of this process: the codecs and resizes are single-threaded, and on a shared machine
 # wall-clock time mostly measures the neighbours' load.
@@ -192,7 +192,7 @@ def measure_atlas(name: str, data: bytes, repeat: int) -> dict:
         careful = full.resize(drafted.size, Image.Resampling.LANCZOS)
         result[f"draft_{factor}"] = psnr(pixels(careful), pixels(drafted))
         # What auto's one-octave-down check estimates for it.
-        result[f"estimate_{factor}"] = predicted_draft_psnr(drafted.convert("RGB"))[0]
+        result[f"estimate_{factor}"] = sampled_box_psnr(drafted.convert("RGB"), 2)
         # Context: a box filter (what mipmapping does) against the same reference.
         result[f"box_{factor}"] = psnr(pixels(careful), pixels(full.reduce(factor)))
     return result

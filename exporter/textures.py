@@ -69,9 +69,14 @@ EXTENSION = {"JPEG": ".jpg", "PNG": ".png"}
 # itself is >= AUTO_MIN_PSNR_DB (scale similarity of images), and only at the factors where that
 # estimate held in benchmarks/bench_textures.py (1/2: -4.7..+2.9 dB off the truth, 1/4: -1.3..+1.7,
 # same side of 35 dB on all 31 atlases; 1/8 overshot by up to 5.9 dB); otherwise it decodes the
-# full image.
+# full image. The same measure decides whether a later level may be a box reduction of the level
+# above. It is taken on a sample of blocks (sampled_box_psnr; agreement with the whole image in
+# docs/textures.md).
 AUTO_MIN_PSNR_DB = 35.0
 AUTO_DRAFT_FACTORS = (2, 4)
+SAMPLE_BLOCKS = 5  # per side: 5 x 5 blocks
+SAMPLE_BLOCK_OUT = 6  # output pixels per block side
+LANCZOS_REACH = 3  # Lanczos-3 reads 3 k source pixels either side of a k-times reduction's pixel
 ALWAYS_DRAFT_FACTORS = (2, 4, 8)
 # JPEG/PNG outputs of a whole run rarely exceed this; an LRU on bytes keeps memory bounded.
 CACHE_MAX_BYTES = 64 * 2**20
@@ -325,56 +330,97 @@ def texture_cache_stats() -> dict:
 
 # --------------------------------------------------------------------------- the pipeline
 
-def predicted_draft_psnr(decoded: Image.Image) -> tuple[float, Image.Image]:
-    """dB: PSNR of a 2x box reduction of ``decoded`` against its 2x Lanczos reduction, and that
-    Lanczos reduction (reused as the next level when sizes match).
+def box_psnr(image: Image.Image, k: int) -> float:
+    """dB: PSNR of a k x k box reduction of ``image`` (``Image.reduce``) against its Lanczos
+    reduction to the same size (``Image.resize``), over the whole image: what :func:`sampled_box_psnr`
+    estimates. ``k`` >= 2; sides not divisible by ``k`` are compared at the box's size."""
+    box = image.reduce(k)
+    return image_psnr(image.resize(box.size, Image.Resampling.LANCZOS), box)
 
-    Estimates how far the IDCT-scaled decode that produced ``decoded`` is from a Lanczos reduction
-    of the full image: the same comparison one octave down, where it is cheap.
+
+def sample_origins(side: int, count: int, block: int, margin: int, k: int) -> list[int]:
+    """First source pixels of ``count`` blocks of ``block`` pixels along a side of ``side`` pixels:
+    one per stratum of the side (inside ``margin``), placed in its stratum by a golden-ratio
+    sequence so the blocks do not line up with an atlas's regular layout; multiples of ``k``."""
+    low, high = margin, side - margin - block
+    stratum = (high - low) / count
+    return [low + int((i + (i * 0.6180339887 + 0.5) % 1.0) * stratum) // k * k for i in range(count)]
+
+
+def sampled_box_psnr(image: Image.Image, k: int) -> float:
+    """dB: :func:`box_psnr` of ``image`` estimated on a fixed sample of blocks (whole image when small).
+
+    ``SAMPLE_BLOCKS`` x ``SAMPLE_BLOCKS`` blocks of ``SAMPLE_BLOCK_OUT``² output pixels, each cut
+    with a margin of ``LANCZOS_REACH * k`` source pixels (the filter's reach) and pasted side by
+    side into one mosaic; the mosaic is reduced both ways and the block interiors compared. With
+    the margins the interiors are bit for bit the pixels a reduction of the whole image gives
+    there (Pillow filters within the reach only), so the estimate differs from the whole-image
+    PSNR only by what the sample misses. Costs a Lanczos pass over ~14 k pixels instead of the
+    image's (0.25 M for a 512² level).
     """
-    half = (max(1, decoded.width // 2), max(1, decoded.height // 2))
-    lanczos = decoded.resize(half, Image.Resampling.LANCZOS)
-    box = decoded.reduce(2) if decoded.width >= 2 and decoded.height >= 2 else decoded
-    return image_psnr(lanczos, box if box.size == half else box.resize(half)), lanczos
+    block, margin = SAMPLE_BLOCK_OUT * k, LANCZOS_REACH * k
+    cell = block + 2 * margin
+    n = SAMPLE_BLOCKS
+    width, height = image.size
+    if width % k or height % k or 4 * (n * cell) ** 2 > width * height:
+        return box_psnr(image, k)
+    rows = [image.crop((0, y - margin, width, y + block + margin)) for y in sample_origins(height, n, block, margin, k)]
+    band = Image.new(image.mode, (width, n * cell), None)  # every pixel is pasted over: no fill
+    for i, row in enumerate(rows):
+        band.paste(row, (0, i * cell))
+    mosaic = Image.new(image.mode, (n * cell, n * cell), None)
+    for j, x in enumerate(sample_origins(width, n, block, margin, k)):
+        mosaic.paste(band.crop((x - margin, 0, x + block + margin, n * cell)), (j * cell, 0))
+    side = n * cell // k
+    difference = ImageChops.difference(mosaic.resize((side, side), Image.Resampling.LANCZOS), mosaic.reduce(k))
+    inner = slice(margin // k, margin // k + SAMPLE_BLOCK_OUT)
+    errors = np.asarray(difference).reshape(n, cell // k, n, cell // k, -1)[:, inner, :, inner].astype(np.float64)
+    mse = float(np.mean(errors * errors))
+    return math.inf if mse == 0.0 else 10.0 * math.log10(255.0 * 255.0 / mse)
+
+
+class _BoxCheck:
+    """``auto``'s per-level check, each (image, k) measured once: may the level ``k`` times
+    smaller be a box reduction of ``image``?"""
+
+    def __init__(self) -> None:
+        self.found: dict = {}
+        self.images: list = []  # keeps the measured images alive, so their ids stay theirs
+
+    def passes(self, image: Image.Image, k: int) -> bool:
+        key = (id(image), k)
+        if key not in self.found:
+            self.images.append(image)
+            self.found[key] = sampled_box_psnr(image, k) >= AUTO_MIN_PSNR_DB
+        return self.found[key]
 
 
 def _decode_jpeg(header: Image.Image, where: str, options: TextureOptions,
-                 target: Optional[tuple[int, int]]) -> tuple[Optional[Image.Image], bool, dict]:
+                 target: Optional[tuple[int, int]], check: _BoxCheck) -> tuple[Optional[Image.Image], bool]:
     """Decode the JPEG opened lazily as ``header`` once for levels no larger than ``target``
     pixels (None: validation only).
 
-    Returns the image (None when ``auto``'s check asks for the full image instead), whether each
-    level is resized from the previous one, and Lanczos reductions of the image already made
-    ({size: image}). The full-size pixels are never needed for themselves: LOD0 keeps the source
-    bytes.
+    Returns the image (None when ``auto``'s check asks for the full image instead) and whether each
+    level is resized from the previous one. The full-size pixels are never needed for themselves:
+    LOD0 keeps the source bytes.
     """
     if target is None:
         _draft(header, (1, 1), ALWAYS_DRAFT_FACTORS)
-        return _decode(header, where), False, {}
+        return _decode(header, where), False
     full_width = header.width
     _draft(header, target, draft_factors(options))
     decoded = _decode(header, where)
     chain = options.fast_jpeg_downscale != "never"
-    if decoded.width < full_width and options.fast_jpeg_downscale == "auto":
-        estimate, lanczos = predicted_draft_psnr(decoded)
-        if estimate < AUTO_MIN_PSNR_DB:
-            # Too much detail near the pixel size: the IDCT shortcut would alias it.
-            return None, chain, {}
-        return decoded, chain, {lanczos.size: lanczos}
-    return decoded, chain, {}
+    # Too much detail near the pixel size: the IDCT shortcut would alias it.
+    if decoded.width < full_width and options.fast_jpeg_downscale == "auto" and not check.passes(decoded, 2):
+        return None, chain
+    return decoded, chain
 
 
 def integer_factor(source: tuple[int, int], size: tuple[int, int]) -> int:
     """The whole number ``k`` with ``source == k * size`` on both sides (pixels), else 0."""
     k = source[0] // size[0]
     return k if k >= 1 and source == (size[0] * k, size[1] * k) else 0
-
-
-def _reduce(image: Image.Image, size: tuple[int, int], box: bool) -> Image.Image:
-    """``image`` reduced to ``size`` pixels: Lanczos, or with ``box`` a k x k box average
-    (``Image.reduce``) when ``size`` divides the image's size by a whole ``k``."""
-    k = integer_factor(image.size, size) if box else 0
-    return image.reduce(k) if k > 1 else image.resize(size, Image.Resampling.LANCZOS)
 
 
 def _output_format(source_format: str, transparent: bool, options: TextureOptions) -> str:
@@ -394,26 +440,28 @@ def _build_levels(data: bytes, scales: Sequence[float], options: TextureOptions,
     reduced = [size for size in sizes if size != (width, height)]
     # CMYK JPEGs are not portable glTF images (Unity cannot load them): convert even LOD0.
     keeps_bytes = source_format in MIME and header.mode != "CMYK"
+    check = _BoxCheck()
     if source_format == "JPEG" and keeps_bytes:
         largest = max(reduced, key=lambda size: size[0] * size[1]) if reduced else None
         # The header opened above is decoded in place (at reduced size): no second parse.
-        decoded, chain, known = _decode_jpeg(header, where, options, largest)
+        decoded, chain = _decode_jpeg(header, where, options, largest, check)
         # Holding the header could pin its reduced pixels: dropped before a full decode (peak
         # memory on big atlases) and while the levels are made.
         header = None
         if decoded is None:
             decoded = _decode(open_header(data, where, options.max_pixels), where)
     else:
-        decoded, chain, known = _decode(header, where), False, {}
+        decoded, chain = _decode(header, where), False
     transparent = has_transparency(decoded)
     if not transparent and decoded.mode == "RGBA":
         decoded = decoded.convert("RGB")
     fmt = _output_format(source_format, transparent, options)
     source_level = (data, source_format, width, height, True) if keeps_bytes else None
 
-    # ``always`` keeps box-filter quality down the whole chain (Image.reduce, ~15x cheaper than
-    # Lanczos); the other modes reduce with Lanczos.
-    box = chain and options.fast_jpeg_downscale == "always"
+    # A level made from the level above (never from the full-size source) is a box reduction
+    # (Image.reduce, ~15x cheaper than Lanczos) under ``always``, and under ``auto`` where the
+    # check predicts it within AUTO_MIN_PSNR_DB of Lanczos; Lanczos otherwise.
+    mode = options.fast_jpeg_downscale if chain else "never"
     levels: list[tuple] = []
     previous = decoded
     for size in sizes:
@@ -426,12 +474,13 @@ def _build_levels(data: bytes, scales: Sequence[float], options: TextureOptions,
             levels.append(source_level)
             continue
         base = previous if chain else decoded
+        k = integer_factor(base.size, size)
         if base.size == size:
             resized = base
-        elif base is decoded and size in known:
-            resized = known[size]
+        elif k > 1 and (mode == "always" or mode == "auto" and base.size != (width, height) and check.passes(base, k)):
+            resized = base.reduce(k)
         else:
-            resized = _reduce(base, size, box)
+            resized = base.resize(size, Image.Resampling.LANCZOS)
         levels.append((_encode(resized, fmt, options.jpeg_quality), fmt, size[0], size[1], False))
         previous = resized
     return levels

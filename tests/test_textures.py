@@ -346,9 +346,11 @@ def test_fast_path_on_a_real_aerial_atlas_is_close_to_careful_lanczos():
     full = Image.open(io.BytesIO(data))
     assert [(t.width, t.height) for t in levels] == [full.size, (full.width // 2, full.height // 2), (full.width // 4, full.height // 4)]
     assert levels[0].data is data
-    for level in levels[1:]:
+    # LOD1 is the IDCT-scaled decode; LOD2 its box reduction (auto's check passes on photographs),
+    # about 2 dB below Lanczos from the full image (docs/textures.md).
+    for level, floor_db in zip(levels[1:], (35.0, 33.0)):
         reference = np.asarray(full.resize((level.width, level.height), Image.Resampling.LANCZOS))
-        assert psnr(reference, np.asarray(decoded(level))) >= 35.0
+        assert psnr(reference, np.asarray(decoded(level))) >= floor_db
 
 
 def test_psnr():
