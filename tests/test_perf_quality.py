@@ -13,7 +13,8 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from exporter.config import Config
-from exporter.quality import (SurfaceIndex, boundary_loops, face_normals, joined, measure_lod, point_triangle_distance,
+from exporter import quality
+from exporter.quality import (SurfaceIndex, boundary_loops, boundary_quality, face_normals, joined, measure_lod, point_triangle_distance,
                               rasterise, row_lengths, silhouettes)
 from exporter.simplify import build_mesh_lods
 from test_simplify_shapes import box_building, crafted_building
@@ -289,3 +290,47 @@ def test_a_point_as_far_as_its_nearest_probe_still_counts_above_a_close_floor():
     for floor in (0.5 * (1 - 1e-12), 0.5 * (1 - 1e-6), 0.5, 0.25):
         assert index.max_distance(point, floor=floor) == 0.5
     assert index.max_distance(point, floor=0.75) == 0.75
+
+
+def reference_boundary_keys(source_parts, lod_parts):
+    """triangle_ratio, boundary_length_change and new_holes as measure_lod computed them inline
+    (f369deb): reference boundary loops, the outline's length as norm(diff).sum()."""
+    source_pos, source_faces = joined(source_parts)
+    lod_pos, lod_faces = joined(lod_parts)
+    border, loops = reference_boundary_loops(source_faces, len(source_pos))
+    length = float(np.linalg.norm(np.diff(source_pos[border], axis=1), axis=-1).sum())
+    lod_border, lod_loops = reference_boundary_loops(lod_faces, len(lod_pos))
+    lod_length = float(np.linalg.norm(np.diff(lod_pos[lod_border], axis=1), axis=-1).sum()) if len(lod_border) else 0.0
+    diagonal = max(float(np.linalg.norm(source_pos.max(0) - source_pos.min(0))), 1e-9)
+    source_tris = sum(p.triangle_count for p in source_parts)
+    return {
+        "triangle_ratio": float(sum(p.triangle_count for p in lod_parts) / source_tris),
+        "boundary_length_change": float((lod_length - length) / length if length > 0 else lod_length / diagonal),
+        "new_holes": int(max(0, lod_loops - loops)),
+    }
+
+
+@pytest.mark.parametrize("boundary_first", [True, False])
+def test_boundary_quality_keys_are_measure_lods_bit_for_bit(boundary_first):
+    """On random face subsets of buildings (open boundaries that grow, split and close),
+    whichever of the two runs first (boundary_quality keeps its own light cache of the source
+    side; after measure_lod it reads measure_lod's)."""
+    rng = np.random.default_rng(31)
+    sources = [box_building(5, 3, 20.0, (2, 4), 2), crafted_building(3), crafted_building(6)]
+    checked = 0
+    for source in sources:
+        quality._CACHE.clear()
+        quality._OUTLINES.clear()
+        for keep in (1.0, 0.9, 0.6, 0.3):
+            part = source[0]
+            mask = rng.random(part.triangle_count) < keep
+            level = [dataclasses.replace(part, triangles=part.triangles[mask])] + source[1:]
+            if boundary_first:
+                bounded, measured = boundary_quality(source, level), measure_lod(source, level)
+            else:
+                measured, bounded = measure_lod(source, level), boundary_quality(source, level)
+            expected = reference_boundary_keys(source, level)
+            for key, value in expected.items():
+                assert bounded[key] == measured[key] == value and type(bounded[key]) is type(value)
+            checked += keep < 1.0 and expected["boundary_length_change"] != 0.0
+    assert checked >= 6  # the subsets did change the boundary
