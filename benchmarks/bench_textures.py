@@ -16,6 +16,8 @@ cleared; ratios are medians over ``--repeat`` repetitions):
   the distinct atlases (the cache's effect);
 - ``--folder DIR``: the ``*.jpg`` atlases of a tile folder (e.g. ``exporter.samplegen.generate_tile``
   output) as one more group, with the PSNR of each mode's levels against what the default writes;
+- ``auto``'s sampled check against the whole-image PSNR it estimates, per group (error, decisions
+  that flip, its cost against the floor);
 - ``--export DIR --baseline CHECKOUT``: the ``textures`` stage seconds of a real export of ``DIR``
   (``export_tiles(..., jobs=1)``) with this checkout and with ``CHECKOUT`` (e.g. ``git archive REV |
   tar -x -C /tmp/base``), alternated in fresh processes; median ratio.
@@ -45,7 +47,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from exporter.config import TextureOptions  # noqa: E402
 from exporter.model import Texture  # noqa: E402
-from exporter.textures import AUTO_MIN_PSNR_DB, build_texture_lods, clear_texture_cache, image_psnr, level_sizes, psnr, sampled_box_psnr  # noqa: E402
+from exporter.textures import AUTO_MIN_PSNR_DB, box_psnr, build_texture_lods, clear_texture_cache, image_psnr, level_sizes, psnr, sampled_box_psnr  # noqa: E402
 
 # CPU time of this process: the codecs and resizes are single-threaded, and on a shared machine
 # wall-clock time mostly measures the neighbours' load.
@@ -256,8 +258,8 @@ def measure_export(folder: str, baseline: Path, repeat: int) -> None:
 
 
 def cost_breakdown(atlas_list: list[tuple[str, bytes]], repeat: int) -> None:
-    """What the steps of the default fast path cost against the codec floor (same atlases, one
-    run): why ``auto`` cannot go below the floor while LOD2 keeps Lanczos quality."""
+    """What the steps of the fast path cost against the codec floor (same atlases, one run): the
+    draft decode, LOD2 by Lanczos or by box, ``auto``'s check sampled or on the whole image."""
     def decode(data, size=None):
         image = Image.open(io.BytesIO(data))
         if size:
@@ -266,7 +268,7 @@ def cost_breakdown(atlas_list: list[tuple[str, bytes]], repeat: int) -> None:
         return image
 
     steps = {"floor: full decode + encode levels": [], "draft decode 1/2": [], "Lanczos 1/2 -> 1/4": [],
-             "auto's check (box 1/2 -> 1/4, PSNR)": [], "box 1/2 -> 1/4 (Image.reduce)": [], "encode levels": []}
+             "auto's sampled check (sampled_box_psnr)": [], "whole-image check (box_psnr)": [], "box 1/2 -> 1/4 (Image.reduce)": [], "encode levels": []}
     for _ in range(repeat):
         spent = dict.fromkeys(steps, 0.0)
         for _, data in atlas_list:
@@ -280,10 +282,14 @@ def cost_breakdown(atlas_list: list[tuple[str, bytes]], repeat: int) -> None:
             spent["draft decode 1/2"] += clock() - start
             start = clock()
             quarter = half.resize(quarter_size, Image.Resampling.LANCZOS)
-            spent["Lanczos 1/2 -> 1/4"] += clock() - start
+            spent_lanczos = clock() - start
+            spent["Lanczos 1/2 -> 1/4"] += spent_lanczos
             start = clock()
             image_psnr(quarter, half.reduce(2))
-            spent["auto's check (box 1/2 -> 1/4, PSNR)"] += clock() - start
+            spent["whole-image check (box_psnr)"] += clock() - start + spent_lanczos
+            start = clock()
+            sampled_box_psnr(half, 2)
+            spent["auto's sampled check (sampled_box_psnr)"] += clock() - start
             start = clock()
             half.reduce(2)
             spent["box 1/2 -> 1/4 (Image.reduce)"] += clock() - start
@@ -307,11 +313,11 @@ def lod2_filters(label: str, atlas_list: list[tuple[str, bytes]]) -> None:
         y, cb, cr = half.convert("YCbCr").split()
         return Image.merge("YCbCr", (y.resize(size, Image.Resampling.LANCZOS), cb.reduce(2), cr.reduce(2))).convert("RGB")
 
-    filters = {"Lanczos (auto)": lambda half, size: half.resize(size, Image.Resampling.LANCZOS),
+    filters = {"Lanczos (never; auto where its check fails)": lambda half, size: half.resize(size, Image.Resampling.LANCZOS),
                "Lanczos luma, box chroma": luma_lanczos,
                "bicubic": lambda half, size: half.resize(size, Image.Resampling.BICUBIC),
                "Hamming": lambda half, size: half.resize(size, Image.Resampling.HAMMING),
-               "box (always)": lambda half, size: half.reduce(2)}
+               "box (always; auto where its check passes)": lambda half, size: half.reduce(2)}
     found = {name: [] for name in filters}
     for _, data in atlas_list:
         full = Image.open(io.BytesIO(data)).convert("RGB")
@@ -326,6 +332,38 @@ def lod2_filters(label: str, atlas_list: list[tuple[str, bytes]]) -> None:
             found[name].append(psnr(reference, pixels(Image.open(out))))
     print(f"\nLOD2 of {label} ({len(atlas_list)} atlases) from the 1/2 decode, q90 vs Lanczos from full, min/mean dB: "
           + ", ".join(f"{name} {min(v):.1f}/{statistics.mean(v):.1f}" for name, v in found.items()))
+
+
+def check_agreement(label: str, atlas_list: list[tuple[str, bytes]], repeat: int) -> None:
+    """``auto``'s sampled check (``sampled_box_psnr``) against the whole-image value it estimates
+    (``box_psnr``), at 2x on the two images it is taken on: the 1/2 IDCT-scaled decode (the guard
+    of LOD1, and LOD2's box-or-Lanczos choice) and a Lanczos 1/2 of the full image (the fallback's
+    LOD1). Sampled - whole in dB, decisions on the other side of the threshold, and the check's CPU
+    time against the codec floor (median of ``repeat``)."""
+    errors, flips, ratios = [], [], []
+    for name, data in atlas_list:
+        half = Image.open(io.BytesIO(data))
+        size = (half.width // 2, half.height // 2)
+        half.draft("RGB", size)
+        half.load()
+        careful = Image.open(io.BytesIO(data)).convert("RGB").resize(size, Image.Resampling.LANCZOS)
+        for image in (half.convert("RGB"), careful):
+            whole, sampled = box_psnr(image, 2), sampled_box_psnr(image, 2)
+            errors.append(sampled - whole)
+            if (whole >= AUTO_MIN_PSNR_DB) != (sampled >= AUTO_MIN_PSNR_DB):
+                flips.append(f"{name} whole {whole:.1f} sampled {sampled:.1f}")
+        runs = []
+        for _ in range(repeat):
+            start = clock()
+            codec_floor(data, [careful, careful.reduce(2)])
+            floor = clock() - start
+            start = clock()
+            sampled_box_psnr(half, 2)
+            runs.append((clock() - start) / floor)
+        ratios.append(statistics.median(runs))
+    print(f"\nauto's sampled check on {label} ({len(atlas_list)} atlases x 2 images): sampled - whole "
+          f"{min(errors):+.2f}..{max(errors):+.2f} dB; other side of {AUTO_MIN_PSNR_DB:g} dB: {len(flips)} {flips}; "
+          f"check / floor mean {statistics.mean(ratios):.3f} (max {max(ratios):.3f})")
 
 
 def folder_atlases(folder: str, limit: int) -> list[tuple[str, bytes]]:
@@ -393,6 +431,10 @@ def main() -> None:
         lod2_filters(args.folder, folder_atlases(args.folder, args.limit))
     if REAL.is_dir():
         lod2_filters("the real aerial atlases", [(path.name, path.read_bytes()) for path in sorted(REAL.glob("*.jpg"))])
+    for label, group in groups.items():
+        names = {r["name"] for r in group}
+        if group:
+            check_agreement(label, [a for a in atlas_list if a[0] in names], args.repeat)
     if args.export:
         if args.baseline is None:
             parser.error("--export needs --baseline")

@@ -24,14 +24,16 @@ JPEG for JPEG sources, PNG with alpha for transparent PNGs, and PNG (or JPEG wit
 
 Speed: a source is decoded once. A JPEG source is decoded directly at 1/2, 1/4 or 1/8 size where
 the reduced levels allow it (libjpeg's scaled IDCT via Pillow's ``Image.draft``), and each smaller
-level is a Lanczos reduction of the previous one. The scaled IDCT filters about like a box filter:
-fine on photographs, aliasing on detail near the pixel size, so ``fast_jpeg_downscale: auto``
-keeps it for an atlas only when a PSNR estimate against a careful Lanczos reduction of the full
-image is >= 35 dB, and otherwise decodes the full image (:func:`predicted_draft_psnr`; numbers in
-``benchmarks/bench_textures.py`` and ``docs/textures.md``). ``always`` skips the check and also
-reduces each later level from the previous one with a box (``Image.reduce``) where the size divides
-evenly: below the codec floor, at box-filter quality. Results are kept in a process-wide LRU
-cache bounded in bytes, so an atlas shared by many buildings is processed once per process.
+level is made from the previous one. The scaled IDCT filters about like a box filter: fine on
+photographs, aliasing on detail near the pixel size. ``fast_jpeg_downscale: auto`` measures, on the
+level it has, how far a k x k box reduction is from a Lanczos one (PSNR, :func:`sampled_box_psnr`:
+25 fixed 12x12-pixel blocks of a 512² level, bit-exact there): below 35 dB the IDCT shortcut is refused
+(full decode, Lanczos LOD1), and each later level is a box reduction of the level above
+(``Image.reduce``, as GPU mip chains are) where that level passes, Lanczos where it does not.
+``always`` skips the checks (box wherever the size divides evenly); ``never`` decodes the full
+image and makes every level by Lanczos from it. Numbers in ``benchmarks/bench_textures.py`` and
+``docs/textures.md``. Results are kept in a process-wide LRU cache bounded in bytes, so an atlas
+shared by many buildings is processed once per process.
 
 Bounded memory: the declared size is read from the header and checked against ``max_pixels``
 before any pixel is decoded.
@@ -39,8 +41,10 @@ before any pixel is decoded.
 Sources: the paper ("A Method for Constructing and Managing Level of Detail for Non-Closed
 Boundary Models of Buildings", texture atlases a quarter of the pixels per level);
 Pillow handbook (``Image.draft``, ``Image.resize`` with ``LANCZOS``, ``Image.reduce``,
-decompression-bomb protection ``Image.MAX_IMAGE_PIXELS``); libjpeg-turbo's scaled IDCT
-(``scale_num/scale_denom``).
+decompression-bomb protection ``Image.MAX_IMAGE_PIXELS``) and its ``libImaging/Resample.c`` (a
+reduction reads only the source pixels within the filter's support, which makes the sampled
+check's blocks exact); libjpeg-turbo's scaled IDCT (``scale_num/scale_denom``); Unity's texture
+importer (mipmaps by a box filter by default).
 """
 from __future__ import annotations
 
