@@ -1,7 +1,7 @@
 """Mesh levels of detail the paper's way: quadric edge collapse with locks and a geometric filter.
 
-Entry point: :func:`build_mesh_chain` (levels with their ``exact`` flag); :func:`build_mesh_lods`
-is the same without the flags. Data form: :class:`~exporter.model.Part` lists (positions
+Entry point: :func:`build_mesh_chain` (levels with their ``exact`` and ``surface_exact`` flags);
+:func:`build_mesh_lods` is the same without the flags. Data form: :class:`~exporter.model.Part` lists (positions
 (n, 3) float64 metres in the building-local East/Up/North frame, triangles (m, 3) wound outward,
 per-vertex UVs (n, 2) in glTF convention, optional normals).
 

@@ -7,7 +7,8 @@ building-local East/Up/North frame. Distances are exact point-to-triangle distan
 
 Quadric collapse ranks collapses by error but has no error bound in pymeshlab; the guard adds
 one: a level is accepted only when this deviation stays below ``max_error`` x the source's
-bounding-box diagonal, otherwise the level's target is raised by bisection.
+bounding-box diagonal, otherwise the level's target is raised by bisection. The simplifier asks
+:func:`exceeds` (the decision only, with less work); :func:`deviation` gives the distance.
 
 The reference side (LOD0: its probe points, its surface index, the generator state after its
 samples) is prepared once per building (:class:`Reference`) and shared by every level and every
