@@ -423,8 +423,8 @@ class _Source:
     index: SurfaceIndex
 
 
-_CACHE: "OrderedDict[bytes, _Source]" = OrderedDict()
-_OUTLINES: "OrderedDict[bytes, _Outline]" = OrderedDict()
+_CACHE: OrderedDict[bytes, _Source] = OrderedDict()
+_OUTLINES: OrderedDict[bytes, _Outline] = OrderedDict()
 
 
 @dataclass

@@ -12,10 +12,10 @@ import pytest
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from exporter.config import Config
 from exporter import quality
-from exporter.quality import (SurfaceIndex, boundary_loops, boundary_quality, face_normals, joined, measure_lod, point_triangle_distance,
-                              rasterise, row_lengths, silhouettes)
+from exporter.config import Config
+from exporter.quality import (SurfaceIndex, boundary_loops, boundary_quality, face_normals, joined, measure_lod,
+                              point_triangle_distance, rasterise, row_lengths, silhouettes)
 from exporter.simplify import build_mesh_lods
 from test_simplify_shapes import box_building, crafted_building
 
