@@ -360,13 +360,14 @@ def sampled_box_psnr(image: Image.Image, k: int) -> float:
     the margins the interiors are bit for bit the pixels a reduction of the whole image gives
     there (Pillow filters within the reach only), so the estimate differs from the whole-image
     PSNR only by what the sample misses. Costs a Lanczos pass over ~14 k pixels instead of the
-    image's (0.25 M for a 512² level).
+    image's (0.25 M for a 512² level). Levels under 4 x the mosaic's pixels, narrower than two
+    cells or with sides not divisible by ``k`` are measured whole.
     """
     block, margin = SAMPLE_BLOCK_OUT * k, LANCZOS_REACH * k
     cell = block + 2 * margin
     n = SAMPLE_BLOCKS
     width, height = image.size
-    if width % k or height % k or 4 * (n * cell) ** 2 > width * height:
+    if width % k or height % k or min(width, height) < 2 * cell or 4 * (n * cell) ** 2 > width * height:
         return box_psnr(image, k)
     rows = [image.crop((0, y - margin, width, y + block + margin)) for y in sample_origins(height, n, block, margin, k)]
     band = Image.new(image.mode, (width, n * cell), None)  # every pixel is pasted over: no fill

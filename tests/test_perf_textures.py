@@ -160,11 +160,11 @@ def whole_image_errors(image: Image.Image, k: int) -> np.ndarray:
     return np.asarray(image.resize(size, LANCZOS)).astype(np.float64) - np.asarray(image.reduce(k)).astype(np.float64)
 
 
-@pytest.mark.parametrize("k", [2, 4])
-def test_sampled_check_is_the_whole_image_comparison_on_its_blocks(k):
+@pytest.mark.parametrize("width, height, k", [(512, 512, 2), (512, 512, 4), (768, 256, 2)])
+def test_sampled_check_is_the_whole_image_comparison_on_its_blocks(width, height, k):
     """The mosaic's block interiors are bit for bit the whole-image reductions there: the sampled
     PSNR equals the PSNR of the whole-image difference restricted to the same blocks."""
-    image = Image.fromarray(np.concatenate([sharp_rgb(512, 256), smooth_rgb(512, 256)]))
+    image = Image.fromarray(np.concatenate([sharp_rgb(width, height // 2), smooth_rgb(width, height // 2)]))
     block, margin = textures.SAMPLE_BLOCK_OUT * k, textures.LANCZOS_REACH * k
     n = textures.SAMPLE_BLOCKS
     ys = textures.sample_origins(image.height, n, block, margin, k)
@@ -178,9 +178,10 @@ def test_sampled_check_is_the_whole_image_comparison_on_its_blocks(k):
     assert textures.sampled_box_psnr(image, k) != pytest.approx(textures.box_psnr(image, k), abs=0.01)
 
 
-def test_sampled_check_on_a_small_image_is_the_whole_image():
-    image = Image.fromarray(sharp_rgb(96, 64))
-    assert textures.sampled_box_psnr(image, 2) == textures.box_psnr(image, 2)
+@pytest.mark.parametrize("width, height, k", [(96, 64, 2), (2048, 32, 2), (40, 2048, 2), (510, 512, 4)])
+def test_sampled_check_on_small_narrow_or_indivisible_images_is_the_whole_image(width, height, k):
+    image = Image.fromarray(sharp_rgb(width, height))
+    assert textures.sampled_box_psnr(image, k) == textures.box_psnr(image, k)
 
 
 def test_sampled_check_separates_photo_like_from_pixel_sharp_levels():
