@@ -192,7 +192,7 @@ def process_entry(entry: Entry, config: Config, out_dir: str, digest: str, finge
     the reason."""
     from .gltf_writer import glb_bytes
     from .placement import building_placement, relative_placement
-    from .quality import exact_quality, measure_lod
+    from .quality import boundary_quality, exact_quality, measure_lod
     from .simplify import build_mesh_chain
 
     seconds = {stage: 0.0 for stage in STAGES}
@@ -227,6 +227,8 @@ def process_entry(entry: Entry, config: Config, out_dir: str, digest: str, finge
                 qualities.append(exact_quality(parts_by_level[0], parts_by_level[level]))
             elif level > 1 and same_geometry(parts_by_level[level], parts_by_level[level - 1]):
                 qualities.append(dict(qualities[-1]))  # e.g. the level above already met this target
+            elif chain[level].surface_exact:  # same surface, outline changed (a closed slit)
+                qualities.append(boundary_quality(parts_by_level[0], parts_by_level[level]))
             else:
                 qualities.append(measure_lod(parts_by_level[0], parts_by_level[level]))
         lap("quality")

@@ -228,32 +228,40 @@ def test_the_same_cityjson_object_id_in_two_files_of_one_tile_gets_two_outputs(t
     assert len(folders_out) == 2
 
 
-def test_exact_levels_carry_identity_metrics_and_changed_levels_are_measured(tmp_path, small_tile):
-    """A level the lossless planar pass settled is not measured (its metrics are identity's and
-    agree with measuring it); a level the quadric collapse changed is measured (without the planar
-    pass, collapses are what makes the levels)."""
+def test_exact_levels_carry_identity_metrics_and_changed_levels_are_measured(tmp_path):
+    """A level the lossless planar pass settled is not measured (identity metrics, which agree
+    with measuring it); a level with LOD0's surface but a closed slit has only its outline
+    measured; a level the quadric collapse changed is measured in full."""
     from exporter.config import Config, config_from_dict
     from exporter.pipeline import process_entry
     from exporter.quality import measure_lod
     from exporter.readers import load_entry, scan_folder
+    from exporter.samplegen import generate_tile
     from exporter.simplify import build_mesh_chain
 
-    seen = {True: 0, False: 0}
+    tile = tmp_path / TILE.name
+    generate_tile(tile, count=16, seed=3, tile=TILE, atlas_size=32)
+    seen = {"exact": 0, "surface": 0, "changed": 0}
     for config in (Config(), config_from_dict({"simplify": {"planar_retriangulation": False}})):
-        for entry in scan_folder(small_tile, config.readers).entries:
+        for entry in scan_folder(tile, config.readers).entries:
             record = process_entry(entry, config, str(tmp_path / "out"), "digest").record
             chain = build_mesh_chain(load_entry(entry, config.readers).parts, config.lods, config.simplify)
             for level in range(1, len(chain)):
                 quality = record["lods"][level]["quality"]
                 measured = measure_lod(chain[0].parts, chain[level].parts)
-                seen[chain[level].exact] += 1
-                if chain[level].exact:
-                    assert (quality["hausdorff_rel"], quality["silhouette_iou"], quality["new_holes"]) == (0.0, 1.0, 0)
+                surface = {key: quality[key] for key in ("hausdorff_rel", "silhouette_iou", "wall_coverage")}
+                outline = {key: quality[key] for key in ("boundary_length_change", "new_holes", "triangle_ratio")}
+                if chain[level].surface_exact:
+                    seen["exact" if chain[level].exact else "surface"] += 1
+                    assert surface == {"hausdorff_rel": 0.0, "silhouette_iou": 1.0, "wall_coverage": 1.0}
                     assert measured["hausdorff_rel"] < 1e-6 and measured["silhouette_iou"] > 0.99
+                    assert outline == pytest.approx({key: measured[key] for key in outline}, abs=1e-12)
+                    if chain[level].exact:
+                        assert (outline["boundary_length_change"], outline["new_holes"]) == (0.0, 0)
                 else:
+                    seen["changed"] += 1
                     assert quality == pytest.approx(measured)
-                assert quality["triangle_ratio"] == pytest.approx(measured["triangle_ratio"])
-    assert seen[True] and seen[False], seen  # both paths ran
+    assert all(seen.values()), seen  # every path ran
 
 
 def _age(folder: Path, seconds: float) -> None:
