@@ -163,7 +163,7 @@ class TextureOptions:
 
     jpeg_quality: int = field(default=90, metadata=meta(_integer(1, 100), "JPEG quality of the reduced atlases (LOD0 keeps the source bytes)"))
     min_size: int = field(default=16, metadata=meta(_integer(1, 16384), "pixels: no atlas side is reduced below this"))
-    fast_jpeg_downscale: str = field(default="auto", metadata=meta(_choice("auto", "always", "never"), "decode JPEG at reduced size (DCT scaling), each later level from the previous one; auto = where predicted PSNR >= 35 dB (Lanczos), always = every atlas, later levels by box filter (fastest, ~2 dB lower at LOD2)"))
+    fast_jpeg_downscale: str = field(default="auto", metadata=meta(_choice("auto", "always", "never"), "decode JPEG at reduced size (DCT scaling), each later level from the previous one; auto = DCT scaling, and later levels by box filter (as mipmaps), only where a sampled check predicts >= 35 dB PSNR against Lanczos (else full decode / Lanczos); always = both everywhere (fastest; aliases pixel-sharp detail); never = Lanczos from the full image for every level"))
     opaque_png_to_jpeg: bool = field(default=False, metadata=meta(parse_bool, "write reduced levels of fully opaque PNG atlases as JPEG"))
     max_pixels: int = field(default=16384 * 16384, metadata=meta(_integer(1), "refuse a source atlas with more pixels than this (bounded memory)"))
 
