@@ -56,6 +56,8 @@ def child_export(tile: str, out: str, jobs: int, force: bool) -> None:
         "reused": stats.reused,
         "stages": stats.seconds,
         "peak_rss_mb": peak_rss_mb(),
+        "peak_main_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+        "peak_worker_mb": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0,
     }))
 
 
@@ -143,6 +145,8 @@ def main() -> None:
         (f"s per building: {args.buildings} vs {args.small} buildings", f"{(full['seconds'] / n) / (small['seconds'] / small['buildings']):.2f}"),
         (f"peak memory MiB: {args.small} buildings", f"{small['peak_rss_mb']:.0f}"),
         (f"peak memory MiB: {args.buildings} buildings", f"{full['peak_rss_mb']:.0f}"),
+        (f"  main / largest worker, {args.small}", f"{small['peak_main_mb']:.0f} / {small['peak_worker_mb']:.0f}"),
+        (f"  main / largest worker, {args.buildings}", f"{full['peak_main_mb']:.0f} / {full['peak_worker_mb']:.0f}"),
         ("peak memory ratio full / small", f"{full['peak_rss_mb'] / small['peak_rss_mb']:.2f}"),
     ]
     if large:
@@ -150,6 +154,7 @@ def main() -> None:
         rows += [
             (f"s per building: {args.large} vs {args.small} buildings", f"{(large['seconds'] / large['buildings']) / per_small:.2f}"),
             (f"peak memory MiB: {args.large} buildings", f"{large['peak_rss_mb']:.0f}"),
+            (f"  main / largest worker, {args.large}", f"{large['peak_main_mb']:.0f} / {large['peak_worker_mb']:.0f}"),
             ("peak memory ratio large / small", f"{large['peak_rss_mb'] / small['peak_rss_mb']:.2f}"),
         ]
     for label, value in rows:

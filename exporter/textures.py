@@ -84,6 +84,9 @@ LANCZOS_REACH = 3  # Lanczos-3 reads 3 k source pixels either side of a k-times 
 ALWAYS_DRAFT_FACTORS = (2, 4, 8)
 # JPEG/PNG outputs of a whole run rarely exceed this; an LRU on bytes keeps memory bounded.
 CACHE_MAX_BYTES = 64 * 2**20
+# Atlases remembered as seen once (a few hundred bytes each): only a second sighting is cached, so
+# a tile of one atlas per building (VWorld) keeps no texture bytes at all.
+SEEN_MAX_ENTRIES = 16384
 
 
 # --------------------------------------------------------------------------- sizes
@@ -271,11 +274,15 @@ class _LevelCache:
     """Process-wide LRU of finished levels (or of the problem found), bounded by total bytes.
 
     Keys are ``(_Content(source bytes), scales, options)``; the source bytes are counted in the
-    budget.
+    budget. Admission on the second sighting: a key's first result is not stored, only noted (by
+    hash, no bytes held) in a bounded LRU of ``seen_max`` keys, so atlases used once never occupy
+    memory and a shared atlas is built at most twice.
     """
 
-    def __init__(self, max_bytes: int) -> None:
+    def __init__(self, max_bytes: int, seen_max: int = SEEN_MAX_ENTRIES) -> None:
         self.max_bytes = max_bytes
+        self.seen_max = seen_max
+        self.seen: OrderedDict = OrderedDict()  # hash((content hash, scales, options)) -> None
         self.entries: OrderedDict = OrderedDict()  # key -> levels tuple or problem str
         self.bytes = 0
         self.hits = 0
@@ -305,6 +312,13 @@ class _LevelCache:
         with self.lock:
             if key in self.entries:
                 return
+            sighting = hash(key)
+            if sighting not in self.seen:  # first sighting: remember it, keep nothing
+                self.seen[sighting] = None
+                if len(self.seen) > self.seen_max:
+                    self.seen.popitem(last=False)
+                return
+            del self.seen[sighting]
             self.entries[key] = value
             self.bytes += size
             while self.bytes > self.max_bytes:
@@ -314,6 +328,7 @@ class _LevelCache:
     def clear(self) -> None:
         with self.lock:
             self.entries.clear()
+            self.seen.clear()
             self.bytes = self.hits = self.misses = 0
 
 

@@ -265,40 +265,63 @@ def decode_calls(monkeypatch):
     return calls
 
 
-def test_identical_bytes_are_decoded_once(decode_calls):
+def test_identical_bytes_are_decoded_at_most_twice(decode_calls):
+    """Admission on the second sighting: the first build is only noted, the second is stored,
+    every later one is a hit (another building's copy of the same bytes included)."""
     data = encode(smooth_rgb(256, 256), "JPEG")
     first = build_texture_lods(texture_of(data, name="a.jpg"), SCALES, TextureOptions())
-    assert len(decode_calls) == 1
+    assert len(decode_calls) == 1 and textures.texture_cache_stats()["entries"] == 0
+    again = build_texture_lods(texture_of(data, name="a.jpg"), SCALES, TextureOptions())
+    assert len(decode_calls) == 2 and textures.texture_cache_stats()["entries"] == 1
+    assert [t.data for t in again] == [t.data for t in first]
     copy = bytes(bytearray(data))  # another building's copy of the same file
     second = build_texture_lods(Texture(copy, "image/jpeg", 0, 0, "b.jpg", "other/b.jpg"), SCALES, TextureOptions())
-    assert len(decode_calls) == 1
+    assert len(decode_calls) == 2
     assert second[0].data is copy and second[0].name == "b.jpg" and second[0].source == "other/b.jpg"
     assert [t.data for t in second[1:]] == [t.data for t in first[1:]]
-    assert second[1].data is first[1].data
+    assert second[1].data is again[1].data
     assert textures.texture_cache_stats()["hits"] == 1
     # Other scales or options are other work.
     build_texture_lods(texture_of(data), [1.0, 0.5], TextureOptions())
     build_texture_lods(texture_of(data), SCALES, TextureOptions(jpeg_quality=70))
-    assert len(decode_calls) == 3
+    assert len(decode_calls) == 4
+
+
+def test_atlases_used_once_keep_no_bytes():
+    for seed in range(6):
+        build_texture_lods(texture_of(encode(smooth_rgb(128, 128, seed), "JPEG")), SCALES, TextureOptions())
+    stats = textures.texture_cache_stats()
+    assert stats["entries"] == 0 and stats["bytes"] == 0 and stats["misses"] == 6
 
 
 def test_problems_are_cached_too(decode_calls):
     data = encode(smooth_rgb(128, 128), "JPEG")
     data = data[: len(data) // 2]
-    for name in ("a.jpg", "b.jpg"):
+    for name in ("a.jpg", "b.jpg", "c.jpg", "d.jpg"):
         with pytest.raises(ReadError) as error:
             build_texture_lods(texture_of(data, name=name), SCALES, TextureOptions())
         assert error.value.path == f"tile/{name}"
-    assert len(decode_calls) == 1
+    assert len(decode_calls) == 2
 
 
 def test_cache_is_bounded_in_bytes(monkeypatch):
     monkeypatch.setattr(textures._cache, "max_bytes", 60_000)
     for seed in range(12):
-        build_texture_lods(texture_of(encode(smooth_rgb(128, 128, seed), "PNG")), SCALES, TextureOptions())
+        for _ in range(2):  # a second sighting is what gets stored
+            build_texture_lods(texture_of(encode(smooth_rgb(128, 128, seed), "PNG")), SCALES, TextureOptions())
         stats = textures.texture_cache_stats()
         assert stats["bytes"] <= 60_000
     assert 0 < stats["entries"] < 12
+
+
+def test_seen_list_is_bounded(monkeypatch):
+    monkeypatch.setattr(textures._cache, "seen_max", 3)
+    for seed in range(5):
+        build_texture_lods(texture_of(encode(smooth_rgb(32, 32, seed), "JPEG")), SCALES, TextureOptions())
+    assert len(textures._cache.seen) == 3
+    # The oldest sighting was forgotten: seeing it again is a first sighting, not stored.
+    build_texture_lods(texture_of(encode(smooth_rgb(32, 32, 0), "JPEG")), SCALES, TextureOptions())
+    assert textures.texture_cache_stats()["entries"] == 0
 
 
 # --------------------------------------------------------------------------- the fast JPEG path
@@ -382,9 +405,12 @@ def test_cache_tells_apart_files_with_equal_length_and_ends():
     b[60:68] = 255 - b[60:68]
     data_a, data_b = encode(a, "BMP"), encode(b, "BMP")
     assert len(data_a) == len(data_b) and data_a[:4096] == data_b[:4096] and data_a[-4096:] == data_b[-4096:]
-    first = build_texture_lods(texture_of(data_a, "image/bmp", "a.bmp"), SCALES, TextureOptions())
-    second = build_texture_lods(texture_of(data_b, "image/bmp", "b.bmp"), SCALES, TextureOptions())
-    assert first[0].data != second[0].data and textures.texture_cache_stats()["entries"] == 2
+    for _ in range(3):  # stored on a second sighting; a and b share one hash, so sightings interleave
+        first = build_texture_lods(texture_of(data_a, "image/bmp", "a.bmp"), SCALES, TextureOptions())
+        second = build_texture_lods(texture_of(data_b, "image/bmp", "b.bmp"), SCALES, TextureOptions())
+    assert textures.texture_cache_stats()["entries"] == 2
+    assert first[0].data != second[0].data and first[1].data != second[1].data
+    assert decoded(first[1]).tobytes() != decoded(second[1]).tobytes()
 
 
 def test_16_bit_grey_png_is_reduced_to_8_bits_not_clipped():
