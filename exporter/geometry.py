@@ -9,11 +9,28 @@ from __future__ import annotations
 import numpy as np
 
 
+def cross_rows(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Row-wise u x v of (m, 3) arrays (broadcast), (m, 3) float64: ``np.cross``'s arithmetic (same
+    bits) without its per-call overhead (moveaxis, broadcasting checks), which dominates on the
+    few hundred triangles of a building."""
+    out = np.empty(np.broadcast_shapes(u.shape, v.shape))
+    out[:, 0] = u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1]
+    out[:, 1] = u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2]
+    out[:, 2] = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
+    return out
+
+
+def cross3(a, b) -> np.ndarray:
+    """a x b of two 3-vectors (sequences or (3,) arrays), (3,) float64; ``np.cross`` costs ~20x
+    more on single vectors."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
 def triangle_cross(positions: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """(m, 3) ``(b - a) x (c - a)`` per triangle: outward normal times twice the area (m²)."""
     positions = np.asarray(positions, dtype=np.float64)
     a, b, c = (positions[triangles[:, k]] for k in range(3))
-    return np.cross(b - a, c - a)
+    return cross_rows(b - a, c - a)
 
 
 def unit_vectors(vectors: np.ndarray) -> np.ndarray:

@@ -66,6 +66,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from .geometry import cross_rows
 from .model import Part
 
 RESOLUTION = 128          # silhouette raster side, pixels
@@ -110,12 +111,7 @@ def face_normals(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
     ``np.cross``'s arithmetic written out (its per-call overhead dominates on building meshes)."""
     a, b, c = (positions[faces[:, i]] for i in range(3))
-    u, v = b - a, c - a
-    out = np.empty(u.shape)
-    out[:, 0] = u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1]
-    out[:, 1] = u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2]
-    out[:, 2] = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
-    return out
+    return cross_rows(b - a, c - a)
 
 
 def row_lengths(vectors: np.ndarray) -> np.ndarray:

@@ -138,7 +138,7 @@ def test_cross_rows_is_numpy_cross():
     rng = np.random.default_rng(8)
     u, v = rng.normal(size=(500, 3)) * 1e3, rng.normal(size=(500, 3))
     u[0, 0], v[1, 2] = np.inf, np.nan
-    assert np.array_equal(vworld._cross_rows(u, v), np.cross(u, v), equal_nan=True)
+    assert np.array_equal(vworld.cross_rows(u, v), np.cross(u, v), equal_nan=True)
 
 
 def test_winding_votes_equal_the_np_cross_formulation(buildings):

@@ -52,6 +52,7 @@ import numpy as np
 from .. import geodesy
 from ..config import ReaderOptions
 from ..errors import InputError, ReadError
+from ..geometry import cross3
 from ..model import Building, Part, Skipped, Texture
 from ..tiles import building_tile
 from . import Entry, Scan
@@ -337,11 +338,6 @@ def newell_normal(points: np.ndarray) -> np.ndarray:
     return np.array([(y * z1 - z * y1).sum(), (z * x1 - x * z1).sum(), (x * y1 - y * x1).sum()])
 
 
-def _cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Cross product of two 3-vectors (np.cross costs ~20x more on single vectors)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
-
-
 def triangulate_polygon(rings: list[np.ndarray], outward: np.ndarray) -> np.ndarray:
     """Triangles (m, 3) indexing the concatenated ``rings`` (each (k, 3) metres, outer first, holes
     after), every one oriented so ``(b - a) x (c - a)`` points along ``outward`` (3,).
@@ -352,9 +348,9 @@ def triangulate_polygon(rings: list[np.ndarray], outward: np.ndarray) -> np.ndar
     """
     points = np.concatenate(rings)
     normal = outward / np.linalg.norm(outward)
-    u = _cross3(normal, np.eye(3)[int(np.argmin(np.abs(normal)))])
+    u = cross3(normal, np.eye(3)[int(np.argmin(np.abs(normal)))])
     u /= np.linalg.norm(u)
-    v = _cross3(normal, u)
+    v = cross3(normal, u)
     flat = np.column_stack([(points - points[0]) @ u, (points - points[0]) @ v])
     if len(rings) == 1 and len(points) == 3:
         triangles = np.array([[0, 1, 2]], dtype=np.int64)

@@ -19,6 +19,8 @@ from functools import lru_cache
 import mapbox_earcut
 import numpy as np
 
+from ..geometry import cross_rows
+
 UP = np.array([0.0, 1.0, 0.0])
 
 
@@ -33,8 +35,7 @@ def steps(n: int) -> np.ndarray:
 def triangle_normals(positions: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """Unnormalised ``(b - a) x (c - a)`` per triangle, shape (m, 3), metres squared."""
     a, b, c = (positions[triangles[:, i]] for i in range(3))
-    u, v = b - a, c - a
-    return np.stack([u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1], u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2], u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]], 1)
+    return cross_rows(b - a, c - a)
 
 
 def orient(positions: np.ndarray, triangles: np.ndarray, outward: np.ndarray) -> np.ndarray:

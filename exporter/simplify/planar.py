@@ -28,7 +28,8 @@ import itertools
 import mapbox_earcut
 import numpy as np
 
-from .protect import border_vertices, cross_rows, edge_use, planar_regions, unique_rows
+from ..geometry import cross3, cross_rows
+from .protect import border_vertices, edge_use, planar_regions, unique_rows
 
 
 def _loops(region_faces: np.ndarray) -> list[list[int]] | None:
@@ -58,18 +59,12 @@ def _loops(region_faces: np.ndarray) -> list[list[int]] | None:
     return loops
 
 
-def _cross(a, b) -> np.ndarray:
-    """a x b of two 3-vectors, (3,) float64: the same arithmetic as ``np.cross`` without its
-    per-call overhead (this runs once per planar region)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
-
-
 def _plane_basis(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     n = normal.tolist()
     helper = (1.0, 0.0, 0.0) if abs(n[0]) < 0.9 else (0.0, 1.0, 0.0)
-    u = _cross(n, helper)
+    u = cross3(n, helper)
     u /= np.linalg.norm(u)
-    return u, _cross(n, u.tolist())
+    return u, cross3(n, u.tolist())
 
 
 def straight_vertices(positions: np.ndarray, faces: np.ndarray, regions: np.ndarray, locked: np.ndarray,

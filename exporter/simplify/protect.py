@@ -15,22 +15,13 @@ from typing import Optional
 
 import numpy as np
 
+from ..geometry import cross_rows
 from .weld import lowest_member
 
 # Two faces sharing an edge are one planar region when their unit normals differ by less than
 # this angle (cosine) and the second lies on the first's plane within PLANE_M metres.
 COPLANAR_COS = float(np.cos(np.radians(1.0)))
 PLANE_M = 1e-3
-
-
-def cross_rows(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Row-wise u x v of (m, 3) arrays, (m, 3): ``np.cross``'s arithmetic without its
-    per-call overhead (moveaxis, broadcasting checks), which dominates on the small meshes here."""
-    out = np.empty(np.broadcast_shapes(u.shape, v.shape))
-    out[:, 0] = u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1]
-    out[:, 1] = u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2]
-    out[:, 2] = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
-    return out
 
 
 def face_areas(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
