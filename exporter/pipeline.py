@@ -185,12 +185,11 @@ def reusable_record(previous: Optional[dict], digest: str, out_dir: Path) -> Opt
     return None
 
 
-def process_entry(entry: Entry, config: Config, out_dir: str, digest: Optional[str] = None,
-                  fingerprints: tuple = ()) -> EntryResult:
+def process_entry(entry: Entry, config: Config, out_dir: str, digest: str, fingerprints: tuple = ()) -> EntryResult:
     """Run the whole per-building pipeline for one entry (see module doc); ``digest`` is its input
     hash and ``fingerprints`` its input files' (:func:`input_fingerprints`), recorded for the next
-    run; both are computed here (in the worker) when ``digest`` is None. Never raises for a bad
-    building: returns it as skipped with the reason."""
+    run. Never raises for a bad building: returns it as skipped with
+    the reason."""
     from .gltf_writer import glb_bytes
     from .placement import building_placement, relative_placement
     from .quality import boundary_quality, exact_quality, measure_lod
@@ -205,9 +204,6 @@ def process_entry(entry: Entry, config: Config, out_dir: str, digest: Optional[s
         seconds[stage] += now - clock
         clock = now
 
-    if digest is None:  # hashed before reading: a file changed meanwhile is redone next run
-        fingerprints = tuple(input_fingerprints(entry.inputs, {}))
-        digest = input_hash(entry, config_fingerprint(config), list(fingerprints))
     try:
         building = load_entry(entry, config.readers)
     except ReadError as error:
@@ -381,14 +377,10 @@ def export_tiles(
             entry.id = f"{entry.id}~{count}"
     # Unchanged buildings are recognised here, in the main process, entry by entry as the pool
     # takes work: hashing is cheap I/O (and skipped for files whose stat is unchanged), and a
-    # re-run that changes nothing starts no worker at all. Buildings without a previous record
-    # (first run, --force) are hashed by their worker instead.
+    # re-run that changes nothing starts no worker at all.
     def work() -> Iterable[tuple | EntryResult]:
         for entry in entries:
             before = previous.get((entry.source, entry.id))
-            if before is None:  # nothing to reuse: the worker hashes what it reads (in parallel)
-                yield (entry, config, str(out_dir))
-                continue
             fingerprints = input_fingerprints(entry.inputs, {f["path"]: f for f in before["inputs"]} if before else {})
             digest = input_hash(entry, config_hash, fingerprints)
             previous_run = reusable_record(before, digest, out_dir)
