@@ -268,19 +268,28 @@ def process_entry(entry: Entry, config: Config, out_dir: str, digest: str, finge
 
 # --------------------------------------------------------------------------- previous runs
 
-def previous_records(out_dir: Path) -> dict[tuple[str, str], dict]:
-    """Records a previous run left in ``out_dir``, keyed by (source, id): ``{"tile", "record",
-    "inputs"}`` (inputs: that run's input fingerprints)."""
+def read_record(path: Path) -> Optional[dict]:
+    """A building's record file: ``{"tile", "record", "inputs"}`` (inputs: the input fingerprints
+    of the run that wrote it), or None when it cannot be read (such leftovers are simply redone)."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+        inputs = [item for item in data.get("inputs", []) if isinstance(item, dict) and "path" in item]
+        return {"tile": TileId(**data["tile"]), "record": data["record"], "inputs": inputs}
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def previous_records(out_dir: Path) -> dict[tuple[str, str], Path]:
+    """Record files a previous run left in ``out_dir``, keyed by (source, id). Only the paths are
+    kept: a record is read again when its building comes up (memory stays flat over a city)."""
     found = {}
     for path in out_dir.glob(f"*/*/{RECORD_NAME}"):
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-            tile = TileId(**data["tile"])
-            record = data["record"]
-            inputs = [item for item in data.get("inputs", []) if isinstance(item, dict) and "path" in item]
-            found[(record["source"], record["id"])] = {"tile": tile, "record": record, "inputs": inputs}
-        except (OSError, ValueError, KeyError, TypeError):
-            continue  # unreadable leftovers are simply redone
+        previous = read_record(path)
+        if previous is not None and isinstance(previous["record"], dict):
+            try:
+                found[(previous["record"]["source"], previous["record"]["id"])] = path
+            except (KeyError, TypeError):
+                continue
     return found
 
 
@@ -380,7 +389,8 @@ def export_tiles(
     # re-run that changes nothing starts no worker at all.
     def work() -> Iterable[tuple | EntryResult]:
         for entry in entries:
-            before = previous.get((entry.source, entry.id))
+            before_path = previous.get((entry.source, entry.id))
+            before = read_record(before_path) if before_path is not None else None
             fingerprints = input_fingerprints(entry.inputs, {f["path"]: f for f in before["inputs"]} if before else {})
             digest = input_hash(entry, config_hash, fingerprints)
             previous_run = reusable_record(before, digest, out_dir)
@@ -391,7 +401,9 @@ def export_tiles(
             else:
                 yield (entry, config, str(out_dir), digest, tuple(fingerprints))
 
-    records: dict[TileId, list[dict]] = {}
+    # Only each building's folder is kept: its record is on disk (written before its result came
+    # back) and read again when the tile's manifest is made, so memory does not grow with records.
+    folders_of: dict[TileId, list[str]] = {}
     reused: dict[TileId, int] = {}
     skipped: dict[Optional[TileId], list[Skipped]] = {}
     for scan in scans:
@@ -405,7 +417,7 @@ def export_tiles(
         for stage, value in result.seconds.items():
             stats.seconds[stage] += value
         if result.record is not None:
-            records.setdefault(result.tile, []).append(result.record)
+            folders_of.setdefault(result.tile, []).append(result.record["folder"])
             stats.buildings += 1
             stats.reused += int(result.reused)
             reused[result.tile] = reused.get(result.tile, 0) + int(result.reused)
@@ -417,24 +429,32 @@ def export_tiles(
 
     # Skips without a known tile go to every tile of this run (or a tile of their own when none).
     unplaced = skipped.pop(None, [])
-    tiles = set(records) | set(skipped)
+    tiles = set(folders_of) | set(skipped)
     if unplaced and not tiles:
         raise InputError(f"{', '.join(map(str, folders))}: no building could be read; first problem: {unplaced[0].source}: {unplaced[0].reason}")
     for tile in sorted(tiles, key=lambda t: (t.level, t.idx, t.idy)):
-        stats.tiles.append(write_tile_output(out_dir, tile, config, records.get(tile, []), skipped.get(tile, []) + unplaced, reused.get(tile, 0)))
+        stats.tiles.append(write_tile_output(out_dir, tile, config, folders_of.get(tile, []), skipped.get(tile, []) + unplaced, reused.get(tile, 0)))
     stats.wall_seconds = time.perf_counter() - started
     return stats
 
 
-def write_tile_output(out_dir: Path, tile: TileId, config: Config, records: list[dict], skipped: list[Skipped], reused: int = 0) -> TileResult:
-    """Remove building folders of earlier runs that this run did not produce, then write the
-    manifest (last, atomically)."""
+def write_tile_output(out_dir: Path, tile: TileId, config: Config, folders: list[str], skipped: list[Skipped], reused: int = 0) -> TileResult:
+    """Read the records of the tile's buildings (``folders``, in result order), remove building
+    folders of earlier runs that this run did not produce, then write the manifest (last,
+    atomically)."""
     from .placement import tile_placement
     from .tiles import tile_bounds, tile_center
 
     tile_dir = out_dir / tile.name
     tile_dir.mkdir(parents=True, exist_ok=True)
-    keep = {record["folder"] for record in records}
+    records = []
+    for folder in folders:
+        found = read_record(tile_dir / folder / RECORD_NAME)
+        if found is None:  # removed or damaged since this run wrote it: reported, not invented
+            skipped = skipped + [Skipped(str(tile_dir / folder), f"{RECORD_NAME} vanished or became unreadable during the run", folder, tile)]
+        else:
+            records.append(found["record"])
+    keep = set(folders)
     for record_file in tile_dir.glob(f"*/{RECORD_NAME}"):  # only folders this tool made
         if record_file.parent.name not in keep:
             shutil.rmtree(record_file.parent, ignore_errors=True)

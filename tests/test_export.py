@@ -317,3 +317,22 @@ def test_rerun_trusts_unchanged_stat_and_rehashes_touched_or_recent_files(tmp_pa
     hashed.clear()
     assert pipeline.export_tiles([tile], out, Config(), jobs=1).reused == 6 and str(jpg) not in hashed
     assert pipeline.export_tiles([tile], out, Config(), jobs=1, force=True).reused == 0
+
+
+def test_manifest_is_made_from_the_record_files_and_a_vanished_one_is_reported(tmp_path, small_tile):
+    import exporter.pipeline as pipeline
+    from exporter.config import Config
+
+    out = tmp_path / "out"
+    pipeline.export_tiles([small_tile], out, Config(), jobs=1)
+    manifest = manifest_of(out)
+    tile_dir = out / manifest["tile"]["name"]
+    folders = [b["folder"] for b in manifest["buildings"]]
+    on_disk = [json.loads((tile_dir / f / "building.json").read_text())["record"] for f in folders]
+    assert manifest["buildings"] == on_disk
+    (tile_dir / folders[0] / "building.json").unlink()
+    result = pipeline.write_tile_output(out, TILE, Config(), folders, [])
+    rewritten = manifest_of(out)
+    assert result.buildings == len(folders) - 1 and [b["folder"] for b in rewritten["buildings"]] == folders[1:]
+    assert len(rewritten["skipped"]) == 1 and "vanished" in rewritten["skipped"][0]["reason"]
+    assert (tile_dir / folders[0] / "lod0.glb").is_file()  # its files are left alone
