@@ -284,12 +284,9 @@ def previous_records(out_dir: Path) -> dict[tuple[str, str], Path]:
     kept: a record is read again when its building comes up (memory stays flat over a city)."""
     found = {}
     for path in out_dir.glob(f"*/*/{RECORD_NAME}"):
-        previous = read_record(path)
-        if previous is not None and isinstance(previous["record"], dict):
-            try:
-                found[(previous["record"]["source"], previous["record"]["id"])] = path
-            except (KeyError, TypeError):
-                continue
+        record = (read_record(path) or {}).get("record")
+        if isinstance(record, dict) and "source" in record and "id" in record:
+            found[(record["source"], record["id"])] = path
     return found
 
 
