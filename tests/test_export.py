@@ -164,8 +164,12 @@ def test_interrupted_run_resumes_to_the_same_output_as_an_uninterrupted_one(tmp_
         assert not (out / TILE.name / "lod_manifest.json").exists()
         if how == "ctrl-c":
             assert process.returncode == 130 and "interrupted" in err
-    assert [p for p in out.rglob("*") if p.name.endswith(".tmp")] == [], "nothing half-written"
-    assert export([str(small_tile), "--out", str(out)]) == 0
+    leftovers = [p for p in out.rglob("*") if p.name.endswith(".tmp")]
+    if how == "ctrl-c":
+        assert leftovers == [], "an interrupted write removes its temporary file"
+    else:  # SIGKILL can land inside a write: its temporary may stay, hidden, never under a final name
+        assert all(p.name.startswith(".") for p in leftovers), leftovers
+    assert export([str(small_tile), "--out", str(out)]) == 0  # removes stale temporaries first
     assert manifest_of(out) == manifest_of(reference)
     names = lambda root: sorted(str(p.relative_to(root)) for p in root.rglob("*"))
     assert names(out) == names(reference)
