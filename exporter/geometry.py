@@ -33,6 +33,19 @@ def triangle_cross(positions: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     return cross_rows(b - a, c - a)
 
 
+def unique_float_rows(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``np.unique(keys, axis=0, return_index=True, return_inverse=True)[1:]`` for (c, w) float64
+    rows (the same lexicographic order, first occurrences, inverse): one stable lexsort (rows equal
+    when every column compares equal, lowest index first) instead of a sort of a structured view."""
+    order = np.lexsort(keys.T[::-1])
+    ordered = keys[order]
+    start = np.ones(len(order), dtype=bool)
+    start[1:] = (ordered[1:] != ordered[:-1]).any(axis=1)
+    inverse = np.empty(len(order), dtype=np.int64)
+    inverse[order] = np.cumsum(start) - 1
+    return order[start], inverse
+
+
 def unit_vectors(vectors: np.ndarray) -> np.ndarray:
     """(n, 3) float64 rows scaled to length 1; rows of zero (or non-finite) length become zero."""
     vectors = np.asarray(vectors, dtype=np.float64).reshape(-1, 3)

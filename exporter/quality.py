@@ -66,7 +66,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from .geometry import cross_rows
+from .geometry import cross_rows, unique_float_rows
 from .model import Part
 
 RESOLUTION = 128          # silhouette raster side, pixels
@@ -90,20 +90,8 @@ def joined(parts: list[Part]) -> tuple[np.ndarray, np.ndarray]:
     offsets = np.cumsum([0] + [p.vertex_count for p in parts])
     positions = np.concatenate([p.positions for p in parts])
     faces = np.concatenate([p.triangles + offsets[i] for i, p in enumerate(parts)])
-    first, inverse = _unique_points(np.round(positions / WELD_M))
+    first, inverse = unique_float_rows(np.round(positions / WELD_M))
     return positions[first], inverse[faces]
-
-
-def _unique_points(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``np.unique(keys, axis=0, return_index=True, return_inverse=True)[1:]`` for (n, 3) float
-    rows (the same lexicographic order, first occurrences, inverse), via one stable lexsort."""
-    order = np.lexsort((keys[:, 2], keys[:, 1], keys[:, 0]))
-    ordered = keys[order]
-    new = np.ones(len(keys), dtype=bool)
-    new[1:] = (ordered[1:] != ordered[:-1]).any(axis=1)
-    inverse = np.empty(len(keys), dtype=np.int64)
-    inverse[order] = np.cumsum(new) - 1
-    return order[new], inverse
 
 
 def face_normals(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:

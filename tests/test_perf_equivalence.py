@@ -135,11 +135,11 @@ def test_glb_bytes_are_pygltflib_bytes(monkeypatch, mime, mode):
 
 
 def test_unique_points_matches_numpy_unique_axis_0():
-    from exporter.quality import _unique_points
+    from exporter.geometry import unique_float_rows
     rng = np.random.default_rng(6)
     keys = np.round(rng.integers(-20, 20, size=(2000, 3)) * 1.37 / 1e-6)
     keys[::4] *= -1.0  # includes -0.0 next to 0.0
     _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
-    fast_first, fast_inverse = _unique_points(keys)
+    fast_first, fast_inverse = unique_float_rows(keys)
     assert np.array_equal(fast_first, first)
     assert np.array_equal(fast_inverse, inverse.reshape(-1))

@@ -18,8 +18,8 @@ from scipy.spatial import cKDTree
 
 from exporter.config import LodSpec, SimplifyOptions, default_lods
 from exporter.quality import measure_lod
-from exporter.simplify import (NOISE_M, MeshLevel, build_mesh_chain, build_mesh_lods, uv_charts,
-                               unique_float_rows)
+from exporter.geometry import unique_float_rows
+from exporter.simplify import NOISE_M, MeshLevel, build_mesh_chain, build_mesh_lods, uv_charts
 from exporter.simplify.planar import _loops, _plane_basis, _row_dots, _region_loops, _retriangulate, _retriangulate_many
 from exporter.simplify.quadric import assign_uvs, closest_barycentric
 from exporter.simplify.protect import COPLANAR_COS, PLANE_M, border_vertices, cross_rows, planar_regions

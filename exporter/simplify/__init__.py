@@ -31,6 +31,7 @@ from scipy.spatial import cKDTree
 
 from ..config import LodSpec, SimplifyOptions
 from ..errors import ProcessError
+from ..geometry import unique_float_rows
 from ..model import Part
 from .protect import (border_vertices, face_areas, footprint_wall_faces, largest_faces, nonmanifold_vertices,
                       part_border_vertices)
@@ -129,19 +130,6 @@ def _protected(positions, faces, options: SimplifyOptions) -> np.ndarray:
     if options.protect_walls:
         protected |= footprint_wall_faces(positions, faces, border_vertices(faces, len(positions)))
     return protected
-
-
-def unique_float_rows(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``np.unique(keys, axis=0, return_index=True, return_inverse=True)[1:]`` for (c, w) float64
-    rows: one stable lexsort (rows equal when every column compares equal, lowest index first)
-    instead of a sort of a structured view."""
-    order = np.lexsort(keys.T[::-1])
-    ordered = keys[order]
-    start = np.ones(len(order), dtype=bool)
-    start[1:] = (ordered[1:] != ordered[:-1]).any(axis=1)
-    inverse = np.empty(len(order), dtype=np.int64)
-    inverse[order] = np.cumsum(start) - 1
-    return order[start], inverse
 
 
 def _split(parts: list[Part], result, face_part_in) -> list[Part]:
