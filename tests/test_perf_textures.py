@@ -5,7 +5,6 @@ aerial atlas from ``../shared/data/real`` (skipped when absent)."""
 from __future__ import annotations
 
 import io
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,9 +14,8 @@ from exporter import textures
 from exporter.config import TextureOptions
 from exporter.model import Texture
 from exporter.textures import build_texture_lods, integer_factor, psnr
+from texture_images import REAL_ATLASES, SCALES, sharp_rgb, smooth_rgb
 
-REAL_ATLASES = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "real" / "rotterdam_textured" / "appearances"
-SCALES = [1.0, 0.5, 0.25]
 LANCZOS = Image.Resampling.LANCZOS
 
 
@@ -26,20 +24,6 @@ def fresh_cache():
     textures.clear_texture_cache()
     yield
     textures.clear_texture_cache()
-
-
-def smooth_rgb(width: int, height: int, seed: int = 0) -> np.ndarray:
-    """Photo-like pixels (smooth gradients, faint noise): (height, width, 3) uint8."""
-    rng = np.random.default_rng(seed)
-    y, x = np.mgrid[0:height, 0:width] / max(width, height)
-    image = np.stack([120 + 80 * np.sin(6 * x + 2 * y), 100 + 60 * np.cos(5 * y), 90 + 50 * np.sin(3 * (x + y))], axis=-1)
-    return np.clip(image + rng.normal(0, 1, image.shape), 0, 255).astype(np.uint8)
-
-
-def sharp_rgb(width: int, height: int, seed: int = 0) -> np.ndarray:
-    """Pixel-sized black/white detail, which makes ``auto`` fall back: (height, width, 3) uint8."""
-    grid = np.random.default_rng(seed).random((height, width)) > 0.5
-    return np.repeat(np.where(grid, 255, 0).astype(np.uint8)[..., None], 3, axis=-1)
 
 
 def jpeg(array: np.ndarray) -> bytes:
