@@ -35,11 +35,11 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 
-def peak_rss_mb() -> float:
+def peak_rss_mb() -> tuple[float, float]:
     """Max resident set size (MiB) of this process and of its largest finished child."""
     own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     children = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
-    return max(own, children) / 1024.0
+    return own / 1024.0, children / 1024.0
 
 
 def child_export(tile: str, out: str, jobs: int, force: bool) -> None:
@@ -49,15 +49,16 @@ def child_export(tile: str, out: str, jobs: int, force: bool) -> None:
 
     started = time.perf_counter()
     stats = export_tiles([tile], out, Config(), jobs=jobs, force=force)
+    main_mb, worker_mb = peak_rss_mb()
     print(json.dumps({
         "seconds": time.perf_counter() - started,
         "buildings": stats.buildings,
         "skipped": stats.skipped,
         "reused": stats.reused,
         "stages": stats.seconds,
-        "peak_rss_mb": peak_rss_mb(),
-        "peak_main_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
-        "peak_worker_mb": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0,
+        "peak_rss_mb": max(main_mb, worker_mb),
+        "peak_main_mb": main_mb,
+        "peak_worker_mb": worker_mb,
     }))
 
 
