@@ -19,6 +19,7 @@ The quality column times ``measure_lod`` on every level; the pipeline itself mea
 levels the simplifier did not report exact (``exact_quality`` / ``boundary_quality`` for the
 others), so the export's quality stage is much smaller (see ``bench_throughput.py``).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -36,8 +37,10 @@ def _load(root: Path):
         del sys.modules[name]
     sys.path.insert(0, str(root))
     try:
-        return {name: importlib.import_module(f"exporter.{name}") for name in
-                ("config", "readers", "simplify", "quality", "gltf_writer")}
+        return {
+            name: importlib.import_module(f"exporter.{name}")
+            for name in ("config", "readers", "simplify", "quality", "gltf_writer")
+        }
     finally:
         sys.path.remove(str(root))
 
@@ -62,16 +65,34 @@ def _stages(modules, folder: str, repeat: int, profile: str | None) -> dict[str,
         times[stage] = 1000 * best / len(buildings)
         return result
 
-    levels = timed("simplify", lambda: [modules["simplify"].build_mesh_lods(b.parts, config.lods, config.simplify)
-                                        for b in buildings])
+    levels = timed(
+        "simplify",
+        lambda: [
+            modules["simplify"].build_mesh_lods(b.parts, config.lods, config.simplify)
+            for b in buildings
+        ],
+    )
 
     def quality():
-        modules["quality"]._CACHE.clear()  # the source side is cached per building, as in one export
-        return [[modules["quality"].measure_lod(chain[0], chain[k]) for k in range(1, len(chain))] for chain in levels]
+        modules[
+            "quality"
+        ]._CACHE.clear()  # the source side is cached per building, as in one export
+        return [
+            [modules["quality"].measure_lod(chain[0], chain[k]) for k in range(1, len(chain))]
+            for chain in levels
+        ]
 
     timed("quality", quality)
-    timed("write", lambda: [[modules["gltf_writer"].glb_bytes(parts, f"b{i}_LOD{k}") for k, parts in enumerate(chain)]
-                            for i, chain in enumerate(levels)])
+    timed(
+        "write",
+        lambda: [
+            [
+                modules["gltf_writer"].glb_bytes(parts, f"b{i}_LOD{k}")
+                for k, parts in enumerate(chain)
+            ]
+            for i, chain in enumerate(levels)
+        ],
+    )
     if profile:
         pstats.Stats(profiler).sort_stats("cumulative").print_stats(35)
     return times
@@ -82,7 +103,11 @@ def main() -> None:
     parser.add_argument("folder")
     parser.add_argument("--baseline", help="another checkout of the project to compare with")
     parser.add_argument("--repeat", type=int, default=3, help="best of this many runs per stage")
-    parser.add_argument("--profile", choices=("simplify", "quality", "write"), help="cProfile one stage (this checkout)")
+    parser.add_argument(
+        "--profile",
+        choices=("simplify", "quality", "write"),
+        help="cProfile one stage (this checkout)",
+    )
     args = parser.parse_args()
     here = Path(__file__).resolve().parents[1]
     checkouts = [_load(here)] + ([_load(Path(args.baseline))] if args.baseline else [])

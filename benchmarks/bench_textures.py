@@ -28,6 +28,7 @@ Run: ``python benchmarks/bench_textures.py [--repeat 5] [--buildings 1000]``, or
 ``python benchmarks/bench_textures.py --only-folder --folder /tmp/p100 --limit 40 --export /tmp/p100
 --baseline /tmp/base``.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -45,15 +46,32 @@ from PIL import Image
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from exporter.config import TextureOptions  # noqa: E402
-from exporter.model import Texture  # noqa: E402
-from exporter.textures import AUTO_MIN_PSNR_DB, box_psnr, build_texture_lods, clear_texture_cache, image_psnr, level_sizes, psnr, sampled_box_psnr  # noqa: E402
+from exporter.config import TextureOptions
+from exporter.model import Texture
+from exporter.textures import (
+    AUTO_MIN_PSNR_DB,
+    box_psnr,
+    build_texture_lods,
+    clear_texture_cache,
+    image_psnr,
+    level_sizes,
+    psnr,
+    sampled_box_psnr,
+)
 
 # CPU time of this process: the codecs and resizes are single-threaded, and on a shared machine
 # wall-clock time mostly measures the neighbours' load.
 clock = time.process_time
 
-REAL = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "real" / "rotterdam_textured" / "appearances"
+REAL = (
+    Path(__file__).resolve().parents[1]
+    / ".."
+    / "shared"
+    / "data"
+    / "real"
+    / "rotterdam_textured"
+    / "appearances"
+)
 SCALES = [1.0, 0.5, 0.25]
 FACTORS = (2, 4, 8)
 MODES = ("never", "auto", "always")
@@ -93,16 +111,23 @@ def facade_atlas(seed: int, width: int = 1024, height: int = 1024, style: str = 
         image += np.where(mortar[..., None], -25.0, 0.0)
     for top in range(8 * k, h - cell_h, cell_h):
         for left in range(8 * k, w - cell_w, cell_w):
-            image[top + 6 * k: top + cell_h - 10 * k, left + 6 * k: left + cell_w - 6 * k] = 235.0
+            image[top + 6 * k : top + cell_h - 10 * k, left + 6 * k : left + cell_w - 6 * k] = 235.0
             rows, cols = cell_h - 22 * k, cell_w - 18 * k
             sky = np.linspace(40, 140, rows)[:, None, None] * np.array([0.6, 0.8, 1.0])
-            image[top + 9 * k: top + 9 * k + rows, left + 9 * k: left + 9 * k + cols] = sky + rng.normal(0, 6, (rows, cols, 3))
-            image[top + cell_h // 2 - k: top + cell_h // 2 + k, left + 9 * k: left + cell_w - 9 * k] = 235.0
+            image[top + 9 * k : top + 9 * k + rows, left + 9 * k : left + 9 * k + cols] = (
+                sky + rng.normal(0, 6, (rows, cols, 3))
+            )
+            image[
+                top + cell_h // 2 - k : top + cell_h // 2 + k, left + 9 * k : left + cell_w - 9 * k
+            ] = 235.0
     glyph = 1 if style == "sharp" else 4  # sign lettering: strokes of this many pixels
     for _ in range(6):
         top, left = int(rng.integers(0, h - 40 * k)), int(rng.integers(0, w - 200 * k))
-        strokes = np.kron(rng.random((32 // glyph, 192 // glyph)) > 0.55, np.ones((glyph * k, glyph * k), dtype=bool))
-        image[top: top + 32 * k, left: left + 192 * k] = np.where(strokes[..., None], 20.0, 250.0)
+        strokes = np.kron(
+            rng.random((32 // glyph, 192 // glyph)) > 0.55,
+            np.ones((glyph * k, glyph * k), dtype=bool),
+        )
+        image[top : top + 32 * k, left : left + 192 * k] = np.where(strokes[..., None], 20.0, 250.0)
     picture = Image.fromarray(np.clip(image, 0, 255).astype(np.uint8))
     if k > 1:
         picture = picture.resize((width, height), Image.Resampling.LANCZOS)
@@ -112,7 +137,11 @@ def facade_atlas(seed: int, width: int = 1024, height: int = 1024, style: str = 
 
 
 def atlases() -> list[tuple[str, bytes]]:
-    found = [(path.name, path.read_bytes()) for path in sorted(REAL.glob("*.jpg"))] if REAL.is_dir() else []
+    found = (
+        [(path.name, path.read_bytes()) for path in sorted(REAL.glob("*.jpg"))]
+        if REAL.is_dir()
+        else []
+    )
     if not found:
         print(f"note: {REAL} not present; synthetic atlases only")
     synthetic = [(f"facade_{seed}.jpg", facade_atlas(seed)) for seed in range(6)]
@@ -176,16 +205,25 @@ def measure_atlas(name: str, data: bytes, repeat: int) -> dict:
     result = {"name": name, "floor": statistics.median(times["floor"])}
     for mode in MODES:
         result[mode] = statistics.median(times[mode])
-        result[f"{mode}/floor"] = statistics.median(t / f for t, f in zip(times[mode], times["floor"]))
-        result[f"{mode}/never"] = statistics.median(t / f for t, f in zip(times[mode], times["never"]))
+        result[f"{mode}/floor"] = statistics.median(
+            t / f for t, f in zip(times[mode], times["floor"])
+        )
+        result[f"{mode}/never"] = statistics.median(
+            t / f for t, f in zip(times[mode], times["never"])
+        )
         clear_texture_cache()
         levels = build_texture_lods(texture, SCALES, TextureOptions(fast_jpeg_downscale=mode))
-        result[f"psnr_{mode}"] = [psnr(pixels(reference[(t.width, t.height)]), pixels(Image.open(io.BytesIO(t.data)))) for t in levels[1:]]
+        result[f"psnr_{mode}"] = [
+            psnr(pixels(reference[(t.width, t.height)]), pixels(Image.open(io.BytesIO(t.data))))
+            for t in levels[1:]
+        ]
         result[f"out_{mode}"] = [pixels(Image.open(io.BytesIO(t.data))) for t in levels[1:]]
     # Each mode's output against the default's (what a default export writes), per level.
     default = result[f"out_{TextureOptions().fast_jpeg_downscale}"]
     for mode in MODES:
-        result[f"vs_default_{mode}"] = [psnr(a, b) for a, b in zip(default, result.pop(f"out_{mode}"))]
+        result[f"vs_default_{mode}"] = [
+            psnr(a, b) for a, b in zip(default, result.pop(f"out_{mode}"))
+        ]
     for factor in FACTORS:
         size = (-(-full.width // factor), -(-full.height // factor))
         drafted = Image.open(io.BytesIO(data))
@@ -200,7 +238,9 @@ def measure_atlas(name: str, data: bytes, repeat: int) -> dict:
     return result
 
 
-def measure_tile(label: str, atlas_list: list[tuple[str, bytes]], buildings: int, repeat: int) -> None:
+def measure_tile(
+    label: str, atlas_list: list[tuple[str, bytes]], buildings: int, repeat: int
+) -> None:
     """Texture time of a tile of ``buildings`` buildings sharing ``atlas_list`` against the codec
     floor of the distinct atlases, both timed back to back (medians of ``repeat``); with the same
     bytes objects (a reader that caches files) and with fresh copies (each building reads its file
@@ -211,7 +251,16 @@ def measure_tile(label: str, atlas_list: list[tuple[str, bytes]], buildings: int
         textures = []
         for k, i in enumerate(choice):
             name, data = atlas_list[i]
-            textures.append(Texture(bytes(bytearray(data)) if copy else data, "image/jpeg", 0, 0, name, f"b{k}/{name}"))
+            textures.append(
+                Texture(
+                    bytes(bytearray(data)) if copy else data,
+                    "image/jpeg",
+                    0,
+                    0,
+                    name,
+                    f"b{k}/{name}",
+                )
+            )
         ratios = []
         for _ in range(repeat):
             start = clock()
@@ -223,8 +272,10 @@ def measure_tile(label: str, atlas_list: list[tuple[str, bytes]], buildings: int
             for texture in textures:
                 build_texture_lods(texture, SCALES, TextureOptions())
             ratios.append((clock() - start) / floor)
-        print(f"  tile of {buildings} buildings sharing {len(atlas_list)} {label} atlases, {kind}: "
-              f"{statistics.median(ratios):.2f} x the codec floor of the distinct atlases")
+        print(
+            f"  tile of {buildings} buildings sharing {len(atlas_list)} {label} atlases, {kind}: "
+            f"{statistics.median(ratios):.2f} x the codec floor of the distinct atlases"
+        )
 
 
 _EXPORT_SCRIPT = """
@@ -239,8 +290,13 @@ with tempfile.TemporaryDirectory() as out:
 
 def export_stage_seconds(checkout: Path, folder: str) -> dict:
     """Seconds per stage of a one-process export of ``folder`` with the exporter at ``checkout``."""
-    done = subprocess.run([sys.executable, "-c", _EXPORT_SCRIPT, str(checkout), folder],
-                          capture_output=True, text=True, check=True, cwd=tempfile.gettempdir())
+    done = subprocess.run(
+        [sys.executable, "-c", _EXPORT_SCRIPT, str(checkout), folder],
+        capture_output=True,
+        text=True,
+        check=True,
+        cwd=tempfile.gettempdir(),
+    )
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 
@@ -249,17 +305,23 @@ def measure_export(folder: str, baseline: Path, repeat: int) -> None:
     here = Path(__file__).resolve().parents[1]
     ratios, times = [], {"this": [], "baseline": []}
     for _ in range(repeat):
-        now, before = export_stage_seconds(here, folder)["textures"], export_stage_seconds(baseline, folder)["textures"]
+        now, before = (
+            export_stage_seconds(here, folder)["textures"],
+            export_stage_seconds(baseline, folder)["textures"],
+        )
         times["this"].append(now)
         times["baseline"].append(before)
         ratios.append(now / before)
-    print(f"\nexport of {folder} (jobs=1), textures stage: this / baseline = {statistics.median(ratios):.2f} "
-          f"(median of {repeat}; {statistics.median(times['this']):.2f} s vs {statistics.median(times['baseline']):.2f} s)")
+    print(
+        f"\nexport of {folder} (jobs=1), textures stage: this / baseline = {statistics.median(ratios):.2f} "
+        f"(median of {repeat}; {statistics.median(times['this']):.2f} s vs {statistics.median(times['baseline']):.2f} s)"
+    )
 
 
 def cost_breakdown(atlas_list: list[tuple[str, bytes]], repeat: int) -> None:
     """What the steps of the fast path cost against the codec floor (same atlases, one run): the
     draft decode, LOD2 by Lanczos or by box, ``auto``'s check sampled or on the whole image."""
+
     def decode(data, size=None):
         image = Image.open(io.BytesIO(data))
         if size:
@@ -267,8 +329,15 @@ def cost_breakdown(atlas_list: list[tuple[str, bytes]], repeat: int) -> None:
         image.load()
         return image
 
-    steps = {"floor: full decode + encode levels": [], "draft decode 1/2": [], "Lanczos 1/2 -> 1/4": [],
-             "auto's sampled check (sampled_box_psnr)": [], "whole-image check (box_psnr)": [], "box 1/2 -> 1/4 (Image.reduce)": [], "encode levels": []}
+    steps = {
+        "floor: full decode + encode levels": [],
+        "draft decode 1/2": [],
+        "Lanczos 1/2 -> 1/4": [],
+        "auto's sampled check (sampled_box_psnr)": [],
+        "whole-image check (box_psnr)": [],
+        "box 1/2 -> 1/4 (Image.reduce)": [],
+        "encode levels": [],
+    }
     for _ in range(repeat):
         spent = dict.fromkeys(steps, 0.0)
         for _, data in atlas_list:
@@ -309,15 +378,22 @@ def cost_breakdown(atlas_list: list[tuple[str, bytes]], repeat: int) -> None:
 def lod2_filters(label: str, atlas_list: list[tuple[str, bytes]]) -> None:
     """LOD2 (1/4 per side) made from the 1/2 IDCT-scaled decode by other filters: PSNR (dB) of its
     JPEG q90 output against Lanczos from the full image, min/mean over the atlases."""
+
     def luma_lanczos(half: Image.Image, size: tuple[int, int]) -> Image.Image:
         y, cb, cr = half.convert("YCbCr").split()
-        return Image.merge("YCbCr", (y.resize(size, Image.Resampling.LANCZOS), cb.reduce(2), cr.reduce(2))).convert("RGB")
+        return Image.merge(
+            "YCbCr", (y.resize(size, Image.Resampling.LANCZOS), cb.reduce(2), cr.reduce(2))
+        ).convert("RGB")
 
-    filters = {"Lanczos (never; auto where its check fails)": lambda half, size: half.resize(size, Image.Resampling.LANCZOS),
-               "Lanczos luma, box chroma": luma_lanczos,
-               "bicubic": lambda half, size: half.resize(size, Image.Resampling.BICUBIC),
-               "Hamming": lambda half, size: half.resize(size, Image.Resampling.HAMMING),
-               "box (always; auto where its check passes)": lambda half, size: half.reduce(2)}
+    filters = {
+        "Lanczos (never; auto where its check fails)": lambda half, size: half.resize(
+            size, Image.Resampling.LANCZOS
+        ),
+        "Lanczos luma, box chroma": luma_lanczos,
+        "bicubic": lambda half, size: half.resize(size, Image.Resampling.BICUBIC),
+        "Hamming": lambda half, size: half.resize(size, Image.Resampling.HAMMING),
+        "box (always; auto where its check passes)": lambda half, size: half.reduce(2),
+    }
     found = {name: [] for name in filters}
     for _, data in atlas_list:
         full = Image.open(io.BytesIO(data)).convert("RGB")
@@ -330,8 +406,10 @@ def lod2_filters(label: str, atlas_list: list[tuple[str, bytes]]) -> None:
             out = io.BytesIO()
             make(half, size).save(out, "JPEG", quality=TextureOptions().jpeg_quality)
             found[name].append(psnr(reference, pixels(Image.open(out))))
-    print(f"\nLOD2 of {label} ({len(atlas_list)} atlases) from the 1/2 decode, q90 vs Lanczos from full, min/mean dB: "
-          + ", ".join(f"{name} {min(v):.1f}/{statistics.mean(v):.1f}" for name, v in found.items()))
+    print(
+        f"\nLOD2 of {label} ({len(atlas_list)} atlases) from the 1/2 decode, q90 vs Lanczos from full, min/mean dB: "
+        + ", ".join(f"{name} {min(v):.1f}/{statistics.mean(v):.1f}" for name, v in found.items())
+    )
 
 
 def check_agreement(label: str, atlas_list: list[tuple[str, bytes]], repeat: int) -> None:
@@ -361,9 +439,11 @@ def check_agreement(label: str, atlas_list: list[tuple[str, bytes]], repeat: int
             sampled_box_psnr(half, 2)
             runs.append((clock() - start) / floor)
         ratios.append(statistics.median(runs))
-    print(f"\nauto's sampled check on {label} ({len(atlas_list)} atlases x 2 images): sampled - whole "
-          f"{min(errors):+.2f}..{max(errors):+.2f} dB; other side of {AUTO_MIN_PSNR_DB:g} dB: {len(flips)} {flips}; "
-          f"check / floor mean {statistics.mean(ratios):.3f} (max {max(ratios):.3f})")
+    print(
+        f"\nauto's sampled check on {label} ({len(atlas_list)} atlases x 2 images): sampled - whole "
+        f"{min(errors):+.2f}..{max(errors):+.2f} dB; other side of {AUTO_MIN_PSNR_DB:g} dB: {len(flips)} {flips}; "
+        f"check / floor mean {statistics.mean(ratios):.3f} (max {max(ratios):.3f})"
+    )
 
 
 def folder_atlases(folder: str, limit: int) -> list[tuple[str, bytes]]:
@@ -377,60 +457,104 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=5)
     parser.add_argument("--buildings", type=int, default=1000)
     parser.add_argument("--folder", help="also measure the *.jpg atlases of this tile folder")
-    parser.add_argument("--limit", type=int, default=40, help="at most this many atlases of --folder")
-    parser.add_argument("--only-folder", action="store_true", help="skip the built-in atlas sets and the cache runs")
-    parser.add_argument("--export", help="a tile folder to export with this checkout and --baseline")
-    parser.add_argument("--baseline", type=Path, help="another checkout of the project (for --export)")
+    parser.add_argument(
+        "--limit", type=int, default=40, help="at most this many atlases of --folder"
+    )
+    parser.add_argument(
+        "--only-folder", action="store_true", help="skip the built-in atlas sets and the cache runs"
+    )
+    parser.add_argument(
+        "--export", help="a tile folder to export with this checkout and --baseline"
+    )
+    parser.add_argument(
+        "--baseline", type=Path, help="another checkout of the project (for --export)"
+    )
     args = parser.parse_args()
     atlas_list = [] if args.only_folder else atlases()
     if args.folder:
         atlas_list += folder_atlases(args.folder, args.limit)
     rows = [measure_atlas(name, data, args.repeat) for name, data in atlas_list]
 
-    print(f"scales {SCALES}; times relative to the codec floor (decode full + encode reduced levels)")
-    print(f"{'atlas':24s} {'floor ms':>8s} {'careful':>8s} {'auto':>6s} {'always':>6s} | PSNR dB draft (estimate) 1/2 1/4 1/8 | levels auto / careful")
+    print(
+        f"scales {SCALES}; times relative to the codec floor (decode full + encode reduced levels)"
+    )
+    print(
+        f"{'atlas':24s} {'floor ms':>8s} {'careful':>8s} {'auto':>6s} {'always':>6s} | PSNR dB draft (estimate) 1/2 1/4 1/8 | levels auto / careful"
+    )
     for r in rows:
-        print(f"{r['name']:24s} {r['floor'] * 1000:8.1f} {r['never/floor']:8.2f} {r['auto/floor']:6.2f} {r['always/floor']:6.2f} | "
-              + " ".join(f"{r[f'draft_{f}']:4.1f} ({r[f'estimate_{f}']:4.1f})" for f in FACTORS) + " | "
-              f"{' '.join(f'{v:.1f}' for v in r['psnr_auto'])} / {' '.join(f'{v:.1f}' for v in r['psnr_never'])}")
-    kinds = {"facade": "facade (synthetic, VWorld texel size)", "fine": "fine (synthetic close-range facade)",
-             "sharp": "sharp (synthetic stress case)"}
+        print(
+            f"{r['name']:24s} {r['floor'] * 1000:8.1f} {r['never/floor']:8.2f} {r['auto/floor']:6.2f} {r['always/floor']:6.2f} | "
+            + " ".join(f"{r[f'draft_{f}']:4.1f} ({r[f'estimate_{f}']:4.1f})" for f in FACTORS)
+            + " | "
+            f"{' '.join(f'{v:.1f}' for v in r['psnr_auto'])} / {' '.join(f'{v:.1f}' for v in r['psnr_never'])}"
+        )
+    kinds = {
+        "facade": "facade (synthetic, VWorld texel size)",
+        "fine": "fine (synthetic close-range facade)",
+        "sharp": "sharp (synthetic stress case)",
+    }
     kinds["samplegen"] = "samplegen (the project's sample atlases)"
     kinds["tile_"] = f"tile ({args.folder})"
     groups = {"real aerial": [r for r in rows if not r["name"].startswith(tuple(kinds))]}
-    groups.update({label: [r for r in rows if r["name"].startswith(prefix)] for prefix, label in kinds.items()})
+    groups.update(
+        {
+            label: [r for r in rows if r["name"].startswith(prefix)]
+            for prefix, label in kinds.items()
+        }
+    )
     print()
     for label, group in groups.items():
         if not group:
             continue
-        print(f"{label} ({len(group)} atlases, floor {statistics.mean(r['floor'] for r in group) * 1000:.1f} ms per atlas): PSNR min/mean dB vs Lanczos from full, IDCT-scaled decode: "
-              + ", ".join(f"1/{f} {min(r[f'draft_{f}'] for r in group):.1f}/{statistics.mean(r[f'draft_{f}'] for r in group):.1f}" for f in FACTORS)
-              + "; box filter: "
-              + ", ".join(f"1/{f} {min(r[f'box_{f}'] for r in group):.1f}/{statistics.mean(r[f'box_{f}'] for r in group):.1f}" for f in FACTORS))
+        print(
+            f"{label} ({len(group)} atlases, floor {statistics.mean(r['floor'] for r in group) * 1000:.1f} ms per atlas): PSNR min/mean dB vs Lanczos from full, IDCT-scaled decode: "
+            + ", ".join(
+                f"1/{f} {min(r[f'draft_{f}'] for r in group):.1f}/{statistics.mean(r[f'draft_{f}'] for r in group):.1f}"
+                for f in FACTORS
+            )
+            + "; box filter: "
+            + ", ".join(
+                f"1/{f} {min(r[f'box_{f}'] for r in group):.1f}/{statistics.mean(r[f'box_{f}'] for r in group):.1f}"
+                for f in FACTORS
+            )
+        )
         agree = ", ".join(
             f"1/{f} {sum((r[f'estimate_{f}'] >= AUTO_MIN_PSNR_DB) == (r[f'draft_{f}'] >= AUTO_MIN_PSNR_DB) for r in group)}/{len(group)} "
             f"(estimate - true {min(r[f'estimate_{f}'] - r[f'draft_{f}'] for r in group):+.1f}..{max(r[f'estimate_{f}'] - r[f'draft_{f}'] for r in group):+.1f} dB)"
-            for f in FACTORS)
-        print(f"  auto's estimate on the same side of {AUTO_MIN_PSNR_DB:g} dB as the truth: {agree}")
+            for f in FACTORS
+        )
+        print(
+            f"  auto's estimate on the same side of {AUTO_MIN_PSNR_DB:g} dB as the truth: {agree}"
+        )
         for mode in MODES:
             per_level = list(zip(*[r[f"psnr_{mode}"] for r in group]))
             vs_default = list(zip(*[r[f"vs_default_{mode}"] for r in group]))
-            print(f"  {mode:7s} {statistics.mean(r[mode] for r in group) * 1000:5.1f} ms per atlas; "
-                  f"time / floor: mean {statistics.mean(r[f'{mode}/floor'] for r in group):.2f}, "
-                  f"time / careful: mean {statistics.mean(r[f'{mode}/never'] for r in group):.2f}; "
-                  f"output PSNR min/mean per level: {' '.join(f'{min(v):.1f}/{statistics.mean(v):.1f}' for v in per_level)}; "
-                  f"vs the default's output min/mean: {' '.join(f'{min(v):.1f}/{statistics.mean(v):.1f}' for v in vs_default)}")
+            print(
+                f"  {mode:7s} {statistics.mean(r[mode] for r in group) * 1000:5.1f} ms per atlas; "
+                f"time / floor: mean {statistics.mean(r[f'{mode}/floor'] for r in group):.2f}, "
+                f"time / careful: mean {statistics.mean(r[f'{mode}/never'] for r in group):.2f}; "
+                f"output PSNR min/mean per level: {' '.join(f'{min(v):.1f}/{statistics.mean(v):.1f}' for v in per_level)}; "
+                f"vs the default's output min/mean: {' '.join(f'{min(v):.1f}/{statistics.mean(v):.1f}' for v in vs_default)}"
+            )
     if not args.only_folder:
         print("\ncache (auto):")
         for label, group in groups.items():
             names = {r["name"] for r in group}
             if group and not label.startswith(("fine", "sharp", "samplegen", "tile")):
-                measure_tile(label.split(" (")[0], [a for a in atlas_list if a[0] in names], args.buildings, args.repeat)
+                measure_tile(
+                    label.split(" (")[0],
+                    [a for a in atlas_list if a[0] in names],
+                    args.buildings,
+                    args.repeat,
+                )
     if args.folder:
         cost_breakdown(folder_atlases(args.folder, args.limit), args.repeat)
         lod2_filters(args.folder, folder_atlases(args.folder, args.limit))
     if REAL.is_dir():
-        lod2_filters("the real aerial atlases", [(path.name, path.read_bytes()) for path in sorted(REAL.glob("*.jpg"))])
+        lod2_filters(
+            "the real aerial atlases",
+            [(path.name, path.read_bytes()) for path in sorted(REAL.glob("*.jpg"))],
+        )
     for label, group in groups.items():
         names = {r["name"] for r in group}
         if group:
@@ -439,6 +563,7 @@ def main() -> None:
         if args.baseline is None:
             parser.error("--export needs --baseline")
         measure_export(args.export, args.baseline, args.repeat)
+
 
 if __name__ == "__main__":
     main()

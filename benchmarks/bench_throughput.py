@@ -17,6 +17,7 @@ Usage: ``python benchmarks/bench_throughput.py [--buildings 1248] [--atlas 1024]
 [--large 5000]`` (``--large 0`` leaves the large tile out; generating it takes ~3 min and ~1.1 GB).
 Each measured export runs in its own child process so its peak memory is its own.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -50,20 +51,32 @@ def child_export(tile: str, out: str, jobs: int, force: bool) -> None:
     started = time.perf_counter()
     stats = export_tiles([tile], out, Config(), jobs=jobs, force=force)
     main_mb, worker_mb = peak_rss_mb()
-    print(json.dumps({
-        "seconds": time.perf_counter() - started,
-        "buildings": stats.buildings,
-        "skipped": stats.skipped,
-        "reused": stats.reused,
-        "stages": stats.seconds,
-        "peak_rss_mb": max(main_mb, worker_mb),
-        "peak_main_mb": main_mb,
-        "peak_worker_mb": worker_mb,
-    }))
+    print(
+        json.dumps(
+            {
+                "seconds": time.perf_counter() - started,
+                "buildings": stats.buildings,
+                "skipped": stats.skipped,
+                "reused": stats.reused,
+                "stages": stats.seconds,
+                "peak_rss_mb": max(main_mb, worker_mb),
+                "peak_main_mb": main_mb,
+                "peak_worker_mb": worker_mb,
+            }
+        )
+    )
 
 
 def run_export(tile: Path, out: Path, jobs: int, force: bool = False) -> dict:
-    command = [sys.executable, __file__, "--child", str(tile), str(out), str(jobs), "1" if force else "0"]
+    command = [
+        sys.executable,
+        __file__,
+        "--child",
+        str(tile),
+        str(out),
+        str(jobs),
+        "1" if force else "0",
+    ]
     result = subprocess.run(command, capture_output=True, text=True, check=True)
     return json.loads(result.stdout.strip().splitlines()[-1])
 
@@ -79,7 +92,12 @@ def _codec_one(args: tuple) -> float:
         image.load()
         decoded = time.perf_counter() - started
         full = image.convert("RGB")
-    reduced = [full.resize((max(1, round(full.width * s)), max(1, round(full.height * s))), Image.Resampling.BOX) for s in scales[1:]]
+    reduced = [
+        full.resize(
+            (max(1, round(full.width * s)), max(1, round(full.height * s))), Image.Resampling.BOX
+        )
+        for s in scales[1:]
+    ]
     started = time.perf_counter()
     for level in reduced:
         level.save(io.BytesIO(), "JPEG", quality=quality)
@@ -103,9 +121,15 @@ def main() -> None:
         child_export(sys.argv[2], sys.argv[3], int(sys.argv[4]), sys.argv[5] == "1")
         return
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--buildings", type=int, default=1248, help="buildings in the full tile (the paper's 1,248)")
-    parser.add_argument("--small", type=int, default=100, help="buildings in the small tile (scaling baseline)")
-    parser.add_argument("--large", type=int, default=5000, help="buildings in the large tile (scaling; 0: none)")
+    parser.add_argument(
+        "--buildings", type=int, default=1248, help="buildings in the full tile (the paper's 1,248)"
+    )
+    parser.add_argument(
+        "--small", type=int, default=100, help="buildings in the small tile (scaling baseline)"
+    )
+    parser.add_argument(
+        "--large", type=int, default=5000, help="buildings in the large tile (scaling; 0: none)"
+    )
     parser.add_argument("--atlas", type=int, default=1024, help="atlas size in pixels")
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     parser.add_argument("--seed", type=int, default=0)
@@ -117,53 +141,89 @@ def main() -> None:
     work = Path(args.workdir or tempfile.mkdtemp(prefix="vworld-lod-bench-"))
     print(f"work folder: {work}")
     tiles = {}
-    sizes = (("small", args.small), ("full", args.buildings)) + ((("large", args.large),) if args.large else ())
+    sizes = (("small", args.small), ("full", args.buildings)) + (
+        (("large", args.large),) if args.large else ()
+    )
     for name, count in sizes:
         tiles[name] = work / f"tile_{count}"
         if not list(tiles[name].glob("*.dat")):
             started = time.perf_counter()
             generate_tile(tiles[name], count=count, seed=args.seed, atlas_size=args.atlas)
-            print(f"generated {count} buildings with {args.atlas}px atlases in {time.perf_counter() - started:.1f} s")
+            print(
+                f"generated {count} buildings with {args.atlas}px atlases in {time.perf_counter() - started:.1f} s"
+            )
 
     full = run_export(tiles["full"], work / "out_full", args.jobs, force=True)
     rerun = run_export(tiles["full"], work / "out_full", args.jobs)
     single = run_export(tiles["full"], work / "out_single", 1, force=True)
     small = run_export(tiles["small"], work / "out_small", args.jobs, force=True)
-    large = run_export(tiles["large"], work / "out_large", args.jobs, force=True) if args.large else None
+    large = (
+        run_export(tiles["large"], work / "out_large", args.jobs, force=True)
+        if args.large
+        else None
+    )
     floor = codec_floor(tiles["full"], args.jobs)
 
     n = full["buildings"]
     print()
-    print(f"tile: {n} buildings ({full['skipped']} skipped), {args.atlas}px atlases, jobs={args.jobs}")
+    print(
+        f"tile: {n} buildings ({full['skipped']} skipped), {args.atlas}px atlases, jobs={args.jobs}"
+    )
     print(f"{'measure':44} {'value':>12}")
     rows = [
         ("export wall time (s)", f"{full['seconds']:.2f}"),
         ("buildings/s", f"{n / full['seconds']:.1f}"),
         ("codec floor wall time (s)", f"{floor:.2f}"),
         ("export / codec floor (target <= 1.5)", f"{full['seconds'] / floor:.2f}"),
-        (f"jobs {args.jobs} speed-up over jobs 1 (target >= 1.8)", f"{single['seconds'] / full['seconds']:.2f}"),
-        ("unchanged re-run / first run (target <= 0.05)", f"{rerun['seconds'] / full['seconds']:.3f}"),
-        (f"s per building: {args.buildings} vs {args.small} buildings", f"{(full['seconds'] / n) / (small['seconds'] / small['buildings']):.2f}"),
+        (
+            f"jobs {args.jobs} speed-up over jobs 1 (target >= 1.8)",
+            f"{single['seconds'] / full['seconds']:.2f}",
+        ),
+        (
+            "unchanged re-run / first run (target <= 0.05)",
+            f"{rerun['seconds'] / full['seconds']:.3f}",
+        ),
+        (
+            f"s per building: {args.buildings} vs {args.small} buildings",
+            f"{(full['seconds'] / n) / (small['seconds'] / small['buildings']):.2f}",
+        ),
         (f"peak memory MiB: {args.small} buildings", f"{small['peak_rss_mb']:.0f}"),
         (f"peak memory MiB: {args.buildings} buildings", f"{full['peak_rss_mb']:.0f}"),
-        (f"  main / largest worker, {args.small}", f"{small['peak_main_mb']:.0f} / {small['peak_worker_mb']:.0f}"),
-        (f"  main / largest worker, {args.buildings}", f"{full['peak_main_mb']:.0f} / {full['peak_worker_mb']:.0f}"),
+        (
+            f"  main / largest worker, {args.small}",
+            f"{small['peak_main_mb']:.0f} / {small['peak_worker_mb']:.0f}",
+        ),
+        (
+            f"  main / largest worker, {args.buildings}",
+            f"{full['peak_main_mb']:.0f} / {full['peak_worker_mb']:.0f}",
+        ),
         ("peak memory ratio full / small", f"{full['peak_rss_mb'] / small['peak_rss_mb']:.2f}"),
     ]
     if large:
         per_small = small["seconds"] / small["buildings"]
         rows += [
-            (f"s per building: {args.large} vs {args.small} buildings", f"{(large['seconds'] / large['buildings']) / per_small:.2f}"),
+            (
+                f"s per building: {args.large} vs {args.small} buildings",
+                f"{(large['seconds'] / large['buildings']) / per_small:.2f}",
+            ),
             (f"peak memory MiB: {args.large} buildings", f"{large['peak_rss_mb']:.0f}"),
-            (f"  main / largest worker, {args.large}", f"{large['peak_main_mb']:.0f} / {large['peak_worker_mb']:.0f}"),
-            ("peak memory ratio large / small", f"{large['peak_rss_mb'] / small['peak_rss_mb']:.2f}"),
+            (
+                f"  main / largest worker, {args.large}",
+                f"{large['peak_main_mb']:.0f} / {large['peak_worker_mb']:.0f}",
+            ),
+            (
+                "peak memory ratio large / small",
+                f"{large['peak_rss_mb'] / small['peak_rss_mb']:.2f}",
+            ),
         ]
     for label, value in rows:
         print(f"{label:44} {value:>12}")
     total = sum(full["stages"].values()) or 1.0
-    print("\nstage shares of worker time (jobs={}):".format(args.jobs))
+    print(f"\nstage shares of worker time (jobs={args.jobs}):")
     for stage, seconds in full["stages"].items():
-        print(f"  {stage:10} {seconds:8.2f} s  {seconds / total:6.1%}  ({1000 * seconds / n:.1f} ms/building)")
+        print(
+            f"  {stage:10} {seconds:8.2f} s  {seconds / total:6.1%}  ({1000 * seconds / n:.1f} ms/building)"
+        )
 
 
 if __name__ == "__main__":

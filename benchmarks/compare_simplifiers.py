@@ -25,6 +25,7 @@ Usage::
 gltfpack: ``npm install --prefix ~/.cache/vworld-lod/npm gltfpack`` (outside the repository);
 found on PATH, in that folder or in ``benchmarks/.npm``; skipped with a note when absent.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -41,12 +42,19 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from exporter.config import SimplifyOptions, default_lods  # noqa: E402
-from exporter.model import Part  # noqa: E402
-from exporter.quality import joined, measure_lod  # noqa: E402
-from exporter.simplify import build_mesh_lods  # noqa: E402
+from exporter.config import SimplifyOptions, default_lods
+from exporter.model import Part
+from exporter.quality import joined, measure_lod
+from exporter.simplify import build_mesh_lods
 
-METRICS = ("triangle_ratio", "hausdorff_rel", "silhouette_iou", "wall_coverage", "boundary_length_change", "new_holes")
+METRICS = (
+    "triangle_ratio",
+    "hausdorff_rel",
+    "silhouette_iou",
+    "wall_coverage",
+    "boundary_length_change",
+    "new_holes",
+)
 
 
 def count(parts: list[Part]) -> int:
@@ -54,6 +62,7 @@ def count(parts: list[Part]) -> int:
 
 
 # --------------------------------------------------------------------------- peers (positions only)
+
 
 def pymeshlab_qec(parts: list[Part], budget: int) -> list[Part]:
     import pymeshlab
@@ -73,14 +82,19 @@ def fast_simplification(parts: list[Part], budget: int) -> list[Part]:
     reduction = 1.0 - budget / max(len(faces), 1)
     if reduction <= 0:
         return [Part(positions, faces)]
-    points, triangles = fs.simplify(positions.astype(np.float32), faces.astype(np.int32), target_reduction=reduction)
+    points, triangles = fs.simplify(
+        positions.astype(np.float32), faces.astype(np.int32), target_reduction=reduction
+    )
     return [Part(points, triangles)]
 
 
 def find_gltfpack(explicit: str | None) -> str | None:
-    candidates = [explicit, shutil.which("gltfpack"),
-                  str(Path.home() / ".cache/vworld-lod/npm/node_modules/.bin/gltfpack"),
-                  str(Path(__file__).resolve().parent / ".npm/node_modules/.bin/gltfpack")]
+    candidates = [
+        explicit,
+        shutil.which("gltfpack"),
+        str(Path.home() / ".cache/vworld-lod/npm/node_modules/.bin/gltfpack"),
+        str(Path(__file__).resolve().parent / ".npm/node_modules/.bin/gltfpack"),
+    ]
     return next((c for c in candidates if c and os.access(c, os.X_OK)), None)
 
 
@@ -91,13 +105,17 @@ def gltfpack(parts: list[Part], budget: int, executable: str, workdir: Path) -> 
     source, target = workdir / "in.glb", workdir / "out.glb"
     trimesh.Trimesh(positions, faces, process=False).export(source)
     ratio = min(1.0, budget / max(len(faces), 1))
-    subprocess.run([executable, "-i", str(source), "-o", str(target), "-si", f"{ratio:.6f}", "-noq"],
-                   check=True, capture_output=True)
+    subprocess.run(
+        [executable, "-i", str(source), "-o", str(target), "-si", f"{ratio:.6f}", "-noq"],
+        check=True,
+        capture_output=True,
+    )
     mesh = trimesh.load(target, force="mesh", process=False)
     return [Part(np.asarray(mesh.vertices), np.asarray(mesh.faces))]
 
 
 # --------------------------------------------------------------------------- run
+
 
 def load_folder(folder: str, crs: str | None) -> list:
     """Every building a reader finds in ``folder`` (e.g. ../shared/data/real CityJSON)."""
@@ -108,7 +126,13 @@ def load_folder(folder: str, crs: str | None) -> list:
     return [load_entry(entry, options) for entry in scan_folder(folder, options).entries]
 
 
-def run(count_buildings: int, seed: int, gltfpack_path: str | None, folder: str | None = None, crs: str | None = None) -> None:
+def run(
+    count_buildings: int,
+    seed: int,
+    gltfpack_path: str | None,
+    folder: str | None = None,
+    crs: str | None = None,
+) -> None:
     if folder:
         buildings = load_folder(folder, crs)[:count_buildings]
         where = f"{len(buildings)} buildings from {folder}"
@@ -121,7 +145,9 @@ def run(count_buildings: int, seed: int, gltfpack_path: str | None, folder: str 
     options = SimplifyOptions()
     paper_only = dataclasses.replace(options, planar_retriangulation=False)
     executable = find_gltfpack(gltfpack_path)
-    methods = ["this method", "paper QEC only", "pymeshlab QEC", "fast-simplification"] + (["gltfpack -si"] if executable else [])
+    methods = ["this method", "paper QEC only", "pymeshlab QEC", "fast-simplification"] + (
+        ["gltfpack -si"] if executable else []
+    )
     results = {(m, k): [] for m in methods for k in range(1, len(lods))}
     seconds = {m: 0.0 for m in methods}
     table3 = []
@@ -139,7 +165,10 @@ def run(count_buildings: int, seed: int, gltfpack_path: str | None, folder: str 
             for k in range(1, len(lods)):
                 budget = count(levels[k])
                 outputs = {"this method": levels[k], "paper QEC only": paper_levels[k]}
-                for name, peer in (("pymeshlab QEC", pymeshlab_qec), ("fast-simplification", fast_simplification)):
+                for name, peer in (
+                    ("pymeshlab QEC", pymeshlab_qec),
+                    ("fast-simplification", fast_simplification),
+                ):
                     start = time.perf_counter()
                     outputs[name] = peer(source, budget)
                     seconds[name] += time.perf_counter() - start
@@ -163,31 +192,65 @@ def run(count_buildings: int, seed: int, gltfpack_path: str | None, folder: str 
     for name in methods:
         for k in range(1, len(lods)):
             rows = results[(name, k)]
-            column = lambda key: np.array([r[key] for r in rows], dtype=float)
-            print(f"{name:<22}{k:>6}{column('triangle_ratio').mean():>10.3f}{column('budget_reached').mean():>10.2f}"
-                  f"{column('hausdorff_rel').mean():>10.4f}{column('silhouette_iou').mean():>9.3f}{column('silhouette_iou').min():>8.3f}"
-                  f"{column('wall_coverage').mean():>11.3f}{column('wall_coverage').min():>10.3f}"
-                  f"{np.abs(column('boundary_length_change')).mean():>11.4f}{int(column('new_holes').sum()):>6}")
+
+            def column(key, rows=rows):
+                return np.array([r[key] for r in rows], dtype=float)
+
+            print(
+                f"{name:<22}{k:>6}{column('triangle_ratio').mean():>10.3f}{column('budget_reached').mean():>10.2f}"
+                f"{column('hausdorff_rel').mean():>10.4f}{column('silhouette_iou').mean():>9.3f}{column('silhouette_iou').min():>8.3f}"
+                f"{column('wall_coverage').mean():>11.3f}{column('wall_coverage').min():>10.3f}"
+                f"{np.abs(column('boundary_length_change')).mean():>11.4f}{int(column('new_holes').sum()):>6}"
+            )
     means = np.mean(table3, axis=0)
     ratios = np.mean(np.array(table3) / np.array(table3)[:, :1], axis=0)
-    print("\nTable III (this method): " + " | ".join(f"LOD{k} {m:.2f} tris ({m / means[0] * 100:.2f} %)" for k, m in enumerate(means)))
-    print("mean of per-building ratios: " + " | ".join(f"LOD{k} {r * 100:.2f} %" for k, r in enumerate(ratios)))
-    print("paper (1,248 Seoul buildings): LOD0 326.29 | LOD1 220.14 (67.46 %) | LOD2 156.86 (48.07 %)")
+    print(
+        "\nTable III (this method): "
+        + " | ".join(
+            f"LOD{k} {m:.2f} tris ({m / means[0] * 100:.2f} %)" for k, m in enumerate(means)
+        )
+    )
+    print(
+        "mean of per-building ratios: "
+        + " | ".join(f"LOD{k} {r * 100:.2f} %" for k, r in enumerate(ratios))
+    )
+    print(
+        "paper (1,248 Seoul buildings): LOD0 326.29 | LOD1 220.14 (67.46 %) | LOD2 156.86 (48.07 %)"
+    )
     base = seconds["pymeshlab QEC"] or 1e-9
-    print("\ntime per building relative to pymeshlab QEC (same run): " +
-          ", ".join(f"{name} {seconds[name] / base:.1f}x" for name in methods))
-    print(f"measure_lod: {measure_seconds / max(measure_calls, 1) * 1000:.1f} ms per call (mean over {measure_calls} calls)")
+    print(
+        "\ntime per building relative to pymeshlab QEC (same run): "
+        + ", ".join(f"{name} {seconds[name] / base:.1f}x" for name in methods)
+    )
+    print(
+        f"measure_lod: {measure_seconds / max(measure_calls, 1) * 1000:.1f} ms per call (mean over {measure_calls} calls)"
+    )
     if not executable:
-        print("gltfpack not found: npm install --prefix ~/.cache/vworld-lod/npm gltfpack (or pass --gltfpack PATH)")
+        print(
+            "gltfpack not found: npm install --prefix ~/.cache/vworld-lod/npm gltfpack (or pass --gltfpack PATH)"
+        )
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--buildings", type=int, default=300, help="number of sample-generator buildings (default 300)")
+    parser.add_argument(
+        "--buildings",
+        type=int,
+        default=300,
+        help="number of sample-generator buildings (default 300)",
+    )
     parser.add_argument("--seed", type=int, default=0, help="sample-generator seed (default 0)")
     parser.add_argument("--gltfpack", default=None, help="path of the gltfpack executable")
-    parser.add_argument("--folder", default=None, help="read the buildings from this input folder instead (any reader format)")
-    parser.add_argument("--crs", default=None, help="CRS for input files that declare none (with --folder), e.g. EPSG:7415")
+    parser.add_argument(
+        "--folder",
+        default=None,
+        help="read the buildings from this input folder instead (any reader format)",
+    )
+    parser.add_argument(
+        "--crs",
+        default=None,
+        help="CRS for input files that declare none (with --folder), e.g. EPSG:7415",
+    )
     args = parser.parse_args()
     run(args.buildings, args.seed, args.gltfpack, args.folder, args.crs)
 

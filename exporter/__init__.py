@@ -4,4 +4,5 @@ Pipeline (one module per stage, see docs/ARCHITECTURE.md):
 read (``readers``) -> simplify (``simplify``) -> textures (``textures``) -> place (``placement``,
 ``tiles``) -> write (``gltf_writer``) -> manifest (``manifest``), driven by ``pipeline`` and ``cli``.
 """
+
 __version__ = "0.2.0"

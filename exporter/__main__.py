@@ -1,4 +1,5 @@
 """``python -m exporter`` runs the ``vworld-lod`` command line."""
+
 import sys
 
 from .cli import main

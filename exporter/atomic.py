@@ -10,6 +10,7 @@ remove leftovers.
 A write is four system calls (open with O_EXCL, write, close, rename); the folder is made only
 when the open finds it missing, since the pipeline writes several files into each folder.
 """
+
 from __future__ import annotations
 
 import os
@@ -18,7 +19,9 @@ from pathlib import Path
 TMP_SUFFIX = ".tmp"
 
 
-_CREATE = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0) | getattr(os, "O_BINARY", 0)
+_CREATE = (
+    os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0) | getattr(os, "O_BINARY", 0)
+)
 
 
 def temporary_name(path: Path) -> Path:

@@ -3,6 +3,7 @@
 Exit codes: 0 success; 2 unusable input or config (one line on stderr naming the file and the
 problem); 130 interrupted (whatever was written is complete; re-running resumes).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -11,7 +12,7 @@ import os
 import sys
 import time
 from pathlib import Path
-from typing import Optional, TextIO
+from typing import TextIO
 
 from . import __version__
 from .config import default_config_yaml, load_config
@@ -61,10 +62,14 @@ def cmd_export(args) -> int:
 
     config = _effective_config(args)
     progress = None if args.quiet else ProgressPrinter(sys.stderr)
-    stats = export_tiles(args.tile_dirs, args.out, config, jobs=args.jobs, force=args.force, progress=progress)
+    stats = export_tiles(
+        args.tile_dirs, args.out, config, jobs=args.jobs, force=args.force, progress=progress
+    )
     if not args.quiet:
         for tile in stats.tiles:
-            print(f"{tile.tile.name}: {tile.buildings} buildings ({tile.reused} unchanged), {tile.skipped} skipped -> {tile.manifest_path}")
+            print(
+                f"{tile.tile.name}: {tile.buildings} buildings ({tile.reused} unchanged), {tile.skipped} skipped -> {tile.manifest_path}"
+            )
         print(f"done in {stats.wall_seconds:.1f} s")
     if args.report:
         from .report import write_reports
@@ -113,12 +118,18 @@ def cmd_inspect(args) -> int:
             atlases = [p.texture for p in building.parts if p.texture is not None]
             textures += len({id(t) for t in atlases})
             sizes = ", ".join(sorted({f"{t.width}x{t.height}" for t in atlases})) or "none"
-            out.write(f"  {building.id}: {len(building.parts)} part(s), {building.triangle_count} triangles, textures {sizes}\n")
+            out.write(
+                f"  {building.id}: {len(building.parts)} part(s), {building.triangle_count} triangles, textures {sizes}\n"
+            )
             problems += [f"{building.id}: {p}" for p in building.problems]
         for name, count in sorted(tiles.items()):
             out.write(f"  tile {name}: {count} buildings\n")
         loaded = sum(tiles.values())
-        out.write(f"  total: {loaded} buildings, {triangles} triangles" + (f" (mean {triangles / loaded:.1f})" if loaded else "") + f", {textures} textures\n")
+        out.write(
+            f"  total: {loaded} buildings, {triangles} triangles"
+            + (f" (mean {triangles / loaded:.1f})" if loaded else "")
+            + f", {textures} textures\n"
+        )
         out.write(f"  problems: {len(problems)}\n")
         for problem in problems:
             out.write(f"    {problem}\n")
@@ -134,19 +145,30 @@ def cmd_report(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="vworld-lod", description="Turn 3D building tiles into Unity-ready glTF LoD chains and a LODGroup manifest.")
+    parser = argparse.ArgumentParser(
+        prog="vworld-lod",
+        description="Turn 3D building tiles into Unity-ready glTF LoD chains and a LODGroup manifest.",
+    )
     parser.add_argument("--version", action="version", version=f"vworld-lod {__version__}")
     commands = parser.add_subparsers(dest="command", required=True)
 
-    export = commands.add_parser("export", help="export tile folders to glTF LoD chains + lod_manifest.json per tile")
+    export = commands.add_parser(
+        "export", help="export tile folders to glTF LoD chains + lod_manifest.json per tile"
+    )
     export.add_argument("tile_dirs", nargs="+", metavar="TILE_DIR")
     export.add_argument("--out", required=True, help="output folder (one subfolder per tile)")
     export.add_argument("--config", help="YAML config (see init-config); defaults from the paper")
     export.add_argument("--crs", help="CRS of input files that do not declare one, e.g. EPSG:7415")
-    export.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
-    export.add_argument("--force", action="store_true", help="redo every building, even unchanged ones")
+    export.add_argument(
+        "--jobs", type=int, default=None, help="worker processes (default: all cores)"
+    )
+    export.add_argument(
+        "--force", action="store_true", help="redo every building, even unchanged ones"
+    )
     export.add_argument("--quiet", action="store_true", help="print nothing but errors")
-    export.add_argument("--report", action="store_true", help="also write the HTML report (see 'report')")
+    export.add_argument(
+        "--report", action="store_true", help="also write the HTML report (see 'report')"
+    )
     export.set_defaults(run=cmd_export)
 
     init = commands.add_parser("init-config", help="write the default config as commented YAML")
@@ -166,7 +188,7 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: Optional[list[str]] = None) -> int:
+def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     if getattr(args, "jobs", None) is not None and args.jobs < 1:
         print("vworld-lod: --jobs: must be at least 1", file=sys.stderr)
@@ -177,7 +199,10 @@ def main(argv: Optional[list[str]] = None) -> int:
         print(f"vworld-lod: {error}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print("vworld-lod: interrupted; finished files are complete, re-run to resume", file=sys.stderr)
+        print(
+            "vworld-lod: interrupted; finished files are complete, re-run to resume",
+            file=sys.stderr,
+        )
         return 130
     except BrokenPipeError:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())

@@ -7,12 +7,14 @@ raise :class:`~exporter.errors.ConfigError` naming the file, the key and what is
 
 Percentages are accepted as ``50%`` or ``0.5``.
 """
+
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Optional
+from typing import Any
 
 import yaml
 
@@ -24,6 +26,7 @@ MAX_LODS = 8  # Unity's LODGroup holds at most 8 levels.
 # --------------------------------------------------------------------------- value parsers
 # Each parser takes the raw YAML value and returns the checked value or raises ValueError whose
 # text says what is allowed.
+
 
 def parse_ratio(value: Any) -> float:
     """A number in (0, 1], written ``0.5`` or ``50%``."""
@@ -52,7 +55,9 @@ def parse_ratio_or_zero(value: Any) -> float:
     try:
         return parse_ratio(value)
     except ValueError:
-        raise ValueError(f"got {value!r}; allowed: a ratio in [0, 1], written like 0.3 or 30%") from None
+        raise ValueError(
+            f"got {value!r}; allowed: a ratio in [0, 1], written like 0.3 or 30%"
+        ) from None
 
 
 def parse_bool(value: Any) -> bool:
@@ -61,7 +66,9 @@ def parse_bool(value: Any) -> bool:
     raise ValueError(f"got {value!r}; allowed: true or false")
 
 
-def _number(minimum: float, inclusive: bool = True, maximum: Optional[float] = None) -> Callable[[Any], float]:
+def _number(
+    minimum: float, inclusive: bool = True, maximum: float | None = None
+) -> Callable[[Any], float]:
     low = ">=" if inclusive else ">"
     text = f"a number {low} {minimum:g}" + (f" and <= {maximum:g}" if maximum is not None else "")
 
@@ -78,7 +85,7 @@ def _number(minimum: float, inclusive: bool = True, maximum: Optional[float] = N
     return parse
 
 
-def _integer(minimum: int, maximum: Optional[int] = None) -> Callable[[Any], int]:
+def _integer(minimum: int, maximum: int | None = None) -> Callable[[Any], int]:
     text = f"an integer >= {minimum}" + (f" and <= {maximum}" if maximum is not None else "")
 
     def parse(value: Any) -> int:
@@ -100,7 +107,7 @@ def _choice(*choices: str) -> Callable[[Any], str]:
     return parse
 
 
-def _optional_string(value: Any) -> Optional[str]:
+def _optional_string(value: Any) -> str | None:
     if value is None or isinstance(value, str):
         return value
     raise ValueError(f"got {value!r}; allowed: a string or null")
@@ -108,6 +115,7 @@ def _optional_string(value: Any) -> Optional[str]:
 
 # --------------------------------------------------------------------------- sections
 # ``meta(parser, doc)`` attaches the parser and the comment written by ``init-config``.
+
 
 def meta(parser: Callable[[Any], Any], doc: str) -> dict:
     return {"parse": parser, "doc": doc}
@@ -117,63 +125,197 @@ def meta(parser: Callable[[Any], Any], doc: str) -> dict:
 class LodSpec:
     """One level of detail: LOD0 first."""
 
-    transition: float = field(metadata=meta(parse_ratio, "screen-relative height (0-1 or %) below which this level hands over to the next; below the last level the building is culled"))
-    mesh: float = field(default=1.0, metadata=meta(parse_ratio, "target share of LOD0's triangles (1.0 = unchanged)"))
-    texture: float = field(default=1.0, metadata=meta(parse_ratio, "texture scale per side relative to the source atlas (0.5 = a quarter of the pixels)"))
-    terrain_level: Optional[int] = field(default=None, metadata=meta(lambda v: None if v is None else _integer(0, 30)(v), "VWorld terrain tile level this LoD pairs with (default: 15 for LOD0, one less per level)"))
+    transition: float = field(
+        metadata=meta(
+            parse_ratio,
+            "screen-relative height (0-1 or %) below which this level hands over to the next; below the last level the building is culled",
+        )
+    )
+    mesh: float = field(
+        default=1.0,
+        metadata=meta(parse_ratio, "target share of LOD0's triangles (1.0 = unchanged)"),
+    )
+    texture: float = field(
+        default=1.0,
+        metadata=meta(
+            parse_ratio,
+            "texture scale per side relative to the source atlas (0.5 = a quarter of the pixels)",
+        ),
+    )
+    terrain_level: int | None = field(
+        default=None,
+        metadata=meta(
+            lambda v: None if v is None else _integer(0, 30)(v),
+            "VWorld terrain tile level this LoD pairs with (default: 15 for LOD0, one less per level)",
+        ),
+    )
 
 
 @dataclass
 class SimplifyOptions:
     """The paper's Table II options plus the geometric filter."""
 
-    protect_largest: float = field(default=0.30, metadata=meta(parse_ratio_or_zero, "share of faces, largest area first, never simplified (the paper's geometric filter)"))
-    preserve_border_edges: bool = field(default=True, metadata=meta(parse_bool, "keep edges used by one triangle only (the open bottom and outline of a floorless building) in place"))
-    preserve_uv_seam_edges: bool = field(default=True, metadata=meta(parse_bool, "keep edges where one position has two different UVs (texture seams)"))
-    preserve_uv_foldover_edges: bool = field(default=True, metadata=meta(parse_bool, "refuse collapses that fold the texture over itself (flip a triangle in UV space)"))
-    preserve_surface_curvature: bool = field(default=False, metadata=meta(parse_bool, "weigh collapses by surface curvature so curved parts (domes) keep their shape"))
-    vertex_link_distance: float = field(default=0.0, metadata=meta(_number(0.0), "metres: weld vertices closer than this before simplifying (0 = only float noise, closer than 1 micrometre)"))
-    max_iterations: int = field(default=100, metadata=meta(_integer(1, 100000), "maximum simplification passes per level"))
-    max_error: float = field(default=0.005, metadata=meta(_number(0.0, maximum=1.0), "largest allowed deviation of a level from LOD0 (symmetric sampled Hausdorff distance) as a share of the building's bounding-box diagonal; a level that would exceed it keeps more triangles (0 = no limit)"))
-    protect_walls: bool = field(default=False, metadata=meta(parse_bool, "also keep near-vertical faces standing on the open bottom border (the walls on the footprint outline) out of the quadric collapse"))
-    planar_retriangulation: bool = field(default=True, metadata=meta(parse_bool, "first re-triangulate every flat polygon from its outline (lossless: same surface, same UV mapping, same outlines)"))
+    protect_largest: float = field(
+        default=0.30,
+        metadata=meta(
+            parse_ratio_or_zero,
+            "share of faces, largest area first, never simplified (the paper's geometric filter)",
+        ),
+    )
+    preserve_border_edges: bool = field(
+        default=True,
+        metadata=meta(
+            parse_bool,
+            "keep edges used by one triangle only (the open bottom and outline of a floorless building) in place",
+        ),
+    )
+    preserve_uv_seam_edges: bool = field(
+        default=True,
+        metadata=meta(
+            parse_bool, "keep edges where one position has two different UVs (texture seams)"
+        ),
+    )
+    preserve_uv_foldover_edges: bool = field(
+        default=True,
+        metadata=meta(
+            parse_bool,
+            "refuse collapses that fold the texture over itself (flip a triangle in UV space)",
+        ),
+    )
+    preserve_surface_curvature: bool = field(
+        default=False,
+        metadata=meta(
+            parse_bool,
+            "weigh collapses by surface curvature so curved parts (domes) keep their shape",
+        ),
+    )
+    vertex_link_distance: float = field(
+        default=0.0,
+        metadata=meta(
+            _number(0.0),
+            "metres: weld vertices closer than this before simplifying (0 = only float noise, closer than 1 micrometre)",
+        ),
+    )
+    max_iterations: int = field(
+        default=100, metadata=meta(_integer(1, 100000), "maximum simplification passes per level")
+    )
+    max_error: float = field(
+        default=0.005,
+        metadata=meta(
+            _number(0.0, maximum=1.0),
+            "largest allowed deviation of a level from LOD0 (symmetric sampled Hausdorff distance) as a share of the building's bounding-box diagonal; a level that would exceed it keeps more triangles (0 = no limit)",
+        ),
+    )
+    protect_walls: bool = field(
+        default=False,
+        metadata=meta(
+            parse_bool,
+            "also keep near-vertical faces standing on the open bottom border (the walls on the footprint outline) out of the quadric collapse",
+        ),
+    )
+    planar_retriangulation: bool = field(
+        default=True,
+        metadata=meta(
+            parse_bool,
+            "first re-triangulate every flat polygon from its outline (lossless: same surface, same UV mapping, same outlines)",
+        ),
+    )
 
 
 @dataclass
 class GlobeOptions:
     """Placement on the paper's spherical, left-handed, y-up globe (equations 1-2)."""
 
-    unity_radius: float = field(default=6378137.0, metadata=meta(_number(0.0, inclusive=False), "UR: the Earth's radius in Unity units (6378137 = 1 unit per metre)"))
-    earth_radius: float = field(default=6378137.0, metadata=meta(_number(0.0, inclusive=False), "R: the real Earth radius in metres (VWorld's sphere)"))
-    placement: str = field(default="tile_relative", metadata=meta(_choice("tile_relative", "globe"), "which placement the Unity package applies: tile_relative (tile root + small local numbers, no float jitter) or globe (the paper's absolute one)"))
+    unity_radius: float = field(
+        default=6378137.0,
+        metadata=meta(
+            _number(0.0, inclusive=False),
+            "UR: the Earth's radius in Unity units (6378137 = 1 unit per metre)",
+        ),
+    )
+    earth_radius: float = field(
+        default=6378137.0,
+        metadata=meta(
+            _number(0.0, inclusive=False), "R: the real Earth radius in metres (VWorld's sphere)"
+        ),
+    )
+    placement: str = field(
+        default="tile_relative",
+        metadata=meta(
+            _choice("tile_relative", "globe"),
+            "which placement the Unity package applies: tile_relative (tile root + small local numbers, no float jitter) or globe (the paper's absolute one)",
+        ),
+    )
 
 
 @dataclass
 class UnityOptions:
     """How the Unity package sets up each LODGroup."""
 
-    fade_mode: str = field(default="none", metadata=meta(_choice("none", "cross_fade", "speed_tree"), "LODGroup.fadeMode"))
-    animate_cross_fading: bool = field(default=False, metadata=meta(parse_bool, "LODGroup.animateCrossFading (with cross_fade)"))
-    fade_transition_width: float = field(default=0.0, metadata=meta(parse_ratio_or_zero, "LOD.fadeTransitionWidth for every level (with cross_fade)"))
+    fade_mode: str = field(
+        default="none",
+        metadata=meta(_choice("none", "cross_fade", "speed_tree"), "LODGroup.fadeMode"),
+    )
+    animate_cross_fading: bool = field(
+        default=False, metadata=meta(parse_bool, "LODGroup.animateCrossFading (with cross_fade)")
+    )
+    fade_transition_width: float = field(
+        default=0.0,
+        metadata=meta(
+            parse_ratio_or_zero, "LOD.fadeTransitionWidth for every level (with cross_fade)"
+        ),
+    )
 
 
 @dataclass
 class TextureOptions:
     """Texture LoDs: each level's atlas scaled per side by lods[].texture."""
 
-    jpeg_quality: int = field(default=90, metadata=meta(_integer(1, 100), "JPEG quality of the reduced atlases (LOD0 keeps the source bytes)"))
-    min_size: int = field(default=16, metadata=meta(_integer(1, 16384), "pixels: no atlas side is reduced below this"))
-    fast_jpeg_downscale: str = field(default="auto", metadata=meta(_choice("auto", "always", "never"), "decode JPEG at reduced size (DCT scaling), each later level from the previous one; auto = DCT scaling, and later levels by box filter (as mipmaps), only where a sampled check predicts >= 35 dB PSNR against Lanczos (else full decode / Lanczos); always = both everywhere (fastest; aliases pixel-sharp detail); never = Lanczos from the full image for every level"))
-    opaque_png_to_jpeg: bool = field(default=False, metadata=meta(parse_bool, "write reduced levels of fully opaque PNG atlases as JPEG"))
-    max_pixels: int = field(default=16384 * 16384, metadata=meta(_integer(1), "refuse a source atlas with more pixels than this (bounded memory)"))
+    jpeg_quality: int = field(
+        default=90,
+        metadata=meta(
+            _integer(1, 100), "JPEG quality of the reduced atlases (LOD0 keeps the source bytes)"
+        ),
+    )
+    min_size: int = field(
+        default=16, metadata=meta(_integer(1, 16384), "pixels: no atlas side is reduced below this")
+    )
+    fast_jpeg_downscale: str = field(
+        default="auto",
+        metadata=meta(
+            _choice("auto", "always", "never"),
+            "decode JPEG at reduced size (DCT scaling), each later level from the previous one; auto = DCT scaling, and later levels by box filter (as mipmaps), only where a sampled check predicts >= 35 dB PSNR against Lanczos (else full decode / Lanczos); always = both everywhere (fastest; aliases pixel-sharp detail); never = Lanczos from the full image for every level",
+        ),
+    )
+    opaque_png_to_jpeg: bool = field(
+        default=False,
+        metadata=meta(parse_bool, "write reduced levels of fully opaque PNG atlases as JPEG"),
+    )
+    max_pixels: int = field(
+        default=16384 * 16384,
+        metadata=meta(
+            _integer(1), "refuse a source atlas with more pixels than this (bounded memory)"
+        ),
+    )
 
 
 @dataclass
 class ReaderOptions:
     """How the readers turn source files into buildings."""
 
-    drop_ground_surfaces: bool = field(default=True, metadata=meta(parse_bool, "drop CityJSON GroundSurface polygons (VWorld-style floorless models)"))
-    crs: Optional[str] = field(default=None, metadata=meta(_optional_string, "CRS of input files that do not declare one, e.g. EPSG:7415 (never guessed)"))
+    drop_ground_surfaces: bool = field(
+        default=True,
+        metadata=meta(
+            parse_bool, "drop CityJSON GroundSurface polygons (VWorld-style floorless models)"
+        ),
+    )
+    crs: str | None = field(
+        default=None,
+        metadata=meta(
+            _optional_string,
+            "CRS of input files that do not declare one, e.g. EPSG:7415 (never guessed)",
+        ),
+    )
 
 
 def default_lods() -> list[LodSpec]:
@@ -197,7 +339,10 @@ class Config:
 
     def terrain_levels(self) -> list[int]:
         """Terrain tile level hint per LoD (the paper pairs building LoDs with terrain 15/14/13)."""
-        return [spec.terrain_level if spec.terrain_level is not None else max(0, 15 - i) for i, spec in enumerate(self.lods)]
+        return [
+            spec.terrain_level if spec.terrain_level is not None else max(0, 15 - i)
+            for i, spec in enumerate(self.lods)
+        ]
 
     def to_dict(self) -> dict:
         """The effective configuration as plain data (written into the manifest)."""
@@ -218,22 +363,35 @@ SECTIONS = {
 
 # --------------------------------------------------------------------------- loading
 
+
 def _parse_fields(cls, raw: Any, where: str, path: str, base=None):
     """Build dataclass ``cls`` from mapping ``raw``, starting from ``base`` (or the defaults)."""
     if not isinstance(raw, dict):
-        raise ConfigError(path, where, f"got {type(raw).__name__}; allowed: a mapping of keys {', '.join(f.name for f in dataclasses.fields(cls))}")
+        raise ConfigError(
+            path,
+            where,
+            f"got {type(raw).__name__}; allowed: a mapping of keys {', '.join(f.name for f in dataclasses.fields(cls))}",
+        )
     known = {f.name: f for f in dataclasses.fields(cls)}
     values = {}
     for key, value in raw.items():
         if key not in known:
-            raise ConfigError(path, f"{where}.{key}", f"unknown key; allowed keys: {', '.join(known)}")
+            raise ConfigError(
+                path, f"{where}.{key}", f"unknown key; allowed keys: {', '.join(known)}"
+            )
         try:
             values[key] = known[key].metadata["parse"](value)
         except ValueError as error:
             raise ConfigError(path, f"{where}.{key}", str(error)) from None
     if base is not None:
         return dataclasses.replace(base, **values)
-    missing = [name for name, f in known.items() if name not in values and f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING]
+    missing = [
+        name
+        for name, f in known.items()
+        if name not in values
+        and f.default is dataclasses.MISSING
+        and f.default_factory is dataclasses.MISSING
+    ]
     if missing:
         raise ConfigError(path, where, f"missing key(s) {', '.join(missing)}")
     return cls(**values)
@@ -241,17 +399,33 @@ def _parse_fields(cls, raw: Any, where: str, path: str, base=None):
 
 def _parse_lods(raw: Any, path: str) -> list[LodSpec]:
     if not isinstance(raw, list) or not raw:
-        raise ConfigError(path, "lods", f"got {raw!r}; allowed: a list of 1 to {MAX_LODS} levels, LOD0 first")
+        raise ConfigError(
+            path, "lods", f"got {raw!r}; allowed: a list of 1 to {MAX_LODS} levels, LOD0 first"
+        )
     if len(raw) > MAX_LODS:
-        raise ConfigError(path, "lods", f"{len(raw)} levels; allowed: 1 to {MAX_LODS} (Unity's LODGroup limit)")
+        raise ConfigError(
+            path, "lods", f"{len(raw)} levels; allowed: 1 to {MAX_LODS} (Unity's LODGroup limit)"
+        )
     lods = [_parse_fields(LodSpec, item, f"lods[{i}]", path) for i, item in enumerate(raw)]
     for i in range(1, len(lods)):
         if not lods[i].transition < lods[i - 1].transition:
-            raise ConfigError(path, f"lods[{i}].transition", f"{lods[i].transition:g} is not below lods[{i - 1}].transition {lods[i - 1].transition:g}; allowed: strictly decreasing transitions, LOD0 first")
+            raise ConfigError(
+                path,
+                f"lods[{i}].transition",
+                f"{lods[i].transition:g} is not below lods[{i - 1}].transition {lods[i - 1].transition:g}; allowed: strictly decreasing transitions, LOD0 first",
+            )
         if lods[i].mesh > lods[i - 1].mesh:
-            raise ConfigError(path, f"lods[{i}].mesh", f"{lods[i].mesh:g} is above lods[{i - 1}].mesh {lods[i - 1].mesh:g}; allowed: mesh ratios that never grow from one level to the next")
+            raise ConfigError(
+                path,
+                f"lods[{i}].mesh",
+                f"{lods[i].mesh:g} is above lods[{i - 1}].mesh {lods[i - 1].mesh:g}; allowed: mesh ratios that never grow from one level to the next",
+            )
         if lods[i].texture > lods[i - 1].texture:
-            raise ConfigError(path, f"lods[{i}].texture", f"{lods[i].texture:g} is above lods[{i - 1}].texture {lods[i - 1].texture:g}; allowed: texture scales that never grow from one level to the next")
+            raise ConfigError(
+                path,
+                f"lods[{i}].texture",
+                f"{lods[i].texture:g} is above lods[{i - 1}].texture {lods[i - 1].texture:g}; allowed: texture scales that never grow from one level to the next",
+            )
     return lods
 
 
@@ -260,19 +434,35 @@ def config_from_dict(raw: Any, path: str = "<config>") -> Config:
     if raw is None:
         raw = {}
     if not isinstance(raw, dict):
-        raise ConfigError(path, "<top level>", f"got {type(raw).__name__}; allowed: a mapping with keys lods, {', '.join(SECTIONS)}")
+        raise ConfigError(
+            path,
+            "<top level>",
+            f"got {type(raw).__name__}; allowed: a mapping with keys lods, {', '.join(SECTIONS)}",
+        )
     config = Config()
     for key, value in raw.items():
         if key == "lods":
             config.lods = _parse_lods(value, path)
         elif key in SECTIONS:
-            setattr(config, key, _parse_fields(SECTIONS[key], value if value is not None else {}, key, path, base=getattr(config, key)))
+            setattr(
+                config,
+                key,
+                _parse_fields(
+                    SECTIONS[key],
+                    value if value is not None else {},
+                    key,
+                    path,
+                    base=getattr(config, key),
+                ),
+            )
         else:
-            raise ConfigError(path, str(key), f"unknown key; allowed keys: lods, {', '.join(SECTIONS)}")
+            raise ConfigError(
+                path, str(key), f"unknown key; allowed keys: lods, {', '.join(SECTIONS)}"
+            )
     return config
 
 
-def load_config(path: Optional[str | Path]) -> Config:
+def load_config(path: str | Path | None) -> Config:
     """Load and check a YAML config file; ``None`` gives the defaults."""
     if path is None:
         return Config()
@@ -280,25 +470,35 @@ def load_config(path: Optional[str | Path]) -> Config:
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as error:
-        raise ConfigError(str(path), "<file>", f"cannot be read ({error.strerror or error})") from None
+        raise ConfigError(
+            str(path), "<file>", f"cannot be read ({error.strerror or error})"
+        ) from None
     try:
         raw = yaml.safe_load(text)
     except yaml.YAMLError as error:
-        raise ConfigError(str(path), "<yaml>", f"not valid YAML ({str(error).splitlines()[0]})") from None
+        raise ConfigError(
+            str(path), "<yaml>", f"not valid YAML ({str(error).splitlines()[0]})"
+        ) from None
     return config_from_dict(raw, str(path))
 
 
 # --------------------------------------------------------------------------- writing
 
+
 def _yaml_value(value: Any) -> str:
-    return yaml.safe_dump(value, default_flow_style=True, width=1000).strip().removesuffix("...").strip()
+    return (
+        yaml.safe_dump(value, default_flow_style=True, width=1000)
+        .strip()
+        .removesuffix("...")
+        .strip()
+    )
 
 
 def _percent(value: float) -> str:
     return f"{value * 100:g}%"
 
 
-def default_config_yaml(config: Optional[Config] = None) -> str:
+def default_config_yaml(config: Config | None = None) -> str:
     """The config as commented YAML, for ``vworld-lod init-config``; loads back to an equal Config."""
     config = config or Config()
     lines = [
@@ -320,7 +520,10 @@ def default_config_yaml(config: Optional[Config] = None) -> str:
         lines += ["", f"# {cls.__doc__.strip().splitlines()[0]}", f"{name}:"]
         for f in dataclasses.fields(cls):
             value = getattr(section, f.name)
-            shown = _percent(value) if f.metadata["parse"] in (parse_ratio, parse_ratio_or_zero) else _yaml_value(value)
+            shown = (
+                _percent(value)
+                if f.metadata["parse"] in (parse_ratio, parse_ratio_or_zero)
+                else _yaml_value(value)
+            )
             lines.append(f"  {f.name}: {shown}  # {f.metadata['doc']}")
     return "\n".join(lines) + "\n"
-

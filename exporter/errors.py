@@ -1,4 +1,5 @@
 """The project's own error types. Every message names the file and the problem."""
+
 from __future__ import annotations
 
 

@@ -23,6 +23,7 @@ Projected CRS -> lon/lat uses pyproj (PROJ) with ``always_xy=True``; a compound 
 EPSG:7415 = RD New + NAP height) is reduced to its horizontal part so heights pass through as
 they are.
 """
+
 from __future__ import annotations
 
 import re
@@ -37,7 +38,9 @@ from .model import GeoPoint
 EARTH_RADIUS_M = 6378137.0  # VWorld's sphere; GlobeOptions.earth_radius defaults to it
 
 # The forms CityJSON files use: OGC URLs, OGC URNs and plain authority codes.
-_URL = re.compile(r"^https?://www\.opengis\.net/def/crs/(?P<auth>[A-Za-z]+)/[^/]*/(?P<code>[^/\s]+)/?$")
+_URL = re.compile(
+    r"^https?://www\.opengis\.net/def/crs/(?P<auth>[A-Za-z]+)/[^/]*/(?P<code>[^/\s]+)/?$"
+)
 _URN = re.compile(r"^urn:ogc:def:crs:(?P<auth>[A-Za-z]+):[^:]*:(?P<code>[^:\s]+)$", re.IGNORECASE)
 
 
@@ -78,7 +81,9 @@ def horizontal_crs(crs: CRS) -> CRS:
 def _to_lonlat_transformer(text: str) -> Transformer:
     crs = horizontal_crs(parse_crs(text))
     if not (crs.is_projected or crs.is_geographic):
-        raise ValueError(f"coordinate reference system {text!r} ({crs.name}) is neither projected nor geographic")
+        raise ValueError(
+            f"coordinate reference system {text!r} ({crs.name}) is neither projected nor geographic"
+        )
     return Transformer.from_crs(crs, "EPSG:4326", always_xy=True)
 
 
@@ -90,9 +95,13 @@ def to_lonlath(xyz: np.ndarray, crs_text: str) -> np.ndarray:
     """
     xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
     lon, lat = _to_lonlat_transformer(crs_text).transform(xyz[:, 0], xyz[:, 1])
-    out = np.column_stack([np.asarray(lon, dtype=np.float64), np.asarray(lat, dtype=np.float64), xyz[:, 2]])
+    out = np.column_stack(
+        [np.asarray(lon, dtype=np.float64), np.asarray(lat, dtype=np.float64), xyz[:, 2]]
+    )
     if not np.all(np.isfinite(out)):
-        raise ValueError(f"coordinates outside the area {crs_text!r} can transform (PROJ returned inf)")
+        raise ValueError(
+            f"coordinates outside the area {crs_text!r} can transform (PROJ returned inf)"
+        )
     return out
 
 
@@ -101,7 +110,9 @@ def sphere_ecef(lonlath: np.ndarray, radius: float = EARTH_RADIUS_M) -> np.ndarr
     lonlath = np.asarray(lonlath, dtype=np.float64).reshape(-1, 3)
     lon, lat = np.radians(lonlath[:, 0]), np.radians(lonlath[:, 1])
     r = radius + lonlath[:, 2]
-    return np.column_stack([r * np.cos(lat) * np.cos(lon), r * np.cos(lat) * np.sin(lon), r * np.sin(lat)])
+    return np.column_stack(
+        [r * np.cos(lat) * np.cos(lon), r * np.cos(lat) * np.sin(lon), r * np.sin(lat)]
+    )
 
 
 def sphere_lonlath(ecef: np.ndarray, radius: float = EARTH_RADIUS_M) -> np.ndarray:
@@ -117,20 +128,26 @@ def east_up_north(lon: float, lat: float) -> np.ndarray:
     """(3, 3) rows = East, Up, North unit vectors at (lon, lat) degrees, in the sphere's Cartesian
     frame (module doc). ``local = basis @ (ecef - origin)``."""
     lam, phi = np.radians(lon), np.radians(lat)
-    return np.array([
-        [-np.sin(lam), np.cos(lam), 0.0],
-        [np.cos(phi) * np.cos(lam), np.cos(phi) * np.sin(lam), np.sin(phi)],
-        [-np.sin(phi) * np.cos(lam), -np.sin(phi) * np.sin(lam), np.cos(phi)],
-    ])
+    return np.array(
+        [
+            [-np.sin(lam), np.cos(lam), 0.0],
+            [np.cos(phi) * np.cos(lam), np.cos(phi) * np.sin(lam), np.sin(phi)],
+            [-np.sin(phi) * np.cos(lam), -np.sin(phi) * np.sin(lam), np.cos(phi)],
+        ]
+    )
 
 
-def lonlath_to_local(lonlath: np.ndarray, reference: GeoPoint, radius: float = EARTH_RADIUS_M) -> np.ndarray:
+def lonlath_to_local(
+    lonlath: np.ndarray, reference: GeoPoint, radius: float = EARTH_RADIUS_M
+) -> np.ndarray:
     """lonlath (n, 3) -> local East/Up/North metres (n, 3) around ``reference`` on the sphere."""
     origin = sphere_ecef([[reference.lon, reference.lat, reference.elev]], radius)[0]
     return (sphere_ecef(lonlath, radius) - origin) @ east_up_north(reference.lon, reference.lat).T
 
 
-def local_to_lonlath(local: np.ndarray, reference: GeoPoint, radius: float = EARTH_RADIUS_M) -> np.ndarray:
+def local_to_lonlath(
+    local: np.ndarray, reference: GeoPoint, radius: float = EARTH_RADIUS_M
+) -> np.ndarray:
     """Inverse of :func:`lonlath_to_local`: local East/Up/North metres (n, 3) -> lonlath (n, 3)."""
     origin = sphere_ecef([[reference.lon, reference.lat, reference.elev]], radius)[0]
     local = np.asarray(local, dtype=np.float64).reshape(-1, 3)
@@ -142,6 +159,7 @@ def base_centre(lonlath: np.ndarray) -> tuple[GeoPoint, tuple]:
     and the box ``(west, south, east, north)`` in degrees, from lonlath (n, 3), n >= 1."""
     lonlath = np.asarray(lonlath, dtype=np.float64).reshape(-1, 3)
     low, high = lonlath.min(axis=0), lonlath.max(axis=0)
-    reference = GeoPoint(float((low[0] + high[0]) / 2), float((low[1] + high[1]) / 2), float(low[2]))
+    reference = GeoPoint(
+        float((low[0] + high[0]) / 2), float((low[1] + high[1]) / 2), float(low[2])
+    )
     return reference, (float(low[0]), float(low[1]), float(high[0]), float(high[1]))
-

@@ -4,6 +4,7 @@ Data form: ``positions`` (n, 3) float metres in any one frame, ``triangles`` (m,
 into it, wound so that ``(b - a) x (c - a)`` points outward (the model's convention). Results are
 in the same frame as the input.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -23,7 +24,9 @@ def cross_rows(u: np.ndarray, v: np.ndarray) -> np.ndarray:
 def cross3(a, b) -> np.ndarray:
     """a x b of two 3-vectors (sequences or (3,) arrays), (3,) float64; ``np.cross`` costs ~20x
     more on single vectors."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+    return np.array(
+        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    )
 
 
 def triangle_cross(positions: np.ndarray, triangles: np.ndarray) -> np.ndarray:

@@ -19,6 +19,7 @@ what pygltflib's ``save_to_bytes`` writes (same fields, same order, same empty-v
 documents it does not cover go through :func:`_generic_json`, the plain formulation), and the
 binary chunk is kept as its pieces, so the (large) image bytes are copied once, into the GLB.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -101,9 +102,18 @@ class _GlbBuilder:
         self.gltf.bufferViews.append(view)
         return len(self.gltf.bufferViews) - 1
 
-    def accessor(self, array: np.ndarray, component: int, kind: str, target: int | None, with_bounds: bool = False) -> int:
+    def accessor(
+        self,
+        array: np.ndarray,
+        component: int,
+        kind: str,
+        target: int | None,
+        with_bounds: bool = False,
+    ) -> int:
         view = self._view(array.tobytes(), target)
-        accessor = pygltflib.Accessor(bufferView=view, componentType=component, count=int(len(array)), type=kind)
+        accessor = pygltflib.Accessor(
+            bufferView=view, componentType=component, count=int(len(array)), type=kind
+        )
         if with_bounds:
             accessor.min = [float(v) for v in array.min(axis=0)]
             accessor.max = [float(v) for v in array.max(axis=0)]
@@ -151,8 +161,14 @@ def _plain(value):
 def _generic_json(gltf: GLTF2) -> str:
     """The JSON text exactly as pygltflib's ``gltf_to_json(separators=(",", ":"), indent=None)``."""
     data = pygltflib.delete_empty_keys(_plain(gltf))
-    return json.dumps(data, cls=pygltflib.JsonEncoder, skipkeys=True, allow_nan=False, separators=(",", ":"),
-                      default=pygltflib.json_serial)
+    return json.dumps(
+        data,
+        cls=pygltflib.JsonEncoder,
+        skipkeys=True,
+        allow_nan=False,
+        separators=(",", ":"),
+        default=pygltflib.json_serial,
+    )
 
 
 class _Unusual(Exception):
@@ -204,7 +220,9 @@ def _pruned_fields(obj) -> dict:
             fields = _field_names(kind)
             if fields is None:
                 raise _Unusual(name)
-            if fields:  # no __iter__: kept unless it converts to {}; its own fields pruned by the callback
+            if (
+                fields
+            ):  # no __iter__: kept unless it converts to {}; its own fields pruned by the callback
                 out[name] = value
     return out
 
@@ -213,7 +231,9 @@ def _gltf_json(gltf: GLTF2) -> str:
     """The JSON text of ``gltf``, equal to :func:`_generic_json`'s (the encoder walks the
     dataclasses through :func:`_pruned_fields`; anything unusual goes the generic way)."""
     try:
-        return json.dumps(gltf, skipkeys=True, allow_nan=False, separators=(",", ":"), default=_pruned_fields)
+        return json.dumps(
+            gltf, skipkeys=True, allow_nan=False, separators=(",", ":"), default=_pruned_fields
+        )
     except _Unusual:
         return _generic_json(gltf)
 
@@ -224,9 +244,17 @@ def _glb(gltf: GLTF2, blob: bytes | bytearray | _Blob) -> bytes:
     text = _gltf_json(gltf).encode("utf-8")
     text += b" " * (-len(text) % 4)
     length = 12 + 8 + len(text) + 8 + len(blob)
-    return b"".join([b"glTF", struct.pack("<III", 2, length, len(text)), b"JSON", text,
-                     struct.pack("<I", len(blob)), b"BIN\x00",
-                     *(blob.pieces if isinstance(blob, _Blob) else [blob])])
+    return b"".join(
+        [
+            b"glTF",
+            struct.pack("<III", 2, length, len(text)),
+            b"JSON",
+            text,
+            struct.pack("<I", len(blob)),
+            b"BIN\x00",
+            *(blob.pieces if isinstance(blob, _Blob) else [blob]),
+        ]
+    )
 
 
 def glb_bytes(parts: list[Part], name: str) -> bytes:
@@ -244,21 +272,33 @@ def glb_bytes(parts: list[Part], name: str) -> bytes:
         if part.triangle_count == 0:
             continue
         positions = local_to_gltf_positions(part.positions)
-        normals_local = part.normals if part.normals is not None and len(part.normals) == len(part.positions) else vertex_normals(part.positions, part.triangles)
+        normals_local = (
+            part.normals
+            if part.normals is not None and len(part.normals) == len(part.positions)
+            else vertex_normals(part.positions, part.triangles)
+        )
         normals = unit_normals_or_up(normals_local)
         normals[:, 0] *= -1.0
         triangles = local_to_gltf_triangles(part.triangles)
         index_type = pygltflib.UNSIGNED_SHORT if len(positions) <= 65535 else pygltflib.UNSIGNED_INT
-        indices = triangles.astype(np.uint16 if index_type == pygltflib.UNSIGNED_SHORT else np.uint32).reshape(-1)
+        indices = triangles.astype(
+            np.uint16 if index_type == pygltflib.UNSIGNED_SHORT else np.uint32
+        ).reshape(-1)
 
         attributes = pygltflib.Attributes(
-            POSITION=builder.accessor(positions, pygltflib.FLOAT, pygltflib.VEC3, pygltflib.ARRAY_BUFFER, with_bounds=True),
-            NORMAL=builder.accessor(normals, pygltflib.FLOAT, pygltflib.VEC3, pygltflib.ARRAY_BUFFER),
+            POSITION=builder.accessor(
+                positions, pygltflib.FLOAT, pygltflib.VEC3, pygltflib.ARRAY_BUFFER, with_bounds=True
+            ),
+            NORMAL=builder.accessor(
+                normals, pygltflib.FLOAT, pygltflib.VEC3, pygltflib.ARRAY_BUFFER
+            ),
         )
         material = pygltflib.Material(
             name=part.name or f"part{part_index}",
             pbrMetallicRoughness=pygltflib.PbrMetallicRoughness(
-                baseColorFactor=[float(c) for c in part.color], metallicFactor=0.0, roughnessFactor=1.0
+                baseColorFactor=[float(c) for c in part.color],
+                metallicFactor=0.0,
+                roughnessFactor=1.0,
             ),
             # Floorless buildings are open at the bottom, but their faces are wound outward: single
             # sided is right (and halves fill cost); the open bottom is never seen from outside.
@@ -266,28 +306,47 @@ def glb_bytes(parts: list[Part], name: str) -> bytes:
         )
         if len(part.color) == 4 and part.color[3] < 1.0:
             material.alphaMode = pygltflib.BLEND
-        has_texture = part.texture is not None and part.uvs is not None and len(part.uvs) == len(part.positions)
+        has_texture = (
+            part.texture is not None
+            and part.uvs is not None
+            and len(part.uvs) == len(part.positions)
+        )
         if has_texture:
             if part.texture.mime not in GLTF_MIMES:
-                raise ValueError(f"texture {part.texture.name!r} is {part.texture.mime}; glTF needs image/jpeg or image/png")
+                raise ValueError(
+                    f"texture {part.texture.name!r} is {part.texture.mime}; glTF needs image/jpeg or image/png"
+                )
             uvs = np.ascontiguousarray(part.uvs, dtype=np.float32)
-            attributes.TEXCOORD_0 = builder.accessor(uvs, pygltflib.FLOAT, pygltflib.VEC2, pygltflib.ARRAY_BUFFER)
+            attributes.TEXCOORD_0 = builder.accessor(
+                uvs, pygltflib.FLOAT, pygltflib.VEC2, pygltflib.ARRAY_BUFFER
+            )
             if sampler_index is None:
-                gltf.samplers.append(pygltflib.Sampler(magFilter=pygltflib.LINEAR, minFilter=pygltflib.LINEAR_MIPMAP_LINEAR, wrapS=pygltflib.REPEAT, wrapT=pygltflib.REPEAT))
+                gltf.samplers.append(
+                    pygltflib.Sampler(
+                        magFilter=pygltflib.LINEAR,
+                        minFilter=pygltflib.LINEAR_MIPMAP_LINEAR,
+                        wrapS=pygltflib.REPEAT,
+                        wrapT=pygltflib.REPEAT,
+                    )
+                )
                 sampler_index = 0
             key = id(part.texture)
             if key not in texture_of_image:
                 image = builder.image(part.texture.data, part.texture.mime, part.texture.name)
                 gltf.textures.append(pygltflib.Texture(sampler=sampler_index, source=image))
                 texture_of_image[key] = len(gltf.textures) - 1
-            material.pbrMetallicRoughness.baseColorTexture = pygltflib.TextureInfo(index=texture_of_image[key])
+            material.pbrMetallicRoughness.baseColorTexture = pygltflib.TextureInfo(
+                index=texture_of_image[key]
+            )
             if part.texture.mime == "image/png" and material.alphaMode is None:
                 material.alphaMode = pygltflib.MASK  # transparent atlas pixels cut out, not blended
         gltf.materials.append(material)
         primitives.append(
             pygltflib.Primitive(
                 attributes=attributes,
-                indices=builder.accessor(indices, index_type, pygltflib.SCALAR, pygltflib.ELEMENT_ARRAY_BUFFER),
+                indices=builder.accessor(
+                    indices, index_type, pygltflib.SCALAR, pygltflib.ELEMENT_ARRAY_BUFFER
+                ),
                 material=len(gltf.materials) - 1,
                 mode=pygltflib.TRIANGLES,
             )

@@ -7,14 +7,15 @@ manifest against it (used by the tests; the exporter builds manifests that satis
 Frames: ``tile.placement`` and ``buildings[].placement`` are in the paper's Unity globe frame
 (Unity units); ``buildings[].relative_placement`` is in the tile's East/Up/North frame (metres).
 """
+
 from __future__ import annotations
 
 import hashlib
 import json
 import math
 import re
+from collections.abc import Iterable
 from importlib import resources
-from typing import Iterable
 
 from . import __version__
 from .config import Config
@@ -40,7 +41,11 @@ def safe_folder_name(building_id: str) -> str:
 
 
 def load_schema() -> dict:
-    return json.loads(resources.files("exporter").joinpath("schema/lod_manifest.schema.json").read_text(encoding="utf-8"))
+    return json.loads(
+        resources.files("exporter")
+        .joinpath("schema/lod_manifest.schema.json")
+        .read_text(encoding="utf-8")
+    )
 
 
 def validate_manifest(manifest: dict) -> None:
@@ -70,12 +75,18 @@ def summarize_levels(buildings: list[dict], level_count: int) -> list[dict]:
             "mean_triangles": round(mean_triangles, 4),
             "ratio_to_lod0": round(mean_triangles / lod0_mean, 6) if lod0_mean else 0.0,
             "total_triangles": int(sum(triangles)),
-            "mean_texture_pixels": round(_mean([lod["texture_size"][0] * lod["texture_size"][1] for lod in lods]), 2),
+            "mean_texture_pixels": round(
+                _mean([lod["texture_size"][0] * lod["texture_size"][1] for lod in lods]), 2
+            ),
         }
         metrics: dict[str, list[float]] = {}
         for lod in lods:
             for key, value in (lod.get("quality") or {}).items():
-                if isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
+                if (
+                    isinstance(value, (int, float))
+                    and not isinstance(value, bool)
+                    and math.isfinite(value)
+                ):
                     metrics.setdefault(key, []).append(float(value))
         if metrics:
             entry["quality_mean"] = {k: round(_mean(v), 6) for k, v in sorted(metrics.items())}
@@ -152,6 +163,7 @@ def dumps(manifest: dict) -> str:
     """The manifest as JSON text: one line per top-level key, and one line per item of the
     ``buildings`` and ``skipped`` lists (readable and diff-friendly per building, and written by
     json's C encoder: ``indent`` would switch to its pure-Python one, ~10x slower on a city tile)."""
+
     def compact(value) -> str:
         return json.dumps(value, ensure_ascii=False, allow_nan=False, separators=(", ", ": "))
 
@@ -163,4 +175,3 @@ def dumps(manifest: dict) -> str:
         else:
             lines.append(f"{compact(key)}: {compact(value)}")
     return "{\n " + ",\n ".join(lines) + "\n}\n"
-

@@ -14,10 +14,10 @@ Frames and units (see ``docs/ARCHITECTURE.md`` and ``../shared/notes/frames-and-
 
 Readers own no LoD logic: they fill this model and nothing else.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Optional
 
 import numpy as np
 
@@ -80,9 +80,9 @@ class Part:
 
     positions: np.ndarray
     triangles: np.ndarray
-    normals: Optional[np.ndarray] = None
-    uvs: Optional[np.ndarray] = None
-    texture: Optional[Texture] = None
+    normals: np.ndarray | None = None
+    uvs: np.ndarray | None = None
+    texture: Texture | None = None
     color: tuple = (1.0, 1.0, 1.0, 1.0)
     name: str = ""
 
@@ -117,11 +117,11 @@ class Building:
     source: str
     reference: GeoPoint
     parts: list[Part]
-    tile: Optional[TileId] = None
+    tile: TileId | None = None
     problems: list[str] = field(default_factory=list)
     # Geographic extent of the building (west, south, east, north) in degrees, when the reader knows
     # it; the tile a building belongs to is the one holding the centre of this box.
-    lonlat_bounds: Optional[tuple] = None
+    lonlat_bounds: tuple | None = None
 
     @property
     def triangle_count(self) -> int:
@@ -138,5 +138,5 @@ class Skipped:
 
     source: str
     reason: str
-    id: Optional[str] = None
-    tile: Optional[TileId] = None
+    id: str | None = None
+    tile: TileId | None = None

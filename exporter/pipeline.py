@@ -13,6 +13,7 @@ longer produces, and write ``lod_manifest.json`` last. Every file is written ato
 Output layout: ``OUT/<level>_<idx>_<idy>/lod_manifest.json`` and
 ``OUT/<level>_<idx>_<idy>/<building folder>/lod<k>.glb`` + ``building.json``.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -21,10 +22,10 @@ import json
 import os
 import shutil
 import time
+from collections.abc import Callable, Iterable
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Iterable, Optional
 
 import numpy as np
 
@@ -42,6 +43,7 @@ STAGES = ("read", "simplify", "textures", "quality", "write")
 
 # --------------------------------------------------------------------------- small pure helpers
 
+
 def config_fingerprint(config: Config) -> str:
     """Hash of everything in the config that changes a building's output."""
     data = config.to_dict()
@@ -53,7 +55,7 @@ def config_fingerprint(config: Config) -> str:
 RACY_NS = 2_000_000_000
 
 
-def _sha256_file(name: str) -> Optional[str]:
+def _sha256_file(name: str) -> str | None:
     digest = hashlib.sha256()
     try:
         with open(name, "rb") as handle:
@@ -79,14 +81,25 @@ def input_fingerprints(names: list[str], known: dict[str, dict]) -> list[dict]:
             out.append({"path": name, "sha256": None})
             continue
         previous = known.get(name)
-        if (previous and previous.get("sha256") and previous.get("size") == stat.st_size
-                and previous.get("mtime_ns") == stat.st_mtime_ns
-                and stat.st_mtime_ns < previous.get("hashed_ns", 0) - RACY_NS):
+        if (
+            previous
+            and previous.get("sha256")
+            and previous.get("size") == stat.st_size
+            and previous.get("mtime_ns") == stat.st_mtime_ns
+            and stat.st_mtime_ns < previous.get("hashed_ns", 0) - RACY_NS
+        ):
             out.append(previous)
             continue
         hashed_ns = time.time_ns()
-        out.append({"path": name, "size": stat.st_size, "mtime_ns": stat.st_mtime_ns,
-                    "sha256": _sha256_file(name), "hashed_ns": hashed_ns})
+        out.append(
+            {
+                "path": name,
+                "size": stat.st_size,
+                "mtime_ns": stat.st_mtime_ns,
+                "sha256": _sha256_file(name),
+                "hashed_ns": hashed_ns,
+            }
+        )
     return out
 
 
@@ -95,19 +108,29 @@ def input_hash(entry: Entry, config_hash: str, fingerprints: list[dict]) -> str:
     :func:`input_fingerprints`), the effective config and the generator version; missing input
     files hash as missing (the load reports them)."""
     digest = hashlib.sha256()
-    digest.update(f"vworld-lod {__version__}\n{config_hash}\n{entry.format}\n{entry.id}\n{entry.key!r}\n".encode("utf-8"))
+    digest.update(
+        f"vworld-lod {__version__}\n{config_hash}\n{entry.format}\n{entry.id}\n{entry.key!r}\n".encode()
+    )
     for fingerprint in fingerprints:
-        digest.update(f"\n{os.path.basename(fingerprint['path'])}\n{fingerprint['sha256'] or '<missing>'}".encode("utf-8"))
+        digest.update(
+            f"\n{os.path.basename(fingerprint['path'])}\n{fingerprint['sha256'] or '<missing>'}".encode()
+        )
     return digest.hexdigest()
 
 
-def building_tile(building: Building, level: int = 15) -> tuple[TileId, Optional[TileId], Optional[str]]:
+def building_tile(building: Building, level: int = 15) -> tuple[TileId, TileId | None, str | None]:
     """(tile to write into, tile holding the centre if it differs from the data's, message).
 
     The data's own tile wins when it has one; the disagreement is reported (tiles.check_tile)."""
-    from .tiles import building_tile as tile_of_bounds, check_tile
+    from .tiles import building_tile as tile_of_bounds
+    from .tiles import check_tile
 
-    bounds = building.lonlat_bounds or (building.reference.lon, building.reference.lat, building.reference.lon, building.reference.lat)
+    bounds = building.lonlat_bounds or (
+        building.reference.lon,
+        building.reference.lat,
+        building.reference.lon,
+        building.reference.lat,
+    )
     data_level = building.tile.level if building.tile is not None else level
     tile, message = check_tile(building.tile, bounds, data_level)
     centre = tile_of_bounds(bounds, data_level)
@@ -116,13 +139,16 @@ def building_tile(building: Building, level: int = 15) -> tuple[TileId, Optional
 
 # --------------------------------------------------------------------------- per-building stages
 
-def texture_levels(parts_by_level: list[list[Part]], config: Config, problems: list[str]) -> list[list[Part]]:
+
+def texture_levels(
+    parts_by_level: list[list[Part]], config: Config, problems: list[str]
+) -> list[list[Part]]:
     """Give every level's parts their level's atlas; a texture that cannot be processed leaves its
     parts untextured (with a problem listed), never failing the building."""
     from .textures import build_texture_lods
 
     scales = [spec.texture for spec in config.lods]
-    reduced: dict[int, Optional[list[Texture]]] = {}
+    reduced: dict[int, list[Texture] | None] = {}
     for part in parts_by_level[0]:
         texture = part.texture
         if texture is None or id(texture) in reduced:
@@ -130,14 +156,18 @@ def texture_levels(parts_by_level: list[list[Part]], config: Config, problems: l
         try:
             reduced[id(texture)] = build_texture_lods(texture, scales, config.textures)
         except ReadError as error:
-            problems.append(f"texture {texture.name or texture.source or '?'}: {error.problem}; exported untextured")
+            problems.append(
+                f"texture {texture.name or texture.source or '?'}: {error.problem}; exported untextured"
+            )
             reduced[id(texture)] = None
     out = []
     for level, parts in enumerate(parts_by_level):
         level_parts = []
         for part in parts:
             textures = reduced.get(id(part.texture)) if part.texture is not None else None
-            level_parts.append(dataclasses.replace(part, texture=textures[level] if textures else None))
+            level_parts.append(
+                dataclasses.replace(part, texture=textures[level] if textures else None)
+            )
         out.append(level_parts)
     return out
 
@@ -145,7 +175,8 @@ def texture_levels(parts_by_level: list[list[Part]], config: Config, problems: l
 def same_geometry(parts: list[Part], other: list[Part]) -> bool:
     """True when two levels have identical meshes (then their quality metrics are identical too)."""
     return len(parts) == len(other) and all(
-        np.array_equal(a.triangles, b.triangles) and np.array_equal(a.positions, b.positions) for a, b in zip(parts, other)
+        np.array_equal(a.triangles, b.triangles) and np.array_equal(a.positions, b.positions)
+        for a, b in zip(parts, other)
     )
 
 
@@ -168,14 +199,14 @@ def lod_record(level: int, parts: list[Part], file_name: str, data: bytes, quali
 class EntryResult:
     """What a worker returns for one entry: a manifest record or a skip, plus stage times (s)."""
 
-    tile: Optional[TileId]
-    record: Optional[dict] = None
-    skipped: Optional[Skipped] = None
+    tile: TileId | None
+    record: dict | None = None
+    skipped: Skipped | None = None
     reused: bool = False
     seconds: dict = field(default_factory=dict)
 
 
-def reusable_record(previous: Optional[dict], digest: str, out_dir: Path) -> Optional[dict]:
+def reusable_record(previous: dict | None, digest: str, out_dir: Path) -> dict | None:
     """A previous run's record when its input hash matches and all its files are still there."""
     if previous is None or previous["record"].get("input_hash") != digest:
         return None
@@ -185,7 +216,9 @@ def reusable_record(previous: Optional[dict], digest: str, out_dir: Path) -> Opt
     return None
 
 
-def process_entry(entry: Entry, config: Config, out_dir: str, digest: str, fingerprints: tuple = ()) -> EntryResult:
+def process_entry(
+    entry: Entry, config: Config, out_dir: str, digest: str, fingerprints: tuple = ()
+) -> EntryResult:
     """Run the whole per-building pipeline for one entry (see module doc); ``digest`` is its input
     hash and ``fingerprints`` its input files' (:func:`input_fingerprints`), recorded for the next
     run. Never raises for a bad building: returns it as skipped with
@@ -207,7 +240,11 @@ def process_entry(entry: Entry, config: Config, out_dir: str, digest: str, finge
     try:
         building = load_entry(entry, config.readers)
     except ReadError as error:
-        return EntryResult(tile=entry.tile, skipped=Skipped(entry.source, error.problem, entry.id, entry.tile), seconds=seconds)
+        return EntryResult(
+            tile=entry.tile,
+            skipped=Skipped(entry.source, error.problem, entry.id, entry.tile),
+            seconds=seconds,
+        )
     lap("read")
     try:
         tile, centre_tile, tile_message = building_tile(building)
@@ -226,7 +263,9 @@ def process_entry(entry: Entry, config: Config, out_dir: str, digest: str, finge
             if chain[level].exact:  # a lossless re-triangulation: nothing to measure
                 qualities.append(exact_quality(parts_by_level[0], parts_by_level[level]))
             elif level > 1 and same_geometry(parts_by_level[level], parts_by_level[level - 1]):
-                qualities.append(dict(qualities[-1]))  # e.g. the level above already met this target
+                qualities.append(
+                    dict(qualities[-1])
+                )  # e.g. the level above already met this target
             elif chain[level].surface_exact:  # same surface, outline changed (a closed slit)
                 qualities.append(boundary_quality(parts_by_level[0], parts_by_level[level]))
             else:
@@ -242,7 +281,9 @@ def process_entry(entry: Entry, config: Config, out_dir: str, digest: str, finge
             write_bytes_atomic(building_dir / f"lod{level}.glb", data)
             lods.append(lod_record(level, parts, file_name, data, qualities[level]))
         written = {f"lod{level}.glb" for level in range(len(lods))}
-        for stale in building_dir.glob("lod*.glb"):  # levels a previous config had and this one has not
+        for stale in building_dir.glob(
+            "lod*.glb"
+        ):  # levels a previous config had and this one has not
             if stale.name not in written:
                 stale.unlink(missing_ok=True)
         record = {
@@ -250,30 +291,53 @@ def process_entry(entry: Entry, config: Config, out_dir: str, digest: str, finge
             "folder": folder,
             "source": entry.source,
             "input_hash": digest,
-            "center": {"lon": building.reference.lon, "lat": building.reference.lat, "elev": building.reference.elev},
+            "center": {
+                "lon": building.reference.lon,
+                "lat": building.reference.lat,
+                "elev": building.reference.elev,
+            },
             "placement": building_placement(building.reference, config.globe),
             "relative_placement": relative_placement(building.reference, tile, config.globe),
             "lods": lods,
             "problems": problems,
         }
         if centre_tile is not None:
-            record["tile_from_center"] = {"level": centre_tile.level, "idx": centre_tile.idx, "idy": centre_tile.idy}
-        write_text_atomic(building_dir / RECORD_NAME, json.dumps({"tile": dataclasses.asdict(tile), "record": record, "inputs": list(fingerprints)}, allow_nan=False))
+            record["tile_from_center"] = {
+                "level": centre_tile.level,
+                "idx": centre_tile.idx,
+                "idy": centre_tile.idy,
+            }
+        write_text_atomic(
+            building_dir / RECORD_NAME,
+            json.dumps(
+                {"tile": dataclasses.asdict(tile), "record": record, "inputs": list(fingerprints)},
+                allow_nan=False,
+            ),
+        )
         lap("write")
         return EntryResult(tile=tile, record=record, seconds=seconds)
     except Exception as error:  # one broken building never stops the tile
-        reason = error.problem if isinstance(error, ReadError) else f"{type(error).__name__}: {error}"
-        return EntryResult(tile=entry.tile, skipped=Skipped(entry.source, f"processing failed: {reason}", entry.id, entry.tile), seconds=seconds)
+        reason = (
+            error.problem if isinstance(error, ReadError) else f"{type(error).__name__}: {error}"
+        )
+        return EntryResult(
+            tile=entry.tile,
+            skipped=Skipped(entry.source, f"processing failed: {reason}", entry.id, entry.tile),
+            seconds=seconds,
+        )
 
 
 # --------------------------------------------------------------------------- previous runs
 
-def read_record(path: Path) -> Optional[dict]:
+
+def read_record(path: Path) -> dict | None:
     """A building's record file: ``{"tile", "record", "inputs"}`` (inputs: the input fingerprints
     of the run that wrote it), or None when it cannot be read (such leftovers are simply redone)."""
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
-        inputs = [item for item in data.get("inputs", []) if isinstance(item, dict) and "path" in item]
+        inputs = [
+            item for item in data.get("inputs", []) if isinstance(item, dict) and "path" in item
+        ]
         return {"tile": TileId(**data["tile"]), "record": data["record"], "inputs": inputs}
     except (OSError, ValueError, KeyError, TypeError):
         return None
@@ -294,11 +358,16 @@ def _refresh_fingerprints(out_dir: Path, previous: dict, fingerprints: list[dict
     """Rewrite a reused building's record file with its inputs' current fingerprints, so the next
     run trusts their stat instead of hashing them again."""
     path = out_dir / previous["tile"].name / previous["record"]["folder"] / RECORD_NAME
-    data = {"tile": dataclasses.asdict(previous["tile"]), "record": previous["record"], "inputs": fingerprints}
+    data = {
+        "tile": dataclasses.asdict(previous["tile"]),
+        "record": previous["record"],
+        "inputs": fingerprints,
+    }
     write_text_atomic(path, json.dumps(data, allow_nan=False))
 
 
 # --------------------------------------------------------------------------- the run
+
 
 @dataclass
 class TileResult:
@@ -358,9 +427,9 @@ def export_tiles(
     folders: list[str | Path],
     out: str | Path,
     config: Config,
-    jobs: Optional[int] = None,
+    jobs: int | None = None,
     force: bool = False,
-    progress: Optional[Progress] = None,
+    progress: Progress | None = None,
 ) -> RunStats:
     """Export every building of ``folders`` into ``out``; returns what was done.
 
@@ -381,6 +450,7 @@ def export_tiles(
         seen_ids[entry.id] = count + 1
         if count:
             entry.id = f"{entry.id}~{count}"
+
     # Unchanged buildings are recognised here, in the main process, entry by entry as the pool
     # takes work: hashing is cheap I/O (and skipped for files whose stat is unchanged), and a
     # re-run that changes nothing starts no worker at all.
@@ -388,13 +458,19 @@ def export_tiles(
         for entry in entries:
             before_path = previous.get((entry.source, entry.id))
             before = read_record(before_path) if before_path is not None else None
-            fingerprints = input_fingerprints(entry.inputs, {f["path"]: f for f in before["inputs"]} if before else {})
+            fingerprints = input_fingerprints(
+                entry.inputs, {f["path"]: f for f in before["inputs"]} if before else {}
+            )
             digest = input_hash(entry, config_hash, fingerprints)
             previous_run = reusable_record(before, digest, out_dir)
             if previous_run is not None:
-                if fingerprints != before["inputs"]:  # e.g. touched, same bytes: record the new stat
+                if (
+                    fingerprints != before["inputs"]
+                ):  # e.g. touched, same bytes: record the new stat
                     _refresh_fingerprints(out_dir, previous_run, fingerprints)
-                yield EntryResult(tile=previous_run["tile"], record=previous_run["record"], reused=True)
+                yield EntryResult(
+                    tile=previous_run["tile"], record=previous_run["record"], reused=True
+                )
             else:
                 yield (entry, config, str(out_dir), digest, tuple(fingerprints))
 
@@ -402,7 +478,7 @@ def export_tiles(
     # back) and read again when the tile's manifest is made, so memory does not grow with records.
     folders_of: dict[TileId, list[str]] = {}
     reused: dict[TileId, int] = {}
-    skipped: dict[Optional[TileId], list[Skipped]] = {}
+    skipped: dict[TileId | None, list[Skipped]] = {}
     for scan in scans:
         for item in scan.skipped:
             skipped.setdefault(item.tile, []).append(item)
@@ -428,14 +504,32 @@ def export_tiles(
     unplaced = skipped.pop(None, [])
     tiles = set(folders_of) | set(skipped)
     if unplaced and not tiles:
-        raise InputError(f"{', '.join(map(str, folders))}: no building could be read; first problem: {unplaced[0].source}: {unplaced[0].reason}")
+        raise InputError(
+            f"{', '.join(map(str, folders))}: no building could be read; first problem: {unplaced[0].source}: {unplaced[0].reason}"
+        )
     for tile in sorted(tiles, key=lambda t: (t.level, t.idx, t.idy)):
-        stats.tiles.append(write_tile_output(out_dir, tile, config, folders_of.get(tile, []), skipped.get(tile, []) + unplaced, reused.get(tile, 0)))
+        stats.tiles.append(
+            write_tile_output(
+                out_dir,
+                tile,
+                config,
+                folders_of.get(tile, []),
+                skipped.get(tile, []) + unplaced,
+                reused.get(tile, 0),
+            )
+        )
     stats.wall_seconds = time.perf_counter() - started
     return stats
 
 
-def write_tile_output(out_dir: Path, tile: TileId, config: Config, folders: list[str], skipped: list[Skipped], reused: int = 0) -> TileResult:
+def write_tile_output(
+    out_dir: Path,
+    tile: TileId,
+    config: Config,
+    folders: list[str],
+    skipped: list[Skipped],
+    reused: int = 0,
+) -> TileResult:
     """Read the records of the tile's buildings (``folders``, in result order), remove building
     folders of earlier runs that this run did not produce, then write the manifest (last,
     atomically)."""
@@ -448,7 +542,14 @@ def write_tile_output(out_dir: Path, tile: TileId, config: Config, folders: list
     for folder in folders:
         found = read_record(tile_dir / folder / RECORD_NAME)
         if found is None:  # removed or damaged since this run wrote it: reported, not invented
-            skipped = skipped + [Skipped(str(tile_dir / folder), f"{RECORD_NAME} vanished or became unreadable during the run", folder, tile)]
+            skipped = skipped + [
+                Skipped(
+                    str(tile_dir / folder),
+                    f"{RECORD_NAME} vanished or became unreadable during the run",
+                    folder,
+                    tile,
+                )
+            ]
         else:
             records.append(found["record"])
     keep = set(folders)

@@ -27,6 +27,7 @@ S. W. Shepperd, "Quaternion from rotation matrix", J. Guidance and Control 1(3),
 matrix-to-quaternion conversion); the haversine identity ``1 - cos c = 2 hav(c)`` for the
 cancellation-free tile-relative offsets.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -39,6 +40,7 @@ Y_AXIS = np.array([0.0, 1.0, 0.0])
 
 
 # --------------------------------------------------------------------------- globe frame (eq. 1-2)
+
 
 def unit_position(lon: float, lat: float) -> np.ndarray:
     """(3,) unit vector from the Earth's centre to ``lon``, ``lat`` (degrees), Unity globe frame."""
@@ -96,6 +98,7 @@ def fig5_rotation(lon: float, lat: float) -> np.ndarray:
 
 # --------------------------------------------------------------------------- quaternions [x, y, z, w]
 
+
 def quaternion_from_matrix(m: np.ndarray) -> np.ndarray:
     """(4,) unit quaternion ``[x, y, z, w]`` of rotation matrix ``m`` (3, 3), with ``w >= 0``.
 
@@ -125,23 +128,27 @@ def quaternion_from_matrix(m: np.ndarray) -> np.ndarray:
 def quaternion_to_matrix(q: np.ndarray) -> np.ndarray:
     """(3, 3) rotation matrix of quaternion ``[x, y, z, w]`` (normalised first)."""
     x, y, z, w = np.asarray(q, dtype=np.float64) / np.linalg.norm(q)
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-    ])
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
 
 
 def quaternion_multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """(4,) Hamilton product ``a * b`` of ``[x, y, z, w]`` quaternions (apply ``b`` first, like Unity's ``a * b``)."""
     ax, ay, az, aw = a
     bx, by, bz, bw = b
-    return np.array([
-        aw * bx + ax * bw + ay * bz - az * by,
-        aw * by - ax * bz + ay * bw + az * bx,
-        aw * bz + ax * by - ay * bx + az * bw,
-        aw * bw - ax * bx - ay * by - az * bz,
-    ])
+    return np.array(
+        [
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+            aw * bw - ax * bx - ay * by - az * bz,
+        ]
+    )
 
 
 def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -150,6 +157,7 @@ def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- placement dicts
+
 
 def placement_dict(position, rotation, scale: float) -> dict:
     """A JSON-able placement: ``position`` (3,), ``rotation`` quaternion (4,), ``scale`` as plain floats."""
@@ -227,4 +235,6 @@ def compose(parent: dict, child: dict) -> dict:
 def apply_placement(placement: dict, points: np.ndarray) -> np.ndarray:
     """(n, 3) ``points`` of the child frame mapped to the parent frame by ``placement`` (Unity's TransformPoint)."""
     points = np.asarray(points, dtype=np.float64)
-    return np.asarray(placement["position"]) + rotate(placement["rotation"], placement["scale"] * points)
+    return np.asarray(placement["position"]) + rotate(
+        placement["rotation"], placement["scale"] * points
+    )

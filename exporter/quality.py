@@ -55,6 +55,7 @@ their probes are far but their distance is 0); measuring the level-to-source dir
 1.02x; a k = 1 query before the k = 6 one (1.27x the query time: 67 % of the points are off
 every probe); cKDTree without balancing and a hand-written ``rng.choice`` (< 2 % each).
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -69,19 +70,20 @@ from scipy.spatial import cKDTree
 from .geometry import cross_rows, unique_float_rows
 from .model import Part
 
-RESOLUTION = 128          # silhouette raster side, pixels
-SAMPLES = 256             # area-weighted surface samples per side for the Hausdorff distance
-WALL_SAMPLES = 256        # area-weighted samples on the source's walls
-WALL_MAX_UP = 0.3         # |unit normal . Up| below this is a wall
-COVER_TOLERANCE = 0.01    # wall sample covered when within this x diagonal of the level
-WELD_M = 1e-6             # metres: positions equal to this are one vertex
-SEED = 20240521           # samples are the same on every run
-PROBE_MARGIN_M = 1e-9     # metres (+ the same share of the distance): rounding of a probe's distance
+RESOLUTION = 128  # silhouette raster side, pixels
+SAMPLES = 256  # area-weighted surface samples per side for the Hausdorff distance
+WALL_SAMPLES = 256  # area-weighted samples on the source's walls
+WALL_MAX_UP = 0.3  # |unit normal . Up| below this is a wall
+COVER_TOLERANCE = 0.01  # wall sample covered when within this x diagonal of the level
+WELD_M = 1e-6  # metres: positions equal to this are one vertex
+SEED = 20240521  # samples are the same on every run
+PROBE_MARGIN_M = 1e-9  # metres (+ the same share of the distance): rounding of a probe's distance
 
 __all__ = ["measure_lod", "exact_quality", "boundary_quality", "RESOLUTION", "COVER_TOLERANCE"]
 
 
 # --------------------------------------------------------------------------- mesh helpers
+
 
 def joined(parts: list[Part]) -> tuple[np.ndarray, np.ndarray]:
     """All parts as one welded mesh: positions (k, 3) metres, triangles (m, 3) int64."""
@@ -104,11 +106,20 @@ def face_normals(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 def row_lengths(vectors: np.ndarray) -> np.ndarray:
     """(m,) lengths of (m, 3) rows: ``np.linalg.norm(vectors, axis=1)``'s sum in its order."""
-    return np.sqrt(vectors[:, 0] * vectors[:, 0] + vectors[:, 1] * vectors[:, 1] + vectors[:, 2] * vectors[:, 2])
+    return np.sqrt(
+        vectors[:, 0] * vectors[:, 0]
+        + vectors[:, 1] * vectors[:, 1]
+        + vectors[:, 2] * vectors[:, 2]
+    )
 
 
-def sample_surface(positions: np.ndarray, faces: np.ndarray, count: int, rng: np.random.Generator,
-                   with_faces: bool = False):
+def sample_surface(
+    positions: np.ndarray,
+    faces: np.ndarray,
+    count: int,
+    rng: np.random.Generator,
+    with_faces: bool = False,
+):
     """``count`` area-weighted random points on the triangles, (count, 3) metres (and, with
     ``with_faces``, the (count,) index of the triangle each lies on)."""
     areas = row_lengths(face_normals(positions, faces))
@@ -179,7 +190,9 @@ def point_triangle_distance(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
     # Degenerate (zero-area) triangles can leave NaN: their nearest corner stands in.
     bad = np.isnan(distance)
     if bad.any():
-        corners = np.minimum(np.minimum(np.sqrt(_dot(ap, ap)), np.sqrt(_dot(bp, bp))), np.sqrt(_dot(cp, cp)))
+        corners = np.minimum(
+            np.minimum(np.sqrt(_dot(ap, ap)), np.sqrt(_dot(bp, bp))), np.sqrt(_dot(cp, cp))
+        )
         distance = np.where(bad, corners, distance)
     return distance
 
@@ -195,7 +208,9 @@ class SurfaceIndex:
     def __init__(self, positions: np.ndarray, faces: np.ndarray) -> None:
         self.tri = positions[faces]
         m = len(faces)
-        samples, sample_faces = sample_surface(positions, faces, 2 * m, np.random.default_rng(SEED), with_faces=True)
+        samples, sample_faces = sample_surface(
+            positions, faces, 2 * m, np.random.default_rng(SEED), with_faces=True
+        )
         self.centres = self.tri.mean(axis=1)
         self.radii = np.sqrt(((self.tri - self.centres[:, None]) ** 2).sum(-1).max(axis=1))
         probes = np.concatenate([self.tri.reshape(-1, 3), self.centres, samples])
@@ -217,7 +232,9 @@ class SurfaceIndex:
             return np.full(len(points), np.inf)
         return self._upper(points, *self._nearest(points, candidates))
 
-    def _upper(self, points: np.ndarray, probe_distance: np.ndarray, nearest: np.ndarray) -> np.ndarray:
+    def _upper(
+        self, points: np.ndarray, probe_distance: np.ndarray, nearest: np.ndarray
+    ) -> np.ndarray:
         # A point on a probe (a shared vertex: most of them when a level keeps input vertices) is
         # on the surface: 0, which is also what its triangles would give.
         upper = np.zeros(len(points))
@@ -270,18 +287,20 @@ class SurfaceIndex:
         if len(points) == 0:
             return best
         if self.tree is None:
-            return float("inf")             # no surface: every point is infinitely far
+            return float("inf")  # no surface: every point is infinitely far
         probe_distance, nearest = self._nearest(points, self.CANDIDATES)
         # A point whose nearest probe (a point of the surface, up to rounding: the margin, metres)
         # is closer than the floor cannot raise the maximum: no triangle distances for it.
-        rest = np.flatnonzero(probe_distance[:, 0] + PROBE_MARGIN_M * (1.0 + probe_distance[:, 0]) >= best)
+        rest = np.flatnonzero(
+            probe_distance[:, 0] + PROBE_MARGIN_M * (1.0 + probe_distance[:, 0]) >= best
+        )
         points = points[rest]
         upper = self._upper(points, probe_distance[rest], nearest[rest])
         order = np.argsort(-upper)
         for start in range(0, len(order), chunk):
             if upper[order[start]] <= best:
                 break
-            take = order[start:start + chunk]
+            take = order[start : start + chunk]
             best = max(best, float(self.refine(points[take], upper[take]).max()))
         return best
 
@@ -317,7 +336,9 @@ def boundary_loops(faces: np.ndarray, vertex_count: int) -> tuple[np.ndarray, in
         return border, 0
     # The keys are sorted, so the border's rows come in order: the CSR form directly (no COO).
     indptr = np.searchsorted(border[:, 0], np.arange(vertex_count + 1))
-    graph = csr_matrix((np.ones(len(border)), border[:, 1], indptr), shape=(vertex_count, vertex_count))
+    graph = csr_matrix(
+        (np.ones(len(border)), border[:, 1], indptr), shape=(vertex_count, vertex_count)
+    )
     count, labels = connected_components(graph, directed=False)
     return border, int(len(np.unique(labels[np.unique(border)])))
 
@@ -325,7 +346,11 @@ def boundary_loops(faces: np.ndarray, vertex_count: int) -> tuple[np.ndarray, in
 def open_boundary(positions: np.ndarray, faces: np.ndarray) -> tuple[float, int]:
     """Length of the open boundary (metres) of a welded mesh and its number of loops."""
     border, loops = boundary_loops(faces, len(positions))
-    length = float(np.linalg.norm(np.diff(positions[border], axis=1), axis=-1).sum()) if len(border) else 0.0
+    length = (
+        float(np.linalg.norm(np.diff(positions[border], axis=1), axis=-1).sum())
+        if len(border)
+        else 0.0
+    )
     return length, loops
 
 
@@ -341,16 +366,16 @@ def rasterise(xy: np.ndarray, faces: np.ndarray, size: int) -> np.ndarray:
     triangles are dropped). The arithmetic is that of the (triangle, row) form it replaced, so
     the pixels are the same bit for bit (tests/test_perf_quality.py).
     """
-    tri = xy[faces]                                        # (m, 3, 2)
+    tri = xy[faces]  # (m, 3, 2)
     y_low, y_high = tri[:, :, 1].min(axis=1), tri[:, :, 1].max(axis=1)
     if len(tri) == 0:
         return np.zeros((size, size), dtype=bool)
     r0 = np.clip(np.ceil(y_low - 0.5), 0, size - 1).astype(np.int64)
     r1 = np.clip(np.floor(y_high + 0.5), 0, size - 1).astype(np.int64)
-    lines = np.maximum(r1 - r0 + 1, 0) + 1                 # rows r0..r1 have lines r0..r1 + 1
+    lines = np.maximum(r1 - r0 + 1, 0) + 1  # rows r0..r1 have lines r0..r1 + 1
     owner = np.repeat(np.arange(len(tri)), lines)
     line = r0[owner] + np.arange(len(owner)) - np.repeat(np.cumsum(lines) - lines, lines)
-    y = line - 0.5                                         # exact: the strips' bottoms and tops
+    y = line - 0.5  # exact: the strips' bottoms and tops
     lo = hi = None
     for i, j in ((0, 1), (1, 2), (2, 0)):
         p, q = tri[:, i], tri[:, j]
@@ -358,7 +383,9 @@ def rasterise(xy: np.ndarray, faces: np.ndarray, size: int) -> np.ndarray:
         p, q = np.where(down[:, None], q, p), np.where(down[:, None], p, q)
         dy = q[:, 1] - p[:, 1]
         slope = np.divide(q[:, 0] - p[:, 0], dy, out=np.zeros_like(dy), where=dy > 0)
-        px, py, qx, qy, slope, rising = (np.repeat(v, lines) for v in (p[:, 0], p[:, 1], q[:, 0], q[:, 1], slope, dy))
+        px, py, qx, qy, slope, rising = (
+            np.repeat(v, lines) for v in (p[:, 0], p[:, 1], q[:, 0], q[:, 1], slope, dy)
+        )
         # x where the line meets the edge, the line clipped to the edge's y-range: a flat edge
         # (slope 0) gives px at a strip's bottom and qx at its top, as its two ends.
         x = px + (np.clip(y, py, qy) - py) * slope
@@ -369,17 +396,24 @@ def rasterise(xy: np.ndarray, faces: np.ndarray, size: int) -> np.ndarray:
         if lo is None:
             lo, hi = np.where(valid, low, np.inf), np.where(valid, high, -np.inf)
         else:
-            lo, hi = np.where(valid, np.minimum(lo, low), lo), np.where(valid, np.maximum(hi, high), hi)
+            lo, hi = (
+                np.where(valid, np.minimum(lo, low), lo),
+                np.where(valid, np.maximum(hi, high), hi),
+            )
     keep = (owner[:-1] == owner[1:]) & (lo <= hi)
     rows = line[:-1][keep]
     c0 = np.clip(np.ceil(lo[keep] - 0.5), 0, size - 1).astype(np.int64)
     c1 = np.clip(np.floor(hi[keep] + 0.5), 0, size - 1).astype(np.int64)
     width = size + 1
-    spans = np.bincount(rows * width + c0, minlength=size * width) - np.bincount(rows * width + c1 + 1, minlength=size * width)
+    spans = np.bincount(rows * width + c0, minlength=size * width) - np.bincount(
+        rows * width + c1 + 1, minlength=size * width
+    )
     return np.cumsum(spans[: size * width].reshape(size, width)[:, :size], axis=1) > 0
 
 
-def silhouettes(positions: np.ndarray, faces: np.ndarray, low: np.ndarray, high: np.ndarray) -> list[np.ndarray]:
+def silhouettes(
+    positions: np.ndarray, faces: np.ndarray, low: np.ndarray, high: np.ndarray
+) -> list[np.ndarray]:
     """Top (x, z), front (x, y) and side (z, y) silhouettes, each (RESOLUTION, RESOLUTION) bool,
     on the box [low, high] (metres, local East/Up/North)."""
     span = np.maximum(high - low, 1e-9)
@@ -388,6 +422,7 @@ def silhouettes(positions: np.ndarray, faces: np.ndarray, low: np.ndarray, high:
 
 
 # --------------------------------------------------------------------------- the metrics
+
 
 @dataclass
 class _Source:
@@ -399,8 +434,8 @@ class _Source:
     low: np.ndarray
     high: np.ndarray
     diagonal: float
-    points: np.ndarray          # vertices + samples, (p, 3) metres
-    wall_points: np.ndarray     # samples on walls, (w, 3) metres
+    points: np.ndarray  # vertices + samples, (p, 3) metres
+    wall_points: np.ndarray  # samples on walls, (w, 3) metres
     silhouettes: list
     border_length: float
     loops: int
@@ -416,8 +451,8 @@ class _Outline:
     """The source side of :func:`boundary_quality`: what the boundary keys need, nothing more."""
 
     triangles: int
-    diagonal: float             # metres
-    border_length: float        # metres
+    diagonal: float  # metres
+    border_length: float  # metres
     loops: int
 
 
@@ -447,7 +482,11 @@ def _source_outline(parts: list[Part]) -> _Outline:
     # The diagonal and the outline exactly as _source_side computes them.
     diagonal = max(float(np.linalg.norm(positions.max(axis=0) - positions.min(axis=0))), 1e-9)
     border_length, loops = open_boundary(positions, faces)
-    return _remember(_OUTLINES, key, _Outline(sum(p.triangle_count for p in parts), diagonal, border_length, loops))
+    return _remember(
+        _OUTLINES,
+        key,
+        _Outline(sum(p.triangle_count for p in parts), diagonal, border_length, loops),
+    )
 
 
 def _source_side(parts: list[Part]) -> _Source:
@@ -463,13 +502,21 @@ def _source_side(parts: list[Part]) -> _Source:
     walls = (np.abs(normals[:, 1]) < WALL_MAX_UP * lengths) & (lengths > 0)
     border_length, loops = open_boundary(positions, faces)
     source = _Source(
-        positions, faces, sum(p.triangle_count for p in parts), low, high,
+        positions,
+        faces,
+        sum(p.triangle_count for p in parts),
+        low,
+        high,
         max(float(np.linalg.norm(high - low)), 1e-9),
         np.vstack([positions, sample_surface(positions, faces, SAMPLES, rng)]),
-        sample_surface(positions, faces[walls], WALL_SAMPLES, rng) if walls.any() else np.zeros((0, 3)),
+        sample_surface(positions, faces[walls], WALL_SAMPLES, rng)
+        if walls.any()
+        else np.zeros((0, 3)),
         silhouettes(positions, faces, low, high),
-        border_length, loops,
-        SurfaceIndex(positions, faces))
+        border_length,
+        loops,
+        SurfaceIndex(positions, faces),
+    )
     return _remember(_CACHE, key, source)
 
 
@@ -478,7 +525,11 @@ def _boundary_keys(src, lod_parts: list[Part], lod_pos: np.ndarray, lod_faces: n
     (positions metres, local East/Up/North) against a source side (_Source or _Outline)."""
     lod_tris = sum(p.triangle_count for p in lod_parts)
     lod_length, lod_loops = open_boundary(lod_pos, lod_faces)
-    change = (lod_length - src.border_length) / src.border_length if src.border_length > 0 else lod_length / src.diagonal
+    change = (
+        (lod_length - src.border_length) / src.border_length
+        if src.border_length > 0
+        else lod_length / src.diagonal
+    )
     return {
         "triangle_ratio": float(lod_tris / src.triangles) if src.triangles else 1.0,
         "boundary_length_change": float(change),
@@ -495,15 +546,25 @@ def measure_lod(source_parts: list[Part], lod_parts: list[Part]) -> dict:
     cached (keyed by its bytes), so measuring every level of a building costs one source pass.
     """
     if sum(p.triangle_count for p in source_parts) == 0:
-        return {"triangle_ratio": 1.0, "hausdorff_rel": 0.0, "silhouette_iou": 1.0, "wall_coverage": 1.0,
-                "boundary_length_change": 0.0, "new_holes": 0}
+        return {
+            "triangle_ratio": 1.0,
+            "hausdorff_rel": 0.0,
+            "silhouette_iou": 1.0,
+            "wall_coverage": 1.0,
+            "boundary_length_change": 0.0,
+            "new_holes": 0,
+        }
     src = _source_side(source_parts)
     lod_pos, lod_faces = joined(lod_parts)
     rng = np.random.default_rng(SEED + 1)
 
     # Exact where it matters: the largest distances (Hausdorff) and walls beyond the tolerance.
     lod_index = SurfaceIndex(lod_pos, lod_faces)
-    lod_points = np.vstack([lod_pos, sample_surface(lod_pos, lod_faces, SAMPLES, rng)]) if len(lod_faces) else np.zeros((0, 3))
+    lod_points = (
+        np.vstack([lod_pos, sample_surface(lod_pos, lod_faces, SAMPLES, rng)])
+        if len(lod_faces)
+        else np.zeros((0, 3))
+    )
     hausdorff = src.index.max_distance(lod_points, floor=lod_index.max_distance(src.points))
     covered = lod_index.within(src.wall_points, COVER_TOLERANCE * src.diagonal)
     wall_coverage = float(covered.mean()) if len(covered) else 1.0
@@ -542,7 +603,9 @@ def boundary_quality(source_parts: list[Part], lod_parts: list[Part]) -> dict:
     lod_pos, lod_faces = joined(lod_parts)
     keys = _boundary_keys(src, lod_parts, lod_pos, lod_faces)
     if src.triangles and not keys["triangle_ratio"]:
-        raise ValueError("boundary_quality: an empty level cannot have the surface of a non-empty source")
+        raise ValueError(
+            "boundary_quality: an empty level cannot have the surface of a non-empty source"
+        )
     return {
         "triangle_ratio": keys["triangle_ratio"],
         "hausdorff_rel": 0.0,
@@ -569,7 +632,9 @@ def exact_quality(source_parts: list[Part], lod_parts: list[Part]) -> dict:
     source_tris = sum(p.triangle_count for p in source_parts)
     lod_tris = sum(p.triangle_count for p in lod_parts)
     if source_tris and not lod_tris:
-        raise ValueError("exact_quality: an empty level cannot be a re-triangulation of a non-empty source")
+        raise ValueError(
+            "exact_quality: an empty level cannot be a re-triangulation of a non-empty source"
+        )
     return {
         "triangle_ratio": float(lod_tris / source_tris) if source_tris else 1.0,
         "hausdorff_rel": 0.0,

@@ -46,6 +46,7 @@ reduction reads only the source pixels within the filter's support, which makes 
 check's blocks exact); libjpeg-turbo's scaled IDCT (``scale_num/scale_denom``); Unity's texture
 importer (mipmaps by a box filter by default).
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -54,7 +55,7 @@ import math
 import threading
 import warnings
 from collections import OrderedDict
-from typing import Optional, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 from PIL import Image, ImageChops, ImageStat, UnidentifiedImageError
@@ -91,6 +92,7 @@ SEEN_MAX_ENTRIES = 16384
 
 # --------------------------------------------------------------------------- sizes
 
+
 def is_power_of_two(n: int) -> bool:
     return n > 0 and n & (n - 1) == 0
 
@@ -123,12 +125,15 @@ def _multiple_of_4(side: int, factor: float, min_size: int) -> int:
     return min(target, side)
 
 
-def level_sizes(width: int, height: int, scales: Sequence[float], min_size: int) -> list[tuple[int, int]]:
+def level_sizes(
+    width: int, height: int, scales: Sequence[float], min_size: int
+) -> list[tuple[int, int]]:
     """:func:`level_size` for each scale, LOD0 first; pixels."""
     return [level_size(width, height, float(s), min_size) for s in scales]
 
 
 # --------------------------------------------------------------------------- quality
+
 
 def psnr(reference: np.ndarray, image: np.ndarray) -> float:
     """Peak signal-to-noise ratio in dB of ``image`` against ``reference``.
@@ -176,7 +181,10 @@ def open_header(data: bytes, where: str, max_pixels: int) -> Image.Image:
                 warnings.simplefilter("ignore", Image.DecompressionBombWarning)
                 image = Image.open(io.BytesIO(data), formats=ALLOWED_FORMATS)
         except Image.DecompressionBombError:
-            raise ReadError(where, f"image declares more than 2 x {max_pixels} pixels (textures.max_pixels); refused before decoding") from None
+            raise ReadError(
+                where,
+                f"image declares more than 2 x {max_pixels} pixels (textures.max_pixels); refused before decoding",
+            ) from None
         except (UnidentifiedImageError, OSError, ValueError, SyntaxError):
             raise ReadError(where, _problem_of_bytes(data)) from None
         finally:
@@ -185,7 +193,10 @@ def open_header(data: bytes, where: str, max_pixels: int) -> Image.Image:
     if width <= 0 or height <= 0:
         raise ReadError(where, f"image declares an empty size {width}x{height}")
     if width * height > max_pixels:
-        raise ReadError(where, f"image declares {width}x{height} = {width * height} pixels, over textures.max_pixels = {max_pixels}; refused before decoding")
+        raise ReadError(
+            where,
+            f"image declares {width}x{height} = {width * height} pixels, over textures.max_pixels = {max_pixels}; refused before decoding",
+        )
     return image
 
 
@@ -194,9 +205,13 @@ def _decode(image: Image.Image, where: str) -> Image.Image:
     try:
         image.load()
     except MemoryError:
-        raise ReadError(where, f"image of {image.width}x{image.height} pixels does not fit in memory") from None
+        raise ReadError(
+            where, f"image of {image.width}x{image.height} pixels does not fit in memory"
+        ) from None
     except Exception as error:  # any decoder failure is this file's problem, never the run's
-        raise ReadError(where, f"image data is truncated or corrupt ({type(error).__name__}: {error})") from None
+        raise ReadError(
+            where, f"image data is truncated or corrupt ({type(error).__name__}: {error})"
+        ) from None
     if image.mode in ("RGB", "RGBA", "L"):
         return image
     if image.mode == "I" or image.mode.startswith("I;16"):
@@ -217,7 +232,9 @@ def has_transparency(image: Image.Image) -> bool:
 
 def draft_factors(options: TextureOptions) -> tuple[int, ...]:
     """IDCT reduction factors a JPEG source may be decoded at under ``options``."""
-    return {"auto": AUTO_DRAFT_FACTORS, "always": ALWAYS_DRAFT_FACTORS, "never": ()}[options.fast_jpeg_downscale]
+    return {"auto": AUTO_DRAFT_FACTORS, "always": ALWAYS_DRAFT_FACTORS, "never": ()}[
+        options.fast_jpeg_downscale
+    ]
 
 
 def _draft(image: Image.Image, target: tuple[int, int], factors: tuple[int, ...]) -> None:
@@ -231,6 +248,7 @@ def _draft(image: Image.Image, target: tuple[int, int], factors: tuple[int, ...]
 
 
 # --------------------------------------------------------------------------- encoding
+
 
 def _encode(image: Image.Image, fmt: str, quality: int) -> bytes:
     out = io.BytesIO()
@@ -251,6 +269,7 @@ def _level_name(name: str, level: int, fmt: str) -> str:
 
 
 # --------------------------------------------------------------------------- the cache
+
 
 class _Content:
     """Encoded bytes as a dict key: hashed on their length and ends (no pass over the whole file,
@@ -343,11 +362,17 @@ def clear_texture_cache() -> None:
 def texture_cache_stats() -> dict:
     """``{"entries", "bytes", "max_bytes", "hits", "misses"}`` of the process-wide cache."""
     with _cache.lock:
-        return {"entries": len(_cache.entries), "bytes": _cache.bytes, "max_bytes": _cache.max_bytes,
-                "hits": _cache.hits, "misses": _cache.misses}
+        return {
+            "entries": len(_cache.entries),
+            "bytes": _cache.bytes,
+            "max_bytes": _cache.max_bytes,
+            "hits": _cache.hits,
+            "misses": _cache.misses,
+        }
 
 
 # --------------------------------------------------------------------------- the pipeline
+
 
 def box_psnr(image: Image.Image, k: int) -> float:
     """dB: PSNR of a k x k box reduction of ``image`` (``Image.reduce``) against its Lanczos
@@ -363,7 +388,9 @@ def sample_origins(side: int, count: int, block: int, margin: int, k: int) -> li
     sequence so the blocks do not line up with an atlas's regular layout; multiples of ``k``."""
     low, high = margin, side - margin - block
     stratum = (high - low) / count
-    return [low + int((i + (i * 0.6180339887 + 0.5) % 1.0) * stratum) // k * k for i in range(count)]
+    return [
+        low + int((i + (i * 0.6180339887 + 0.5) % 1.0) * stratum) // k * k for i in range(count)
+    ]
 
 
 def sampled_box_psnr(image: Image.Image, k: int) -> float:
@@ -382,9 +409,17 @@ def sampled_box_psnr(image: Image.Image, k: int) -> float:
     cell = block + 2 * margin
     n = SAMPLE_BLOCKS
     width, height = image.size
-    if width % k or height % k or min(width, height) < 2 * cell or 4 * (n * cell) ** 2 > width * height:
+    if (
+        width % k
+        or height % k
+        or min(width, height) < 2 * cell
+        or 4 * (n * cell) ** 2 > width * height
+    ):
         return box_psnr(image, k)
-    rows = [image.crop((0, y - margin, width, y + block + margin)) for y in sample_origins(height, n, block, margin, k)]
+    rows = [
+        image.crop((0, y - margin, width, y + block + margin))
+        for y in sample_origins(height, n, block, margin, k)
+    ]
     band = Image.new(image.mode, (width, n * cell), None)  # every pixel is pasted over: no fill
     for i, row in enumerate(rows):
         band.paste(row, (0, i * cell))
@@ -392,9 +427,15 @@ def sampled_box_psnr(image: Image.Image, k: int) -> float:
     for j, x in enumerate(sample_origins(width, n, block, margin, k)):
         mosaic.paste(band.crop((x - margin, 0, x + block + margin, n * cell)), (j * cell, 0))
     side = n * cell // k
-    difference = ImageChops.difference(mosaic.resize((side, side), Image.Resampling.LANCZOS), mosaic.reduce(k))
+    difference = ImageChops.difference(
+        mosaic.resize((side, side), Image.Resampling.LANCZOS), mosaic.reduce(k)
+    )
     inner = slice(margin // k, margin // k + SAMPLE_BLOCK_OUT)
-    errors = np.asarray(difference).reshape(n, cell // k, n, cell // k, -1)[:, inner, :, inner].astype(np.float64)
+    errors = (
+        np.asarray(difference)
+        .reshape(n, cell // k, n, cell // k, -1)[:, inner, :, inner]
+        .astype(np.float64)
+    )
     mse = float(np.mean(errors * errors))
     return math.inf if mse == 0.0 else 10.0 * math.log10(255.0 * 255.0 / mse)
 
@@ -415,8 +456,13 @@ class _BoxCheck:
         return self.found[key]
 
 
-def _decode_jpeg(header: Image.Image, where: str, options: TextureOptions,
-                 target: Optional[tuple[int, int]], check: _BoxCheck) -> tuple[Optional[Image.Image], bool]:
+def _decode_jpeg(
+    header: Image.Image,
+    where: str,
+    options: TextureOptions,
+    target: tuple[int, int] | None,
+    check: _BoxCheck,
+) -> tuple[Image.Image | None, bool]:
     """Decode the JPEG opened lazily as ``header`` once for levels no larger than ``target``
     pixels (None: validation only).
 
@@ -432,7 +478,11 @@ def _decode_jpeg(header: Image.Image, where: str, options: TextureOptions,
     decoded = _decode(header, where)
     chain = options.fast_jpeg_downscale != "never"
     # Too much detail near the pixel size: the IDCT shortcut would alias it.
-    if decoded.width < full_width and options.fast_jpeg_downscale == "auto" and not check.passes(decoded, 2):
+    if (
+        decoded.width < full_width
+        and options.fast_jpeg_downscale == "auto"
+        and not check.passes(decoded, 2)
+    ):
         return None, chain
     return decoded, chain
 
@@ -452,7 +502,9 @@ def _output_format(source_format: str, transparent: bool, options: TextureOption
     return "PNG" if transparent else "JPEG"
 
 
-def _build_levels(data: bytes, scales: Sequence[float], options: TextureOptions, where: str) -> list[tuple]:
+def _build_levels(
+    data: bytes, scales: Sequence[float], options: TextureOptions, where: str
+) -> list[tuple]:
     """Encoded levels ``[(bytes, format, width, height, is_source_bytes), ...]`` for one source."""
     header = open_header(data, where, options.max_pixels)
     source_format, (width, height) = header.format, header.size
@@ -490,14 +542,25 @@ def _build_levels(data: bytes, scales: Sequence[float], options: TextureOptions,
             continue
         if size == (width, height):
             if source_level is None:
-                source_level = (_encode(decoded, fmt, options.jpeg_quality), fmt, width, height, False)
+                source_level = (
+                    _encode(decoded, fmt, options.jpeg_quality),
+                    fmt,
+                    width,
+                    height,
+                    False,
+                )
             levels.append(source_level)
             continue
         base = previous if chain else decoded
         k = integer_factor(base.size, size)
         if base.size == size:
             resized = base
-        elif k > 1 and (mode == "always" or mode == "auto" and base.size != (width, height) and check.passes(base, k)):
+        elif k > 1 and (
+            mode == "always"
+            or mode == "auto"
+            and base.size != (width, height)
+            and check.passes(base, k)
+        ):
             resized = base.reduce(k)
         else:
             resized = base.resize(size, Image.Resampling.LANCZOS)
@@ -506,7 +569,9 @@ def _build_levels(data: bytes, scales: Sequence[float], options: TextureOptions,
     return levels
 
 
-def build_texture_lods(texture: Texture, scales: list[float], options: TextureOptions) -> list[Texture]:
+def build_texture_lods(
+    texture: Texture, scales: list[float], options: TextureOptions
+) -> list[Texture]:
     """One :class:`Texture` per level for ``scales`` (per-side factors, LOD0 first).
 
     Raises :class:`~exporter.errors.ReadError` naming ``texture.source`` (or ``texture.name``) when
@@ -532,8 +597,22 @@ def build_texture_lods(texture: Texture, scales: list[float], options: TextureOp
     # The source level hands back the caller's own bytes object (a cache hit may come from
     # another building with equal bytes).
     return [
-        Texture(data=texture.data, mime=MIME[fmt], width=w, height=h, name=texture.name, source=texture.source)
-        if is_source else
-        Texture(data=level_data, mime=MIME[fmt], width=w, height=h, name=_level_name(texture.name, k, fmt), source=texture.source)
+        Texture(
+            data=texture.data,
+            mime=MIME[fmt],
+            width=w,
+            height=h,
+            name=texture.name,
+            source=texture.source,
+        )
+        if is_source
+        else Texture(
+            data=level_data,
+            mime=MIME[fmt],
+            width=w,
+            height=h,
+            name=_level_name(texture.name, k, fmt),
+            source=texture.source,
+        )
         for k, (level_data, fmt, w, h, is_source) in enumerate(cached)
     ]

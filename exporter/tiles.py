@@ -24,10 +24,11 @@ Edge rules:
 - Longitudes in (180, 360] or [-360, -180) are wrapped (0..360 data); other longitudes outside
   [-180, 180], latitudes outside [-90, 90] and non-finite values raise ``ValueError``, which callers turn into an error naming their file.
 """
+
 from __future__ import annotations
 
 import math
-from typing import Optional, Sequence
+from collections.abc import Sequence
 
 from .model import TileId
 
@@ -89,7 +90,12 @@ def children(tile: TileId) -> list[TileId]:
     """The four level ``L + 1`` tiles of ``tile``: south-west, south-east, north-west, north-east."""
     _check_tile(tile)
     level, i, j = tile.level + 1, 2 * tile.idx, 2 * tile.idy
-    return [TileId(level, i, j), TileId(level, i + 1, j), TileId(level, i, j + 1), TileId(level, i + 1, j + 1)]
+    return [
+        TileId(level, i, j),
+        TileId(level, i + 1, j),
+        TileId(level, i, j + 1),
+        TileId(level, i + 1, j + 1),
+    ]
 
 
 def center_of(lonlat: Sequence[float]) -> tuple[float, float]:
@@ -102,7 +108,9 @@ def center_of(lonlat: Sequence[float]) -> tuple[float, float]:
     if len(values) == 2:
         return values[0], values[1]
     if len(values) != 4:
-        raise ValueError(f"expected (lon, lat) or (west, south, east, north) in degrees, got {len(values)} numbers")
+        raise ValueError(
+            f"expected (lon, lat) or (west, south, east, north) in degrees, got {len(values)} numbers"
+        )
     west, south, east, north = values
     if south > north:
         raise ValueError(f"box south {south!r} is north of north {north!r} (degrees)")
@@ -121,8 +129,8 @@ def building_tile(lonlat_bounds: Sequence[float], level: int = BUILDING_LEVEL) -
 
 
 def check_tile(
-    data_tile: Optional[TileId], lonlat: Sequence[float], level: int = BUILDING_LEVEL
-) -> tuple[TileId, Optional[str]]:
+    data_tile: TileId | None, lonlat: Sequence[float], level: int = BUILDING_LEVEL
+) -> tuple[TileId, str | None]:
     """The tile to file a building under, and a message for the manifest when the data disagrees.
 
     ``lonlat`` is the building's ``(west, south, east, north)`` box or its centre ``(lon, lat)``
@@ -142,12 +150,15 @@ def check_tile(
         f"the data's tile {data_tile.name} does not hold the building centre "
         f"(lon {lon:.7f}, lat {lat:.7f}), which is in tile {expected.name}; kept the data's tile"
     )
-    if data_tile.level > 0 and tile_of(lon, lat, data_tile.level - 1) == TileId(data_tile.level - 1, data_tile.idx, data_tile.idy):
+    if data_tile.level > 0 and tile_of(lon, lat, data_tile.level - 1) == TileId(
+        data_tile.level - 1, data_tile.idx, data_tile.idy
+    ):
         message += f" (its IDX/IDY match the level {data_tile.level - 1} tile unit)"
     return data_tile, message
 
 
 # --------------------------------------------------------------------------- checks and helpers
+
 
 def _cell(offset: float, unit: float, count: int) -> int:
     """Index of the cell of width ``unit`` holding ``offset`` (degrees from the grid origin),
@@ -178,9 +189,13 @@ def _check_lonlat(lon: float, lat: float) -> tuple[float, float]:
         raise ValueError(f"lon {lon!r}, lat {lat!r}: not finite (degrees expected)")
     tolerance = 1e-9  # degrees: rounding error of computed poles
     if not -90.0 - tolerance <= lat <= 90.0 + tolerance:
-        raise ValueError(f"lat {lat!r}: outside -90..90 degrees (swapped lon/lat, or projected metres?)")
+        raise ValueError(
+            f"lat {lat!r}: outside -90..90 degrees (swapped lon/lat, or projected metres?)"
+        )
     if abs(lon) > 360.0:
-        raise ValueError(f"lon {lon!r}: outside -360..360 degrees (projected metres instead of degrees?)")
+        raise ValueError(
+            f"lon {lon!r}: outside -360..360 degrees (projected metres instead of degrees?)"
+        )
     if 180.0 < abs(lon) <= 180.0 + tolerance:
         lon = math.copysign(180.0, lon)
     elif abs(lon) > 180.0:  # 0..360 data

@@ -1,4 +1,5 @@
 """Shared fixtures: paths to ../shared, the Khronos glTF validator, small helpers."""
+
 from __future__ import annotations
 
 import json
@@ -25,7 +26,9 @@ VALIDATOR_DIR = REPO / "tests" / "validator"
 def shared_real() -> Path:
     """../shared/data/real, or a skip saying why (a clone outside this workspace has no ../shared)."""
     if not SHARED_REAL.is_dir():
-        pytest.skip(f"{SHARED_REAL} not present: the real-data tests need the workspace's ../shared folder")
+        pytest.skip(
+            f"{SHARED_REAL} not present: the real-data tests need the workspace's ../shared folder"
+        )
     return SHARED_REAL
 
 
@@ -42,10 +45,17 @@ def run_gltf_validator(paths: list[Path]) -> list[dict]:
     (``file``, ``errors``, ``warnings``, ``messages``)."""
     reports = []
     for start in range(0, len(paths), 200):  # bounded command lines
-        chunk = [str(p) for p in paths[start:start + 200]]
-        result = subprocess.run(["node", str(VALIDATOR_DIR / "validate.js"), *chunk], capture_output=True, text=True, timeout=300)
+        chunk = [str(p) for p in paths[start : start + 200]]
+        result = subprocess.run(
+            ["node", str(VALIDATOR_DIR / "validate.js"), *chunk],
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
         lines = [line for line in result.stdout.splitlines() if line.startswith("{")]
-        assert len(lines) == len(chunk), f"validator output incomplete: {result.stdout[-2000:]} {result.stderr[-2000:]}"
+        assert len(lines) == len(chunk), (
+            f"validator output incomplete: {result.stdout[-2000:]} {result.stderr[-2000:]}"
+        )
         reports += [json.loads(line) for line in lines]
     return reports
 

@@ -73,12 +73,21 @@ def test_short_writes_are_continued(tmp_path, monkeypatch):
 def test_folder_is_made_once_and_durable_writes_fsync_before_the_rename(tmp_path, monkeypatch):
     calls = []
     real_makedirs, real_fsync, real_replace = atomic.os.makedirs, atomic.os.fsync, atomic.os.replace
-    monkeypatch.setattr(atomic.os, "makedirs", lambda *a, **k: calls.append("makedirs") or real_makedirs(*a, **k))
+    monkeypatch.setattr(
+        atomic.os, "makedirs", lambda *a, **k: calls.append("makedirs") or real_makedirs(*a, **k)
+    )
     monkeypatch.setattr(atomic.os, "fsync", lambda fd: calls.append("fsync") or real_fsync(fd))
-    monkeypatch.setattr(atomic.os, "replace", lambda a, b: calls.append("replace") or real_replace(a, b))
+    monkeypatch.setattr(
+        atomic.os, "replace", lambda a, b: calls.append("replace") or real_replace(a, b)
+    )
     folder = tmp_path / "B1"  # missing: made by the first write only
     for level in range(3):
         write_bytes_atomic(folder / f"lod{level}.glb", b"glb")
     atomic.write_text_atomic(folder / "building.json", "{}", durable=True)
     assert calls == ["makedirs", "replace", "replace", "replace", "fsync", "replace"]
-    assert sorted(p.name for p in folder.iterdir()) == ["building.json", "lod0.glb", "lod1.glb", "lod2.glb"]
+    assert sorted(p.name for p in folder.iterdir()) == [
+        "building.json",
+        "lod0.glb",
+        "lod1.glb",
+        "lod2.glb",
+    ]

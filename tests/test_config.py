@@ -1,4 +1,5 @@
 """Config: defaults from the paper, YAML round trip, and refusal of bad configs before any work."""
+
 import pytest
 import yaml
 
@@ -24,14 +25,18 @@ def test_init_config_yaml_loads_back_to_the_defaults(tmp_path):
     assert "# " in path.read_text()  # commented for the user
 
 
-@pytest.mark.parametrize("written, expected", [("50%", 0.5), (0.5, 0.5), ("12.5%", 0.125), (1, 1.0)])
+@pytest.mark.parametrize(
+    "written, expected", [("50%", 0.5), (0.5, 0.5), ("12.5%", 0.125), (1, 1.0)]
+)
 def test_percentages_are_accepted_both_ways(written, expected):
     config = config_from_dict({"lods": [{"transition": written}]})
     assert config.lods[0].transition == pytest.approx(expected)
 
 
 def test_partial_sections_keep_other_defaults():
-    config = config_from_dict({"simplify": {"protect_largest": "20%"}, "globe": {"unity_radius": 1000}})
+    config = config_from_dict(
+        {"simplify": {"protect_largest": "20%"}, "globe": {"unity_radius": 1000}}
+    )
     assert config.simplify.protect_largest == pytest.approx(0.2)
     assert config.simplify.preserve_border_edges is True
     assert config.globe.unity_radius == 1000.0
@@ -41,15 +46,27 @@ def test_partial_sections_keep_other_defaults():
 @pytest.mark.parametrize(
     "raw, key, allowed",
     [
-        ({"lods": [{"transition": 0.5}, {"transition": 0.6}]}, "lods[1].transition", "strictly decreasing"),
-        ({"lods": [{"transition": 0.5}, {"transition": 0.5}]}, "lods[1].transition", "strictly decreasing"),
+        (
+            {"lods": [{"transition": 0.5}, {"transition": 0.6}]},
+            "lods[1].transition",
+            "strictly decreasing",
+        ),
+        (
+            {"lods": [{"transition": 0.5}, {"transition": 0.5}]},
+            "lods[1].transition",
+            "strictly decreasing",
+        ),
         ({"lods": [{"transition": 0.5, "mesh": 1.5}]}, "lods[0].mesh", "(0, 1]"),
         ({"lods": [{"transition": 0.5, "mesh": 0}]}, "lods[0].mesh", "(0, 1]"),
         ({"lods": [{"transition": "fifty"}]}, "lods[0].transition", "(0, 1]"),
         ({"lods": [{"transition": 0.9 - i * 0.1} for i in range(9)]}, "lods", "1 to 8"),
         ({"lods": []}, "lods", "1 to 8"),
         ({"lods": [{"mesh": 1.0}]}, "lods[0]", "missing"),
-        ({"simplify": {"preserve_border_edges": "yes"}}, "simplify.preserve_border_edges", "true or false"),
+        (
+            {"simplify": {"preserve_border_edges": "yes"}},
+            "simplify.preserve_border_edges",
+            "true or false",
+        ),
         ({"simplify": {"max_iterations": 2.5}}, "simplify.max_iterations", "integer"),
         ({"simplify": {"protect_biggest": 0.3}}, "simplify.protect_biggest", "allowed keys"),
         ({"colour": 1}, "colour", "allowed keys"),

@@ -1,4 +1,5 @@
 """End to end: `vworld-lod export` on VWorld-format tiles written by the sample generator."""
+
 from __future__ import annotations
 
 import json
@@ -62,7 +63,9 @@ def test_demo_tile_exports_a_valid_manifest_and_valid_gltf(tmp_path, gltf_valida
 
 def test_yaml_transitions_and_levels_reach_the_manifest(tmp_path, small_tile):
     config = tmp_path / "lod.yaml"
-    config.write_text("lods:\n  - {transition: 60%, mesh: 1.0, texture: 1.0}\n  - {transition: 0.05, mesh: 0.5, texture: 0.5}\nunity: {fade_mode: cross_fade}\n")
+    config.write_text(
+        "lods:\n  - {transition: 60%, mesh: 1.0, texture: 1.0}\n  - {transition: 0.05, mesh: 0.5, texture: 0.5}\nunity: {fade_mode: cross_fade}\n"
+    )
     out = tmp_path / "out"
     assert export([str(small_tile), "--out", str(out), "--config", str(config)]) == 0
     manifest = manifest_of(out)
@@ -82,7 +85,10 @@ def test_a_corrupt_building_is_skipped_and_the_rest_of_the_tile_exported(tmp_pat
     assert export([str(tile), "--out", str(out)]) == 0
     manifest = manifest_of(out)
     validate_manifest(manifest)
-    assert len(manifest["skipped"]) == 1 and victim.name in manifest["skipped"][0]["source"] + manifest["skipped"][0]["reason"]
+    assert (
+        len(manifest["skipped"]) == 1
+        and victim.name in manifest["skipped"][0]["source"] + manifest["skipped"][0]["reason"]
+    )
     assert len(manifest["buildings"]) == 5
 
 
@@ -95,15 +101,19 @@ def test_unusable_input_and_config_exit_non_zero_with_one_line(tmp_path, small_t
     assert "empty" in capsys.readouterr().err
     bad = tmp_path / "bad.yaml"
     bad.write_text("lods:\n  - {transition: 0.1}\n  - {transition: 0.2}\n")
-    assert main(["export", str(small_tile), "--out", str(tmp_path / "o"), "--config", str(bad)]) == 2
+    assert (
+        main(["export", str(small_tile), "--out", str(tmp_path / "o"), "--config", str(bad)]) == 2
+    )
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "bad.yaml" in err and "lods[1].transition" in err
     assert not (tmp_path / "o").exists(), "a bad config is refused before any work"
 
 
-def test_rerun_skips_unchanged_buildings_force_redoes_and_removed_ones_disappear(tmp_path, small_tile):
-    from exporter.pipeline import export_tiles
+def test_rerun_skips_unchanged_buildings_force_redoes_and_removed_ones_disappear(
+    tmp_path, small_tile
+):
     from exporter.config import Config
+    from exporter.pipeline import export_tiles
 
     tile = tmp_path / "tile"
     shutil.copytree(small_tile, tile)
@@ -149,14 +159,37 @@ INTERRUPTIBLE = (
 
 @pytest.mark.slow
 @pytest.mark.parametrize("how, jobs", [("kill", "1"), ("ctrl-c", "2")])
-def test_interrupted_run_resumes_to_the_same_output_as_an_uninterrupted_one(tmp_path, small_tile, how, jobs):
+def test_interrupted_run_resumes_to_the_same_output_as_an_uninterrupted_one(
+    tmp_path, small_tile, how, jobs
+):
     reference = tmp_path / "reference"
     assert export([str(small_tile), "--out", str(reference)]) == 0
     out = tmp_path / "out"
-    command = [sys.executable, "-c", INTERRUPTIBLE, "export", str(small_tile), "--out", str(out), "--jobs", jobs, "--quiet"]
-    process = subprocess.Popen(command, cwd=REPO, env={**os.environ, "PYTHONPATH": str(REPO)}, stderr=subprocess.PIPE, text=True)
+    command = [
+        sys.executable,
+        "-c",
+        INTERRUPTIBLE,
+        "export",
+        str(small_tile),
+        "--out",
+        str(out),
+        "--jobs",
+        jobs,
+        "--quiet",
+    ]
+    process = subprocess.Popen(
+        command,
+        cwd=REPO,
+        env={**os.environ, "PYTHONPATH": str(REPO)},
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     deadline = time.monotonic() + 60
-    while time.monotonic() < deadline and len(list(out.glob("*/*/building.json"))) < 2 and process.poll() is None:
+    while (
+        time.monotonic() < deadline
+        and len(list(out.glob("*/*/building.json"))) < 2
+        and process.poll() is None
+    ):
         time.sleep(0.02)
     process.send_signal(signal.SIGKILL if how == "kill" else signal.SIGINT)
     _, err = process.communicate(timeout=60)
@@ -195,7 +228,12 @@ def test_a_tile_index_that_disagrees_with_the_centre_is_kept_and_reported(tmp_pa
 def test_the_same_building_id_in_two_folders_of_one_tile_gets_two_outputs(tmp_path):
     from exporter.samplegen import generate_tile
 
-    folders = [generate_tile(tmp_path / name, count=2, seed=seed, tile=TILE, atlas_size=32, mean_triangles=60) for name, seed in (("a", 1), ("b", 2))]
+    folders = [
+        generate_tile(
+            tmp_path / name, count=2, seed=seed, tile=TILE, atlas_size=32, mean_triangles=60
+        )
+        for name, seed in (("a", 1), ("b", 2))
+    ]
     out = tmp_path / "out"
     assert export([str(f) for f in folders] + ["--out", str(out)]) == 0
     manifest = manifest_of(out)
@@ -212,10 +250,16 @@ def test_the_same_cityjson_object_id_in_two_files_of_one_tile_gets_two_outputs(t
     lon, lat = 126.97833, 37.56610  # inside TILE
     d = 0.00005
     document = {
-        "type": "CityJSON", "version": "2.0",
+        "type": "CityJSON",
+        "version": "2.0",
         "transform": {"scale": [1.0, 1.0, 1.0], "translate": [0.0, 0.0, 0.0]},
         "metadata": {"referenceSystem": "https://www.opengis.net/def/crs/EPSG/0/4979"},
-        "CityObjects": {"hall": {"type": "Building", "geometry": [{"type": "MultiSurface", "lod": "1", "boundaries": [[[0, 1, 2, 3]]]}]}},
+        "CityObjects": {
+            "hall": {
+                "type": "Building",
+                "geometry": [{"type": "MultiSurface", "lod": "1", "boundaries": [[[0, 1, 2, 3]]]}],
+            }
+        },
         "vertices": [[lon, lat, 0.0], [lon + d, lat, 0.0], [lon + d, lat, 10.0], [lon, lat, 10.0]],
     }
     folders = []
@@ -249,17 +293,31 @@ def test_exact_levels_carry_identity_metrics_and_changed_levels_are_measured(tmp
     for config in (Config(), config_from_dict({"simplify": {"planar_retriangulation": False}})):
         for entry in scan_folder(tile, config.readers).entries:
             record = process_entry(entry, config, str(tmp_path / "out"), "digest").record
-            chain = build_mesh_chain(load_entry(entry, config.readers).parts, config.lods, config.simplify)
+            chain = build_mesh_chain(
+                load_entry(entry, config.readers).parts, config.lods, config.simplify
+            )
             for level in range(1, len(chain)):
                 quality = record["lods"][level]["quality"]
                 measured = measure_lod(chain[0].parts, chain[level].parts)
-                surface = {key: quality[key] for key in ("hausdorff_rel", "silhouette_iou", "wall_coverage")}
-                outline = {key: quality[key] for key in ("boundary_length_change", "new_holes", "triangle_ratio")}
+                surface = {
+                    key: quality[key]
+                    for key in ("hausdorff_rel", "silhouette_iou", "wall_coverage")
+                }
+                outline = {
+                    key: quality[key]
+                    for key in ("boundary_length_change", "new_holes", "triangle_ratio")
+                }
                 if chain[level].surface_exact:
                     seen["exact" if chain[level].exact else "surface"] += 1
-                    assert surface == {"hausdorff_rel": 0.0, "silhouette_iou": 1.0, "wall_coverage": 1.0}
+                    assert surface == {
+                        "hausdorff_rel": 0.0,
+                        "silhouette_iou": 1.0,
+                        "wall_coverage": 1.0,
+                    }
                     assert measured["hausdorff_rel"] < 1e-6 and measured["silhouette_iou"] > 0.99
-                    assert outline == pytest.approx({key: measured[key] for key in outline}, abs=1e-12)
+                    assert outline == pytest.approx(
+                        {key: measured[key] for key in outline}, abs=1e-12
+                    )
                     if chain[level].exact:
                         assert (outline["boundary_length_change"], outline["new_holes"]) == (0.0, 0)
                 else:
@@ -275,7 +333,9 @@ def _age(folder: Path, seconds: float) -> None:
         os.utime(path, (when, when))
 
 
-def test_rerun_trusts_unchanged_stat_and_rehashes_touched_or_recent_files(tmp_path, small_tile, monkeypatch):
+def test_rerun_trusts_unchanged_stat_and_rehashes_touched_or_recent_files(
+    tmp_path, small_tile, monkeypatch
+):
     import exporter.pipeline as pipeline
     from exporter.config import Config
 
@@ -286,7 +346,9 @@ def test_rerun_trusts_unchanged_stat_and_rehashes_touched_or_recent_files(tmp_pa
     assert pipeline.export_tiles([tile], out, Config(), jobs=1).reused == 0
     hashed = []
     real_sha = pipeline._sha256_file
-    monkeypatch.setattr(pipeline, "_sha256_file", lambda name: hashed.append(name) or real_sha(name))
+    monkeypatch.setattr(
+        pipeline, "_sha256_file", lambda name: hashed.append(name) or real_sha(name)
+    )
 
     # Unchanged: nothing is read again.
     assert pipeline.export_tiles([tile], out, Config(), jobs=1).reused == 6 and hashed == []
@@ -309,7 +371,9 @@ def test_rerun_trusts_unchanged_stat_and_rehashes_touched_or_recent_files(tmp_pa
     # unchanged: a second write in the same mtime tick is caught.
     recent = sorted(tile.glob("*.jpg"))[1]
     os.utime(recent, None)  # modified just now ...
-    assert pipeline.export_tiles([tile], out, Config(), jobs=1).reused == 6  # ... and hashed just after
+    assert (
+        pipeline.export_tiles([tile], out, Config(), jobs=1).reused == 6
+    )  # ... and hashed just after
     rewrite_keeping_size_and_mtime(recent)
     hashed.clear()
     racy = pipeline.export_tiles([tile], out, Config(), jobs=1)
@@ -319,11 +383,15 @@ def test_rerun_trusts_unchanged_stat_and_rehashes_touched_or_recent_files(tmp_pa
     # make, rsync and git do); --force redoes such a building.
     rewrite_keeping_size_and_mtime(jpg)
     hashed.clear()
-    assert pipeline.export_tiles([tile], out, Config(), jobs=1).reused == 6 and str(jpg) not in hashed
+    assert (
+        pipeline.export_tiles([tile], out, Config(), jobs=1).reused == 6 and str(jpg) not in hashed
+    )
     assert pipeline.export_tiles([tile], out, Config(), jobs=1, force=True).reused == 0
 
 
-def test_manifest_is_made_from_the_record_files_and_a_vanished_one_is_reported(tmp_path, small_tile):
+def test_manifest_is_made_from_the_record_files_and_a_vanished_one_is_reported(
+    tmp_path, small_tile
+):
     import exporter.pipeline as pipeline
     from exporter.config import Config
 
@@ -337,6 +405,9 @@ def test_manifest_is_made_from_the_record_files_and_a_vanished_one_is_reported(t
     (tile_dir / folders[0] / "building.json").unlink()
     result = pipeline.write_tile_output(out, TILE, Config(), folders, [])
     rewritten = manifest_of(out)
-    assert result.buildings == len(folders) - 1 and [b["folder"] for b in rewritten["buildings"]] == folders[1:]
+    assert (
+        result.buildings == len(folders) - 1
+        and [b["folder"] for b in rewritten["buildings"]] == folders[1:]
+    )
     assert len(rewritten["skipped"]) == 1 and "vanished" in rewritten["skipped"][0]["reason"]
     assert (tile_dir / folders[0] / "lod0.glb").is_file()  # its files are left alone

@@ -1,4 +1,5 @@
 """glTF writer: frame change (local East/Up/North -> glTF West/Up/North), winding, validity."""
+
 import io
 
 import numpy as np
@@ -32,7 +33,7 @@ def read_glb(data):
     def array(index, dtype, width):
         accessor = gltf.accessors[index]
         view = gltf.bufferViews[accessor.bufferView]
-        raw = blob[view.byteOffset:view.byteOffset + view.byteLength]
+        raw = blob[view.byteOffset : view.byteOffset + view.byteLength]
         return np.frombuffer(raw, dtype=dtype).reshape(-1, width)
 
     return gltf, array
@@ -40,7 +41,10 @@ def read_glb(data):
 
 def test_local_outward_faces_stay_outward_in_gltf_and_after_gltfast_import():
     part = east_wall()
-    assert np.cross(*(part.positions[part.triangles[0, 1:]] - part.positions[part.triangles[0, 0]]))[0] > 0
+    assert (
+        np.cross(*(part.positions[part.triangles[0, 1:]] - part.positions[part.triangles[0, 0]]))[0]
+        > 0
+    )
     gltf, array = read_glb(glb_bytes([part], "wall"))
     primitive = gltf.meshes[0].primitives[0]
     positions = array(primitive.attributes.POSITION, np.float32, 3)
@@ -68,11 +72,18 @@ def test_file_is_self_contained_with_default_scene_material_and_texture():
     assert gltf.images[0].mimeType == "image/jpeg" and gltf.buffers[0].uri is None
     image_view = gltf.bufferViews[gltf.images[0].bufferView]
     blob = gltf.binary_blob()
-    assert blob[image_view.byteOffset:image_view.byteOffset + image_view.byteLength] == part.texture.data
+    assert (
+        blob[image_view.byteOffset : image_view.byteOffset + image_view.byteLength]
+        == part.texture.data
+    )
 
 
 def test_untextured_part_and_missing_normals_are_valid(gltf_validator, tmp_path):
-    part = Part(positions=[[0, 0, 0], [1, 0, 0], [0, 1, 0], [5, 5, 5]], triangles=[[0, 2, 1]], color=(0.5, 0.5, 0.5, 1))
+    part = Part(
+        positions=[[0, 0, 0], [1, 0, 0], [0, 1, 0], [5, 5, 5]],
+        triangles=[[0, 2, 1]],
+        color=(0.5, 0.5, 0.5, 1),
+    )
     path = tmp_path / "plain.glb"
     path.write_bytes(glb_bytes([part, east_wall()], "plain"))
     report = gltf_validator([path])[0]
@@ -80,7 +91,11 @@ def test_untextured_part_and_missing_normals_are_valid(gltf_validator, tmp_path)
 
 
 def test_vertex_normals_are_unit_and_isolated_vertices_point_up():
-    normals = unit_normals_or_up(vertex_normals(np.array([[0, 0, 0], [1, 0, 0], [0, 0, 1], [9, 9, 9]], float), np.array([[0, 2, 1]])))
+    normals = unit_normals_or_up(
+        vertex_normals(
+            np.array([[0, 0, 0], [1, 0, 0], [0, 0, 1], [9, 9, 9]], float), np.array([[0, 2, 1]])
+        )
+    )
     assert np.allclose(np.linalg.norm(normals, axis=1), 1)
     assert np.allclose(normals[0], [0, 1, 0]) and np.allclose(normals[3], [0, 1, 0])
 

@@ -13,6 +13,7 @@ placement. Expected directions on the globe are worked out here from the paper's
 differences (East = increasing longitude, North = increasing latitude, Up = away from the Earth's
 centre); positions are turned back into lon/lat/elev by inverting eq. 2.
 """
+
 from __future__ import annotations
 
 import math
@@ -20,21 +21,39 @@ import math
 import numpy as np
 import pytest
 
-gltf_writer = pytest.importorskip("exporter.gltf_writer", reason="exporter/gltf_writer.py (glb_bytes) is missing")
+gltf_writer = pytest.importorskip(
+    "exporter.gltf_writer", reason="exporter/gltf_writer.py (glb_bytes) is missing"
+)
 pygltflib = pytest.importorskip("pygltflib")
 
 from exporter.config import GlobeOptions  # noqa: E402
 from exporter.model import Building, GeoPoint, Part  # noqa: E402
-from exporter.placement import apply_placement, building_placement, relative_placement, tile_placement  # noqa: E402
+from exporter.placement import (  # noqa: E402
+    apply_placement,
+    building_placement,
+    relative_placement,
+    tile_placement,
+)
 from exporter.tiles import tile_of  # noqa: E402
 
 R = 6378137.0
-LOCAL_DIRECTIONS = {"E": (1, 0, 0), "W": (-1, 0, 0), "N": (0, 0, 1), "S": (0, 0, -1), "U": (0, 1, 0)}
-GLTF_COMPONENTS = {pygltflib.FLOAT: np.float32, pygltflib.UNSIGNED_SHORT: np.uint16, pygltflib.UNSIGNED_INT: np.uint32}
+LOCAL_DIRECTIONS = {
+    "E": (1, 0, 0),
+    "W": (-1, 0, 0),
+    "N": (0, 0, 1),
+    "S": (0, 0, -1),
+    "U": (0, 1, 0),
+}
+GLTF_COMPONENTS = {
+    pygltflib.FLOAT: np.float32,
+    pygltflib.UNSIGNED_SHORT: np.uint16,
+    pygltflib.UNSIGNED_INT: np.uint32,
+}
 GLTF_WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3}
 
 
 # --------------------------------------------------------------------------- the building
+
 
 def quad(corners, facing):
     """Two triangles of a planar quad (corners in cyclic order), wound so the numerical cross
@@ -71,21 +90,32 @@ def roof(x0, x1, z0, z1, y):
 
 
 def l_building(ref: GeoPoint) -> tuple[Building, list[list[str]]]:
-    bar, bar_facing = box_part("bar", [
-        wall_z(-20, -20, 20, 0, 10, "S"), wall_x(20, -20, 0, 0, 10, "E"), wall_x(-20, -20, 0, 0, 10, "W"),
-        wall_z(0, -20, 0, 0, 10, "N"),  # the notch's wall, facing north
-        roof(-20, 20, -20, 0, 10),
-    ])
-    wing, wing_facing = box_part("wing", [
-        wall_x(20, 0, 20, 0, 40, "E"), wall_z(20, 0, 20, 0, 40, "N"), wall_x(0, 0, 20, 0, 40, "W"),
-        wall_z(0, 0, 20, 10, 40, "S"),  # above the bar's roof
-        roof(0, 20, 0, 20, 40),
-    ])
+    bar, bar_facing = box_part(
+        "bar",
+        [
+            wall_z(-20, -20, 20, 0, 10, "S"),
+            wall_x(20, -20, 0, 0, 10, "E"),
+            wall_x(-20, -20, 0, 0, 10, "W"),
+            wall_z(0, -20, 0, 0, 10, "N"),  # the notch's wall, facing north
+            roof(-20, 20, -20, 0, 10),
+        ],
+    )
+    wing, wing_facing = box_part(
+        "wing",
+        [
+            wall_x(20, 0, 20, 0, 40, "E"),
+            wall_z(20, 0, 20, 0, 40, "N"),
+            wall_x(0, 0, 20, 0, 40, "W"),
+            wall_z(0, 0, 20, 10, 40, "S"),  # above the bar's roof
+            roof(0, 20, 0, 20, 40),
+        ],
+    )
     building = Building(id="L", source="test", reference=ref, parts=[bar, wing])
     return building, [bar_facing, wing_facing]
 
 
 # --------------------------------------------------------------------------- what Unity sees
+
 
 def accessor_array(gltf, blob: bytes, index: int) -> np.ndarray:
     accessor = gltf.accessors[index]
@@ -94,7 +124,9 @@ def accessor_array(gltf, blob: bytes, index: int) -> np.ndarray:
     width = GLTF_WIDTH[accessor.type]
     assert view.byteStride in (None, 0, width * dtype.itemsize), "interleaved data not expected"
     start = (view.byteOffset or 0) + (accessor.byteOffset or 0)
-    return np.frombuffer(blob, dtype=dtype, count=accessor.count * width, offset=start).reshape(accessor.count, width)
+    return np.frombuffer(blob, dtype=dtype, count=accessor.count * width, offset=start).reshape(
+        accessor.count, width
+    )
 
 
 def glb_as_unity_imports(data: bytes) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -113,10 +145,13 @@ def glb_as_unity_imports(data: bytes) -> list[tuple[np.ndarray, np.ndarray]]:
 
 # --------------------------------------------------------------------------- the globe, worked out here
 
+
 def eq2(lon_deg, lat_deg, elev_m, ur):
     h = ur + elev_m * ur / R
     lon, lat = math.radians(lon_deg), math.radians(lat_deg)
-    return np.array([h * math.cos(lat) * math.sin(lon), h * math.sin(lat), -h * math.cos(lat) * math.cos(lon)])
+    return np.array(
+        [h * math.cos(lat) * math.sin(lon), h * math.sin(lat), -h * math.cos(lat) * math.cos(lon)]
+    )
 
 
 def inverse_eq2(p, ur):
@@ -136,7 +171,11 @@ def geographic_directions(lon, lat, ur):
     return {"E": east, "W": -east, "N": north, "S": -north, "U": up}
 
 
-PLACES = [GeoPoint(126.9780, 37.5665, 31.0), GeoPoint(-58.3816, -34.6037, 25.0), GeoPoint(179.9995, 64.1, 12.0)]
+PLACES = [
+    GeoPoint(126.9780, 37.5665, 31.0),
+    GeoPoint(-58.3816, -34.6037, 25.0),
+    GeoPoint(179.9995, 64.1, 12.0),
+]
 
 
 @pytest.fixture(scope="module")
@@ -199,8 +238,14 @@ def test_wing_is_north_east_and_faces_point_outward_on_the_globe(written, ref, u
             d_lon = (lon - ref.lon + 180.0) % 360.0 - 180.0
             east_m = math.radians(d_lon) * R * math.cos(math.radians(ref.lat))
             north_m = math.radians(lat - ref.lat) * R
-            assert east_m == pytest.approx(10.0, abs=1e-3) and north_m == pytest.approx(10.0, abs=1e-3)
+            assert east_m == pytest.approx(10.0, abs=1e-3) and north_m == pytest.approx(
+                10.0, abs=1e-3
+            )
             assert elev == pytest.approx(ref.elev + 40.0, abs=1e-3)
             # and the wing's mean lies north-east of the building's reference point, above the ground
             w_lon, w_lat, w_elev = inverse_eq2(on_globe.mean(axis=0), unity_radius)
-            assert (w_lon - ref.lon + 180.0) % 360.0 - 180.0 > 0 and w_lat > ref.lat and w_elev > ref.elev
+            assert (
+                (w_lon - ref.lon + 180.0) % 360.0 - 180.0 > 0
+                and w_lat > ref.lat
+                and w_elev > ref.elev
+            )

@@ -4,6 +4,7 @@ Each test runs a fast function and a plain reference (the textbook or library fo
 replaced) on random or small hand-made input and asserts equality bit for bit, so a future
 "speed-up" that changes a result fails here. Coordinates are arbitrary metres (frame-free).
 """
+
 import io
 
 import numpy as np
@@ -36,17 +37,28 @@ def reference_point_triangle_distance(points, tri):
         w = np.where(denom != 0, vc / denom, 0.0)
         closest = a + ab * v[..., None] + ac * w[..., None]
         t = np.clip((d4 - d3) / ((d4 - d3) + (d5 - d6)), 0, 1)
-        closest = np.where(((va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0))[..., None], b + t[..., None] * (c - b), closest)
+        closest = np.where(
+            ((va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0))[..., None],
+            b + t[..., None] * (c - b),
+            closest,
+        )
         t = np.clip(d2 / (d2 - d6), 0, 1)
-        closest = np.where(((vb <= 0) & (d2 >= 0) & (d6 <= 0))[..., None], a + t[..., None] * ac, closest)
+        closest = np.where(
+            ((vb <= 0) & (d2 >= 0) & (d6 <= 0))[..., None], a + t[..., None] * ac, closest
+        )
         t = np.clip(d1 / (d1 - d3), 0, 1)
-        closest = np.where(((vc <= 0) & (d1 >= 0) & (d3 <= 0))[..., None], a + t[..., None] * ab, closest)
+        closest = np.where(
+            ((vc <= 0) & (d1 >= 0) & (d3 <= 0))[..., None], a + t[..., None] * ab, closest
+        )
     closest = np.where(((d6 >= 0) & (d5 <= d6))[..., None], c, closest)
     closest = np.where(((d3 >= 0) & (d4 <= d3))[..., None], b, closest)
     closest = np.where(((d1 <= 0) & (d2 <= 0))[..., None], a, closest)
     distance = np.linalg.norm(p - closest, axis=-1)
     bad = np.isnan(distance)
-    corners = np.minimum(np.minimum(np.linalg.norm(p - a, axis=-1), np.linalg.norm(p - b, axis=-1)), np.linalg.norm(p - c, axis=-1))
+    corners = np.minimum(
+        np.minimum(np.linalg.norm(p - a, axis=-1), np.linalg.norm(p - b, axis=-1)),
+        np.linalg.norm(p - c, axis=-1),
+    )
     return np.where(bad, corners, distance)
 
 
@@ -54,10 +66,10 @@ def reference_point_triangle_distance(points, tri):
 def test_point_triangle_distance_is_bit_identical_to_the_textbook_form(scale):
     rng = np.random.default_rng(int(scale * 1000))
     tri = rng.normal(size=(3000, 6, 3, 3)) * scale
-    tri[::7, :, 2] = tri[::7, :, 1]          # degenerate: two corners equal
-    tri[::11] = tri[::11, :, :1]             # degenerate: a point
+    tri[::7, :, 2] = tri[::7, :, 1]  # degenerate: two corners equal
+    tri[::11] = tri[::11, :, :1]  # degenerate: a point
     points = rng.normal(size=(3000, 1, 3)) * scale
-    points[::5, 0] = tri[::5, 0, 1]          # on a corner
+    points[::5, 0] = tri[::5, 0, 1]  # on a corner
     fast = point_triangle_distance(points, tri)
     assert fast.shape == (3000, 6)
     assert np.array_equal(fast, reference_point_triangle_distance(points, tri))
@@ -76,7 +88,9 @@ def test_surface_index_maxima_and_coverage_equal_every_exact_distance():
         positions, faces = random_mesh(rng)
         index = SurfaceIndex(positions, faces)
         points = np.vstack([rng.normal(size=(200, 3)) * 12.0, positions[:20]])
-        exact = reference_point_triangle_distance(points[:, None, :], positions[faces][None]).min(axis=1)
+        exact = reference_point_triangle_distance(points[:, None, :], positions[faces][None]).min(
+            axis=1
+        )
         assert index.max_distance(points) == exact.max()
         assert np.array_equal(index.distance(points), exact)
         tolerance = float(np.median(exact))
@@ -88,14 +102,23 @@ def test_uv_charts_match_the_face_face_graph():
     for _ in range(50):
         vertices = int(rng.integers(3, 200))
         faces = rng.integers(0, vertices, size=(int(rng.integers(1, 150)), 3))
-        shared = coo_matrix((np.ones(faces.size), (np.repeat(np.arange(len(faces)), 3), faces.reshape(-1))),
-                            shape=(len(faces), vertices)).tocsr()
+        shared = coo_matrix(
+            (np.ones(faces.size), (np.repeat(np.arange(len(faces)), 3), faces.reshape(-1))),
+            shape=(len(faces), vertices),
+        ).tocsr()
         _, expected = connected_components(shared @ shared.T, directed=False)
         assert np.array_equal(uv_charts(faces, vertices), expected)
 
 
-@pytest.mark.parametrize("options", [{}, {"return_counts": True}, {"return_index": True, "return_counts": True},
-                                     {"return_index": True, "return_inverse": True}])
+@pytest.mark.parametrize(
+    "options",
+    [
+        {},
+        {"return_counts": True},
+        {"return_index": True, "return_counts": True},
+        {"return_index": True, "return_inverse": True},
+    ],
+)
 def test_unique_rows_matches_numpy_unique_axis_0(options):
     rng = np.random.default_rng(3)
     pairs = np.sort(rng.integers(0, 40, size=(500, 2)), axis=1)
@@ -119,16 +142,27 @@ def pygltflib_glb(gltf, blob):
 
 def texture(mode, mime):
     buffer = io.BytesIO()
-    Image.new(mode, (16, 8), (200, 100, 50, 128)[: len(mode)]).save(buffer, mime.split("/")[1].upper())
+    Image.new(mode, (16, 8), (200, 100, 50, 128)[: len(mode)]).save(
+        buffer, mime.split("/")[1].upper()
+    )
     return Texture(buffer.getvalue(), mime, 16, 8, f"atlas.{mime.split('/')[1]}")
 
 
 @pytest.mark.parametrize("mime, mode", [("image/jpeg", "RGB"), ("image/png", "RGBA"), (None, None)])
 def test_glb_bytes_are_pygltflib_bytes(monkeypatch, mime, mode):
-    quad = dict(positions=[[0, 0, 0], [2, 0, 0], [2, 3, 0], [0, 3, 0]], triangles=[[0, 1, 2], [0, 2, 3]],
-                uvs=[[0, 1], [1, 1], [1, 0], [0, 0]])
-    parts = [Part(**quad, texture=texture(mode, mime) if mime else None, name="wall"),
-             Part(positions=np.array(quad["positions"]) + 5.0, triangles=quad["triangles"], color=(0.5, 0.5, 0.5, 0.4))]
+    quad = dict(
+        positions=[[0, 0, 0], [2, 0, 0], [2, 3, 0], [0, 3, 0]],
+        triangles=[[0, 1, 2], [0, 2, 3]],
+        uvs=[[0, 1], [1, 1], [1, 0], [0, 0]],
+    )
+    parts = [
+        Part(**quad, texture=texture(mode, mime) if mime else None, name="wall"),
+        Part(
+            positions=np.array(quad["positions"]) + 5.0,
+            triangles=quad["triangles"],
+            color=(0.5, 0.5, 0.5, 0.4),
+        ),
+    ]
     fast = gltf_writer.glb_bytes(parts, "B1_LOD0")
     monkeypatch.setattr(gltf_writer, "_glb", pygltflib_glb)
     assert fast == gltf_writer.glb_bytes(parts, "B1_LOD0")
@@ -136,6 +170,7 @@ def test_glb_bytes_are_pygltflib_bytes(monkeypatch, mime, mode):
 
 def test_unique_points_matches_numpy_unique_axis_0():
     from exporter.geometry import unique_float_rows
+
     rng = np.random.default_rng(6)
     keys = np.round(rng.integers(-20, 20, size=(2000, 3)) * 1.37 / 1e-6)
     keys[::4] *= -1.0  # includes -0.0 next to 0.0

@@ -5,22 +5,33 @@ from commit af57811 as ``reference_*``) on random or crafted input and asserts e
 bit, so a later "speed-up" that changes a metric value fails here. Coordinates are arbitrary
 metres (frame-free) unless a building is used (local East/Up/North metres).
 """
+
 import dataclasses
 
 import numpy as np
 import pytest
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
+from test_simplify_shapes import box_building, crafted_building
 
 from exporter import quality
 from exporter.config import Config
-from exporter.quality import (SurfaceIndex, boundary_loops, boundary_quality, face_normals, joined, measure_lod,
-                              point_triangle_distance, rasterise, row_lengths, silhouettes)
+from exporter.quality import (
+    SurfaceIndex,
+    boundary_loops,
+    boundary_quality,
+    face_normals,
+    joined,
+    measure_lod,
+    point_triangle_distance,
+    rasterise,
+    row_lengths,
+    silhouettes,
+)
 from exporter.simplify import build_mesh_lods
-from test_simplify_shapes import box_building, crafted_building
-
 
 # --------------------------------------------------------------------------- reference formulations
+
 
 def reference_rasterise(xy, faces, size):
     """Conservative raster over (triangle, row) pairs, every edge gathered per pair (af57811)."""
@@ -42,7 +53,14 @@ def reference_rasterise(xy, faces, size):
         p, q = np.where(down[:, None], q, p), np.where(down[:, None], p, q)
         dy = q[:, 1] - p[:, 1]
         slope = np.divide(q[:, 0] - p[:, 0], dy, out=np.zeros_like(dy), where=dy > 0)
-        px, py, qx, qy, slope, rising = p[owner, 0], p[owner, 1], q[owner, 0], q[owner, 1], slope[owner], (dy > 0)[owner]
+        px, py, qx, qy, slope, rising = (
+            p[owner, 0],
+            p[owner, 1],
+            q[owner, 0],
+            q[owner, 1],
+            slope[owner],
+            (dy > 0)[owner],
+        )
         a = np.maximum(py, strip_low)
         b = np.minimum(qy, strip_high)
         xa = np.where(rising, px + (a - py) * slope, px)
@@ -55,7 +73,9 @@ def reference_rasterise(xy, faces, size):
     c0 = np.clip(np.ceil(lo[keep] - 0.5), 0, size - 1).astype(np.int64)
     c1 = np.clip(np.floor(hi[keep] + 0.5), 0, size - 1).astype(np.int64)
     width = size + 1
-    spans = np.bincount(rows * width + c0, minlength=size * width) - np.bincount(rows * width + c1 + 1, minlength=size * width)
+    spans = np.bincount(rows * width + c0, minlength=size * width) - np.bincount(
+        rows * width + c1 + 1, minlength=size * width
+    )
     return np.cumsum(spans[: size * width].reshape(size, width)[:, :size], axis=1) > 0
 
 
@@ -66,7 +86,9 @@ def reference_boundary_loops(faces, vertex_count):
     border = np.column_stack(np.divmod(keys[counts == 1], vertex_count + 1))
     if len(border) == 0:
         return border, 0
-    graph = coo_matrix((np.ones(len(border)), (border[:, 0], border[:, 1])), shape=(vertex_count, vertex_count))
+    graph = coo_matrix(
+        (np.ones(len(border)), (border[:, 0], border[:, 1])), shape=(vertex_count, vertex_count)
+    )
     count, labels = connected_components(graph, directed=False)
     return border, int(len(np.unique(labels[np.unique(border)])))
 
@@ -77,10 +99,17 @@ def reference_refine(index, points, upper):
     open_points = np.flatnonzero(upper > 1e-9)
     if len(open_points) == 0 or index.tree is None:
         return exact
-    gap = np.sqrt(((points[open_points, None, :] - index.centres[None]) ** 2).sum(-1)) - index.radii[None]
+    gap = (
+        np.sqrt(((points[open_points, None, :] - index.centres[None]) ** 2).sum(-1))
+        - index.radii[None]
+    )
     rows, cols = np.nonzero(gap < upper[open_points, None] - 1e-12)
     if len(rows):
-        np.minimum.at(exact, open_points[rows], point_triangle_distance(points[open_points[rows]], index.tri[cols]))
+        np.minimum.at(
+            exact,
+            open_points[rows],
+            point_triangle_distance(points[open_points[rows]], index.tri[cols]),
+        )
     return exact
 
 
@@ -109,12 +138,13 @@ def reference_max_distance(index, points, chunk=32):
     for start in range(0, len(order), chunk):
         if upper[order[start]] <= best:
             break
-        take = order[start:start + chunk]
+        take = order[start : start + chunk]
         best = max(best, float(reference_refine(index, points[take], upper[take]).max()))
     return best
 
 
 # --------------------------------------------------------------------------- inputs
+
 
 def random_mesh(rng, vertices=80, faces=150):
     """Random triangles (some degenerate: repeated corners), metres."""
@@ -130,10 +160,18 @@ def query_points(rng, positions, faces, count=300):
     r[r.sum(1) > 1] = 1 - r[r.sum(1) > 1]
     tri = positions[faces[rng.integers(0, len(faces), count)]]
     on = tri[:, 0] + r[:, :1] * (tri[:, 1] - tri[:, 0]) + r[:, 1:] * (tri[:, 2] - tri[:, 0])
-    return np.vstack([rng.normal(size=(count, 3)) * 12.0, positions[:25], on, on + rng.normal(size=on.shape) * 1e-7])
+    return np.vstack(
+        [
+            rng.normal(size=(count, 3)) * 12.0,
+            positions[:25],
+            on,
+            on + rng.normal(size=on.shape) * 1e-7,
+        ]
+    )
 
 
 # --------------------------------------------------------------------------- tests
+
 
 def test_boundary_loops_csr_equals_the_coo_reference():
     rng = np.random.default_rng(11)
@@ -142,7 +180,11 @@ def test_boundary_loops_csr_equals_the_coo_reference():
         vertices = int(rng.integers(3, 120))
         cases.append((None, rng.integers(0, vertices, size=(int(rng.integers(1, 200)), 3))))
     for positions, faces in cases:
-        count = len(positions) if positions is not None else int(faces.max()) + 1 + int(rng.integers(0, 5))
+        count = (
+            len(positions)
+            if positions is not None
+            else int(faces.max()) + 1 + int(rng.integers(0, 5))
+        )
         border, loops = boundary_loops(faces, count)
         ref_border, ref_loops = reference_boundary_loops(faces, count)
         assert np.array_equal(border, ref_border) and loops == ref_loops
@@ -158,11 +200,21 @@ def test_refine_within_and_max_distance_equal_the_references():
         exact = reference_refine(index, points, upper)
         assert np.array_equal(index.refine(points, upper), exact)
         for tolerance in (0.0, 1e-7, float(np.median(exact)), float(exact.max()) * 2):
-            assert np.array_equal(index.within(points, tolerance), reference_within(index, points, tolerance))
+            assert np.array_equal(
+                index.within(points, tolerance), reference_within(index, points, tolerance)
+            )
         plain = reference_max_distance(index, points)
         assert index.max_distance(points) == plain
         # A floor only stops the search sooner: the result is max(floor, the exact maximum).
-        for floor in (0.0, plain * 0.5, plain * 0.9, plain * 0.999, float(np.median(exact)), plain, plain * 1.5):
+        for floor in (
+            0.0,
+            plain * 0.5,
+            plain * 0.9,
+            plain * 0.999,
+            float(np.median(exact)),
+            plain,
+            plain * 1.5,
+        ):
             assert index.max_distance(points, floor=floor) == max(floor, plain)
 
 
@@ -172,7 +224,9 @@ def test_empty_and_degenerate_surfaces_equal_the_references():
     empty = SurfaceIndex(np.zeros((0, 3)), np.zeros((0, 3), np.int64))
     assert np.array_equal(empty.within(points, 1.0), reference_within(empty, points, 1.0))
     assert empty.max_distance(points) == reference_max_distance(empty, points) == np.inf
-    flat = SurfaceIndex(np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0]]), np.array([[0, 1, 2]]))  # a segment
+    flat = SurfaceIndex(
+        np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0]]), np.array([[0, 1, 2]])
+    )  # a segment
     assert np.array_equal(flat.within(points, 0.5), reference_within(flat, points, 0.5))
     assert flat.max_distance(points) == reference_max_distance(flat, points)
     assert flat.within(np.zeros((0, 3)), 1.0).shape == (0,)
@@ -187,8 +241,10 @@ def test_measure_lod_hausdorff_is_the_reference_two_way_maximum(seed):
         lod_pos, lod_faces = joined(level)
         source_points = measure_points(source_pos, source_faces, seed=0)
         lod_points = measure_points(lod_pos, lod_faces, seed=1)
-        expected = max(reference_max_distance(SurfaceIndex(lod_pos, lod_faces), source_points),
-                       reference_max_distance(SurfaceIndex(source_pos, source_faces), lod_points))
+        expected = max(
+            reference_max_distance(SurfaceIndex(lod_pos, lod_faces), source_points),
+            reference_max_distance(SurfaceIndex(source_pos, source_faces), lod_points),
+        )
         diagonal = float(np.linalg.norm(source_pos.max(0) - source_pos.min(0)))
         assert measure_lod(chain[0], level)["hausdorff_rel"] == expected / diagonal
 
@@ -196,7 +252,10 @@ def test_measure_lod_hausdorff_is_the_reference_two_way_maximum(seed):
 def measure_points(positions, faces, seed):
     """The points measure_lod measures from: vertices + SAMPLES samples, seeded as it does."""
     from exporter.quality import SAMPLES, SEED, sample_surface
-    return np.vstack([positions, sample_surface(positions, faces, SAMPLES, np.random.default_rng(SEED + seed))])
+
+    return np.vstack(
+        [positions, sample_surface(positions, faces, SAMPLES, np.random.default_rng(SEED + seed))]
+    )
 
 
 def test_moved_level_keeps_its_values_through_the_floor():
@@ -206,8 +265,12 @@ def test_moved_level_keeps_its_values_through_the_floor():
     moved = [dataclasses.replace(box[0], positions=box[0].positions * [1.0, 1.3, 1.0])]  # taller
     source_pos, source_faces = joined(box)
     lod_pos, lod_faces = joined(moved)
-    forward = reference_max_distance(SurfaceIndex(lod_pos, lod_faces), measure_points(source_pos, source_faces, 0))
-    backward = reference_max_distance(SurfaceIndex(source_pos, source_faces), measure_points(lod_pos, lod_faces, 1))
+    forward = reference_max_distance(
+        SurfaceIndex(lod_pos, lod_faces), measure_points(source_pos, source_faces, 0)
+    )
+    backward = reference_max_distance(
+        SurfaceIndex(source_pos, source_faces), measure_points(lod_pos, lod_faces, 1)
+    )
     assert backward > forward  # the level's raised roof is far from the source, not the reverse
     diagonal = float(np.linalg.norm(source_pos.max(0) - source_pos.min(0)))
     assert measure_lod(box, moved)["hausdorff_rel"] == backward / diagonal
@@ -217,11 +280,11 @@ def tricky_pixels(rng, count, size):
     """Pixel coordinates that hit the rasteriser's edge cases: on strip lines (k - 0.5) and
     pixel centres, flat and vertical edges, outside the raster, near-flat slopes."""
     xy = rng.random((count, 2)) * (size + 8) - 4
-    xy[::3, 1] = np.round(xy[::3, 1]) - 0.5                 # on a strip line
-    xy[1::5] = np.round(xy[1::5])                           # on pixel centres
-    xy[2::4, 1] = xy[0::4, 1][: len(xy[2::4])]              # flat edges
-    xy[3::4, 0] = xy[1::4, 0][: len(xy[3::4])]              # vertical edges
-    xy[1::6, 1] = xy[0::6, 1][: len(xy[1::6])] + 1e-13      # nearly flat: huge slopes
+    xy[::3, 1] = np.round(xy[::3, 1]) - 0.5  # on a strip line
+    xy[1::5] = np.round(xy[1::5])  # on pixel centres
+    xy[2::4, 1] = xy[0::4, 1][: len(xy[2::4])]  # flat edges
+    xy[3::4, 0] = xy[1::4, 0][: len(xy[3::4])]  # vertical edges
+    xy[1::6, 1] = xy[0::6, 1][: len(xy[1::6])] + 1e-13  # nearly flat: huge slopes
     return xy
 
 
@@ -233,7 +296,9 @@ def test_rasterise_equals_the_reference_bit_for_bit(size):
         faces = rng.integers(0, len(xy), size=(int(rng.integers(1, 80)), 3))
         assert np.array_equal(rasterise(xy, faces, size), reference_rasterise(xy, faces, size))
     # Large triangles, slivers and single lines.
-    xy = np.array([[-50.0, -50.0], [300.0, 20.5], [10.0, 400.0], [3.5, 3.5], [90.25, 3.5], [3.5, 3.5 + 1e-12]])
+    xy = np.array(
+        [[-50.0, -50.0], [300.0, 20.5], [10.0, 400.0], [3.5, 3.5], [90.25, 3.5], [3.5, 3.5 + 1e-12]]
+    )
     faces = np.array([[0, 1, 2], [3, 4, 5], [3, 4, 4], [5, 5, 5], [2, 1, 0]])
     assert np.array_equal(rasterise(xy, faces, size), reference_rasterise(xy, faces, size))
     assert not rasterise(xy, faces[:0], size).any()
@@ -244,25 +309,31 @@ def test_silhouettes_of_buildings_equal_the_reference():
     for seed in (1, 2, 6):
         for level in build_mesh_lods(crafted_building(seed), config.lods, config.simplify):
             positions, faces = joined(level)
-            low, high = positions.min(0) + 0.3, positions.max(0) - 0.2   # some corners outside
+            low, high = positions.min(0) + 0.3, positions.max(0) - 0.2  # some corners outside
             span = np.maximum(high - low, 1e-9)
             pixels = (positions - low) / span * 127
-            expected = [reference_rasterise(pixels[:, [u, v]], faces, 128) for u, v in ((0, 2), (0, 1), (2, 1))]
-            assert all(np.array_equal(a, b) for a, b in zip(silhouettes(positions, faces, low, high), expected))
+            expected = [
+                reference_rasterise(pixels[:, [u, v]], faces, 128)
+                for u, v in ((0, 2), (0, 1), (2, 1))
+            ]
+            assert all(
+                np.array_equal(a, b)
+                for a, b in zip(silhouettes(positions, faces, low, high), expected)
+            )
 
 
 def test_flat_top_edge_ends_are_exact_where_the_slanted_edges_round():
     """A flat edge contributes both its end x; the slanted edge reaching the same corner gives it
     only up to rounding, which moves a span's end when the corner sits on a pixel border."""
     rng = np.random.default_rng(21)
-    top, left, right = 60.3, 5.5, 40.5                  # the flat edge's corners on pixel borders
+    top, left, right = 60.3, 5.5, 40.5  # the flat edge's corners on pixel borders
     checked = 0
     for rx, ry in rng.random((3000, 2)) * [30.0, 20.0]:
         lossy = [rx + (top - ry) * ((x - rx) / (top - ry)) != x for x in (left, right)]
         if not any(lossy):
-            continue                                     # exact here: nothing to tell apart
+            continue  # exact here: nothing to tell apart
         xy = np.array([[rx, ry], [left, top], [right, top]])
-        for faces in ([[0, 1, 2]], [[0, 2, 1]]):          # each corner once as the flat edge's end
+        for faces in ([[0, 1, 2]], [[0, 2, 1]]):  # each corner once as the flat edge's end
             faces = np.array(faces)
             assert np.array_equal(rasterise(xy, faces, 128), reference_rasterise(xy, faces, 128))
         checked += 1
@@ -274,7 +345,7 @@ def test_face_normals_and_lengths_are_numpys(scale):
     rng = np.random.default_rng(int(scale * 1000) + 3)
     positions = rng.normal(size=(300, 3)) * scale
     faces = rng.integers(0, 300, size=(2000, 3))
-    faces[::7, 2] = faces[::7, 1]                          # degenerate: zero normals
+    faces[::7, 2] = faces[::7, 1]  # degenerate: zero normals
     a, b, c = (positions[faces[:, i]] for i in range(3))
     expected = np.cross(b - a, c - a)
     assert np.array_equal(face_normals(positions, faces), expected)
@@ -285,7 +356,7 @@ def test_a_point_as_far_as_its_nearest_probe_still_counts_above_a_close_floor():
     """The floor skips points whose nearest probe is closer than it; a point whose distance is
     its probe distance (nearest to a corner) and just above the floor must still be measured."""
     index = SurfaceIndex(np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]), np.array([[0, 1, 2]]))
-    point = np.array([[-0.3, -0.4, 0.0]])                  # 0.5 m from corner (0, 0, 0)
+    point = np.array([[-0.3, -0.4, 0.0]])  # 0.5 m from corner (0, 0, 0)
     assert reference_max_distance(index, point) == 0.5
     for floor in (0.5 * (1 - 1e-12), 0.5 * (1 - 1e-6), 0.5, 0.25):
         assert index.max_distance(point, floor=floor) == 0.5
@@ -300,12 +371,18 @@ def reference_boundary_keys(source_parts, lod_parts):
     border, loops = reference_boundary_loops(source_faces, len(source_pos))
     length = float(np.linalg.norm(np.diff(source_pos[border], axis=1), axis=-1).sum())
     lod_border, lod_loops = reference_boundary_loops(lod_faces, len(lod_pos))
-    lod_length = float(np.linalg.norm(np.diff(lod_pos[lod_border], axis=1), axis=-1).sum()) if len(lod_border) else 0.0
+    lod_length = (
+        float(np.linalg.norm(np.diff(lod_pos[lod_border], axis=1), axis=-1).sum())
+        if len(lod_border)
+        else 0.0
+    )
     diagonal = max(float(np.linalg.norm(source_pos.max(0) - source_pos.min(0))), 1e-9)
     source_tris = sum(p.triangle_count for p in source_parts)
     return {
         "triangle_ratio": float(sum(p.triangle_count for p in lod_parts) / source_tris),
-        "boundary_length_change": float((lod_length - length) / length if length > 0 else lod_length / diagonal),
+        "boundary_length_change": float(
+            (lod_length - length) / length if length > 0 else lod_length / diagonal
+        ),
         "new_holes": int(max(0, lod_loops - loops)),
     }
 

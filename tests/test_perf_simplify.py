@@ -6,6 +6,7 @@ Fast-vs-reference tests assert equality bit for bit (``np.array_equal`` on the s
 later "speed-up" that changes a result fails here. Positions are building-local East/Up/North
 metres (y = Up); random meshes are frame-free metres.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -15,16 +16,29 @@ import pytest
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
+from test_simplify_shapes import Atlas, Builder, add_dome, box_building, crafted_building
 
 from exporter.config import LodSpec, SimplifyOptions, default_lods
-from exporter.quality import measure_lod
 from exporter.geometry import unique_float_rows
+from exporter.quality import measure_lod
 from exporter.simplify import NOISE_M, MeshLevel, build_mesh_chain, build_mesh_lods, uv_charts
-from exporter.simplify.planar import _loops, _plane_basis, _row_dots, _region_loops, _retriangulate, _retriangulate_many
+from exporter.simplify.planar import (
+    _loops,
+    _plane_basis,
+    _region_loops,
+    _retriangulate,
+    _retriangulate_many,
+    _row_dots,
+)
+from exporter.simplify.protect import (
+    COPLANAR_COS,
+    PLANE_M,
+    border_vertices,
+    cross_rows,
+    planar_regions,
+)
 from exporter.simplify.quadric import assign_uvs, closest_barycentric
-from exporter.simplify.protect import COPLANAR_COS, PLANE_M, border_vertices, cross_rows, planar_regions
 from exporter.simplify.weld import lowest_member, weld_positions
-from test_simplify_shapes import Atlas, Builder, add_dome, box_building, crafted_building
 
 
 def same(a, b) -> bool:
@@ -34,6 +48,7 @@ def same(a, b) -> bool:
 
 
 # --------------------------------------------------------------------------- graph components
+
 
 def scipy_lowest(n, left, right):
     """The partition of scipy's connected_components as each node's lowest member."""
@@ -60,8 +75,9 @@ def reference_weld(positions, distance):
     """The former weld_positions (scipy components, clusters renumbered by lowest member)."""
     n = len(positions)
     pairs = cKDTree(positions).query_pairs(r=float(distance), output_type="ndarray")
-    _, labels = connected_components(coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n)),
-                                     directed=False)
+    _, labels = connected_components(
+        coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n)), directed=False
+    )
     first = np.full(labels.max() + 1, n, dtype=np.int64)
     np.minimum.at(first, labels, np.arange(n))
     order = np.argsort(first)
@@ -87,8 +103,10 @@ def test_uv_charts_equal_scipy_components_of_the_face_vertex_graph():
         vertices = int(rng.integers(3, 300))
         faces = rng.integers(0, vertices, size=(int(rng.integers(1, 200)), 3))
         m = len(faces)
-        graph = coo_matrix((np.ones(3 * m), (np.repeat(np.arange(m), 3), m + faces.reshape(-1))),
-                           shape=(m + vertices, m + vertices))
+        graph = coo_matrix(
+            (np.ones(3 * m), (np.repeat(np.arange(m), 3), m + faces.reshape(-1))),
+            shape=(m + vertices, m + vertices),
+        )
         expected = connected_components(graph, directed=False)[1][:m].astype(np.int64)
         assert same(uv_charts(faces, vertices), expected)
 
@@ -107,8 +125,9 @@ def reference_planar_regions(positions, faces, groups):
     f, g = owner[:-1][shared], owner[1:][shared]
     keep = groups[f] == groups[g]
     f, g = f[keep], g[keep]
-    coplanar = ((normal[f] * normal[g]).sum(1) > COPLANAR_COS) & \
-        (np.abs(((positions[faces[g]].mean(axis=1) - a[f]) * normal[f]).sum(1)) < PLANE_M)
+    coplanar = ((normal[f] * normal[g]).sum(1) > COPLANAR_COS) & (
+        np.abs(((positions[faces[g]].mean(axis=1) - a[f]) * normal[f]).sum(1)) < PLANE_M
+    )
     graph = coo_matrix((np.ones(coplanar.sum()), (f[coplanar], g[coplanar])), shape=(m, m))
     return connected_components(graph, directed=False)[1].astype(np.int64)
 
@@ -116,6 +135,7 @@ def reference_planar_regions(positions, faces, groups):
 def welded_mesh(parts):
     """(positions, faces, corner_uvs, charts) of parts joined and welded as the simplifier does."""
     from exporter.simplify import _join
+
     positions, faces, _, corner_uvs, charts, _ = _join(parts, 0.0)
     return positions, faces, corner_uvs, charts
 
@@ -123,16 +143,22 @@ def welded_mesh(parts):
 def test_planar_regions_equal_the_scipy_components():
     for seed in range(8):
         positions, faces, _, charts = welded_mesh(crafted_building(seed))
-        assert same(planar_regions(positions, faces, charts), reference_planar_regions(positions, faces, charts))
+        assert same(
+            planar_regions(positions, faces, charts),
+            reference_planar_regions(positions, faces, charts),
+        )
 
 
 # --------------------------------------------------------------------------- small numerics
+
 
 def test_unique_float_rows_equals_numpy_unique_axis0():
     rng = np.random.default_rng(7)
     for _ in range(100):
         c = int(rng.integers(1, 120))
-        keys = np.column_stack([rng.integers(0, 12, c).astype(float), rng.choice([0.0, -0.0, 0.25, 1e-9, 0.5], (c, 2))])
+        keys = np.column_stack(
+            [rng.integers(0, 12, c).astype(float), rng.choice([0.0, -0.0, 0.25, 1e-9, 0.5], (c, 2))]
+        )
         _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
         fast_first, fast_inverse = unique_float_rows(keys)
         assert same(fast_first, first) and same(fast_inverse, inverse.reshape(-1).astype(np.int64))
@@ -152,12 +178,17 @@ def test_batched_norms_and_plane_bases_equal_the_per_region_calls():
     hy = 1.0 - hx
     u = np.stack([y * 0.0 - z * hy, z * hx - x * 0.0, x * hy - y * hx], axis=1)
     u = u / np.sqrt(_row_dots(u))[:, None]
-    v = np.stack([y * u[:, 2] - z * u[:, 1], z * u[:, 0] - x * u[:, 2], x * u[:, 1] - y * u[:, 0]], axis=1)
+    v = np.stack(
+        [y * u[:, 2] - z * u[:, 1], z * u[:, 0] - x * u[:, 2], x * u[:, 1] - y * u[:, 0]], axis=1
+    )
     reference = [_plane_basis(n) for n in unit]
-    assert same(u, np.array([r[0] for r in reference])) and same(v, np.array([r[1] for r in reference]))
+    assert same(u, np.array([r[0] for r in reference])) and same(
+        v, np.array([r[1] for r in reference])
+    )
 
 
 # --------------------------------------------------------------------------- planar batch
+
 
 def random_region_faces(rng):
     """Face sets that exercise _loops: grids (one loop), grids with a hole, pinched and open sets."""
@@ -193,7 +224,9 @@ def test_region_loops_equal_loops_with_droppable_vertices_removed():
 
 def planar_cases():
     """Welded meshes with planar regions: crafted buildings, a grid box, a wall with a window."""
-    meshes = [welded_mesh(crafted_building(seed)) for seed in range(6)] + [welded_mesh(box_building(6, 4.5, 8.0, (4, 3), 4))]
+    meshes = [welded_mesh(crafted_building(seed)) for seed in range(6)] + [
+        welded_mesh(box_building(6, 4.5, 8.0, (4, 3), 4))
+    ]
     builder, atlas = Builder(), Atlas()
     builder.grid((0, 0, 0), (9, 0, 0), (0, 6, 0), 9, 6, atlas.rect())
     window = builder.triangles[0]
@@ -220,7 +253,9 @@ def test_retriangulate_many_equals_one_region_at_a_time():
                 droppable = inside | (rng.random(k) < share)
                 fast = _retriangulate_many(positions, faces, uvs, members, droppable)
                 for m, result in zip(members, fast):
-                    expected = _retriangulate(positions, faces[m], None if uvs is None else uvs[m], droppable)
+                    expected = _retriangulate(
+                        positions, faces[m], None if uvs is None else uvs[m], droppable
+                    )
                     assert (result is None) == (expected is None)
                     if result is not None:
                         checked += 1
@@ -229,6 +264,7 @@ def test_retriangulate_many_equals_one_region_at_a_time():
 
 
 # --------------------------------------------------------------------------- the exact flag
+
 
 def chain(parts, ratio, **changes):
     options = dataclasses.replace(SimplifyOptions(), **changes)
@@ -245,8 +281,10 @@ def test_chain_is_build_mesh_lods_with_flags():
     assert all(isinstance(level, MeshLevel) for level in levels) and levels[0].exact
     plain = build_mesh_lods(parts, default_lods(), SimplifyOptions())
     for level, other in zip(levels, plain):
-        assert all(same(a.positions, b.positions) and same(a.triangles, b.triangles) and same(a.uvs, b.uvs)
-                   for a, b in zip(level.parts, other))
+        assert all(
+            same(a.positions, b.positions) and same(a.triangles, b.triangles) and same(a.uvs, b.uvs)
+            for a, b in zip(level.parts, other)
+        )
 
 
 def test_exact_when_the_planar_pass_alone_meets_the_target():
@@ -262,14 +300,20 @@ def test_not_exact_when_the_collapse_removed_faces():
     builder, atlas = Builder(), Atlas()
     add_dome(builder, atlas, 0.0, 0.0, 0.0, 10.0, 8, 24)  # curved: the planar pass cannot help
     dome = [builder.part()]
-    lod0, lod1 = chain(dome, 0.5, max_error=0.0, protect_largest=0.0, preserve_uv_foldover_edges=False)
+    lod0, lod1 = chain(
+        dome, 0.5, max_error=0.0, protect_largest=0.0, preserve_uv_foldover_edges=False
+    )
     assert count(lod1.parts) < count(lod0.parts)
     assert not lod1.exact and not lod1.surface_exact
     assert measure_lod(lod0.parts, lod1.parts)["hausdorff_rel"] > 0
     # The flag is passed down: a level built from an inexact one is inexact even when unchanged.
-    levels = build_mesh_chain(dome, [LodSpec(0.5), LodSpec(0.2, mesh=0.5), LodSpec(0.1, mesh=0.5)],
-                              dataclasses.replace(SimplifyOptions(), max_error=0.0, protect_largest=0.0,
-                                                  preserve_uv_foldover_edges=False))
+    levels = build_mesh_chain(
+        dome,
+        [LodSpec(0.5), LodSpec(0.2, mesh=0.5), LodSpec(0.1, mesh=0.5)],
+        dataclasses.replace(
+            SimplifyOptions(), max_error=0.0, protect_largest=0.0, preserve_uv_foldover_edges=False
+        ),
+    )
     assert [level.exact for level in levels] == [True, False, False]
     assert [level.surface_exact for level in levels] == [True, False, False]
 
@@ -282,7 +326,11 @@ def gable_under_a_roof():
     outline = [(4, 0), (4, 3), (2, 4), (0, 3), (0, 0)]
     builder = Builder()
     wall = [(x, y, 0.0) for x, y in outline] + [(2.0, 1.5, 0.0)]
-    builder.add(wall, [(5, i, (i + 1) % 5) for i in range(5)], [(0.1 + x / 40, 0.1 + y / 40) for x, y, _ in wall])
+    builder.add(
+        wall,
+        [(5, i, (i + 1) % 5) for i in range(5)],
+        [(0.1 + x / 40, 0.1 + y / 40) for x, y, _ in wall],
+    )
     roof = [(0, 3, 0), (4, 3, 0), (4, 3, 5), (0, 3, 5)]
     builder.add(roof, [(0, 2, 1), (0, 3, 2)], [(0.6 + x / 40, 0.6 + z / 40) for x, _, z in roof])
     return [builder.part()]
@@ -290,14 +338,23 @@ def gable_under_a_roof():
 
 def test_slit_closed_by_the_planar_pass_is_surface_exact_not_exact():
     gable = gable_under_a_roof()
-    levels = build_mesh_chain(gable, [LodSpec(0.5), LodSpec(0.2, mesh=0.8), LodSpec(0.1, mesh=0.5)], SimplifyOptions())
+    levels = build_mesh_chain(
+        gable, [LodSpec(0.5), LodSpec(0.2, mesh=0.8), LodSpec(0.1, mesh=0.5)], SimplifyOptions()
+    )
     assert count(levels[1].parts) == 5 < count(gable)  # the fan's 5 faces became earcut's 3
     metrics = measure_lod(levels[0].parts, levels[1].parts)
     assert metrics["hausdorff_rel"] < 1e-9 and metrics["boundary_length_change"] < -0.1, metrics
-    assert [(level.exact, level.surface_exact) for level in levels] == [(True, True), (False, True), (False, True)]
+    assert [(level.exact, level.surface_exact) for level in levels] == [
+        (True, True),
+        (False, True),
+        (False, True),
+    ]
     # The same gable without the roof: nothing to close, exact.
     alone = dataclasses.replace(gable[0], triangles=gable[0].triangles[:5])
-    assert [(level.exact, level.surface_exact) for level in chain([alone], 0.5)] == [(True, True), (True, True)]
+    assert [(level.exact, level.surface_exact) for level in chain([alone], 0.5)] == [
+        (True, True),
+        (True, True),
+    ]
 
 
 def two_panels(gap):
@@ -321,7 +378,10 @@ def test_link_distance_welding_distinct_vertices_is_not_exact():
 
 # --------------------------------------------------------------------------- collapse UVs
 
-def reference_assign_uvs(positions, faces, corner_uvs, face_chart, out_faces, face_ids, project=True):
+
+def reference_assign_uvs(
+    positions, faces, corner_uvs, face_chart, out_faces, face_ids, project=True
+):
     """The former assign_uvs: every changed corner looked up one at a time."""
     in_faces, in_uvs = faces[face_ids], corner_uvs[face_ids]
     out_uvs = in_uvs.copy()
@@ -340,7 +400,10 @@ def reference_assign_uvs(positions, faces, corner_uvs, face_chart, out_faces, fa
             chart = face_chart[face_ids[o]]
             vertex = out_faces[o, j]
             key = chart * (len(positions) + 1) + vertex
-            lo, hi = np.searchsorted(sorted_keys, key, "left"), np.searchsorted(sorted_keys, key, "right")
+            lo, hi = (
+                np.searchsorted(sorted_keys, key, "left"),
+                np.searchsorted(sorted_keys, key, "right"),
+            )
             if hi > lo:
                 block = flat_uvs[lo:hi]
                 if (block == block[0]).all():
@@ -348,7 +411,9 @@ def reference_assign_uvs(positions, faces, corner_uvs, face_chart, out_faces, fa
                     continue
                 candidates = np.unique(block, axis=0)
                 others = out_uvs[o, found[o]] if found[o].any() else in_uvs[o]
-                out_uvs[o, j] = candidates[np.argmin(np.linalg.norm(candidates - others.mean(axis=0), axis=1))]
+                out_uvs[o, j] = candidates[
+                    np.argmin(np.linalg.norm(candidates - others.mean(axis=0), axis=1))
+                ]
             else:
                 crossings.append(vertex)
                 if not project:
@@ -377,8 +442,12 @@ def test_assign_uvs_equals_the_corner_by_corner_lookup():
             pool = same_chart[o] if rng.random() < 0.85 else np.arange(len(positions))
             out_faces[o, j] = rng.choice(pool)
         for project in (True, False):
-            fast = assign_uvs(positions, faces, corner_uvs, charts, out_faces, face_ids, project=project)
-            expected = reference_assign_uvs(positions, faces, corner_uvs, charts, out_faces, face_ids, project=project)
+            fast = assign_uvs(
+                positions, faces, corner_uvs, charts, out_faces, face_ids, project=project
+            )
+            expected = reference_assign_uvs(
+                positions, faces, corner_uvs, charts, out_faces, face_ids, project=project
+            )
             assert same(fast[0], expected[0]) and same(fast[1], expected[1])
 
 
@@ -386,6 +455,7 @@ def test_guard_resumes_the_reference_stream_like_deepcopy():
     import copy
 
     from exporter.simplify.guard import _resume
+
     rng = np.random.default_rng(7)
     rng.random(37)
     assert same(_resume(rng).random(100), copy.deepcopy(rng).random(100))
@@ -400,10 +470,13 @@ def test_exact_levels_measure_as_identity_and_slit_closing_is_not_exact(tmp_path
     samplegen = pytest.importorskip("exporter.samplegen")
     from exporter.config import Config
     from exporter.readers import load_entry, scan_folder
+
     samplegen.generate_tile(tmp_path, count=12, seed=3, atlas_size=16)
     readers = Config().readers
     exact, slit_closed = 0, 0
-    for building in [load_entry(entry, readers) for entry in scan_folder(tmp_path, readers).entries]:
+    for building in [
+        load_entry(entry, readers) for entry in scan_folder(tmp_path, readers).entries
+    ]:
         levels = build_mesh_chain(building.parts, default_lods(), SimplifyOptions())
         for above, level in zip(levels, levels[1:]):
             metrics = measure_lod(levels[0].parts, level.parts)
@@ -424,11 +497,13 @@ def test_exact_levels_measure_as_identity_and_slit_closing_is_not_exact(tmp_path
 
 # --------------------------------------------------------------------------- error guard
 
+
 def test_guard_exceeds_is_deviation_above_the_tolerance():
     # The guard's decision with floors and shared corners skipped equals the full symmetric
     # deviation compared with the tolerance, also at the deviation itself and one ulp around it.
     from exporter.simplify import simplify_parts
     from exporter.simplify.guard import Reference, deviation, exceeds
+
     builder, atlas = Builder(), Atlas()
     add_dome(builder, atlas, 0.0, 0.0, 0.0, 10.0, 8, 24)
     shapes = [[builder.part()]] + [crafted_building(seed) for seed in range(3)]
@@ -437,15 +512,32 @@ def test_guard_exceeds_is_deviation_above_the_tolerance():
     for parts in shapes:
         positions, faces, _, _ = welded_mesh(parts)
         reference = Reference(positions, faces)
-        options = SimplifyOptions(max_error=0.0, protect_largest=0.0, preserve_uv_foldover_edges=False,
-                                  preserve_uv_seam_edges=False)
-        levels = [simplify_parts(parts, int(count(parts) * ratio), options) for ratio in (0.8, 0.5, 0.2)]
+        options = SimplifyOptions(
+            max_error=0.0,
+            protect_largest=0.0,
+            preserve_uv_foldover_edges=False,
+            preserve_uv_seam_edges=False,
+        )
+        levels = [
+            simplify_parts(parts, int(count(parts) * ratio), options) for ratio in (0.8, 0.5, 0.2)
+        ]
         jitter = positions + rng.normal(size=positions.shape) * 0.01  # no corner shared with LOD0
-        for level_positions, level_faces in [welded_mesh(level)[:2] for level in levels] + [(jitter, faces),
-                                                                                          (positions, faces)]:
+        for level_positions, level_faces in [welded_mesh(level)[:2] for level in levels] + [
+            (jitter, faces),
+            (positions, faces),
+        ]:
             d = deviation(reference, level_positions, level_faces)
-            for tolerance in (0.0, 0.5 * d, np.nextafter(d, 0.0), d, np.nextafter(d, np.inf), 2.0 * d + 1e-3):
-                assert exceeds(reference, level_positions, level_faces, tolerance) == (d > tolerance)
+            for tolerance in (
+                0.0,
+                0.5 * d,
+                np.nextafter(d, 0.0),
+                d,
+                np.nextafter(d, np.inf),
+                2.0 * d + 1e-3,
+            ):
+                assert exceeds(reference, level_positions, level_faces, tolerance) == (
+                    d > tolerance
+                )
                 checked += 1
         assert exceeds(reference, positions, faces[:0], 1.0)  # nothing left: infinitely far
     assert checked == 4 * 5 * 6

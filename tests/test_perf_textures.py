@@ -2,6 +2,7 @@
 written here (Pillow calls in the obvious order), the header is parsed once, and ``always``'s box
 chain stays within its documented quality. Images are small and made here; one test reads a real
 aerial atlas from ``../shared/data/real`` (skipped when absent)."""
+
 from __future__ import annotations
 
 import io
@@ -9,12 +10,12 @@ import io
 import numpy as np
 import pytest
 from PIL import Image
+from texture_images import REAL_ATLASES, SCALES, sharp_rgb, smooth_rgb
 
 from exporter import textures
 from exporter.config import TextureOptions
 from exporter.model import Texture
 from exporter.textures import build_texture_lods, integer_factor, psnr
-from texture_images import REAL_ATLASES, SCALES, sharp_rgb, smooth_rgb
 
 LANCZOS = Image.Resampling.LANCZOS
 
@@ -52,11 +53,17 @@ def full(data: bytes) -> Image.Image:
 
 
 def levels_of(data: bytes, mode: str, scales=SCALES) -> list[bytes]:
-    texture = Texture(data=data, mime="image/jpeg", width=0, height=0, name="a.jpg", source="tile/a.jpg")
-    return [level.data for level in build_texture_lods(texture, scales, TextureOptions(fast_jpeg_downscale=mode))]
+    texture = Texture(
+        data=data, mime="image/jpeg", width=0, height=0, name="a.jpg", source="tile/a.jpg"
+    )
+    return [
+        level.data
+        for level in build_texture_lods(texture, scales, TextureOptions(fast_jpeg_downscale=mode))
+    ]
 
 
 # --------------------------------------------------------------------------- same bytes as the plain formulation
+
 
 def test_auto_fast_path_is_draft_then_a_box_reduction_of_it():
     data = jpeg(smooth_rgb(512, 512))
@@ -74,7 +81,11 @@ def test_auto_fallback_is_lanczos_from_the_full_decode_then_from_each_level():
 def test_never_is_lanczos_from_the_full_decode_for_every_level():
     data = jpeg(smooth_rgb(512, 512))
     source = full(data)
-    assert levels_of(data, "never") == [data, q90(source.resize((256, 256), LANCZOS)), q90(source.resize((128, 128), LANCZOS))]
+    assert levels_of(data, "never") == [
+        data,
+        q90(source.resize((256, 256), LANCZOS)),
+        q90(source.resize((128, 128), LANCZOS)),
+    ]
 
 
 def test_always_is_draft_then_a_box_reduction_of_each_level():
@@ -85,7 +96,9 @@ def test_always_is_draft_then_a_box_reduction_of_each_level():
 
 
 def test_always_uses_lanczos_where_the_size_does_not_divide():
-    data = jpeg(smooth_rgb(600, 400))  # not a power of two: sides are multiples of 4 (300x200 -> 152x100)
+    data = jpeg(
+        smooth_rgb(600, 400)
+    )  # not a power of two: sides are multiples of 4 (300x200 -> 152x100)
     sizes = textures.level_sizes(600, 400, SCALES, TextureOptions().min_size)
     assert sizes == [(600, 400), (300, 200), (152, 100)]
     half = drafted(data, sizes[1])
@@ -93,10 +106,17 @@ def test_always_uses_lanczos_where_the_size_does_not_divide():
     assert levels_of(data, "always") == [data, q90(half), q90(half.resize((152, 100), LANCZOS))]
 
 
-@pytest.mark.parametrize("source, size, factor", [
-    ((512, 512), (256, 256), 2), ((512, 256), (128, 64), 4), ((300, 200), (300, 200), 1),
-    ((300, 200), (148, 100), 0), ((512, 512), (256, 128), 0), ((6, 4), (4, 2), 0),
-])
+@pytest.mark.parametrize(
+    "source, size, factor",
+    [
+        ((512, 512), (256, 256), 2),
+        ((512, 256), (128, 64), 4),
+        ((300, 200), (300, 200), 1),
+        ((300, 200), (148, 100), 0),
+        ((512, 512), (256, 128), 0),
+        ((6, 4), (4, 2), 0),
+    ],
+)
 def test_integer_factor(source, size, factor):
     assert integer_factor(source, size) == factor
 
@@ -104,12 +124,15 @@ def test_integer_factor(source, size, factor):
 def test_the_source_is_opened_once_on_the_fast_path(monkeypatch):
     opened = []
     original = textures.open_header
-    monkeypatch.setattr(textures, "open_header", lambda *args: opened.append(args[1]) or original(*args))
+    monkeypatch.setattr(
+        textures, "open_header", lambda *args: opened.append(args[1]) or original(*args)
+    )
     levels_of(jpeg(smooth_rgb(256, 256)), "auto")
     assert opened == ["tile/a.jpg"]
 
 
 # --------------------------------------------------------------------------- always's quality
+
 
 def test_always_box_chain_stays_close_to_lanczos_on_photo_like_pixels():
     data = jpeg(smooth_rgb(512, 512, seed=3))
@@ -128,55 +151,90 @@ def test_box_lod2_trades_about_2_db_on_a_real_aerial_atlas():
     if not atlases:
         pytest.skip(f"../shared/data/real not present: {REAL_ATLASES}")
     data = atlases[0].read_bytes()
-    auto, always, never = levels_of(data, "auto"), levels_of(data, "always"), levels_of(data, "never")
+    auto, always, never = (
+        levels_of(data, "auto"),
+        levels_of(data, "always"),
+        levels_of(data, "never"),
+    )
     assert auto == always
     source = full(data)
     reference = np.asarray(source.resize((source.width // 4, source.height // 4), LANCZOS))
-    quality = {name: psnr(reference, np.asarray(full(levels[2]))) for name, levels in (("auto", auto), ("never", never))}
+    quality = {
+        name: psnr(reference, np.asarray(full(levels[2])))
+        for name, levels in (("auto", auto), ("never", never))
+    }
     assert 33.0 <= quality["auto"] < quality["never"] - 1.0
 
 
 # --------------------------------------------------------------------------- auto's sampled check
 
+
 def whole_image_errors(image: Image.Image, k: int) -> np.ndarray:
     """Per-pixel box minus Lanczos over the whole image, (h/k, w/k, 3) float."""
     size = (image.width // k, image.height // k)
-    return np.asarray(image.resize(size, LANCZOS)).astype(np.float64) - np.asarray(image.reduce(k)).astype(np.float64)
+    return np.asarray(image.resize(size, LANCZOS)).astype(np.float64) - np.asarray(
+        image.reduce(k)
+    ).astype(np.float64)
 
 
 @pytest.mark.parametrize("width, height, k", [(512, 512, 2), (512, 512, 4), (768, 256, 2)])
 def test_sampled_check_is_the_whole_image_comparison_on_its_blocks(width, height, k):
     """The mosaic's block interiors are bit for bit the whole-image reductions there: the sampled
     PSNR equals the PSNR of the whole-image difference restricted to the same blocks."""
-    image = Image.fromarray(np.concatenate([sharp_rgb(width, height // 2), smooth_rgb(width, height // 2)]))
+    image = Image.fromarray(
+        np.concatenate([sharp_rgb(width, height // 2), smooth_rgb(width, height // 2)])
+    )
     block, margin = textures.SAMPLE_BLOCK_OUT * k, textures.LANCZOS_REACH * k
     n = textures.SAMPLE_BLOCKS
     ys = textures.sample_origins(image.height, n, block, margin, k)
     xs = textures.sample_origins(image.width, n, block, margin, k)
     assert len(set(ys)) == n and min(ys) >= margin and max(ys) + block + margin <= image.height
     errors = whole_image_errors(image, k)
-    picked = np.concatenate([errors[y // k: y // k + textures.SAMPLE_BLOCK_OUT, x // k: x // k + textures.SAMPLE_BLOCK_OUT].ravel() for y in ys for x in xs])
-    expected = 10 * np.log10(255.0 ** 2 / np.mean(picked * picked))
+    picked = np.concatenate(
+        [
+            errors[
+                y // k : y // k + textures.SAMPLE_BLOCK_OUT,
+                x // k : x // k + textures.SAMPLE_BLOCK_OUT,
+            ].ravel()
+            for y in ys
+            for x in xs
+        ]
+    )
+    expected = 10 * np.log10(255.0**2 / np.mean(picked * picked))
     assert textures.sampled_box_psnr(image, k) == pytest.approx(expected, rel=1e-12)
     # ... and differs from the whole image's value (it is a sample of a half sharp, half smooth image).
-    assert textures.sampled_box_psnr(image, k) != pytest.approx(textures.box_psnr(image, k), abs=0.01)
+    assert textures.sampled_box_psnr(image, k) != pytest.approx(
+        textures.box_psnr(image, k), abs=0.01
+    )
 
 
-@pytest.mark.parametrize("width, height, k", [(96, 64, 2), (2048, 32, 2), (40, 2048, 2), (510, 512, 4)])
+@pytest.mark.parametrize(
+    "width, height, k", [(96, 64, 2), (2048, 32, 2), (40, 2048, 2), (510, 512, 4)]
+)
 def test_sampled_check_on_small_narrow_or_indivisible_images_is_the_whole_image(width, height, k):
     image = Image.fromarray(sharp_rgb(width, height))
     assert textures.sampled_box_psnr(image, k) == textures.box_psnr(image, k)
 
 
 def test_sampled_check_separates_photo_like_from_pixel_sharp_levels():
-    assert textures.sampled_box_psnr(Image.fromarray(smooth_rgb(512, 512)), 2) >= textures.AUTO_MIN_PSNR_DB
-    assert textures.sampled_box_psnr(Image.fromarray(sharp_rgb(512, 512)), 2) < textures.AUTO_MIN_PSNR_DB
+    assert (
+        textures.sampled_box_psnr(Image.fromarray(smooth_rgb(512, 512)), 2)
+        >= textures.AUTO_MIN_PSNR_DB
+    )
+    assert (
+        textures.sampled_box_psnr(Image.fromarray(sharp_rgb(512, 512)), 2)
+        < textures.AUTO_MIN_PSNR_DB
+    )
 
 
 def test_auto_measures_the_draft_once_for_both_its_guard_and_lod2(monkeypatch):
     measured = []
     original = textures.sampled_box_psnr
-    monkeypatch.setattr(textures, "sampled_box_psnr", lambda image, k: measured.append((image.size, k)) or original(image, k))
+    monkeypatch.setattr(
+        textures,
+        "sampled_box_psnr",
+        lambda image, k: measured.append((image.size, k)) or original(image, k),
+    )
     levels_of(jpeg(smooth_rgb(512, 512)), "auto")
     assert measured == [((256, 256), 2)]
 
@@ -189,7 +247,9 @@ def test_auto_checks_each_later_level_on_the_level_above(monkeypatch):
     scales = [1.0, 0.5, 0.125]
     assert levels_of(data, "auto", scales) == [data, q90(half), q90(half.reduce(4))]
     original = textures.sampled_box_psnr
-    monkeypatch.setattr(textures, "sampled_box_psnr", lambda image, k: original(image, k) if k == 2 else 0.0)
+    monkeypatch.setattr(
+        textures, "sampled_box_psnr", lambda image, k: original(image, k) if k == 2 else 0.0
+    )
     textures.clear_texture_cache()
     assert levels_of(data, "auto", scales) == [data, q90(half), q90(half.resize((64, 64), LANCZOS))]
 

@@ -7,6 +7,7 @@
   ``local_to_global``; the winding vote's cross product equals ``np.cross``; non-finite normals
   are still cleaned by ``nan_to_num``.
 """
+
 import json
 
 import numpy as np
@@ -24,7 +25,9 @@ from exporter.samplegen import generate_tile
 @pytest.fixture(scope="module")
 def tile(tmp_path_factory):
     """A small generated VWorld tile (two-part buildings included, 64 px atlases)."""
-    return generate_tile(tmp_path_factory.mktemp("tile"), count=6, seed=2, atlas_size=64, two_part_share=0.5)
+    return generate_tile(
+        tmp_path_factory.mktemp("tile"), count=6, seed=2, atlas_size=64, two_part_share=0.5
+    )
 
 
 @pytest.fixture(scope="module")
@@ -46,7 +49,9 @@ def documents(parts_list, monkeypatch):
     """The (GLTF2, blob) pairs glb_bytes hands to ``_glb`` for each list of parts."""
     seen = []
     real = gltf_writer._glb
-    monkeypatch.setattr(gltf_writer, "_glb", lambda gltf, blob: seen.append((gltf, blob)) or real(gltf, blob))
+    monkeypatch.setattr(
+        gltf_writer, "_glb", lambda gltf, blob: seen.append((gltf, blob)) or real(gltf, blob)
+    )
     outputs = [gltf_writer.glb_bytes(parts, f"B{i}_LOD0") for i, parts in enumerate(parts_list)]
     monkeypatch.setattr(gltf_writer, "_glb", real)
     return outputs, seen
@@ -54,23 +59,33 @@ def documents(parts_list, monkeypatch):
 
 # --------------------------------------------------------------------------- GLB
 
+
 def test_generated_buildings_glb_equal_pygltflib_save_to_bytes(buildings, monkeypatch):
     _, loaded = buildings
     outputs, seen = documents([b.parts for b in loaded], monkeypatch)
     assert len(seen) == len(loaded) >= 6 and any(len(b.parts) > 1 for b in loaded)
     for data, (gltf, blob) in zip(outputs, seen):
         # The fast path itself covers these documents (no fallback), and agrees with pygltflib.
-        fast = json.dumps(gltf, allow_nan=False, separators=(",", ":"), default=gltf_writer._pruned_fields)
+        fast = json.dumps(
+            gltf, allow_nan=False, separators=(",", ":"), default=gltf_writer._pruned_fields
+        )
         assert fast == pygltflib_json(gltf)
         assert data == pygltflib_glb(gltf, blob)
 
 
 def unusual_documents():
     """Documents with what glb_bytes never makes: each exercises a pruning rule of pygltflib."""
+
     def base():
         gltf = pygltflib.GLTF2(asset=pygltflib.Asset(version="2.0", generator="t"))
-        gltf.nodes.append(pygltflib.Node(name="Bâtiment 건물", mesh=0, translation=[np.float64(1.5), 0.0, -2.0]))
-        gltf.meshes.append(pygltflib.Mesh(primitives=[pygltflib.Primitive(attributes=pygltflib.Attributes(POSITION=0))]))
+        gltf.nodes.append(
+            pygltflib.Node(name="Bâtiment 건물", mesh=0, translation=[np.float64(1.5), 0.0, -2.0])
+        )
+        gltf.meshes.append(
+            pygltflib.Mesh(
+                primitives=[pygltflib.Primitive(attributes=pygltflib.Attributes(POSITION=0))]
+            )
+        )
         gltf.scenes.append(pygltflib.Scene(name="", nodes=[0]))
         gltf.scene = 0
         return gltf
@@ -92,9 +107,17 @@ def unusual_documents():
     emptied.meshes[0].primitives[0].attributes.__dict__.clear()  # converts to {}: pruned
     extension_object = base()
     extension_object.nodes[0].extensions = pygltflib.Asset(version="x")  # converted, left unpruned
-    return {"plain": plain, "extras": extras, "extensions": extensions, "custom": custom,
-            "extra_attribute": extra_attribute, "nested": nested, "targets": targets,
-            "emptied": emptied, "extension_object": extension_object}
+    return {
+        "plain": plain,
+        "extras": extras,
+        "extensions": extensions,
+        "custom": custom,
+        "extra_attribute": extra_attribute,
+        "nested": nested,
+        "targets": targets,
+        "emptied": emptied,
+        "extension_object": extension_object,
+    }
 
 
 @pytest.mark.parametrize("name", sorted(unusual_documents()))
@@ -106,7 +129,9 @@ def test_unusual_documents_equal_pygltflib_json(name):
 def test_fast_path_refuses_what_it_could_prune_differently():
     documents_ = unusual_documents()
     for name in ("plain", "custom", "extra_attribute", "targets", "emptied"):
-        json.dumps(documents_[name], separators=(",", ":"), default=gltf_writer._pruned_fields)  # covered
+        json.dumps(
+            documents_[name], separators=(",", ":"), default=gltf_writer._pruned_fields
+        )  # covered
     for name in ("extras", "extensions", "nested", "extension_object"):
         with pytest.raises(gltf_writer._Unusual):
             json.dumps(documents_[name], separators=(",", ":"), default=gltf_writer._pruned_fields)
@@ -114,7 +139,9 @@ def test_fast_path_refuses_what_it_could_prune_differently():
 
 def test_non_json_values_fail_as_in_pygltflib():
     gltf = unusual_documents()["plain"]
-    gltf.nodes[0].scale = [np.float32(1.0)] * 3  # not a float subclass: pygltflib's json_serial refuses it
+    gltf.nodes[0].scale = [
+        np.float32(1.0)
+    ] * 3  # not a float subclass: pygltflib's json_serial refuses it
     with pytest.raises(TypeError):
         pygltflib_json(gltf)
     with pytest.raises(TypeError):
@@ -134,6 +161,7 @@ def test_blob_pieces_are_the_aligned_binary_chunk():
 
 # --------------------------------------------------------------------------- VWorld reader
 
+
 def test_cross_rows_is_numpy_cross():
     rng = np.random.default_rng(8)
     u, v = rng.normal(size=(500, 3)) * 1e3, rng.normal(size=(500, 3))
@@ -148,7 +176,10 @@ def test_winding_votes_equal_the_np_cross_formulation(buildings):
         directions = rng.normal(size=part.positions.shape)
         a, b, c = (part.positions[part.triangles[:, k]] for k in range(3))
         dots = np.einsum("ij,ij->i", np.cross(b - a, c - a), directions[part.triangles].sum(axis=1))
-        assert vworld.winding_votes(part.positions, part.triangles, directions) == (int((dots > 0).sum()), int((dots < 0).sum()))
+        assert vworld.winding_votes(part.positions, part.triangles, directions) == (
+            int((dots > 0).sum()),
+            int((dots < 0).sum()),
+        )
 
 
 def test_loaded_frame_equals_global_to_local_and_back(buildings, tile):
@@ -159,10 +190,17 @@ def test_loaded_frame_equals_global_to_local_and_back(buildings, tile):
         center_local = vworld.global_to_local(xdo.bbox_center[None, :], reference)[0]
         rotation = vworld.enu_rotation(reference.lon, reference.lat)
         for mesh, part in zip(xdo.meshes, building.parts):
-            assert np.array_equal(part.positions, mesh.positions.astype(np.float64) @ rotation.T + center_local)
+            assert np.array_equal(
+                part.positions, mesh.positions.astype(np.float64) @ rotation.T + center_local
+            )
         everything = np.concatenate([p.positions for p in building.parts])
         lon, lat = vworld.lonlat_of(vworld.local_to_global(everything, reference))
-        assert building.lonlat_bounds == (float(lon.min()), float(lat.min()), float(lon.max()), float(lat.max()))
+        assert building.lonlat_bounds == (
+            float(lon.min()),
+            float(lat.min()),
+            float(lon.max()),
+            float(lat.max()),
+        )
 
 
 @pytest.mark.filterwarnings("ignore:overflow encountered")

@@ -5,6 +5,7 @@ Frames: lon/lat degrees, elev metres; the Unity globe frame is left-handed, y up
 Expected values are worked out in the tests from the paper's formulas written out by hand, never by
 calling the code under test.
 """
+
 from __future__ import annotations
 
 import json
@@ -41,7 +42,15 @@ GLOBE = GlobeOptions(unity_radius=UR, earth_radius=R)
 S2 = math.sqrt(0.5)
 
 # (lon, lat) places: equator/prime meridian, 90 E, Seoul, south-west, near both poles, antimeridian
-PLACES = [(0.0, 0.0), (90.0, 0.0), (126.9780, 37.5665), (-58.38, -34.60), (12.0, 89.95), (-120.0, -89.9), (179.999, 10.0)]
+PLACES = [
+    (0.0, 0.0),
+    (90.0, 0.0),
+    (126.9780, 37.5665),
+    (-58.38, -34.60),
+    (12.0, 89.95),
+    (-120.0, -89.9),
+    (179.999, 10.0),
+]
 LONS = st.floats(min_value=-180.0, max_value=180.0, allow_nan=False)
 LATS = st.floats(min_value=-90.0, max_value=90.0, allow_nan=False)
 
@@ -50,10 +59,13 @@ def eq2(lon_deg, lat_deg, elev_m, ur=UR, r=R):
     """The paper's equations 1-2 written out with the math module (Unity globe frame, Unity units)."""
     h = ur + elev_m * ur / r
     lon, lat = math.radians(lon_deg), math.radians(lat_deg)
-    return np.array([h * math.cos(lat) * math.sin(lon), h * math.sin(lat), -h * math.cos(lat) * math.cos(lon)])
+    return np.array(
+        [h * math.cos(lat) * math.sin(lon), h * math.sin(lat), -h * math.cos(lat) * math.cos(lon)]
+    )
 
 
 # --------------------------------------------------------------------------- equations 1-2
+
 
 @pytest.mark.parametrize(
     "lon, lat, elev, expected",
@@ -63,7 +75,12 @@ def eq2(lon_deg, lat_deg, elev_m, ur=UR, r=R):
         (180.0, 0.0, 0.0, (0.0, 0.0, UR)),  # antimeridian: +z
         (-90.0, 0.0, R, (-2 * UR, 0.0, 0.0)),  # 90 W, one Earth radius up: h = 2 UR
         (0.0, 90.0, 0.0, (0.0, UR, 0.0)),  # north pole: +y
-        (-45.0, -45.0, 0.0, (-0.5 * UR, -S2 * UR, -0.5 * UR)),  # south-west: cos45 * sin(-45) = -1/2
+        (
+            -45.0,
+            -45.0,
+            0.0,
+            (-0.5 * UR, -S2 * UR, -0.5 * UR),
+        ),  # south-west: cos45 * sin(-45) = -1/2
         (30.0, 60.0, 0.0, (0.25 * UR, math.sqrt(3) / 2 * UR, -math.sqrt(3) / 4 * UR)),
     ],
 )
@@ -71,21 +88,30 @@ def test_globe_position_hand_values(lon, lat, elev, expected):
     assert globe_position(lon, lat, elev, GLOBE) == pytest.approx(expected, abs=1e-9 * UR)
 
 
-@pytest.mark.parametrize("lon, lat, elev", [(126.9780, 37.5665, 38.5), (-70.6, -33.45, 570.0), (151.2, -89.99, 2835.0)])
+@pytest.mark.parametrize(
+    "lon, lat, elev", [(126.9780, 37.5665, 38.5), (-70.6, -33.45, 570.0), (151.2, -89.99, 2835.0)]
+)
 def test_globe_position_against_written_out_formula(lon, lat, elev):
-    assert globe_position(lon, lat, elev, GLOBE) == pytest.approx(eq2(lon, lat, elev), rel=1e-14, abs=1e-12)
+    assert globe_position(lon, lat, elev, GLOBE) == pytest.approx(
+        eq2(lon, lat, elev), rel=1e-14, abs=1e-12
+    )
     metres = GlobeOptions(unity_radius=R, earth_radius=R)  # 1 Unity unit = 1 m: |p| = R + elev
-    assert np.linalg.norm(globe_position(lon, lat, elev, metres)) == pytest.approx(R + elev, abs=1e-6)
+    assert np.linalg.norm(globe_position(lon, lat, elev, metres)) == pytest.approx(
+        R + elev, abs=1e-6
+    )
 
 
 def test_seoul_by_hand_numbers():
     # table values: cos(37.5665 deg) = 0.792646, sin = 0.609682; sin(126.978 deg) = 0.798867,
     # cos = -0.601508 (so z = -h cos(lat) cos(lon) is positive: Seoul is on the +z side)
     x, y, z = globe_position(126.9780, 37.5665, 0.0, GLOBE)
-    assert (x, y, z) == pytest.approx((0.792646 * 0.798867 * UR, 0.609682 * UR, 0.792646 * 0.601508 * UR), rel=2e-6)
+    assert (x, y, z) == pytest.approx(
+        (0.792646 * 0.798867 * UR, 0.609682 * UR, 0.792646 * 0.601508 * UR), rel=2e-6
+    )
 
 
 # --------------------------------------------------------------------------- rotations
+
 
 def direction_of_increase(lon, lat, d_lon, d_lat):
     """Unit direction of moving along the surface by (d_lon, d_lat) degrees, by central differences of eq. 2."""
@@ -132,6 +158,7 @@ def test_fig5_equals_enu_everywhere(lon, lat):
 
 # --------------------------------------------------------------------------- quaternions
 
+
 def test_unity_angle_axis_convention():
     # Unity: Quaternion.AngleAxis(90, up) * forward == right; AngleAxis(a, n) = [n sin(a/2), cos(a/2)]
     q = [0.0, S2, 0.0, S2]
@@ -143,7 +170,9 @@ def test_quaternion_of_enu_at_lon0_lat0_by_hand():
     # columns East (1,0,0), Up (0,0,-1), North (0,1,0): a -90 degree turn about x
     q = quaternion_from_matrix(enu_matrix(0.0, 0.0))
     assert q == pytest.approx([-S2, 0.0, 0.0, S2], abs=1e-15)
-    assert building_placement(GeoPoint(0.0, 0.0, 0.0), GLOBE)["rotation"] == pytest.approx([-S2, 0, 0, S2], abs=1e-15)
+    assert building_placement(GeoPoint(0.0, 0.0, 0.0), GLOBE)["rotation"] == pytest.approx(
+        [-S2, 0, 0, S2], abs=1e-15
+    )
 
 
 @pytest.mark.parametrize("axis", [(1, 0, 0), (0, 1, 0), (0, 0, 1), (1, 1, 0), (0.3, -0.2, 0.9)])
@@ -158,9 +187,9 @@ def test_quaternion_from_matrix_near_identity_and_half_turns(axis, angle):
     assert np.linalg.norm(q) == pytest.approx(1.0, abs=1e-15)
 
 
-QUATS = st.lists(st.floats(min_value=-1.0, max_value=1.0, allow_nan=False), min_size=4, max_size=4).filter(
-    lambda v: np.linalg.norm(v) > 0.1
-)
+QUATS = st.lists(
+    st.floats(min_value=-1.0, max_value=1.0, allow_nan=False), min_size=4, max_size=4
+).filter(lambda v: np.linalg.norm(v) > 0.1)
 
 
 @settings(max_examples=200, deadline=None)
@@ -188,9 +217,13 @@ def test_building_placement_is_eq2_enu_and_scale():
     assert set(p) == {"position", "rotation", "scale"}
     assert p["position"] == pytest.approx(eq2(ref.lon, ref.lat, ref.elev), rel=1e-14)
     assert p["scale"] == pytest.approx(UR / R, rel=1e-15)
-    assert quaternion_to_matrix(p["rotation"]) == pytest.approx(enu_matrix(ref.lon, ref.lat), abs=1e-14)
+    assert quaternion_to_matrix(p["rotation"]) == pytest.approx(
+        enu_matrix(ref.lon, ref.lat), abs=1e-14
+    )
     json.dumps(p)  # plain floats
-    assert all(type(v) is float for v in p["position"] + p["rotation"]) and type(p["scale"]) is float
+    assert (
+        all(type(v) is float for v in p["position"] + p["rotation"]) and type(p["scale"]) is float
+    )
     # a local point 100 m up lands 100 m (in Unity units: 100 UR/R) further out along the normal
     top = apply_placement(p, [[0.0, 100.0, 0.0]])[0]
     assert top == pytest.approx(eq2(ref.lon, ref.lat, ref.elev + 100.0), rel=1e-13)
@@ -222,7 +255,9 @@ def test_relative_offset_by_hand_near_the_tile_centre():
     lon, lat = tile_center(tile)
     east, up, north = relative_placement(GeoPoint(lon, lat + 0.001, 0.0), tile, GLOBE)["position"]
     arc = R * math.radians(0.001)
-    assert north == pytest.approx(R * math.sin(math.radians(0.001)), rel=1e-10)  # lat + 0.001 - lat rounds
+    assert north == pytest.approx(
+        R * math.sin(math.radians(0.001)), rel=1e-10
+    )  # lat + 0.001 - lat rounds
     assert north == pytest.approx(arc, rel=1e-9)
     assert up == pytest.approx(-(arc**2) / (2 * R), rel=1e-6)
     assert east == pytest.approx(0.0, abs=1e-12)
@@ -235,13 +270,22 @@ def exact_enu_offset(ref, origin):
     def point(lon, lat, elev):
         lam, phi = mpmath.radians(mpmath.mpf(lon)), mpmath.radians(mpmath.mpf(lat))
         h = mpmath.mpf(R) + mpmath.mpf(elev)
-        return [h * mpmath.cos(phi) * mpmath.sin(lam), h * mpmath.sin(phi), -h * mpmath.cos(phi) * mpmath.cos(lam)]
+        return [
+            h * mpmath.cos(phi) * mpmath.sin(lam),
+            h * mpmath.sin(phi),
+            -h * mpmath.cos(phi) * mpmath.cos(lam),
+        ]
 
     lam, phi = mpmath.radians(mpmath.mpf(origin.lon)), mpmath.radians(mpmath.mpf(origin.lat))
     east = [mpmath.cos(lam), 0, mpmath.sin(lam)]
     up = [mpmath.cos(phi) * mpmath.sin(lam), mpmath.sin(phi), -mpmath.cos(phi) * mpmath.cos(lam)]
     north = [-mpmath.sin(phi) * mpmath.sin(lam), mpmath.cos(phi), mpmath.sin(phi) * mpmath.cos(lam)]
-    d = [a - b for a, b in zip(point(ref.lon, ref.lat, ref.elev), point(origin.lon, origin.lat, origin.elev))]
+    d = [
+        a - b
+        for a, b in zip(
+            point(ref.lon, ref.lat, ref.elev), point(origin.lon, origin.lat, origin.elev)
+        )
+    ]
     return np.array([float(sum(a * b for a, b in zip(axis, d))) for axis in (east, up, north)])
 
 
@@ -250,7 +294,11 @@ def test_relative_offset_agrees_with_40_digit_arithmetic(lon, lat):
     # 1e-10 m: subtracting two float64 globe positions (6.4e6 m) would err by about 3e-9 m
     tile = tile_of(lon, lat, 15)
     centre = GeoPoint(*tile_center(tile), 0.0)
-    for d_lon, d_lat, elev in [(0.0003, -0.0004, 12.5), (-1e-7, 2e-7, 0.0), (0.0011, 0.0011, 310.0)]:
+    for d_lon, d_lat, elev in [
+        (0.0003, -0.0004, 12.5),
+        (-1e-7, 2e-7, 0.0),
+        (0.0011, 0.0011, 310.0),
+    ]:
         ref = GeoPoint(lon + d_lon, min(lat + d_lat, 90.0), elev)
         assert enu_offset(ref, centre, R) == pytest.approx(exact_enu_offset(ref, centre), abs=1e-10)
 
@@ -265,15 +313,23 @@ def test_tile_then_relative_equals_globe_placement(lon, lat, unity_radius):
     composed = compose(tile_placement(tile, globe), relative_placement(ref, tile, globe))
     assert composed["scale"] == pytest.approx(direct["scale"], rel=1e-15)
     # same rotation (q and -q are the same one)
-    assert quaternion_to_matrix(composed["rotation"]) == pytest.approx(quaternion_to_matrix(direct["rotation"]), abs=1e-12)
+    assert quaternion_to_matrix(composed["rotation"]) == pytest.approx(
+        quaternion_to_matrix(direct["rotation"]), abs=1e-12
+    )
     a, b = apply_placement(composed, CORNERS), apply_placement(direct, CORNERS)
     assert np.max(np.linalg.norm(a - b, axis=1)) <= 1e-9 * unity_radius
     # and every corner is where eq. 2 puts its own lon/lat/elev: the roof corners are 60 m up
-    assert np.linalg.norm(b, axis=1).max() == pytest.approx(np.linalg.norm(eq2(lon, lat, 57.25 + 60.0, unity_radius)), rel=1e-7)
+    assert np.linalg.norm(b, axis=1).max() == pytest.approx(
+        np.linalg.norm(eq2(lon, lat, 57.25 + 60.0, unity_radius)), rel=1e-7
+    )
 
 
 @settings(max_examples=100, deadline=None)
-@given(LONS, st.floats(min_value=-89.99, max_value=89.99), st.floats(min_value=-500.0, max_value=9000.0))
+@given(
+    LONS,
+    st.floats(min_value=-89.99, max_value=89.99),
+    st.floats(min_value=-500.0, max_value=9000.0),
+)
 def test_composition_property_over_the_globe(lon, lat, elev):
     tile = tile_of(lon, lat, 15)
     ref = GeoPoint(lon, lat, elev)
@@ -287,7 +343,11 @@ def test_composition_property_over_the_globe(lon, lat, elev):
 
 
 def test_compose_follows_the_unity_hierarchy_rule_by_hand():
-    parent = {"position": [1.0, 2.0, 3.0], "rotation": [0.0, S2, 0.0, S2], "scale": 2.0}  # 90 deg about y
+    parent = {
+        "position": [1.0, 2.0, 3.0],
+        "rotation": [0.0, S2, 0.0, S2],
+        "scale": 2.0,
+    }  # 90 deg about y
     child = {"position": [0.0, 0.0, 1.0], "rotation": [0.0, S2, 0.0, S2], "scale": 3.0}
     out = compose(parent, child)
     # forward (0,0,1) * 2 turned to right (2,0,0), added to (1,2,3)

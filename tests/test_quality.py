@@ -3,19 +3,33 @@ seen by the metric meant to see it, distances are exact.
 
 Positions are in the building-local East/Up/North frame (metres, y = Up).
 """
+
 from __future__ import annotations
 
 import dataclasses
 
 import numpy as np
 import pytest
-
-from exporter.model import Part
-from exporter.quality import (boundary_quality, distance_to_surface, exact_quality, measure_lod, point_triangle_distance,
-                              rasterise)
 from test_simplify_shapes import box_building, crafted_building
 
-KEYS = {"triangle_ratio", "hausdorff_rel", "silhouette_iou", "wall_coverage", "boundary_length_change", "new_holes"}
+from exporter.model import Part
+from exporter.quality import (
+    boundary_quality,
+    distance_to_surface,
+    exact_quality,
+    measure_lod,
+    point_triangle_distance,
+    rasterise,
+)
+
+KEYS = {
+    "triangle_ratio",
+    "hausdorff_rel",
+    "silhouette_iou",
+    "wall_coverage",
+    "boundary_length_change",
+    "new_holes",
+}
 
 
 @pytest.fixture(scope="module")
@@ -42,12 +56,16 @@ def test_identical_mesh_scores_perfectly(box):
 def test_removed_wall_drops_coverage_and_opens_the_boundary(box):
     part = box[0]
     centres = part.positions[part.triangles].mean(axis=1)
-    wall = centres[:, 0] > 4.99                    # the whole east wall (x = +5 m)
+    wall = centres[:, 0] > 4.99  # the whole east wall (x = +5 m)
     metrics = measure_lod(box, without(box, wall))
     # The east wall is 6 x 20 of 2 x (10 + 6) x 20 = 19 % of the wall area.
     assert 0.7 < metrics["wall_coverage"] < 0.9
-    assert metrics["boundary_length_change"] > 1.0  # 40 m of sides and top added to 32 m of footprint
-    assert metrics["silhouette_iou"] == 1.0 or metrics["silhouette_iou"] > 0.9  # seen edge-on from the side views
+    assert (
+        metrics["boundary_length_change"] > 1.0
+    )  # 40 m of sides and top added to 32 m of footprint
+    assert (
+        metrics["silhouette_iou"] == 1.0 or metrics["silhouette_iou"] > 0.9
+    )  # seen edge-on from the side views
     assert metrics["triangle_ratio"] == pytest.approx(1 - wall.sum() / len(wall))
 
 
@@ -80,10 +98,16 @@ def test_point_triangle_distance_against_a_dense_barycentric_grid():
     s, t = np.meshgrid(np.linspace(0, 1, 151), np.linspace(0, 1, 151))
     inside = s + t <= 1.0
     s, t = s[inside], t[inside]
-    samples = tri[:, None, 0] + s[None, :, None] * (tri[:, None, 1] - tri[:, None, 0]) + t[None, :, None] * (tri[:, None, 2] - tri[:, None, 0])
-    reference = np.linalg.norm(points[:, None, None, :] - samples[None], axis=-1).min(axis=-1)   # (15, 15)
+    samples = (
+        tri[:, None, 0]
+        + s[None, :, None] * (tri[:, None, 1] - tri[:, None, 0])
+        + t[None, :, None] * (tri[:, None, 2] - tri[:, None, 0])
+    )
+    reference = np.linalg.norm(points[:, None, None, :] - samples[None], axis=-1).min(
+        axis=-1
+    )  # (15, 15)
     ours = point_triangle_distance(points[:, None, :], tri[None])
-    assert (ours <= reference + 1e-9).all()           # exact is never above a sampled point
+    assert (ours <= reference + 1e-9).all()  # exact is never above a sampled point
     np.testing.assert_allclose(ours, reference, atol=0.04)
 
 
@@ -92,8 +116,12 @@ def test_distance_to_surface_is_the_brute_force_minimum():
     rng = np.random.default_rng(2)
     low, high = part.positions.min(0), part.positions.max(0)
     points = low + rng.random((300, 3)) * (high - low)
-    brute = point_triangle_distance(points[:, None, :], part.positions[part.triangles][None]).min(axis=1)
-    np.testing.assert_allclose(distance_to_surface(points, part.positions, part.triangles), brute, atol=1e-12)
+    brute = point_triangle_distance(points[:, None, :], part.positions[part.triangles][None]).min(
+        axis=1
+    )
+    np.testing.assert_allclose(
+        distance_to_surface(points, part.positions, part.triangles), brute, atol=1e-12
+    )
 
 
 def test_rasterise_covers_the_triangle_conservatively():
@@ -110,16 +138,22 @@ def test_rasterise_covers_the_triangle_conservatively():
 def test_empty_level_scores_zero(box):
     empty = [Part(np.zeros((0, 3)), np.zeros((0, 3), np.int64))]
     metrics = measure_lod(box, empty)
-    assert metrics["triangle_ratio"] == 0.0 and metrics["wall_coverage"] == 0.0 and metrics["silhouette_iou"] == 0.0
+    assert (
+        metrics["triangle_ratio"] == 0.0
+        and metrics["wall_coverage"] == 0.0
+        and metrics["silhouette_iou"] == 0.0
+    )
 
 
 # --------------------------------------------------------------------------- exact_quality
+
 
 def lossless_level(parts):
     """LOD0 and a level that is only its planar re-triangulation: every face protected from the
     quadric collapse, so only the lossless planar pass changes the mesh."""
     from exporter.config import Config, SimplifyOptions
     from exporter.simplify import build_mesh_lods, simplify_parts
+
     lod0 = build_mesh_lods(parts, Config().lods[:1], Config().simplify)[0]
     return lod0, simplify_parts(lod0, 1, SimplifyOptions(protect_largest=1.0))
 
@@ -128,6 +162,7 @@ def samplegen_buildings(folder, count):
     from exporter.config import Config
     from exporter.readers import load_entry, scan_folder
     from exporter.samplegen import generate_tile
+
     generate_tile(folder, count=count, seed=7, atlas_size=32)
     options = Config().readers
     return [load_entry(entry, options).parts for entry in scan_folder(folder, options).entries]
@@ -137,28 +172,38 @@ def test_exact_quality_agrees_with_measure_lod_on_lossless_levels(box, tmp_path)
     """Tolerances of measure_lod on a re-triangulated surface: distances are float rounding (the
     samplegen walls are float32 .xdo vertices, flat only to ~1e-7 m), so within 1e-6 x diagonal;
     the conservative raster and the outline length are the same up to rounding."""
-    buildings = [box, crafted_building(2), crafted_building(4)] + samplegen_buildings(tmp_path / "tile", 3)
+    buildings = [box, crafted_building(2), crafted_building(4)] + samplegen_buildings(
+        tmp_path / "tile", 3
+    )
     for parts in buildings:
         lod0, level = lossless_level(parts)
-        assert sum(p.triangle_count for p in level) < sum(p.triangle_count for p in lod0)  # it did change
+        assert sum(p.triangle_count for p in level) < sum(
+            p.triangle_count for p in lod0
+        )  # it did change
         measured, exact = measure_lod(lod0, level), exact_quality(lod0, level)
         assert set(exact) == KEYS
         assert exact["triangle_ratio"] == measured["triangle_ratio"]
         assert exact["hausdorff_rel"] == 0.0 and measured["hausdorff_rel"] < 1e-6
         assert exact["silhouette_iou"] == 1.0 and measured["silhouette_iou"] >= 0.999
         assert exact["wall_coverage"] == measured["wall_coverage"] == 1.0
-        assert exact["boundary_length_change"] == 0.0 and abs(measured["boundary_length_change"]) < 1e-9
+        assert (
+            exact["boundary_length_change"] == 0.0
+            and abs(measured["boundary_length_change"]) < 1e-9
+        )
         assert exact["new_holes"] == measured["new_holes"] == 0
-        assert type(exact["new_holes"]) is int and all(type(exact[k]) is float for k in KEYS - {"new_holes"})
+        assert type(exact["new_holes"]) is int and all(
+            type(exact[k]) is float for k in KEYS - {"new_holes"}
+        )
 
 
 def test_exact_quality_differs_from_measure_lod_on_a_changed_level():
     from exporter.config import Config
     from exporter.simplify import build_mesh_lods
+
     chain = build_mesh_lods(crafted_building(2), Config().lods, Config().simplify)
     measured, exact = measure_lod(chain[0], chain[2]), exact_quality(chain[0], chain[2])
     assert exact["triangle_ratio"] == measured["triangle_ratio"] < 1.0
-    assert measured["hausdorff_rel"] > 1e-3 > exact["hausdorff_rel"]   # the dome was collapsed
+    assert measured["hausdorff_rel"] > 1e-3 > exact["hausdorff_rel"]  # the dome was collapsed
     assert measured["silhouette_iou"] < 1.0 == exact["silhouette_iou"]
 
 
@@ -177,23 +222,35 @@ def test_exact_quality_agrees_with_measure_lod_on_real_exact_levels(tmp_path):
     from exporter.config import Config
     from exporter.readers import load_entry, scan_folder
     from exporter.simplify import build_mesh_chain
+
     real = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "real"
     if not (real / "zurich_lod2.city.json").is_file():
-        pytest.skip("../shared/data/real not present: real CityJSON buildings are not in the repository")
+        pytest.skip(
+            "../shared/data/real not present: real CityJSON buildings are not in the repository"
+        )
     config = Config()
-    (tmp_path / "zurich_lod2.city.json").symlink_to((real / "zurich_lod2.city.json").resolve())  # read in place
+    (tmp_path / "zurich_lod2.city.json").symlink_to(
+        (real / "zurich_lod2.city.json").resolve()
+    )  # read in place
     entries = scan_folder(tmp_path, config.readers).entries[:12]
     exact_levels = 0
     for entry in entries:
-        chain = build_mesh_chain(load_entry(entry, config.readers).parts, config.lods, config.simplify)
+        chain = build_mesh_chain(
+            load_entry(entry, config.readers).parts, config.lods, config.simplify
+        )
         for level in chain[1:]:
             if not level.exact:
                 continue
             exact_levels += 1
-            measured, exact = measure_lod(chain[0].parts, level.parts), exact_quality(chain[0].parts, level.parts)
+            measured, exact = (
+                measure_lod(chain[0].parts, level.parts),
+                exact_quality(chain[0].parts, level.parts),
+            )
             assert exact["triangle_ratio"] == measured["triangle_ratio"]
             assert measured["hausdorff_rel"] < 1e-4 and measured["silhouette_iou"] >= 0.999
-            assert measured["wall_coverage"] == 1.0 and abs(measured["boundary_length_change"]) < 1e-9
+            assert (
+                measured["wall_coverage"] == 1.0 and abs(measured["boundary_length_change"]) < 1e-9
+            )
             assert measured["new_holes"] == 0
     assert exact_levels > 0
 
@@ -208,7 +265,9 @@ def t_junction_roof():
     """A flat 2 x 2 m roof at 5 m (local East/Up/North): the left half two triangles, the right
     half a fan around (1, 1) on the shared line, so the line is a T-junction (open boundary of
     4 m inside the 8 m outline); and the same surface as two triangles (the junction closed)."""
-    positions = np.array([[x, 5.0, z] for x, z in [(0, 0), (1, 0), (1, 2), (0, 2), (2, 0), (2, 2), (1, 1)]], float)
+    positions = np.array(
+        [[x, 5.0, z] for x, z in [(0, 0), (1, 0), (1, 2), (0, 2), (2, 0), (2, 2), (1, 1)]], float
+    )
     source = [Part(positions, np.array([[0, 2, 1], [0, 3, 2], [1, 6, 4], [6, 5, 4], [6, 2, 5]]))]
     closed = [Part(positions[[0, 3, 4, 5]], np.array([[0, 1, 3], [0, 3, 2]]))]
     return source, closed
@@ -240,10 +299,17 @@ def test_boundary_quality_counts_a_new_loop():
     (one side has the edge, the other goes through (1.5, 1)): 2 m more open boundary in a loop
     of its own."""
     corners = [(0, 0), (3, 0), (3, 3), (0, 3)]
-    source = [Part(np.array([[x, 5.0, z] for x, z in corners], float), np.array([[0, 2, 1], [0, 3, 2]]))]
+    source = [
+        Part(np.array([[x, 5.0, z] for x, z in corners], float), np.array([[0, 2, 1], [0, 3, 2]]))
+    ]
     a, b, c, d, p, q, m = range(7)
     positions = np.array([[x, 5.0, z] for x, z in corners + [(1, 1), (2, 1), (1.5, 1)]], float)
-    slit = [Part(positions, np.array([[a, q, b], [a, p, q], [a, d, p], [p, d, m], [m, d, c], [m, c, q], [q, c, b]]))]
+    slit = [
+        Part(
+            positions,
+            np.array([[a, q, b], [a, p, q], [a, d, p], [p, d, m], [m, d, c], [m, c, q], [q, c, b]]),
+        )
+    ]
     bounded = boundary_quality(source, slit)
     assert bounded["new_holes"] == measure_lod(source, slit)["new_holes"] == 1
     assert bounded["boundary_length_change"] == pytest.approx(2.0 / 12.0, abs=1e-12)
@@ -257,16 +323,21 @@ def test_boundary_quality_agrees_with_measure_lod_on_slits_the_planar_pass_close
     from exporter.readers import load_entry, scan_folder
     from exporter.samplegen import generate_tile
     from exporter.simplify import build_mesh_chain
+
     generate_tile(tmp_path / "tile", count=40, seed=7, atlas_size=32)
     config = Config()
     closed = 0
     for entry in scan_folder(tmp_path / "tile", config.readers).entries:
-        chain = build_mesh_chain(load_entry(entry, config.readers).parts, config.lods, config.simplify)
+        chain = build_mesh_chain(
+            load_entry(entry, config.readers).parts, config.lods, config.simplify
+        )
         lod0, level = chain[0].parts, chain[1]
         if level.exact or measure_lod(lod0, level.parts)["boundary_length_change"] == 0.0:
             continue
         closed += 1
-        assert assert_boundary_quality_is_measure_lods(lod0, level.parts)["boundary_length_change"] < 0
+        assert (
+            assert_boundary_quality_is_measure_lods(lod0, level.parts)["boundary_length_change"] < 0
+        )
     assert closed >= 3
 
 

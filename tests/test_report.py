@@ -4,6 +4,7 @@ Fixture: a small fake export written with the project's own glTF writer (local E
 glTF West/Up/North) and a manifest following docs/ARCHITECTURE.md, so the test does not depend on
 the simplifier; one test runs the real pipeline on the real Rotterdam data when it is present.
 """
+
 from __future__ import annotations
 
 import io
@@ -31,6 +32,7 @@ BACKGROUND_RGB = np.round(BACKGROUND * 255).astype(int)
 
 # --------------------------------------------------------------------------- fake export
 
+
 def atlas_jpeg(size: int) -> bytes:
     """Left half: brick-coloured wall with blue windows; right half: red roof."""
     image = Image.new("RGB", (size, size), WALL)
@@ -38,14 +40,29 @@ def atlas_jpeg(size: int) -> bytes:
     step = size // 8
     for i in range(4):
         for j in range(8):
-            draw.rectangle([i * step + step // 4, j * step + step // 4, i * step + 3 * step // 4, j * step + 3 * step // 4], fill=WINDOW)
+            draw.rectangle(
+                [
+                    i * step + step // 4,
+                    j * step + step // 4,
+                    i * step + 3 * step // 4,
+                    j * step + 3 * step // 4,
+                ],
+                fill=WINDOW,
+            )
     draw.rectangle([size // 2, 0, size, size], fill=ROOF)
     out = io.BytesIO()
     image.save(out, format="JPEG", quality=92)
     return out.getvalue()
 
 
-def box_part(width: float, depth: float, height: float, cuts: int, texture_size: int, east_offset: float = 0.0) -> Part:
+def box_part(
+    width: float,
+    depth: float,
+    height: float,
+    cuts: int,
+    texture_size: int,
+    east_offset: float = 0.0,
+) -> Part:
     """A floorless box (local East/Up/North metres, centred on the origin's vertical axis, base at
     Up = 0), walls split into cuts x cuts quads, flat roof; outward winding; glTF-convention UVs
     (origin top-left): walls map to the atlas' left half, the roof to its right half."""
@@ -62,22 +79,50 @@ def box_part(width: float, depth: float, height: float, cuts: int, texture_size:
                 a, b = base + i * (n + 1) + j, base + (i + 1) * (n + 1) + j
                 triangles.extend([[a, a + 1, b + 1], [a, b + 1, b]])
 
-    corners = [(-width / 2, -depth / 2), (width / 2, -depth / 2), (width / 2, depth / 2), (-width / 2, depth / 2)]
+    corners = [
+        (-width / 2, -depth / 2),
+        (width / 2, -depth / 2),
+        (width / 2, depth / 2),
+        (-width / 2, depth / 2),
+    ]
     for k in range(4):
         (x0, z0), (x1, z1) = corners[k], corners[(k + 1) % 4]
-        grid(np.array([x0 + east_offset, 0.0, z0]), np.array([x1 - x0, 0, z1 - z0]), np.array([0, height, 0]),
-             np.array([0.0, 1.0]), np.array([0.5, 0]), np.array([0, -1.0]), cuts)
-    grid(np.array([-width / 2 + east_offset, height, -depth / 2]), np.array([width, 0, 0]), np.array([0, 0, depth]),
-         np.array([0.5, 1.0]), np.array([0.5, 0]), np.array([0, -1.0]), 1)
+        grid(
+            np.array([x0 + east_offset, 0.0, z0]),
+            np.array([x1 - x0, 0, z1 - z0]),
+            np.array([0, height, 0]),
+            np.array([0.0, 1.0]),
+            np.array([0.5, 0]),
+            np.array([0, -1.0]),
+            cuts,
+        )
+    grid(
+        np.array([-width / 2 + east_offset, height, -depth / 2]),
+        np.array([width, 0, 0]),
+        np.array([0, 0, depth]),
+        np.array([0.5, 1.0]),
+        np.array([0.5, 0]),
+        np.array([0, -1.0]),
+        1,
+    )
     positions, triangles = np.array(positions), np.array(triangles)
     a, b, c = (positions[triangles[:, i]] for i in range(3))
-    inward = np.einsum("ij,ij->i", np.cross(b - a, c - a), (a + b + c) / 3 - [east_offset, height / 2, 0]) < 0
+    inward = (
+        np.einsum(
+            "ij,ij->i", np.cross(b - a, c - a), (a + b + c) / 3 - [east_offset, height / 2, 0]
+        )
+        < 0
+    )
     triangles[inward] = triangles[inward][:, ::-1]
-    texture = Texture(atlas_jpeg(texture_size), "image/jpeg", texture_size, texture_size, name="atlas.jpg")
+    texture = Texture(
+        atlas_jpeg(texture_size), "image/jpeg", texture_size, texture_size, name="atlas.jpg"
+    )
     return Part(positions, triangles, uvs=np.array(uvs), texture=texture)
 
 
-def fake_building(tile_dir: Path, building_id: str, size: tuple, quality: list[dict], missing_level=None) -> dict:
+def fake_building(
+    tile_dir: Path, building_id: str, size: tuple, quality: list[dict], missing_level=None
+) -> dict:
     """Write lod0..lod2 of a box building and return its manifest record."""
     lods = []
     for level, (cuts, texture) in enumerate([(6, 256), (3, 128), (1, 64)]):
@@ -87,18 +132,40 @@ def fake_building(tile_dir: Path, building_id: str, size: tuple, quality: list[d
         if level != missing_level:
             (tile_dir / building_id).mkdir(parents=True, exist_ok=True)
             (tile_dir / file_name).write_bytes(data)
-        lods.append({"level": level, "file": file_name, "triangles": part.triangle_count, "vertices": part.vertex_count,
-                     "texture_size": [texture, texture], "texture_bytes": len(part.texture.data), "file_bytes": len(data),
-                     "quality": quality[level]})
+        lods.append(
+            {
+                "level": level,
+                "file": file_name,
+                "triangles": part.triangle_count,
+                "vertices": part.vertex_count,
+                "texture_size": [texture, texture],
+                "texture_bytes": len(part.texture.data),
+                "file_bytes": len(data),
+                "quality": quality[level],
+            }
+        )
     placement = {"position": [0.0, 0.0, 0.0], "rotation": [0.0, 0.0, 0.0, 1.0], "scale": 1.0}
-    return {"id": building_id, "source": f"src/{building_id}.xdo", "input_hash": "0" * 64,
-            "center": {"lon": 126.978, "lat": 37.5665, "elev": 20.0}, "placement": placement,
-            "relative_placement": placement, "lods": lods, "problems": []}
+    return {
+        "id": building_id,
+        "source": f"src/{building_id}.xdo",
+        "input_hash": "0" * 64,
+        "center": {"lon": 126.978, "lat": 37.5665, "elev": 20.0},
+        "placement": placement,
+        "relative_placement": placement,
+        "lods": lods,
+        "problems": [],
+    }
 
 
 def metrics(ratio: float, iou: float, coverage: float, hausdorff: float = 0.01) -> dict:
-    return {"triangle_ratio": ratio, "hausdorff_rel": hausdorff, "silhouette_iou": iou, "wall_coverage": coverage,
-            "boundary_length_change": 0.0, "new_holes": 0.0}
+    return {
+        "triangle_ratio": ratio,
+        "hausdorff_rel": hausdorff,
+        "silhouette_iou": iou,
+        "wall_coverage": coverage,
+        "boundary_length_change": 0.0,
+        "new_holes": 0.0,
+    }
 
 
 # (id, size in metres, LOD1 quality, LOD2 quality); the expected worst-first order is C, A, D, B.
@@ -111,34 +178,78 @@ BUILDINGS = [
 EXPECTED_ORDER = ["C", "A", "D", "B"]
 
 
-def make_fake_export(out: Path, tile: str = TILE, missing: tuple = ("D", 2), only: str = "ABCD") -> Path:
+def make_fake_export(
+    out: Path, tile: str = TILE, missing: tuple = ("D", 2), only: str = "ABCD"
+) -> Path:
     """A fake export folder ``out`` with one tile (the ``only`` buildings of BUILDINGS, 3 levels,
     one skipped building and one level file missing); returns the tile folder."""
     tile_dir = out / tile
     tile_dir.mkdir(parents=True)
     base = metrics(1.0, 1.0, 1.0, 0.0)
-    buildings = [fake_building(tile_dir, bid, size, [base, q1, q2], missing[1] if bid == missing[0] else None)
-                 for bid, size, q1, q2 in BUILDINGS if bid in only]
+    buildings = [
+        fake_building(
+            tile_dir, bid, size, [base, q1, q2], missing[1] if bid == missing[0] else None
+        )
+        for bid, size, q1, q2 in BUILDINGS
+        if bid in only
+    ]
     level, idx, idy = (int(v) for v in tile.split("_"))
     placement = {"position": [0.0, 0.0, 0.0], "rotation": [0.0, 0.0, 0.0, 1.0], "scale": 1.0}
     manifest = {
-        "format": "vworld-lod-manifest", "version": "1.0", "generator": {"name": "vworld-lod", "version": "0.1.0"},
-        "config": {"lods": [], "simplify": {}, "globe": {}, "unity": {}, "textures": {}, "readers": {}},
-        "tile": {"level": level, "idx": idx, "idy": idy, "name": tile,
-                 "bounds": {"west": 126.97, "south": 37.56, "east": 126.98, "north": 37.57},
-                 "center": {"lon": 126.975, "lat": 37.565, "elev": 0.0}, "placement": placement},
-        "globe": {"earth_radius_m": 6378137.0, "unity_radius": 6378137.0, "handedness": "left", "up": "y", "placement": "tile_relative"},
-        "lod_group": {"screen_relative_heights": [0.5, 0.17, 0.02], "fade_mode": "none", "animate_cross_fading": False,
-                      "fade_transition_width": 0.0, "terrain_levels": [15, 14, 13]},
+        "format": "vworld-lod-manifest",
+        "version": "1.0",
+        "generator": {"name": "vworld-lod", "version": "0.1.0"},
+        "config": {
+            "lods": [],
+            "simplify": {},
+            "globe": {},
+            "unity": {},
+            "textures": {},
+            "readers": {},
+        },
+        "tile": {
+            "level": level,
+            "idx": idx,
+            "idy": idy,
+            "name": tile,
+            "bounds": {"west": 126.97, "south": 37.56, "east": 126.98, "north": 37.57},
+            "center": {"lon": 126.975, "lat": 37.565, "elev": 0.0},
+            "placement": placement,
+        },
+        "globe": {
+            "earth_radius_m": 6378137.0,
+            "unity_radius": 6378137.0,
+            "handedness": "left",
+            "up": "y",
+            "placement": "tile_relative",
+        },
+        "lod_group": {
+            "screen_relative_heights": [0.5, 0.17, 0.02],
+            "fade_mode": "none",
+            "animate_cross_fading": False,
+            "fade_transition_width": 0.0,
+            "terrain_levels": [15, 14, 13],
+        },
         "buildings": buildings,
-        "skipped": [{"source": "src/E.xdo", "reason": "E.xdo: truncated mesh block (needs 3200 bytes, has 17)", "id": "E"}],
-        "summary": {"buildings": len(buildings), "skipped": 1, "levels": [{"level": 0, "mean_triangles": 1.0, "ratio_to_lod0": 1.0}]},
+        "skipped": [
+            {
+                "source": "src/E.xdo",
+                "reason": "E.xdo: truncated mesh block (needs 3200 bytes, has 17)",
+                "id": "E",
+            }
+        ],
+        "summary": {
+            "buildings": len(buildings),
+            "skipped": 1,
+            "levels": [{"level": 0, "mean_triangles": 1.0, "ratio_to_lod0": 1.0}],
+        },
     }
     (tile_dir / "lod_manifest.json").write_text(json.dumps(manifest, indent=1), encoding="utf-8")
     return tile_dir
 
 
 # --------------------------------------------------------------------------- HTML helpers
+
 
 class Page(HTMLParser):
     """Collects what the tests look at: images per building article, tables' rows, element ids."""
@@ -159,7 +270,9 @@ class Page(HTMLParser):
     def handle_starttag(self, tag, attrs):
         attrs = dict(attrs)
         if tag == "article":
-            self.articles.append({"id": attrs.get("data-building-id"), "images": [], "atlas": [], "missing": []})
+            self.articles.append(
+                {"id": attrs.get("data-building-id"), "images": [], "atlas": [], "missing": []}
+            )
         elif tag == "img":
             kind = "atlas" if attrs.get("class") == "atlas" else "images"
             if kind == "images":
@@ -211,6 +324,7 @@ def _manifest(tile_dir: Path) -> dict:
 
 # --------------------------------------------------------------------------- the pages
 
+
 def test_returns_tile_page_then_index(report):
     out, tile_dir, pages, _ = report
     assert pages == [tile_dir / "report.html", out / "index.html"]
@@ -236,7 +350,11 @@ def test_level_table_has_the_manifest_numbers(report):
 
 def test_skipped_buildings_listed_with_reason(report):
     _, _, _, page = report
-    assert page.tables["skipped-table"][1] == ["E", "src/E.xdo", "E.xdo: truncated mesh block (needs 3200 bytes, has 17)"]
+    assert page.tables["skipped-table"][1] == [
+        "E",
+        "src/E.xdo",
+        "E.xdo: truncated mesh block (needs 3200 bytes, has 17)",
+    ]
 
 
 def test_quality_table_per_level(report):
@@ -257,7 +375,10 @@ def test_plots_are_inline_svg_with_a_dot_per_building_and_level(report):
     iou = svgs[titles.index("silhouette IoU")]
     assert iou.count("<circle") == 2 * len(BUILDINGS)
     assert "C: 0.6" in iou  # tooltips name the building
-    assert "http://" not in text.replace('xmlns="http://www.w3.org/2000/svg"', "") and "https://" not in text
+    assert (
+        "http://" not in text.replace('xmlns="http://www.w3.org/2000/svg"', "")
+        and "https://" not in text
+    )
 
 
 def test_one_image_per_building_per_level_worst_first(report):
@@ -290,7 +411,9 @@ def test_atlas_detail_shows_the_same_region_at_each_level_resolution(report):
     _, tile_dir, _, page = report
     a = next(x for x in page.articles if x["id"] == "A")
     assert a["atlas"] == [f"report/A_lod{k}_atlas.png" for k in range(3)]
-    crops = [np.asarray(Image.open(tile_dir / src).convert("RGB")).astype(int) for src in a["atlas"]]
+    crops = [
+        np.asarray(Image.open(tile_dir / src).convert("RGB")).astype(int) for src in a["atlas"]
+    ]
     assert [c.shape[:2] for c in crops] == [(32, 32), (16, 16), (8, 8)]  # 1/8 of 256, 128, 64 px
     # Same content: LOD0's crop reduced to LOD2's size is close to LOD2's crop.
     reduced = crops[0].reshape(8, 4, 8, 4, 3).mean(axis=(1, 3))
@@ -301,7 +424,13 @@ def test_atlas_detail_shows_the_same_region_at_each_level_resolution(report):
 def test_same_view_for_every_level(report):
     _, tile_dir, _, page = report
     a = next(x for x in page.articles if x["id"] == "A")
-    masks = [np.abs(np.asarray(Image.open(tile_dir / s).convert("RGB")).astype(int) - BACKGROUND_RGB).sum(axis=2) > 40 for s in a["images"]]
+    masks = [
+        np.abs(
+            np.asarray(Image.open(tile_dir / s).convert("RGB")).astype(int) - BACKGROUND_RGB
+        ).sum(axis=2)
+        > 40
+        for s in a["images"]
+    ]
     for mask in masks[1:]:  # same box geometry at every level -> nearly the same silhouette
         assert (mask & masks[0]).sum() / (mask | masks[0]).sum() > 0.97
 
@@ -319,7 +448,10 @@ def test_index_links_every_tile(tmp_path):
     assert rows[1][-2] == "C (0.600)"
     assert "15_279419_116113/report.html" in index.links
     worst = index.tables["worst-table"][1:]
-    assert [(r[1], r[2], r[3]) for r in worst[:2]] == [(TILE, "C", "0.600"), ("15_279419_116113", "C", "0.600")]
+    assert [(r[1], r[2], r[3]) for r in worst[:2]] == [
+        (TILE, "C", "0.600"),
+        ("15_279419_116113", "C", "0.600"),
+    ]
     assert [r[2] for r in worst] == ["C", "C", "A", "A", "D", "D", "B", "B"]
     assert "15_279419_116113/report.html#building-C" in index.links  # only the rendered tile links
     assert not any(link.startswith(f"{TILE}/") for link in index.links)
@@ -343,7 +475,9 @@ def test_bad_inputs_raise_input_error_naming_the_file(tmp_path):
     tile_dir = tmp_path / TILE
     tile_dir.mkdir()
     (tile_dir / "lod_manifest.json").write_text("{not json", encoding="utf-8")
-    with pytest.raises(InputError, match=re.escape(str(tile_dir / "lod_manifest.json")) + ": not valid JSON"):
+    with pytest.raises(
+        InputError, match=re.escape(str(tile_dir / "lod_manifest.json")) + ": not valid JSON"
+    ):
         write_reports(tmp_path)
     with pytest.raises(InputError, match="15_1_1"):
         write_reports(tmp_path, tiles=["15_1_1"])
@@ -357,7 +491,9 @@ def test_unreadable_manifest_of_another_tile_is_flagged_on_the_index(tmp_path):
     write_reports(tmp_path, tiles=[TILE])
     rows = Page((tmp_path / "index.html").read_text(encoding="utf-8")).tables["tile-table"][1:]
     assert rows[1][0] == "15_279419_116113" and "no 'buildings' list" in rows[1][1]
-    with pytest.raises(InputError, match="15_279419_116113/lod_manifest.json: not a vworld-lod manifest"):
+    with pytest.raises(
+        InputError, match="15_279419_116113/lod_manifest.json: not a vworld-lod manifest"
+    ):
         write_reports(tmp_path)
 
 
@@ -369,7 +505,9 @@ def test_broken_glb_gets_a_placeholder_not_a_crash(tmp_path):
     write_reports(tmp_path)
     page = Page((tile_dir / "report.html").read_text(encoding="utf-8"))
     b = next(a for a in page.articles if a["id"] == "B")
-    assert len(b["images"]) == 2 and any("B/lod1.glb" in t and "cannot be read" in t for t in b["missing"])
+    assert len(b["images"]) == 2 and any(
+        "B/lod1.glb" in t and "cannot be read" in t for t in b["missing"]
+    )
     assert not (tile_dir / "report" / "B_lod1.png").exists()  # no stale picture of the broken level
 
 
@@ -380,10 +518,14 @@ def test_problems_shown_and_empty_tile_still_reported(tmp_path):
     (tile_dir / "lod_manifest.json").write_text(json.dumps(manifest), encoding="utf-8")
     empty = make_fake_export(tmp_path, "15_279419_116113", only="")
     manifest = _manifest(empty)
-    manifest["skipped"] += [{"source": f"src/{b}.xdo", "reason": "unreadable", "id": b} for b in "ABCD"]
+    manifest["skipped"] += [
+        {"source": f"src/{b}.xdo", "reason": "unreadable", "id": b} for b in "ABCD"
+    ]
     (empty / "lod_manifest.json").write_text(json.dumps(manifest), encoding="utf-8")
     write_reports(tmp_path)
-    assert "<li>texture B.jpg missing: exported untextured</li>" in (tile_dir / "report.html").read_text(encoding="utf-8")
+    assert "<li>texture B.jpg missing: exported untextured</li>" in (
+        tile_dir / "report.html"
+    ).read_text(encoding="utf-8")
     page = Page((empty / "report.html").read_text(encoding="utf-8"))
     assert page.articles == [] and len(page.tables["skipped-table"]) == 1 + 5
     assert [r[2] for r in page.tables["level-table"][1:]] == ["0", "0", "0"]
@@ -391,6 +533,7 @@ def test_problems_shown_and_empty_tile_still_reported(tmp_path):
 
 
 # --------------------------------------------------------------------------- renderer
+
 
 def test_load_glb_returns_local_frame(tmp_path):
     part = box_part(10.0, 4.0, 3.0, 1, 64, east_offset=20.0)  # centred 20 m East
@@ -414,7 +557,9 @@ def test_untextured_part_renders_in_its_material_colour(tmp_path):
     (mesh,) = load_glb(path)
     assert mesh.image is None and mesh.color == pytest.approx([0.1, 0.7, 0.1], abs=0.01)
     image = render([mesh], fit_view([mesh], size=96)).astype(int)
-    assert ((image[..., 1] > image[..., 0] + 50) & (image[..., 1] > image[..., 2] + 50)).mean() > 0.1
+    assert (
+        (image[..., 1] > image[..., 0] + 50) & (image[..., 1] > image[..., 2] + 50)
+    ).mean() > 0.1
 
 
 def test_inside_faces_are_dimmed_not_dropped():
@@ -425,7 +570,7 @@ def test_inside_faces_are_dimmed_not_dropped():
     triangles = np.array([[0, 1, 2], [0, 2, 1]])
     for eye in (np.array([0.3, 0.3, 5.0]), np.array([0.3, 0.3, -5.0])):
         light = face_shading(positions, triangles, eye)
-        outside, inside = (light if np.cross(positions[1], positions[2]) @ eye > 0 else light[::-1])
+        outside, inside = light if np.cross(positions[1], positions[2]) @ eye > 0 else light[::-1]
         assert inside == pytest.approx(outside * BACK_FACE_DIM) and inside > 0
 
 
@@ -453,10 +598,18 @@ def test_fragments_match_a_per_pixel_inside_test():
 
     rng = np.random.default_rng(7)
     size = 40
-    screen = np.column_stack([rng.uniform(-10, 50, (60, 2)), rng.uniform(1, 5, 60)])  # some off-image
+    screen = np.column_stack(
+        [rng.uniform(-10, 50, (60, 2)), rng.uniform(1, 5, 60)]
+    )  # some off-image
     triangles = rng.integers(0, 60, (50, 3))
-    triangles = triangles[(triangles[:, 0] != triangles[:, 1]) & (triangles[:, 1] != triangles[:, 2]) & (triangles[:, 0] != triangles[:, 2])]
-    rows, cols, faces, weights = (np.concatenate(parts) for parts in zip(*fragments(screen, triangles, size)))
+    triangles = triangles[
+        (triangles[:, 0] != triangles[:, 1])
+        & (triangles[:, 1] != triangles[:, 2])
+        & (triangles[:, 0] != triangles[:, 2])
+    ]
+    rows, cols, faces, weights = (
+        np.concatenate(parts) for parts in zip(*fragments(screen, triangles, size))
+    )
     found = set(zip(rows.tolist(), cols.tolist(), faces.tolist()))
     # The weights interpolate the corners back to the pixel centre.
     centres = np.einsum("ki,kij->kj", weights, screen[triangles[faces], :2])
@@ -494,7 +647,10 @@ def test_render_is_not_mirrored():
     # A low box with a tall tower at its East end, seen from the south: the tower is on the right.
     base = box_part(30.0, 6.0, 4.0, 1, 64)
     tower = box_part(4.0, 4.0, 20.0, 1, 64, east_offset=12.0)
-    meshes = [Mesh(p.positions, p.triangles, color=np.array([0.5, 0.5, 0.5], dtype=np.float32)) for p in (base, tower)]
+    meshes = [
+        Mesh(p.positions, p.triangles, color=np.array([0.5, 0.5, 0.5], dtype=np.float32))
+        for p in (base, tower)
+    ]
     view = fit_view(meshes, size=128, azimuth_deg=180.0, elevation_deg=10.0)
     image = render(meshes, view).astype(int)
     building = np.abs(image - BACKGROUND_RGB).sum(axis=2) > 40
@@ -517,7 +673,9 @@ def test_texture_lookup_is_perspective_correct():
     # A 40 m square roof seen obliquely; its atlas is blue for v < 0.5 (South half) and red above.
     # The colour edge must sit where the roof's 3D midline (North = 0) projects, not where a plain
     # screen-space (affine) interpolation of the UVs would put it.
-    positions = np.array([[-20.0, 5.0, -20.0], [20.0, 5.0, -20.0], [20.0, 5.0, 20.0], [-20.0, 5.0, 20.0]])
+    positions = np.array(
+        [[-20.0, 5.0, -20.0], [20.0, 5.0, -20.0], [20.0, 5.0, 20.0], [-20.0, 5.0, 20.0]]
+    )
     triangles = np.array([[0, 2, 1], [0, 3, 2]])
     uvs = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])  # v up from the bottom row
     image = np.zeros((64, 64, 3), dtype=np.uint8)
@@ -540,17 +698,35 @@ def test_texture_lookup_is_perspective_correct():
 
 # --------------------------------------------------------------------------- pure helpers
 
+
 def test_worst_first_puts_unmeasured_last():
-    buildings = [{"id": "x", "lods": [{}]}, {"id": "y", "lods": [{}, {"quality": {"wall_coverage": 0.5}}]},
-                 {"id": "z", "lods": [{}, {"quality": {"silhouette_iou": 0.9, "wall_coverage": 0.95}}]}]
+    buildings = [
+        {"id": "x", "lods": [{}]},
+        {"id": "y", "lods": [{}, {"quality": {"wall_coverage": 0.5}}]},
+        {"id": "z", "lods": [{}, {"quality": {"silhouette_iou": 0.9, "wall_coverage": 0.95}}]},
+    ]
     assert [b["id"] for b in worst_first(buildings)] == ["y", "z", "x"]
     assert quality_score(buildings[0]) is None and quality_score(buildings[2]) == 0.9
 
 
 def test_level_table_ratios():
-    manifest = {"lod_group": {"screen_relative_heights": [0.5, 0.1]}, "buildings": [
-        {"lods": [{"level": 0, "triangles": 100, "texture_size": [64, 64]}, {"level": 1, "triangles": 40, "texture_size": [32, 32]}]},
-        {"lods": [{"level": 0, "triangles": 300, "texture_size": [0, 0]}, {"level": 1, "triangles": 200, "texture_size": [0, 0]}]}]}
+    manifest = {
+        "lod_group": {"screen_relative_heights": [0.5, 0.1]},
+        "buildings": [
+            {
+                "lods": [
+                    {"level": 0, "triangles": 100, "texture_size": [64, 64]},
+                    {"level": 1, "triangles": 40, "texture_size": [32, 32]},
+                ]
+            },
+            {
+                "lods": [
+                    {"level": 0, "triangles": 300, "texture_size": [0, 0]},
+                    {"level": 1, "triangles": 200, "texture_size": [0, 0]},
+                ]
+            },
+        ],
+    }
     rows = level_table(manifest)
     assert rows[1]["triangle_share"] == pytest.approx(240 / 400)
     assert rows[1]["pixel_share"] == pytest.approx(0.25)
@@ -566,18 +742,24 @@ def test_plot_helpers():
 
 
 def test_image_name_uses_the_output_folder():
-    assert image_name({"id": "a/b", "lods": [{"file": "a_b_1234/lod0.glb"}]}, 2) == "a_b_1234_lod2.png"
+    assert (
+        image_name({"id": "a/b", "lods": [{"file": "a_b_1234/lod0.glb"}]}, 2) == "a_b_1234_lod2.png"
+    )
     assert image_name({"id": "a/b c", "lods": [{}]}, 0) == "a_b_c_lod0.png"
 
 
 # --------------------------------------------------------------------------- the real pipeline
 
+
 def _building_pixels(path: Path) -> np.ndarray:
     image = np.asarray(Image.open(path).convert("RGB")).astype(int)
     ground = np.round(np.array([0.82, 0.84, 0.80]) * 255).astype(int)
     shadow = np.round(np.array([0.62, 0.64, 0.61]) * 255).astype(int)
-    keep = ((np.abs(image - BACKGROUND_RGB).sum(axis=2) > 12) & (np.abs(image - ground).sum(axis=2) > 12)
-            & (np.abs(image - shadow).sum(axis=2) > 12))
+    keep = (
+        (np.abs(image - BACKGROUND_RGB).sum(axis=2) > 12)
+        & (np.abs(image - ground).sum(axis=2) > 12)
+        & (np.abs(image - shadow).sum(axis=2) > 12)
+    )
     return image[keep]
 
 
@@ -593,7 +775,9 @@ def _check_pipeline_report(out: Path) -> tuple[dict, Page]:
     for article in page.articles:
         assert len(article["images"]) == len(by_id[article["id"]]["lods"]), article
     rows = page.tables["level-table"][1:]
-    totals = [sum(b["lods"][k]["triangles"] for b in manifest["buildings"]) for k in range(len(rows))]
+    totals = [
+        sum(b["lods"][k]["triangles"] for b in manifest["buildings"]) for k in range(len(rows))
+    ]
     assert [int(r[3].replace(",", "")) for r in rows] == totals
     return manifest, page
 

@@ -5,6 +5,7 @@ Frames: building positions are local East/Up/North metres (x = East, y = Up, z =
 rings are ``(x, z)`` metres in the same frame; tile-local offsets are East/North metres from the
 tile centre.
 """
+
 from __future__ import annotations
 
 import io
@@ -18,12 +19,21 @@ from hypothesis import strategies as st
 from PIL import Image
 
 from exporter.model import TileId
-from exporter.samplegen import KINDS, generate_buildings, generate_samples, generate_tile, make_building, triangle_budgets
+from exporter.samplegen import (
+    KINDS,
+    generate_buildings,
+    generate_samples,
+    generate_tile,
+    make_building,
+    triangle_budgets,
+)
 from exporter.samplegen.kinds import FACADE
 from exporter.samplegen.mesh import triangle_normals
 from exporter.tiles import tile_of
 
-shapely = pytest.importorskip("shapely", reason="shapely is needed to check footprints and wall directions")
+shapely = pytest.importorskip(
+    "shapely", reason="shapely is needed to check footprints and wall directions"
+)
 from shapely.geometry import Point, Polygon  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
@@ -31,6 +41,7 @@ DEMO = REPO / "samples" / "15_279418_116113"
 
 
 # --------------------------------------------------------------------------- helpers
+
 
 def merged(building):
     """All parts as one ``(positions (n, 3), triangles (m, 3))`` mesh, local metres."""
@@ -44,9 +55,13 @@ def merged(building):
 
 def welded_border_edges(positions, triangles):
     """Edges used by exactly one triangle after welding equal positions (1e-6 m): (welded positions, (e, 2))."""
-    _, first, inverse = np.unique(np.round(positions, 6), axis=0, return_index=True, return_inverse=True)
+    _, first, inverse = np.unique(
+        np.round(positions, 6), axis=0, return_index=True, return_inverse=True
+    )
     welded = inverse.ravel()[triangles]
-    edges = np.sort(np.concatenate([welded[:, [0, 1]], welded[:, [1, 2]], welded[:, [2, 0]]]), axis=1)
+    edges = np.sort(
+        np.concatenate([welded[:, [0, 1]], welded[:, [1, 2]], welded[:, [2, 0]]]), axis=1
+    )
     unique, counts = np.unique(edges, axis=0, return_counts=True)
     return positions[first], unique[counts == 1]
 
@@ -58,17 +73,33 @@ def base_border(sample):
     return points, border[at_base]
 
 
-SHAPES = [(kind, budget, two_part) for kind in KINDS for budget in (40, 326, 1500) for two_part in (False, True)]
+SHAPES = [
+    (kind, budget, two_part)
+    for kind in KINDS
+    for budget in (40, 326, 1500)
+    for two_part in (False, True)
+]
 
 
 @pytest.fixture(scope="module")
 def shapes():
     """One sample per (kind, budget, two_part), small atlases."""
-    return {key: make_building(np.random.default_rng(i), key[0], key[1], atlas_size=16, building_id=f"S{i}", yaw=0.3 * i, two_part=key[2])
-            for i, key in enumerate(SHAPES)}
+    return {
+        key: make_building(
+            np.random.default_rng(i),
+            key[0],
+            key[1],
+            atlas_size=16,
+            building_id=f"S{i}",
+            yaw=0.3 * i,
+            two_part=key[2],
+        )
+        for i, key in enumerate(SHAPES)
+    }
 
 
 # --------------------------------------------------------------------------- determinism
+
 
 def test_same_seed_gives_identical_buildings_and_bytes():
     a = generate_buildings(6, seed=3, atlas_size=32)
@@ -82,7 +113,10 @@ def test_same_seed_gives_identical_buildings_and_bytes():
             assert p.triangles.tobytes() == q.triangles.tobytes()
             assert p.uvs.tobytes() == q.uvs.tobytes()
             assert p.texture.data == q.texture.data
-    assert any(x.parts[0].positions.shape != z.parts[0].positions.shape or x.reference != z.reference for x, z in zip(a, c))
+    assert any(
+        x.parts[0].positions.shape != z.parts[0].positions.shape or x.reference != z.reference
+        for x, z in zip(a, c)
+    )
 
 
 def test_worker_processes_give_the_same_buildings():
@@ -91,11 +125,16 @@ def test_worker_processes_give_the_same_buildings():
     for x, y in zip(one, two):
         assert x.reference == y.reference and len(x.parts) == len(y.parts)
         for p, q in zip(x.parts, y.parts):
-            assert p.positions.tobytes() == q.positions.tobytes() and p.texture.data == q.texture.data
+            assert (
+                p.positions.tobytes() == q.positions.tobytes() and p.texture.data == q.texture.data
+            )
 
 
 def test_building_geometry_does_not_depend_on_count():
-    few, more = generate_buildings(3, seed=9, atlas_size=16), generate_buildings(7, seed=9, atlas_size=16)
+    few, more = (
+        generate_buildings(3, seed=9, atlas_size=16),
+        generate_buildings(7, seed=9, atlas_size=16),
+    )
     for x, y in zip(few, more):
         assert x.parts[0].positions.tobytes() == y.parts[0].positions.tobytes()
         assert x.parts[0].texture.data == y.parts[0].texture.data
@@ -103,7 +142,10 @@ def test_building_geometry_does_not_depend_on_count():
 
 # --------------------------------------------------------------------------- mesh shape
 
-@pytest.mark.parametrize("key", SHAPES, ids=[f"{k}-{b}-{'2parts' if t else '1part'}" for k, b, t in SHAPES])
+
+@pytest.mark.parametrize(
+    "key", SHAPES, ids=[f"{k}-{b}-{'2parts' if t else '1part'}" for k, b, t in SHAPES]
+)
 def test_floorless_outward_and_textured(shapes, key):
     sample = shapes[key]
     building = sample.building
@@ -147,7 +189,9 @@ def test_floorless_outward_and_textured(shapes, key):
     assert len(building.parts) == (2 if key[2] else 1)
 
 
-@pytest.mark.parametrize("key", [k for k in SHAPES if not k[2]], ids=[f"{k}-{b}" for k, b, t in SHAPES if not t])
+@pytest.mark.parametrize(
+    "key", [k for k in SHAPES if not k[2]], ids=[f"{k}-{b}" for k, b, t in SHAPES if not t]
+)
 def test_open_base_outlines_the_footprint(shapes, key):
     sample = shapes[key]
     points, border = base_border(sample)
@@ -164,10 +208,19 @@ def test_open_base_outlines_the_footprint(shapes, key):
 
 
 @settings(max_examples=25, deadline=None, derandomize=True)
-@given(seed=st.integers(0, 2**32 - 1), kind=st.sampled_from(KINDS), budget=st.floats(30.0, 3000.0),
-       yaw=st.floats(0.0, 2 * math.pi), two_part=st.booleans())
-def test_any_seed_budget_and_turn_gives_a_floorless_outward_building(seed, kind, budget, yaw, two_part):
-    sample = make_building(np.random.default_rng(seed), kind, budget, atlas_size=8, yaw=yaw, two_part=two_part)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    kind=st.sampled_from(KINDS),
+    budget=st.floats(30.0, 3000.0),
+    yaw=st.floats(0.0, 2 * math.pi),
+    two_part=st.booleans(),
+)
+def test_any_seed_budget_and_turn_gives_a_floorless_outward_building(
+    seed, kind, budget, yaw, two_part
+):
+    sample = make_building(
+        np.random.default_rng(seed), kind, budget, atlas_size=8, yaw=yaw, two_part=two_part
+    )
     positions, triangles = merged(sample.building)
     normals = triangle_normals(positions, triangles)
     area = np.linalg.norm(normals, axis=1)
@@ -181,7 +234,9 @@ def test_any_seed_budget_and_turn_gives_a_floorless_outward_building(seed, kind,
     assert length == pytest.approx(sum(Polygon(r).length for r in sample.footprints), rel=1e-6)
     assert all(p.uvs.min() >= 0 and p.uvs.max() <= 1 for p in sample.building.parts)
     low, high = positions[:, [0, 2]].min(axis=0), positions[:, [0, 2]].max(axis=0)
-    np.testing.assert_allclose((low + high) / 2, 0.0, atol=1e-9)  # reference = centre of the East/North box
+    np.testing.assert_allclose(
+        (low + high) / 2, 0.0, atol=1e-9
+    )  # reference = centre of the East/North box
 
 
 def test_walls_are_gridded_by_floors_and_use_the_facade_region(shapes):
@@ -189,8 +244,12 @@ def test_walls_are_gridded_by_floors_and_use_the_facade_region(shapes):
     part = sample.building.parts[0]
     face = triangle_normals(part.positions, part.triangles)
     vertical = np.abs(face[:, 1]) < 1e-9 * np.linalg.norm(face, axis=1)
-    on_outline = np.array([Polygon(sample.footprints[0]).exterior.distance(Point(c[0], c[2])) < 1e-6
-                           for c in part.positions[part.triangles].mean(axis=1)])
+    on_outline = np.array(
+        [
+            Polygon(sample.footprints[0]).exterior.distance(Point(c[0], c[2])) < 1e-6
+            for c in part.positions[part.triangles].mean(axis=1)
+        ]
+    )
     walls = part.triangles[vertical & on_outline]
     assert len(walls) >= 100  # most of a 326-triangle box is facade grid
     uv = part.uvs[walls.ravel()]
@@ -211,6 +270,7 @@ def test_unknown_kind_and_bad_arguments_are_refused():
 
 # --------------------------------------------------------------------------- statistics
 
+
 @pytest.fixture(scope="module")
 def town():
     """300 buildings with the defaults (mean 326 triangles, 5 % two-part), 8-pixel atlases."""
@@ -222,7 +282,12 @@ def test_triangle_counts_have_the_requested_mean_and_a_long_tail(town):
     assert counts.mean() == pytest.approx(326.0, rel=0.10)
     assert np.median(counts) < counts.mean()  # right-skewed
     assert (counts < 100).sum() >= 3 and (counts > 1000).sum() >= 3
-    small = np.array([b.triangle_count for b in generate_buildings(80, seed=12, atlas_size=8, mean_triangles=150.0)])
+    small = np.array(
+        [
+            b.triangle_count
+            for b in generate_buildings(80, seed=12, atlas_size=8, mean_triangles=150.0)
+        ]
+    )
     assert small.mean() == pytest.approx(150.0, rel=0.15)
 
 
@@ -244,6 +309,7 @@ def test_kinds_are_mixed_and_two_part_buildings_appear(town):
 
 # --------------------------------------------------------------------------- placement
 
+
 def test_buildings_are_placed_inside_the_tile_without_overlap():
     tile = TileId(15, 279418, 116113)
     samples = generate_samples(8, seed=2, tile=tile, atlas_size=8)
@@ -257,12 +323,14 @@ def test_buildings_are_placed_inside_the_tile_without_overlap():
         assert 20.0 <= ref.elev <= 60.0 and np.float32(ref.elev) == ref.elev
         west, south, east, north = s.building.lonlat_bounds
         assert tile_of((west + east) / 2, (south + north) / 2, 15) == tile
-        assert (west + east) / 2 == pytest.approx(ref.lon, abs=1e-9) and (south + north) / 2 == pytest.approx(ref.lat, abs=1e-9)
+        assert (west + east) / 2 == pytest.approx(ref.lon, abs=1e-9) and (
+            south + north
+        ) / 2 == pytest.approx(ref.lat, abs=1e-9)
         shift = np.array([(ref.lon) * math.cos(math.radians(lat0)), ref.lat]) * metres_per_degree
         for ring in s.footprints:
             outlines.append((s.building.id, Polygon(ring + shift)))
     for i, (a, pa) in enumerate(outlines):
-        for b, pb in outlines[i + 1:]:
+        for b, pb in outlines[i + 1 :]:
             if a != b:
                 assert pa.intersection(pb).area < 1e-6, f"{a} overlaps {b}"
 
@@ -275,6 +343,7 @@ def test_crowded_tiles_still_keep_centres_in_the_tile(town):
 
 # --------------------------------------------------------------------------- textures
 
+
 def test_atlas_is_a_decodable_jpeg_of_the_requested_size():
     building = generate_buildings(1, seed=0, atlas_size=64)[0]
     texture = building.parts[0].texture
@@ -286,6 +355,7 @@ def test_atlas_is_a_decodable_jpeg_of_the_requested_size():
 
 
 # --------------------------------------------------------------------------- VWorld round trip
+
 
 def test_written_tile_reads_back_to_the_same_buildings(tmp_path):
     from exporter.readers import load_entry, scan_folder
@@ -300,10 +370,14 @@ def test_written_tile_reads_back_to_the_same_buildings(tmp_path):
         got = load_entry(entry)
         want = expected[got.id]
         assert got.tile == want.tile
-        assert (got.reference.lon, got.reference.lat, got.reference.elev) == pytest.approx((want.reference.lon, want.reference.lat, want.reference.elev), abs=1e-9)
+        assert (got.reference.lon, got.reference.lat, got.reference.elev) == pytest.approx(
+            (want.reference.lon, want.reference.lat, want.reference.elev), abs=1e-9
+        )
         assert len(got.parts) == len(want.parts)
         for p, q in zip(got.parts, want.parts):
-            np.testing.assert_allclose(p.positions, q.positions, atol=1e-3)  # float32 offsets in the .xdo
+            np.testing.assert_allclose(
+                p.positions, q.positions, atol=1e-3
+            )  # float32 offsets in the .xdo
             np.testing.assert_array_equal(p.triangles, q.triangles)
             np.testing.assert_allclose(p.uvs, q.uvs, atol=1e-6)
             assert p.texture.data == q.texture.data
@@ -318,8 +392,18 @@ def same_model_files(a: Path, b: Path) -> None:
         x, y = parse_dat(a.read_bytes(), str(a)), parse_dat(b.read_bytes(), str(b))
         assert (x.level, x.idx, x.idy, len(x.objects)) == (y.level, y.idx, y.idy, len(y.objects))
         for p, q in zip(x.objects, y.objects):
-            assert (p.version, p.key, p.data_file, p.img_file_name) == (q.version, q.key, q.data_file, q.img_file_name)
-            np.testing.assert_allclose([p.center_lon, p.center_lat, p.altitude], [q.center_lon, q.center_lat, q.altitude], rtol=0, atol=1e-6)
+            assert (p.version, p.key, p.data_file, p.img_file_name) == (
+                q.version,
+                q.key,
+                q.data_file,
+                q.img_file_name,
+            )
+            np.testing.assert_allclose(
+                [p.center_lon, p.center_lat, p.altitude],
+                [q.center_lon, q.center_lat, q.altitude],
+                rtol=0,
+                atol=1e-6,
+            )
             np.testing.assert_allclose(p.bbox, q.bbox, rtol=0, atol=1e-4)
         return
     x, y = parse_xdo(a.read_bytes(), str(a)), parse_xdo(b.read_bytes(), str(b))
@@ -343,14 +427,20 @@ def test_demo_tile_is_small_complete_and_regenerates(tmp_path):
     assert len(buildings) == 12 and any(len(b.parts) == 2 for b in buildings)
     import runpy
 
-    script = runpy.run_path(str(REPO / "samples" / "generate.py"))  # not as __main__: call its main()
+    script = runpy.run_path(
+        str(REPO / "samples" / "generate.py")
+    )  # not as __main__: call its main()
     assert script["main"](["--out", str(tmp_path / DEMO.name), "--demo"]) == 0
     for committed in sorted(DEMO.iterdir()):
         fresh = tmp_path / DEMO.name / committed.name
         assert fresh.is_file(), f"{committed.name} is not regenerated"
         if committed.suffix in (".dat", ".xdo") and fresh.read_bytes() != committed.read_bytes():
-            same_model_files(committed, fresh)  # another libm may move a float32 by an ulp; nothing more
-        elif committed.suffix == ".jpg":  # JPEG bytes may differ between libjpeg builds; pixels may not
+            same_model_files(
+                committed, fresh
+            )  # another libm may move a float32 by an ulp; nothing more
+        elif (
+            committed.suffix == ".jpg"
+        ):  # JPEG bytes may differ between libjpeg builds; pixels may not
             with Image.open(committed) as a, Image.open(fresh) as b:
                 assert np.abs(np.asarray(a, float) - np.asarray(b, float)).mean() < 2.0
 
@@ -367,6 +457,10 @@ def test_generate_script_refuses_to_mix_into_an_existing_tile(tmp_path, capsys):
         main(["--out", str(out), "--count", "1", "--atlas", "16"])
     assert "already holds 5 tile files" in capsys.readouterr().err
     assert main(["--out", str(out), "--count", "1", "--atlas", "16", "--overwrite"]) == 0
-    assert sorted(p.name for p in out.iterdir()) == ["15_279418_116113.dat", "B0000.jpg", "B0000.xdo"]
+    assert sorted(p.name for p in out.iterdir()) == [
+        "15_279418_116113.dat",
+        "B0000.jpg",
+        "B0000.xdo",
+    ]
     with pytest.raises(SystemExit):
         main(["--out", str(out), "--count", "0"])

@@ -3,6 +3,7 @@ robustness on bad and degenerate input, and the comparison with plain quadric co
 
 Positions are in the building-local East/Up/North frame (metres, y = Up).
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -11,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pymeshlab
 import pytest
+from test_simplify_shapes import Atlas, Builder, add_cylinder, add_dome, crafted_building
 
 from exporter.config import SimplifyOptions, default_lods
 from exporter.errors import ProcessError
@@ -18,7 +20,6 @@ from exporter.model import Part
 from exporter.quality import joined, measure_lod
 from exporter.simplify import build_mesh_lods
 from exporter.simplify.protect import face_areas
-from test_simplify_shapes import Atlas, Builder, add_cylinder, add_dome, crafted_building
 
 OPTIONS = SimplifyOptions()
 
@@ -51,11 +52,13 @@ def test_contract_levels_parts_and_attributes(buildings, chains):
             for part, source in zip(level, parts):
                 assert part.texture is source.texture and part.color == source.color
                 assert part.uvs is not None and part.uvs.shape == (len(part.positions), 2)
-                assert part.triangles.min(initial=0) >= 0 and part.triangles.max(initial=-1) < len(part.positions)
+                assert part.triangles.min(initial=0) >= 0 and part.triangles.max(initial=-1) < len(
+                    part.positions
+                )
 
 
 def test_never_larger_than_the_level_above_and_targets_respected(buildings, chains):
-    for parts, levels in zip(buildings, chains):
+    for _parts, levels in zip(buildings, chains):
         counts = [count(level) for level in levels]
         assert all(b <= a for a, b in zip(counts, counts[1:])), counts
 
@@ -80,8 +83,14 @@ def test_paper_targets_on_sample_generator_buildings():
         levels = build_mesh_lods(building.parts, default_lods(), OPTIONS)
         for level in levels[1:]:
             metrics = measure_lod(building.parts, level)
-            assert metrics["silhouette_iou"] >= 0.97 and metrics["wall_coverage"] >= 0.98, (building.id, metrics)
-            assert metrics["boundary_length_change"] == pytest.approx(0.0, abs=1e-9) and metrics["new_holes"] == 0
+            assert metrics["silhouette_iou"] >= 0.97 and metrics["wall_coverage"] >= 0.98, (
+                building.id,
+                metrics,
+            )
+            assert (
+                metrics["boundary_length_change"] == pytest.approx(0.0, abs=1e-9)
+                and metrics["new_holes"] == 0
+            )
         totals.append([count(level) for level in levels])
     mean = np.mean(totals, axis=0)
     assert mean[1] / mean[0] <= 0.6746 and mean[2] / mean[0] <= 0.4807, mean
@@ -95,12 +104,16 @@ def test_uvs_stay_inside_their_source_islands(buildings, chains):
             for part, source in zip(level, parts):
                 if part.triangle_count == 0:
                     continue
-                assert (part.uvs >= source.uvs.min(axis=0) - 1e-6).all() and (part.uvs <= source.uvs.max(axis=0) + 1e-6).all()
+                assert (part.uvs >= source.uvs.min(axis=0) - 1e-6).all() and (
+                    part.uvs <= source.uvs.max(axis=0) + 1e-6
+                ).all()
                 c = part.positions[part.triangles]
                 normal = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
                 s = source.positions[source.triangles]
                 source_normal = np.cross(s[:, 1] - s[:, 0], s[:, 2] - s[:, 0])
-                nearest = np.argmin(np.linalg.norm(c.mean(1)[:, None] - s.mean(1)[None], axis=-1), axis=1)
+                nearest = np.argmin(
+                    np.linalg.norm(c.mean(1)[:, None] - s.mean(1)[None], axis=-1), axis=1
+                )
                 assert ((normal * source_normal[nearest]).sum(1) > 0).mean() > 0.95
 
 
@@ -145,12 +158,23 @@ def test_plain_quadric_collapse_loses_walls_where_this_method_keeps_them():
 def test_bad_input_raises_process_error_naming_the_part():
     good = crafted_building(0)
     with pytest.raises(ProcessError, match="main.*NaN"):
-        bad = dataclasses.replace(good[0], positions=np.where(np.arange(len(good[0].positions))[:, None] == 3, np.nan, good[0].positions))
+        bad = dataclasses.replace(
+            good[0],
+            positions=np.where(
+                np.arange(len(good[0].positions))[:, None] == 3, np.nan, good[0].positions
+            ),
+        )
         build_mesh_lods([bad, good[1]], default_lods(), OPTIONS)
     with pytest.raises(ProcessError, match="index outside"):
-        build_mesh_lods([dataclasses.replace(good[0], triangles=good[0].triangles + 10_000)], default_lods(), OPTIONS)
+        build_mesh_lods(
+            [dataclasses.replace(good[0], triangles=good[0].triangles + 10_000)],
+            default_lods(),
+            OPTIONS,
+        )
     with pytest.raises(ProcessError, match="UVs for"):
-        build_mesh_lods([dataclasses.replace(good[0], uvs=good[0].uvs[:-1])], default_lods(), OPTIONS)
+        build_mesh_lods(
+            [dataclasses.replace(good[0], uvs=good[0].uvs[:-1])], default_lods(), OPTIONS
+        )
 
 
 def test_degenerate_and_non_manifold_input_does_not_crash():
@@ -158,18 +182,24 @@ def test_degenerate_and_non_manifold_input_does_not_crash():
     part = parts[0]
     n = len(part.positions)
     extra_positions = np.vstack([part.positions, part.positions[:3] + [0.0, 0.0, 5.0]])
-    triangles = np.vstack([
-        part.triangles,
-        [[0, 0, 1]],                      # repeated index
-        [[0, 1, 1]],
-        part.triangles[:1],               # duplicate face
-        [[part.triangles[0, 0], part.triangles[0, 1], n]],   # third face on an edge: non-manifold
-        [[n, n + 1, n + 2]],
-    ])
+    triangles = np.vstack(
+        [
+            part.triangles,
+            [[0, 0, 1]],  # repeated index
+            [[0, 1, 1]],
+            part.triangles[:1],  # duplicate face
+            [
+                [part.triangles[0, 0], part.triangles[0, 1], n]
+            ],  # third face on an edge: non-manifold
+            [[n, n + 1, n + 2]],
+        ]
+    )
     uvs = np.vstack([part.uvs, part.uvs[:3]])
     messy = dataclasses.replace(part, positions=extra_positions, triangles=triangles, uvs=uvs)
     levels = build_mesh_lods([messy, parts[1]], default_lods(), OPTIONS)
-    assert count(levels[0]) == nonzero([messy, parts[1]]) <= count([messy, parts[1]]) - 2  # zero-area faces go
+    assert (
+        count(levels[0]) == nonzero([messy, parts[1]]) <= count([messy, parts[1]]) - 2
+    )  # zero-area faces go
     counts = [count(level) for level in levels]
     assert all(b <= a for a, b in zip(counts, counts[1:]))
     # Fully degenerate parts and empty parts come through too.
@@ -182,7 +212,9 @@ def test_degenerate_and_non_manifold_input_does_not_crash():
 REAL = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "real"
 
 
-@pytest.mark.parametrize("folder, crs, limit", [(REAL, "EPSG:7415", 12), (REAL / "rotterdam_textured", None, 2)])
+@pytest.mark.parametrize(
+    "folder, crs, limit", [(REAL, "EPSG:7415", 12), (REAL / "rotterdam_textured", None, 2)]
+)
 def test_real_cityjson_buildings(folder, crs, limit):
     # Real LoD2 buildings (Zurich, 3D BAG; Rotterdam with aerial-photo atlases), ground dropped:
     # never larger than the level above, quality thresholds on every building, UVs kept.
@@ -201,8 +233,14 @@ def test_real_cityjson_buildings(folder, crs, limit):
         assert all(b <= a for a, b in zip(counts, counts[1:])), (building.id, counts)
         for level in levels[1:]:
             metrics = measure_lod(building.parts, level)
-            assert metrics["silhouette_iou"] >= 0.97 and metrics["wall_coverage"] >= 0.98, (building.id, metrics)
-            assert metrics["new_holes"] == 0 and abs(metrics["boundary_length_change"]) < 1e-9, (building.id, metrics)
+            assert metrics["silhouette_iou"] >= 0.97 and metrics["wall_coverage"] >= 0.98, (
+                building.id,
+                metrics,
+            )
+            assert metrics["new_holes"] == 0 and abs(metrics["boundary_length_change"]) < 1e-9, (
+                building.id,
+                metrics,
+            )
             for part, source in zip(level, building.parts):
                 assert (part.uvs is None) == (source.uvs is None)
 
@@ -221,5 +259,8 @@ def test_untextured_parts_collapse_to_the_quadric_optimum():
     output = [tuple(p) for p in np.round(level[0].positions, 9)]
     assert any(p not in source for p in output)
     metrics = measure_lod(parts, level)
-    assert metrics["boundary_length_change"] == pytest.approx(0.0, abs=1e-9) and metrics["new_holes"] == 0
+    assert (
+        metrics["boundary_length_change"] == pytest.approx(0.0, abs=1e-9)
+        and metrics["new_holes"] == 0
+    )
     assert metrics["hausdorff_rel"] <= 0.0055

@@ -4,19 +4,20 @@ Meshes are in the building-local East/Up/North frame (metres, y = Up); see test_
 Most tests switch the lossless planar stage and the error guard off (``BASE``) so the quadric
 stage and the option under test act alone.
 """
+
 from __future__ import annotations
 
 import dataclasses
 
 import numpy as np
 import pytest
+from test_simplify_shapes import Atlas, Builder, add_dome, box_building
 
 from exporter.config import LodSpec, SimplifyOptions
 from exporter.model import Part
 from exporter.quality import boundary_loops, joined, measure_lod
 from exporter.simplify import build_mesh_lods, clean_part
 from exporter.simplify.protect import face_areas, largest_faces
-from test_simplify_shapes import Atlas, Builder, add_dome, box_building
 
 BASE = SimplifyOptions(planar_retriangulation=False, max_error=0.0, protect_largest=0.0)
 
@@ -78,7 +79,10 @@ def test_protect_largest_keeps_exactly_the_largest_faces(dome):
     # Without the filter some of them are gone.
     out = without[0]
     kept = {tuple(sorted(map(tuple, np.round(out.positions[t], 9)))) for t in out.triangles}
-    assert any(tuple(sorted(map(tuple, np.round(part.positions[t], 9)))) not in kept for t in part.triangles[protected])
+    assert any(
+        tuple(sorted(map(tuple, np.round(part.positions[t], 9)))) not in kept
+        for t in part.triangles[protected]
+    )
 
 
 def test_preserve_border_edges_keeps_the_open_bottom(grid_box):
@@ -149,7 +153,9 @@ def test_max_error_bounds_the_deviation(dome):
     free = lod(dome, 0.3, preserve_uv_foldover_edges=False)
     bounded = lod(dome, 0.3, preserve_uv_foldover_edges=False, max_error=0.002)
     assert measure_lod(dome, free)["hausdorff_rel"] > 0.01
-    assert measure_lod(dome, bounded)["hausdorff_rel"] <= 0.0025  # guard samples; metric samples more
+    assert (
+        measure_lod(dome, bounded)["hausdorff_rel"] <= 0.0025
+    )  # guard samples; metric samples more
     assert count(bounded) > count(free)
 
 
@@ -166,13 +172,19 @@ def test_protect_walls_keeps_the_footprint_walls(grid_box):
 def test_planar_retriangulation_is_lossless_and_reduces(grid_box):
     options = SimplifyOptions()
     flat = build_mesh_lods(grid_box, [LodSpec(0.5), LodSpec(0.1, mesh=0.99)], options)[1]
-    off = build_mesh_lods(grid_box, [LodSpec(0.5), LodSpec(0.1, mesh=0.99)],
-                          dataclasses.replace(options, planar_retriangulation=False))[1]
+    off = build_mesh_lods(
+        grid_box,
+        [LodSpec(0.5), LodSpec(0.1, mesh=0.99)],
+        dataclasses.replace(options, planar_retriangulation=False),
+    )[1]
     assert count(flat) < count(off)
     metrics = measure_lod(grid_box, flat)
     assert metrics["hausdorff_rel"] < 1e-9
     assert metrics["silhouette_iou"] == 1.0 and metrics["wall_coverage"] == 1.0
-    assert metrics["boundary_length_change"] == pytest.approx(0.0, abs=1e-12) and metrics["new_holes"] == 0
+    assert (
+        metrics["boundary_length_change"] == pytest.approx(0.0, abs=1e-12)
+        and metrics["new_holes"] == 0
+    )
     # Four walls and a roof, each one rectangle: 5 x 2 triangles.
     assert count(flat) == 10
     low, high = uv_stretch([Part(flat[0].positions, flat[0].triangles[:2], uvs=flat[0].uvs)])

@@ -5,6 +5,7 @@ Every position is in the building-local East/Up/North frame, metres (y = Up); tr
 island per wall / roof face / dome, so every junction is a UV seam as in VWorld's models. No
 building has a floor: the bottom is an open border (the footprint outline).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -45,14 +46,23 @@ class Builder:
     def grid(self, origin, du, dv, nu: int, nv: int, rect: tuple) -> None:
         """A planar grid origin + s*du + t*dv (metres), outward = du x dv."""
         s, t = np.meshgrid(np.linspace(0, 1, nu + 1), np.linspace(0, 1, nv + 1))
-        pos = np.asarray(origin, float) + s.reshape(-1, 1) * np.asarray(du, float) + t.reshape(-1, 1) * np.asarray(dv, float)
+        pos = (
+            np.asarray(origin, float)
+            + s.reshape(-1, 1) * np.asarray(du, float)
+            + t.reshape(-1, 1) * np.asarray(dv, float)
+        )
         u0, v0, u1, v1 = rect
         uvs = np.column_stack([u0 + s.reshape(-1) * (u1 - u0), v1 - t.reshape(-1) * (v1 - v0)])
         self.add(pos, _grid_triangles(nv, nu), uvs)
 
     def part(self, texture=ATLAS, name="") -> Part:
-        return Part(positions=np.concatenate(self.positions), triangles=np.concatenate(self.triangles),
-                    uvs=np.concatenate(self.uvs), texture=texture, name=name)
+        return Part(
+            positions=np.concatenate(self.positions),
+            triangles=np.concatenate(self.triangles),
+            uvs=np.concatenate(self.uvs),
+            texture=texture,
+            name=name,
+        )
 
 
 def _grid_triangles(rows: int, cols: int) -> np.ndarray:
@@ -84,43 +94,74 @@ def add_gable(builder: Builder, atlas: Atlas, x0, z0, x1, z1, y, rise: float, n:
     builder.grid((x1, y, z1), (x0 - x1, 0, 0), (0, rise, zm - z1), n, n, atlas.rect())
     for x in (x0, x1):
         r = atlas.rect()
-        builder.add([(x, y, z0), (x, y, z1), (x, y + rise, zm)], [[0, 1, 2]],
-                    [(r[0], r[3]), (r[2], r[3]), (0.5 * (r[0] + r[2]), r[1])])
+        builder.add(
+            [(x, y, z0), (x, y, z1), (x, y + rise, zm)],
+            [[0, 1, 2]],
+            [(r[0], r[3]), (r[2], r[3]), (0.5 * (r[0] + r[2]), r[1])],
+        )
     # Outward = away from the ridge-line axis (x, y, zm) below the roof.
     centre = np.array([0.5 * (x0 + x1), y - 1.0, zm])
     for i in range(start, len(builder.triangles)):
         pos = builder.positions[i]
         local = builder.triangles[i] - (builder.count - sum(len(q) for q in builder.positions[i:]))
-        builder.triangles[i] = _orient(pos, local, lambda c: c - centre) + (builder.triangles[i] - local)
+        builder.triangles[i] = _orient(pos, local, lambda c: c - centre) + (
+            builder.triangles[i] - local
+        )
 
 
-def add_dome(builder: Builder, atlas: Atlas, cx, cz, y, radius: float, rings: int, segments: int) -> None:
+def add_dome(
+    builder: Builder, atlas: Atlas, cx, cz, y, radius: float, rings: int, segments: int
+) -> None:
     """Half UV sphere (open at the bottom, seam at longitude 0) on top of height y."""
-    phi = np.linspace(0, 0.5 * np.pi, rings + 1)          # from the equator up
-    theta = np.linspace(0, 2 * np.pi, segments + 1)       # seam column duplicated
+    phi = np.linspace(0, 0.5 * np.pi, rings + 1)  # from the equator up
+    theta = np.linspace(0, 2 * np.pi, segments + 1)  # seam column duplicated
     t, p = np.meshgrid(theta, phi)
-    a = np.where(t == theta[-1], 0.0, t).ravel()  # the seam column at exactly the first one's position
+    a = np.where(
+        t == theta[-1], 0.0, t
+    ).ravel()  # the seam column at exactly the first one's position
     ring = np.where(p == phi[-1], 0.0, np.cos(p)).ravel()  # one exact pole
-    pos = np.column_stack([cx + radius * ring * np.cos(a), y + radius * np.sin(p.ravel()),
-                           cz + radius * ring * np.sin(a)])
+    pos = np.column_stack(
+        [
+            cx + radius * ring * np.cos(a),
+            y + radius * np.sin(p.ravel()),
+            cz + radius * ring * np.sin(a),
+        ]
+    )
     r = atlas.rect()
-    uvs = np.column_stack([r[0] + (r[2] - r[0]) * t.ravel() / (2 * np.pi), r[3] - (r[3] - r[1]) * p.ravel() / (0.5 * np.pi)])
+    uvs = np.column_stack(
+        [
+            r[0] + (r[2] - r[0]) * t.ravel() / (2 * np.pi),
+            r[3] - (r[3] - r[1]) * p.ravel() / (0.5 * np.pi),
+        ]
+    )
     tri = _grid_triangles(rings, segments)
     tri = _orient(pos, tri, lambda c: c - np.array([cx, y, cz]))
     builder.add(pos, tri, uvs)
 
 
-def add_cylinder(builder: Builder, atlas: Atlas, cx, cz, y0, y1, radius, segments, rings=1, top=None) -> None:
+def add_cylinder(
+    builder: Builder, atlas: Atlas, cx, cz, y0, y1, radius, segments, rings=1, top=None
+) -> None:
     """Open cylinder (or cone when ``top`` radius is given) around (cx, cz) from y0 to y1 metres."""
     top = radius if top is None else top
     theta = np.linspace(0, 2 * np.pi, segments + 1)
     h = np.linspace(0, 1, rings + 1)
     t, s = np.meshgrid(theta, h)
     rad = radius + (top - radius) * s
-    a = np.where(t == theta[-1], 0.0, t).ravel()  # the seam column at exactly the first one's position
-    pos = np.column_stack([cx + rad.ravel() * np.cos(a), np.where(s.ravel() == 1.0, y1, y0 + (y1 - y0) * s.ravel()), cz + rad.ravel() * np.sin(a)])
+    a = np.where(
+        t == theta[-1], 0.0, t
+    ).ravel()  # the seam column at exactly the first one's position
+    pos = np.column_stack(
+        [
+            cx + rad.ravel() * np.cos(a),
+            np.where(s.ravel() == 1.0, y1, y0 + (y1 - y0) * s.ravel()),
+            cz + rad.ravel() * np.sin(a),
+        ]
+    )
     r = atlas.rect()
-    uvs = np.column_stack([r[0] + (r[2] - r[0]) * t.ravel() / (2 * np.pi), r[3] - (r[3] - r[1]) * s.ravel()])
+    uvs = np.column_stack(
+        [r[0] + (r[2] - r[0]) * t.ravel() / (2 * np.pi), r[3] - (r[3] - r[1]) * s.ravel()]
+    )
     tri = _grid_triangles(rings, segments)
     tri = tri[np.ptp(pos[tri], axis=1).max(axis=1) > 1e-9]
     axis_point = lambda c: c - np.column_stack([np.full(len(c), cx), c[:, 1], np.full(len(c), cz)])
@@ -166,7 +207,9 @@ def crafted_building(seed: int) -> list[Part]:
             add_cylinder(main, atlas, 0.0, 0.0, h, h + 2.0, radius, 16)
             add_dome(main, atlas, 0.0, 0.0, h + 2.0, radius, 6, 16)
         elif kind == "spire":
-            add_cylinder(main, atlas, 0.0, 0.0, h, h + 0.6 * h, 0.2 * min(w, d), 12, rings=3, top=0.01)
+            add_cylinder(
+                main, atlas, 0.0, 0.0, h, h + 0.6 * h, 0.2 * min(w, d), 12, rings=3, top=0.01
+            )
     parts.append(main.part(ATLAS, "main"))
     clutter = Builder()
     catlas = Atlas(4)
@@ -183,6 +226,7 @@ def crafted_building(seed: int) -> list[Part]:
 
 def test_crafted_buildings_are_floorless_and_outward():
     import trimesh
+
     for seed in range(8):
         parts = crafted_building(seed)
         for part in parts:

@@ -2,6 +2,7 @@
 
 Coordinates are lon/lat in degrees; expected indices are worked out by hand in each test.
 """
+
 from __future__ import annotations
 
 import math
@@ -75,7 +76,9 @@ def test_grid_edges_antimeridian_and_poles(level):
     assert tile_of(180.0, 90.0, level) == TileId(level, columns - 1, rows - 1)
     assert tile_of(180.0, 0.0, level).idx == columns - 1
     assert tile_of(0.0, 90.0, level).idy == rows - 1
-    assert tile_bounds(TileId(level, columns - 1, rows - 1))[2:] == pytest.approx((180.0, 90.0), abs=1e-12)
+    assert tile_bounds(TileId(level, columns - 1, rows - 1))[2:] == pytest.approx(
+        (180.0, 90.0), abs=1e-12
+    )
 
 
 def test_longitudes_past_180_wrap_and_rounding_past_the_edges_clamps():
@@ -88,7 +91,12 @@ def test_longitudes_past_180_wrap_and_rounding_past_the_edges_clamps():
 
 @pytest.mark.parametrize(
     "lon, lat, words",
-    [(0.0, 91.0, "lat 91"), (0.0, -95.0, "lat -95"), (200000.0, 10.0, "projected"), (float("nan"), 0.0, "not finite")],
+    [
+        (0.0, 91.0, "lat 91"),
+        (0.0, -95.0, "lat -95"),
+        (200000.0, 10.0, "projected"),
+        (float("nan"), 0.0, "not finite"),
+    ],
 )
 def test_bad_coordinates_raise_clear_value_errors(lon, lat, words):
     with pytest.raises(ValueError, match=words):
@@ -123,7 +131,12 @@ def test_border_computed_with_rounding_error_lands_in_the_tile_it_starts():
 
 def test_parent_and_children_by_hand():
     assert parent(TileId(15, 279418, 116113)) == TileId(14, 139709, 58056)
-    assert children(TileId(0, 5, 2)) == [TileId(1, 10, 4), TileId(1, 11, 4), TileId(1, 10, 5), TileId(1, 11, 5)]
+    assert children(TileId(0, 5, 2)) == [
+        TileId(1, 10, 4),
+        TileId(1, 11, 4),
+        TileId(1, 10, 5),
+        TileId(1, 11, 5),
+    ]
     for child in children(TileId(7, 100, 33)):
         assert parent(child) == TileId(7, 100, 33)
 

@@ -8,6 +8,7 @@ mono, fed with manifests written by the Python side (``exporter.manifest`` + ``e
 and the real ``vworld-lod export`` of the demo tile when ``samples/`` has one), broken variants of
 them, and placements computed by ``exporter.placement``.
 """
+
 from __future__ import annotations
 
 import json
@@ -28,14 +29,19 @@ sys.path.insert(0, str(UNITY_TESTS))
 import unity_meta  # noqa: E402  (tests/unity/unity_meta.py)
 
 MCS, MONO = shutil.which("mcs"), shutil.which("mono")
-needs_mono = pytest.mark.skipif(not (MCS and MONO), reason="mono's C# compiler (mcs) and runtime (mono) are not installed: apt-get install mono-mcs mono-runtime")
+needs_mono = pytest.mark.skipif(
+    not (MCS and MONO),
+    reason="mono's C# compiler (mcs) and runtime (mono) are not installed: apt-get install mono-mcs mono-runtime",
+)
 
 
 def scripts(folder: Path) -> list[str]:
     return sorted(str(p) for p in folder.rglob("*.cs"))
 
 
-def mcs(out: Path, sources: list[str], refs: list[Path] = (), library: bool = True, strict: bool = True) -> Path:
+def mcs(
+    out: Path, sources: list[str], refs: list[Path] = (), library: bool = True, strict: bool = True
+) -> Path:
     args = [MCS, "-nologo", f"-out:{out}"] + (["-target:library"] if library else [])
     args += ["-warnaserror+"] if strict else []
     args += [f"-r:{r}" for r in refs] + sources
@@ -56,13 +62,22 @@ def build(tmp_path_factory) -> dict[str, Path]:
     gltfast = mcs(d / "glTFast.dll", [str(stubs / "GLTFast.cs")], [engine], strict=False)
     plan = mcs(d / "VWorldLod.Plan.dll", scripts(PACKAGE / "Runtime" / "Plan"))
     runtime = mcs(d / "VWorldLod.Runtime.dll", scripts(PACKAGE / "Runtime"), [engine, gltfast])
-    editor_asm = mcs(d / "VWorldLod.Editor.dll", scripts(PACKAGE / "Editor"), [engine, editor, gltfast, runtime])
-    tests = mcs(d / "VWorldLod.Tests.exe", scripts(UNITY_TESTS / "Tests"), [runtime, engine, gltfast, Path("System.Core.dll")], library=False)
+    editor_asm = mcs(
+        d / "VWorldLod.Editor.dll", scripts(PACKAGE / "Editor"), [engine, editor, gltfast, runtime]
+    )
+    tests = mcs(
+        d / "VWorldLod.Tests.exe",
+        scripts(UNITY_TESTS / "Tests"),
+        [runtime, engine, gltfast, Path("System.Core.dll")],
+        library=False,
+    )
     return {"plan": plan, "runtime": runtime, "editor": editor_asm, "tests": tests, "dir": d}
 
 
 def run_csharp(build: dict, *args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([MONO, str(build["tests"]), *map(str, args)], capture_output=True, text=True, timeout=60)
+    return subprocess.run(
+        [MONO, str(build["tests"]), *map(str, args)], capture_output=True, text=True, timeout=60
+    )
 
 
 def passed_failed(output: str) -> tuple[int, int]:
@@ -72,6 +87,7 @@ def passed_failed(output: str) -> tuple[int, int]:
 
 
 # --------------------------------------------------------------------------- package layout
+
 
 def test_package_json_is_a_unity_package_depending_on_gltfast():
     data = json.loads((PACKAGE / "package.json").read_text(encoding="utf-8"))
@@ -93,10 +109,16 @@ def test_every_asset_has_a_fixed_meta_and_no_meta_is_stale():
     on_disk = {p for p in PACKAGE.rglob("*.meta")}
     assert on_disk == set(expected), "run: python tests/unity/unity_meta.py"
     for path, text in expected.items():
-        assert path.read_text(encoding="utf-8") == text, f"{path} is outdated: run python tests/unity/unity_meta.py"
-    guids = [re.search(r"^guid: ([0-9a-f]{32})$", t, re.MULTILINE).group(1) for t in expected.values()]
+        assert path.read_text(encoding="utf-8") == text, (
+            f"{path} is outdated: run python tests/unity/unity_meta.py"
+        )
+    guids = [
+        re.search(r"^guid: ([0-9a-f]{32})$", t, re.MULTILINE).group(1) for t in expected.values()
+    ]
     assert len(set(guids)) == len(guids)
-    assert not any("~" in p.name for p in on_disk), "Unity ignores folders ending in ~: they get no metas"
+    assert not any("~" in p.name for p in on_disk), (
+        "Unity ignores folders ending in ~: they get no metas"
+    )
 
 
 def test_meta_guid_is_md5_of_package_relative_path():
@@ -119,10 +141,24 @@ def test_stubs_declare_nothing_the_package_does_not_use():
     for stub in (UNITY_TESTS / "stubs").glob("*.cs"):
         code = re.sub(r"//.*", "", stub.read_text())
         declared |= set(re.findall(r"\b(?:class|struct|enum|interface|delegate \w+)\s+(\w+)", code))
-        declared |= set(re.findall(r"\bpublic (?:static )?(?:[\w.<>\[\]]+ )(\w+)\s*(?:[({<]|;|=)", code))
+        declared |= set(
+            re.findall(r"\bpublic (?:static )?(?:[\w.<>\[\]]+ )(\w+)\s*(?:[({<]|;|=)", code)
+        )
         declared |= set(re.findall(r"^\s*(\w+) = \d+,", code, re.MULTILINE))  # enum members
-    declared -= {"Object", "Component", "Behaviour", "GltfImportBase", "IDownloadProvider", "IDeferAgent",
-                 "IMaterialGenerator", "ICodeLogger", "ImportSettings", "CallbackFunction", "None", "SpeedTree"}
+    declared -= {
+        "Object",
+        "Component",
+        "Behaviour",
+        "GltfImportBase",
+        "IDownloadProvider",
+        "IDeferAgent",
+        "IMaterialGenerator",
+        "ICodeLogger",
+        "ImportSettings",
+        "CallbackFunction",
+        "None",
+        "SpeedTree",
+    }
     # Base classes, and types named only by the signatures of used members (real Unity/glTFast
     # declares them too); LODFadeMode's other values mirror LodFadeKind's (cast by value).
     unused = sorted(name for name in declared if not re.search(r"\b" + name + r"\b", package_text))
@@ -131,10 +167,13 @@ def test_stubs_declare_nothing_the_package_does_not_use():
 
 # --------------------------------------------------------------------------- compile + C# tests
 
+
 @needs_mono
 def test_every_package_script_compiles_against_the_stand_ins(build):
     compiled = set(scripts(PACKAGE / "Runtime")) | set(scripts(PACKAGE / "Editor"))
-    assert compiled == set(scripts(PACKAGE)), "a script outside Runtime/ and Editor/ would not belong to an asmdef"
+    assert compiled == set(scripts(PACKAGE)), (
+        "a script outside Runtime/ and Editor/ would not belong to an asmdef"
+    )
     assert all(build[k].stat().st_size > 0 for k in ("plan", "runtime", "editor"))
 
 
@@ -180,17 +219,36 @@ def manifest_from_exporter_modules(out: Path, placement_mode: str) -> Path:
         for level in range(len(config.lods)):
             file = f"{bid}/lod{level}.glb"
             write_glb(folder / file, 10.0 - level)
-            lods.append({"level": level, "file": file, "triangles": 2, "vertices": 4, "texture_size": [0, 0]})
-        records.append({
-            "id": bid, "source": f"{bid}.xdo", "input_hash": "0" * 64,
-            "center": {"lon": ref.lon, "lat": ref.lat, "elev": ref.elev},
-            "placement": building_placement(ref, config.globe),
-            "relative_placement": relative_placement(ref, tile, config.globe),
-            "lods": lods, "problems": [],
-        })
-    manifest = build_manifest(tile, (west, south, east, north), {"lon": lon0, "lat": lat0, "elev": 0.0},
-                              tile_placement(tile, config.globe), config, records,
-                              [Skipped(source="B9.xdo", reason="no triangles", id="B9")])
+            lods.append(
+                {
+                    "level": level,
+                    "file": file,
+                    "triangles": 2,
+                    "vertices": 4,
+                    "texture_size": [0, 0],
+                }
+            )
+        records.append(
+            {
+                "id": bid,
+                "source": f"{bid}.xdo",
+                "input_hash": "0" * 64,
+                "center": {"lon": ref.lon, "lat": ref.lat, "elev": ref.elev},
+                "placement": building_placement(ref, config.globe),
+                "relative_placement": relative_placement(ref, tile, config.globe),
+                "lods": lods,
+                "problems": [],
+            }
+        )
+    manifest = build_manifest(
+        tile,
+        (west, south, east, north),
+        {"lon": lon0, "lat": lat0, "elev": 0.0},
+        tile_placement(tile, config.globe),
+        config,
+        records,
+        [Skipped(source="B9.xdo", reason="no triangles", id="B9")],
+    )
     validate_manifest(manifest)
     path = folder / MANIFEST_NAME
     path.write_text(dumps(manifest), encoding="utf-8")
@@ -211,12 +269,21 @@ def broken_variants(manifest_path: Path) -> list[tuple[Path, str]]:
         path.write_text(json.dumps(data), encoding="utf-8")
         variants.append((path, field))
 
-    variant("heights_not_decreasing", "lod_group.screen_relative_heights[1]",
-            lambda d: d["lod_group"].update(screen_relative_heights=[0.5, 0.6, 0.02]))
-    variant("nine_levels", "lod_group.screen_relative_heights",
-            lambda d: d["lod_group"].update(screen_relative_heights=[0.9 - 0.1 * k for k in range(9)]))
-    variant("missing_file", f"buildings[0] (id {first['id']}).lods[1].file",
-            lambda d: d["buildings"][0]["lods"][1].update(file=f"{first['id']}/lod1_missing.glb"))
+    variant(
+        "heights_not_decreasing",
+        "lod_group.screen_relative_heights[1]",
+        lambda d: d["lod_group"].update(screen_relative_heights=[0.5, 0.6, 0.02]),
+    )
+    variant(
+        "nine_levels",
+        "lod_group.screen_relative_heights",
+        lambda d: d["lod_group"].update(screen_relative_heights=[0.9 - 0.1 * k for k in range(9)]),
+    )
+    variant(
+        "missing_file",
+        f"buildings[0] (id {first['id']}).lods[1].file",
+        lambda d: d["buildings"][0]["lods"][1].update(file=f"{first['id']}/lod1_missing.glb"),
+    )
     variant("wrong_version", "version", lambda d: d.update(version="2.0"))
     variant("summary_count", "summary.buildings", lambda d: d["summary"].update(buildings=99))
     bad_json = folder / "broken_bad_json.json"
@@ -235,16 +302,35 @@ def placement_cases(path: Path) -> Path:
 
     cases = []
     rng = np.random.default_rng(11)
-    places = [(126.9780, 37.5665), (0.001, 0.001), (-179.99, -45.0), (179.99, 70.0), (-74.0, 40.7), (151.2, -33.9), (10.0, 89.0)]
+    places = [
+        (126.9780, 37.5665),
+        (0.001, 0.001),
+        (-179.99, -45.0),
+        (179.99, 70.0),
+        (-74.0, 40.7),
+        (151.2, -33.9),
+        (10.0, 89.0),
+    ]
     for unity_radius in (6378137.0, 1000.0):
         globe = GlobeOptions(unity_radius=unity_radius)
         for lon, lat in places:
             tile = tile_of(lon, lat, 15)
             west, south, east, north = tile_bounds(tile)
-            ref = GeoPoint(west + rng.random() * (east - west), south + rng.random() * (north - south), float(rng.uniform(-50, 500)))
+            ref = GeoPoint(
+                west + rng.random() * (east - west),
+                south + rng.random() * (north - south),
+                float(rng.uniform(-50, 500)),
+            )
             t, r = tile_placement(tile, globe), relative_placement(ref, tile, globe)
-            cases.append({"name": f"lon {lon} lat {lat} UR {unity_radius:g}", "tile": t, "relative": r,
-                          "composed": compose(t, r), "building": building_placement(ref, globe)})
+            cases.append(
+                {
+                    "name": f"lon {lon} lat {lat} UR {unity_radius:g}",
+                    "tile": t,
+                    "relative": r,
+                    "composed": compose(t, r),
+                    "building": building_placement(ref, globe),
+                }
+            )
     path.write_text(json.dumps({"cases": cases}), encoding="utf-8")
     return path
 
@@ -253,8 +339,24 @@ def name_cases(path: Path) -> Path:
     """Building ids and the exporter's safe folder names for them (prefab names must match)."""
     from exporter.pipeline import safe_folder_name
 
-    ids = ["B1", "a/b", "..", "\u00e9\u00e8", "B/2", "x" * 100 + "/", "11000000123_0", "with space", "_x_", "a..b", "-", "\u5efa\u7269 3"]
-    path.write_text(json.dumps({"names": [{"id": i, "safe": safe_folder_name(i)} for i in ids]}), encoding="utf-8")
+    ids = [
+        "B1",
+        "a/b",
+        "..",
+        "\u00e9\u00e8",
+        "B/2",
+        "x" * 100 + "/",
+        "11000000123_0",
+        "with space",
+        "_x_",
+        "a..b",
+        "-",
+        "\u5efa\u7269 3",
+    ]
+    path.write_text(
+        json.dumps({"names": [{"id": i, "safe": safe_folder_name(i)} for i in ids]}),
+        encoding="utf-8",
+    )
     return path
 
 
@@ -267,13 +369,20 @@ def check_run(result: subprocess.CompletedProcess, min_passed: int) -> str:
 
 @needs_mono
 @pytest.mark.parametrize("mode", ["tile_relative", "globe"])
-def test_csharp_plans_a_manifest_from_the_exporter_modules_and_refuses_broken_ones(build, tmp_path, mode):
+def test_csharp_plans_a_manifest_from_the_exporter_modules_and_refuses_broken_ones(
+    build, tmp_path, mode
+):
     manifest = manifest_from_exporter_modules(tmp_path, mode)
     args = ["--manifest", manifest]
     variants = broken_variants(manifest)
     for path, field in variants:
         args += ["--broken", path, field]
-    args += ["--placements", placement_cases(tmp_path / "placements.json"), "--names", name_cases(tmp_path / "names.json")]
+    args += [
+        "--placements",
+        placement_cases(tmp_path / "placements.json"),
+        "--names",
+        name_cases(tmp_path / "names.json"),
+    ]
     out = check_run(run_csharp(build, *args), 57 + 6 + len(variants) + 15 + 1)
     errors = [line for line in out.splitlines() if line.startswith("ERROR ")]
     assert len(errors) == len(variants)
@@ -291,7 +400,10 @@ def test_csharp_detects_a_wrong_placement(build, tmp_path):
     manifest.write_text(json.dumps(data))
     result = run_csharp(build, "--manifest", manifest)
     assert result.returncode != 0
-    assert "FAIL exported: tile root composed with relative_placement is the globe placement: B1" in result.stdout
+    assert (
+        "FAIL exported: tile root composed with relative_placement is the globe placement: B1"
+        in result.stdout
+    )
 
 
 REAL_DATA = REPO / ".." / "shared" / "data" / "real"
@@ -304,8 +416,24 @@ def test_csharp_plans_the_real_export_of_real_cityjson(build, tmp_path):
     if not source.is_dir():
         pytest.skip(f"../shared/data/real not present: {source} is missing")
     out = tmp_path / "out"
-    export = subprocess.run([sys.executable, "-m", "exporter", "export", str(source), "--out", str(out), "--quiet", "--jobs", "1"],
-                            cwd=REPO, capture_output=True, text=True, timeout=300)
+    export = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "exporter",
+            "export",
+            str(source),
+            "--out",
+            str(out),
+            "--quiet",
+            "--jobs",
+            "1",
+        ],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert export.returncode == 0, export.stdout + export.stderr
     (manifest,) = out.glob("*/lod_manifest.json")
     assert json.loads(manifest.read_text())["buildings"], "the real export has buildings"
@@ -318,7 +446,11 @@ def test_csharp_plans_the_real_export_of_real_cityjson(build, tmp_path):
 
 def demo_tile() -> Path | None:
     samples = REPO / "samples"
-    tiles = sorted(p for p in samples.iterdir() if p.is_dir() and any(p.glob("*.dat"))) if samples.is_dir() else []
+    tiles = (
+        sorted(p for p in samples.iterdir() if p.is_dir() and any(p.glob("*.dat")))
+        if samples.is_dir()
+        else []
+    )
     return tiles[0] if tiles else None
 
 
@@ -329,8 +461,13 @@ def test_csharp_plans_the_real_export_of_the_demo_tile(build, tmp_path):
     if tile is None:
         pytest.skip("samples/ holds no demo tile (a folder with .dat files) yet")
     out = tmp_path / "out"
-    export = subprocess.run([sys.executable, "-m", "exporter", "export", str(tile), "--out", str(out), "--quiet"],
-                            cwd=REPO, capture_output=True, text=True, timeout=300)
+    export = subprocess.run(
+        [sys.executable, "-m", "exporter", "export", str(tile), "--out", str(out), "--quiet"],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert export.returncode == 0, export.stdout + export.stderr
     (manifest,) = out.glob("*/lod_manifest.json")
     args = ["--manifest", manifest]

@@ -1,4 +1,5 @@
 """The VWorld ``.dat``/``.xdo`` byte layouts: byte-for-byte round trips and the disputed points."""
+
 from __future__ import annotations
 
 import struct
@@ -9,8 +10,20 @@ import pytest
 
 from exporter.errors import ReadError
 from exporter.formats.vworld_binary import (
-    DatFile, DatObject, XdoFile, XdoMesh, color_bytes, color_rgba, decode_text, parse_dat, parse_xdo,
-    serialise_dat, serialise_xdo, version_bytes, xdo_version_of, xml_error,
+    DatFile,
+    DatObject,
+    XdoFile,
+    XdoMesh,
+    color_bytes,
+    color_rgba,
+    decode_text,
+    parse_dat,
+    parse_xdo,
+    serialise_dat,
+    serialise_xdo,
+    version_bytes,
+    xdo_version_of,
+    xml_error,
 )
 
 XML_PAGE = b'<?xml version="1.0" encoding="UTF-8"?>\n<response><error>ERROR_SERVICE_FILE_NOTTHING</error></response>'
@@ -29,15 +42,27 @@ def xdo(version: int, meshes: list[XdoMesh], key: bytes = b"BLD_0001") -> XdoFil
 
 
 def assert_same_xdo(a: XdoFile, b: XdoFile) -> None:
-    assert (a.version, a.type, a.object_id, a.key, a.bbox) == (b.version, b.type, b.object_id, b.key, b.bbox)
+    assert (a.version, a.type, a.object_id, a.key, a.bbox) == (
+        b.version,
+        b.type,
+        b.object_id,
+        b.key,
+        b.bbox,
+    )
     assert np.float32(a.altitude).tobytes() == np.float32(b.altitude).tobytes()
     assert len(a.meshes) == len(b.meshes)
     for m, n in zip(a.meshes, b.meshes):
         assert np.array_equal(m.vertices, n.vertices) and np.array_equal(m.indices, n.indices)
-        assert (m.color, m.image_level, m.image_name, m.thumbnail) == (n.color, n.image_level, n.image_name, n.thumbnail)
+        assert (m.color, m.image_level, m.image_name, m.thumbnail) == (
+            n.color,
+            n.image_level,
+            n.image_name,
+            n.thumbnail,
+        )
 
 
 # --------------------------------------------------------------------------- .xdo round trips
+
 
 def test_version1_single_mesh_round_trips_byte_for_byte():
     original = xdo(1, [mesh(1, thumbnail=b"\xff\xd8tiny-jpeg\xff\xd9")])
@@ -66,7 +91,11 @@ def test_version2_multi_mesh_round_trips_and_unknown_version_is_detected():
 def test_empty_image_name_with_and_without_thumbnail(version, thumbnail):
     meshes = [mesh(6, name=b"", thumbnail=thumbnail)]
     if version == 2:
-        meshes = [mesh(7, name=b"", thumbnail=thumbnail), mesh(8, name=b"x.jpg"), mesh(9, name=b"", thumbnail=thumbnail)]
+        meshes = [
+            mesh(7, name=b"", thumbnail=thumbnail),
+            mesh(8, name=b"x.jpg"),
+            mesh(9, name=b"", thumbnail=thumbnail),
+        ]
     original = xdo(version, meshes)
     data = serialise_xdo(original)
     for declared in (version, None):
@@ -81,7 +110,9 @@ def test_declared_version_that_does_not_fit_is_refused():
         parse_xdo(data, "d.xdo", 1)
 
 
-@pytest.mark.parametrize("text,encoding", [("서울시청", "utf-8"), ("서울시청", "euc-kr"), ("Gebäude", "utf-8")])
+@pytest.mark.parametrize(
+    "text,encoding", [("서울시청", "utf-8"), ("서울시청", "euc-kr"), ("Gebäude", "utf-8")]
+)
 def test_non_ascii_keys_keep_raw_bytes_and_decode(text, encoding):
     raw = text.encode(encoding)
     original = xdo(2, [mesh(12, name=f"{text}.jpg".encode(encoding))], key=raw)
@@ -99,25 +130,40 @@ def test_undecodable_strings_fall_back_to_latin1():
 
 def test_signalling_nan_altitude_round_trips():
     data = bytearray(serialise_xdo(xdo(1, [mesh(13)])))
-    data[1 + 4 + 9 + 48:1 + 4 + 9 + 48 + 4] = bytes.fromhex("0100807f")  # a signalling NaN f32
+    data[1 + 4 + 9 + 48 : 1 + 4 + 9 + 48 + 4] = bytes.fromhex("0100807f")  # a signalling NaN f32
     assert serialise_xdo(parse_xdo(bytes(data), "n.xdo", 1)) == bytes(data)
 
 
 # --------------------------------------------------------------------------- .dat
 
+
 def dat_object(i: int, key: bytes) -> DatObject:
-    return DatObject(version_bytes(2), 8, key, 126.978 + i * 1e-4, 37.5665, np.float32(38.5 + i),
-                     (1.0, 2.0, 3.0, 4.0, 5.0, 6.0), 0, key + b".xdo", key + b".jpg")
+    return DatObject(
+        version_bytes(2),
+        8,
+        key,
+        126.978 + i * 1e-4,
+        37.5665,
+        np.float32(38.5 + i),
+        (1.0, 2.0, 3.0, 4.0, 5.0, 6.0),
+        0,
+        key + b".xdo",
+        key + b".jpg",
+    )
 
 
 def test_dat_round_trips_byte_for_byte():
-    original = DatFile(15, 279418, 116113, [dat_object(0, b"A"), dat_object(1, "가나".encode("euc-kr"))])
+    original = DatFile(
+        15, 279418, 116113, [dat_object(0, b"A"), dat_object(1, "가나".encode("euc-kr"))]
+    )
     data = serialise_dat(original)
     assert struct.unpack_from("<4I", data) == (15, 279418, 116113, 2)
     parsed = parse_dat(data, "t.dat")
     assert (parsed.level, parsed.idx, parsed.idy) == (15, 279418, 116113)
     assert [o.key for o in parsed.objects] == [b"A", "가나".encode("euc-kr")]
-    assert parsed.objects[1].center_lon == pytest.approx(126.9781) and parsed.objects[1].altitude == np.float32(39.5)
+    assert parsed.objects[1].center_lon == pytest.approx(126.9781) and parsed.objects[
+        1
+    ].altitude == np.float32(39.5)
     assert parsed.objects[0].xdo_version == 2
     assert serialise_dat(parsed) == data
     with_trailing = data + b"\x00\x00"
@@ -135,6 +181,7 @@ def test_version_bytes():
 
 # --------------------------------------------------------------------------- colours
 
+
 def test_colour_is_read_as_bgra_and_written_back():
     assert color_rgba(bytes((0, 128, 255, 255))) == pytest.approx((1.0, 128 / 255, 0.0, 1.0))
     assert color_bytes((1.0, 128 / 255, 0.0, 1.0)) == bytes((0, 128, 255, 255))
@@ -144,10 +191,13 @@ def test_colour_is_read_as_bgra_and_written_back():
 
 # --------------------------------------------------------------------------- bad input
 
+
 def test_xml_error_page_is_named():
     assert xml_error(XML_PAGE) == "ERROR_SERVICE_FILE_NOTTHING"
     assert xml_error(b"\x08\x00") is None
-    with pytest.raises(ReadError, match=r"x\.xdo: is an XML error page .*ERROR_SERVICE_FILE_NOTTHING"):
+    with pytest.raises(
+        ReadError, match=r"x\.xdo: is an XML error page .*ERROR_SERVICE_FILE_NOTTHING"
+    ):
         parse_xdo(XML_PAGE, "x.xdo")
     with pytest.raises(ReadError, match=r"x\.dat: is an XML error page"):
         parse_dat(b"  \n<html>oops</html>", "x.dat")
@@ -167,12 +217,18 @@ def test_every_truncation_is_a_read_error():
 
 
 def test_huge_counts_fail_fast_before_allocating():
-    header = struct.pack("<BI", 8, 1) + b"\x01K" + struct.pack("<6d", *range(6)) + struct.pack("<f", 0.0)
+    header = (
+        struct.pack("<BI", 8, 1) + b"\x01K" + struct.pack("<6d", *range(6)) + struct.pack("<f", 0.0)
+    )
     tracemalloc.start()
     with pytest.raises(ReadError, match=r"vertex_count 4000000000 .* needs 128000000000 bytes"):
         parse_xdo(header + struct.pack("<I", 4_000_000_000) + b"\x00" * 64, "big.xdo", 1)
     with pytest.raises(ReadError, match="index_count"):
-        parse_xdo(header + struct.pack("<I", 0) + struct.pack("<I", 0xFFFFFFFF) + b"\x00" * 16, "big.xdo", 1)
+        parse_xdo(
+            header + struct.pack("<I", 0) + struct.pack("<I", 0xFFFFFFFF) + b"\x00" * 16,
+            "big.xdo",
+            1,
+        )
     with pytest.raises(ReadError, match="object_count"):
         parse_dat(struct.pack("<4I", 15, 1, 2, 0xFFFFFFFF) + b"\x00" * 100, "big.dat")
     peak = tracemalloc.get_traced_memory()[1]

@@ -3,6 +3,7 @@
 Only ReadError may escape; whatever parses must serialise back to the very same bytes; no parse
 allocates much more than its input (a header claiming 4e9 vertices is refused from the counts).
 """
+
 from __future__ import annotations
 
 import struct
@@ -17,7 +18,15 @@ from hypothesis import strategies as st
 
 from exporter.errors import ReadError
 from exporter.formats.vworld_binary import (
-    DatFile, DatObject, XdoFile, XdoMesh, parse_dat, parse_xdo, serialise_dat, serialise_xdo, version_bytes,
+    DatFile,
+    DatObject,
+    XdoFile,
+    XdoMesh,
+    parse_dat,
+    parse_xdo,
+    serialise_dat,
+    serialise_xdo,
+    version_bytes,
 )
 from exporter.model import Building, GeoPoint, Part, TileId
 from exporter.readers import vworld
@@ -27,8 +36,14 @@ FUZZ = settings(max_examples=300, deadline=500, suppress_health_check=[HealthChe
 
 def _mesh(seed: int, name: bytes, thumbnail) -> XdoMesh:
     rng = np.random.default_rng(seed)
-    return XdoMesh(rng.normal(size=(5, 8)).astype(np.float32), rng.integers(0, 5, 9).astype(np.uint16),
-                   b"\x01\x02\x03\x04", 1, name, thumbnail)
+    return XdoMesh(
+        rng.normal(size=(5, 8)).astype(np.float32),
+        rng.integers(0, 5, 9).astype(np.uint16),
+        b"\x01\x02\x03\x04",
+        1,
+        name,
+        thumbnail,
+    )
 
 
 def _box() -> tuple:
@@ -36,22 +51,57 @@ def _box() -> tuple:
 
 
 SEEDS_XDO = [
-    serialise_xdo(XdoFile(1, 8, 1, b"K1", _box(), np.float32(30.0), [_mesh(1, b"a.jpg", b"\xff\xd8\xff\xd9")])),
+    serialise_xdo(
+        XdoFile(1, 8, 1, b"K1", _box(), np.float32(30.0), [_mesh(1, b"a.jpg", b"\xff\xd8\xff\xd9")])
+    ),
     serialise_xdo(XdoFile(1, 8, 1, b"K1", _box(), np.float32(30.0), [_mesh(2, b"", None)])),
-    serialise_xdo(XdoFile(2, 8, 2, "건물".encode("euc-kr"), _box(), np.float32(30.0),
-                          [_mesh(3, b"a.jpg", b""), _mesh(4, b"", b"xy"), _mesh(5, b"b.jpg", b"")])),
+    serialise_xdo(
+        XdoFile(
+            2,
+            8,
+            2,
+            "건물".encode("euc-kr"),
+            _box(),
+            np.float32(30.0),
+            [_mesh(3, b"a.jpg", b""), _mesh(4, b"", b"xy"), _mesh(5, b"b.jpg", b"")],
+        )
+    ),
 ]
-SEED_DAT = serialise_dat(DatFile(15, 279418, 116113, [
-    DatObject(version_bytes(i % 2 + 1), 8, b"K%d" % i, 126.97, 37.56, np.float32(30.0), _box(), 0, b"K%d.xdo" % i, b"")
-    for i in range(3)]))
+SEED_DAT = serialise_dat(
+    DatFile(
+        15,
+        279418,
+        116113,
+        [
+            DatObject(
+                version_bytes(i % 2 + 1),
+                8,
+                b"K%d" % i,
+                126.97,
+                37.56,
+                np.float32(30.0),
+                _box(),
+                0,
+                b"K%d.xdo" % i,
+                b"",
+            )
+            for i in range(3)
+        ],
+    )
+)
 
 
 def _mutations(seeds: list[bytes]):
     seed = st.sampled_from(seeds)
-    truncated = st.tuples(seed, st.integers(0, 10_000)).map(lambda s: s[0][: s[1] % (len(s[0]) + 1)])
-    flipped = st.tuples(seed, st.lists(st.tuples(st.integers(0, 10_000), st.integers(0, 7)), min_size=1, max_size=8)).map(_flip)
+    truncated = st.tuples(seed, st.integers(0, 10_000)).map(
+        lambda s: s[0][: s[1] % (len(s[0]) + 1)]
+    )
+    flipped = st.tuples(
+        seed, st.lists(st.tuples(st.integers(0, 10_000), st.integers(0, 7)), min_size=1, max_size=8)
+    ).map(_flip)
     spliced = st.tuples(seed, st.integers(0, 10_000), st.binary(max_size=16)).map(
-        lambda s: s[0][: s[1] % (len(s[0]) + 1)] + s[2] + s[0][s[1] % (len(s[0]) + 1) + len(s[2]):])
+        lambda s: s[0][: s[1] % (len(s[0]) + 1)] + s[2] + s[0][s[1] % (len(s[0]) + 1) + len(s[2]) :]
+    )
     return st.one_of(truncated, flipped, spliced, st.binary(max_size=400))
 
 
@@ -94,8 +144,13 @@ def test_parse_dat_only_raises_read_error_and_round_trips(data):
 
 @pytest.mark.parametrize("claim", [4_000_000_000, 0xFFFFFFFF, 2**31])
 def test_header_claiming_billions_of_vertices_fails_fast(claim):
-    head = struct.pack("<BI", 8, 1) + b"\x00" + struct.pack("<6d", *range(6)) + struct.pack("<f", 0.0)
-    for version, data in ((1, head + struct.pack("<I", claim)), (2, head + b"\x01" + struct.pack("<I", claim) + b"\x00" * 32)):
+    head = (
+        struct.pack("<BI", 8, 1) + b"\x00" + struct.pack("<6d", *range(6)) + struct.pack("<f", 0.0)
+    )
+    for version, data in (
+        (1, head + struct.pack("<I", claim)),
+        (2, head + b"\x01" + struct.pack("<I", claim) + b"\x00" * 32),
+    ):
         tracemalloc.start()
         with pytest.raises(ReadError, match="vertex_count"):
             parse_xdo(data, "huge.xdo", version)
@@ -105,6 +160,7 @@ def test_header_claiming_billions_of_vertices_fails_fast(claim):
 
 
 # --------------------------------------------------------------------------- the reader on damaged files
+
 
 @pytest.fixture(scope="module")
 def tile_files(tmp_path_factory) -> Path:
@@ -118,8 +174,10 @@ def tile_files(tmp_path_factory) -> Path:
 
 
 @settings(max_examples=60, deadline=1000, suppress_health_check=[HealthCheck.too_slow])
-@given(flips=st.lists(st.tuples(st.integers(0, 10_000), st.integers(0, 7)), min_size=1, max_size=6),
-       cut=st.integers(0, 10_000))
+@given(
+    flips=st.lists(st.tuples(st.integers(0, 10_000), st.integers(0, 7)), min_size=1, max_size=6),
+    cut=st.integers(0, 10_000),
+)
 def test_reader_load_only_raises_read_error(tile_files, flips, cut):
     with tempfile.TemporaryDirectory() as name:
         _load_damaged(tile_files, Path(name), flips, cut)

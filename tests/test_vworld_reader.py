@@ -1,5 +1,6 @@
 """VWorld reader and writer: building -> write_tile -> scan/load -> the same building, outward faces,
 frames, and broken inputs reported per building."""
+
 from __future__ import annotations
 
 import io
@@ -15,9 +16,14 @@ from PIL import Image
 from exporter.errors import ReadError
 from exporter.formats.vworld_binary import parse_dat, parse_xdo, serialise_dat, serialise_xdo
 from exporter.model import Building, GeoPoint, Part, Texture, TileId
-from exporter.readers import load_entry, scan_folder
-from exporter.readers import vworld
-from exporter.readers.vworld import EARTH_RADIUS_M, enu_rotation, global_point, local_to_global, lonlat_of
+from exporter.readers import load_entry, scan_folder, vworld
+from exporter.readers.vworld import (
+    EARTH_RADIUS_M,
+    enu_rotation,
+    global_point,
+    local_to_global,
+    lonlat_of,
+)
 
 SEOUL = GeoPoint(126.9780, 37.5665, 38.3)
 TILE = TileId(15, 279418, 116113)
@@ -25,7 +31,9 @@ XML_PAGE = b'<?xml version="1.0"?><response><error>ERROR_SERVICE_FILE_NOTTHING</
 
 
 def jpeg(width: int = 64, height: int = 32) -> bytes:
-    noise = np.random.default_rng(width * height).integers(0, 256, (height, width, 3), dtype=np.uint8)
+    noise = np.random.default_rng(width * height).integers(
+        0, 256, (height, width, 3), dtype=np.uint8
+    )
     buffer = io.BytesIO()
     Image.fromarray(noise).save(buffer, "JPEG")
     return buffer.getvalue()
@@ -33,8 +41,18 @@ def jpeg(width: int = 64, height: int = 32) -> bytes:
 
 def box(x0=-5.0, x1=5.0, z0=-3.0, z1=3.0, height=12.0, base=0.0):
     """A floorless box in local East/Up/North metres: 4 walls + roof, (b-a)x(c-a) outward."""
-    p = np.array([[x0, base, z0], [x1, base, z0], [x1, base, z1], [x0, base, z1],
-                  [x0, base + height, z0], [x1, base + height, z0], [x1, base + height, z1], [x0, base + height, z1]])
+    p = np.array(
+        [
+            [x0, base, z0],
+            [x1, base, z0],
+            [x1, base, z1],
+            [x0, base, z1],
+            [x0, base + height, z0],
+            [x1, base + height, z0],
+            [x1, base + height, z1],
+            [x0, base + height, z1],
+        ]
+    )
     quads = [(0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7), (4, 5, 6, 7)]
     triangles = [t for a, b, c, d in quads for t in ((a, c, b), (a, d, c))]
     return p, np.array(triangles)
@@ -70,19 +88,26 @@ def load_all(folder: Path) -> list[Building]:
 
 # --------------------------------------------------------------------------- frames
 
+
 def test_enu_rotation_is_proper_and_points_east_up_north():
     rotation = enu_rotation(SEOUL.lon, SEOUL.lat)
-    assert np.allclose(rotation @ rotation.T, np.eye(3)) and np.linalg.det(rotation) == pytest.approx(1.0)
+    assert np.allclose(rotation @ rotation.T, np.eye(3)) and np.linalg.det(
+        rotation
+    ) == pytest.approx(1.0)
     centre = global_point(SEOUL)
     assert np.linalg.norm(centre) == pytest.approx(EARTH_RADIUS_M + SEOUL.elev)
-    east, up, north = local_to_global(np.array([[100.0, 0, 0], [0, 100.0, 0], [0, 0, 100.0]]), SEOUL)
+    east, up, north = local_to_global(
+        np.array([[100.0, 0, 0], [0, 100.0, 0], [0, 0, 100.0]]), SEOUL
+    )
     lon, lat = lonlat_of(np.array([east, north, centre]))
     assert lon[0] > SEOUL.lon and lat[0] == pytest.approx(SEOUL.lat, abs=1e-6)
     assert lat[1] > SEOUL.lat and lon[1] == pytest.approx(SEOUL.lon, abs=1e-6)
     assert (lon[2], lat[2]) == pytest.approx((SEOUL.lon, SEOUL.lat))
     assert np.linalg.norm(up) == pytest.approx(EARTH_RADIUS_M + SEOUL.elev + 100.0)
     # 100 m east at latitude phi is 100 / (R cos phi) radians of longitude
-    assert math.radians(lon[0] - SEOUL.lon) == pytest.approx(100 / ((EARTH_RADIUS_M + SEOUL.elev) * math.cos(math.radians(SEOUL.lat))), rel=1e-6)
+    assert math.radians(lon[0] - SEOUL.lon) == pytest.approx(
+        100 / ((EARTH_RADIUS_M + SEOUL.elev) * math.cos(math.radians(SEOUL.lat))), rel=1e-6
+    )
 
 
 def test_written_offsets_are_in_the_vworld_global_frame(tmp_path):
@@ -90,7 +115,9 @@ def test_written_offsets_are_in_the_vworld_global_frame(tmp_path):
     xdo = parse_xdo((tmp_path / "BLD_0001.xdo").read_bytes(), "BLD_0001.xdo", 2)
     # the roof corners are 12 m up: their global radius is R + altitude + 12 m
     roof = xdo.meshes[0].positions[4:].astype(np.float64) + xdo.bbox_center
-    assert np.linalg.norm(roof, axis=1) == pytest.approx(EARTH_RADIUS_M + SEOUL.elev + 12.0, abs=0.01)
+    assert np.linalg.norm(roof, axis=1) == pytest.approx(
+        EARTH_RADIUS_M + SEOUL.elev + 12.0, abs=0.01
+    )
     dat = parse_dat((tmp_path / "15_279418_116113.dat").read_bytes(), "t.dat")
     assert (dat.level, dat.idx, dat.idy) == (15, 279418, 116113)
     assert dat.objects[0].center_lon == SEOUL.lon and dat.objects[0].data_file == b"BLD_0001.xdo"
@@ -98,11 +125,16 @@ def test_written_offsets_are_in_the_vworld_global_frame(tmp_path):
 
 # --------------------------------------------------------------------------- round trips
 
+
 @pytest.mark.parametrize("version", [1, 2])
 def test_single_part_round_trip(tmp_path, version):
     part = textured_box()
     written = vworld.write_tile(tmp_path, TILE, [building([part])], version=version)
-    assert written[0].name == "15_279418_116113.dat" and {p.name for p in written} == {"15_279418_116113.dat", "BLD_0001.xdo", "wall.jpg"}
+    assert written[0].name == "15_279418_116113.dat" and {p.name for p in written} == {
+        "15_279418_116113.dat",
+        "BLD_0001.xdo",
+        "wall.jpg",
+    }
     assert vworld.detect(tmp_path)
     (loaded,) = load_all(tmp_path)
     assert loaded.id == "BLD_0001" and loaded.tile == TILE and loaded.problems == []
@@ -117,7 +149,9 @@ def test_single_part_round_trip(tmp_path, version):
     assert got.color == pytest.approx(part.color, abs=1 / 255)
     west, south, east, north = loaded.lonlat_bounds
     assert west < SEOUL.lon < east and south < SEOUL.lat < north
-    assert (east - west) * 111320 * math.cos(math.radians(SEOUL.lat)) == pytest.approx(10.0, rel=1e-3)
+    assert (east - west) * 111320 * math.cos(math.radians(SEOUL.lat)) == pytest.approx(
+        10.0, rel=1e-3
+    )
 
 
 def test_multi_part_round_trip_shares_and_omits_textures(tmp_path):
@@ -125,7 +159,13 @@ def test_multi_part_round_trip_shares_and_omits_textures(tmp_path):
     annex = textured_box("shared.jpg", x0=6, x1=9, height=4)
     plain_p, plain_t = box(x0=-9, x1=-6, height=3)
     plain = Part(plain_p, plain_t, color=(0.2, 0.4, 0.6, 1.0))
-    other = Building(id="서울_2", source="", reference=GeoPoint(126.9790, 37.5670, 20.0), parts=[textured_box("roof.jpg")], tile=TILE)
+    other = Building(
+        id="서울_2",
+        source="",
+        reference=GeoPoint(126.9790, 37.5670, 20.0),
+        parts=[textured_box("roof.jpg")],
+        tile=TILE,
+    )
     written = vworld.write_tile(tmp_path, TILE, [building([walls, annex, plain]), other])
     assert sorted(p.name for p in written if p.suffix == ".jpg") == ["roof.jpg", "shared.jpg"]
     first, second = load_all(tmp_path)
@@ -145,7 +185,10 @@ def test_same_texture_name_with_other_bytes_gets_its_own_file(tmp_path):
     written = vworld.write_tile(tmp_path, TILE, [building([first], "A"), building([second], "B")])
     assert sorted(p.name for p in written if p.suffix == ".jpg") == ["atlas.jpg", "atlas~2.jpg"]
     a, b = load_all(tmp_path)
-    assert a.parts[0].texture.data == first.texture.data and b.parts[0].texture.data == second.texture.data
+    assert (
+        a.parts[0].texture.data == first.texture.data
+        and b.parts[0].texture.data == second.texture.data
+    )
 
 
 def test_writer_refuses_what_the_format_cannot_hold(tmp_path):
@@ -169,6 +212,7 @@ def test_euc_kr_key_in_the_dat_gives_a_decoded_id(tmp_path):
 
 
 # --------------------------------------------------------------------------- winding
+
 
 def test_loaded_box_faces_point_outward_and_agree_with_normals(tmp_path):
     vworld.write_tile(tmp_path, TILE, [building([textured_box()])])
@@ -206,6 +250,7 @@ def test_without_normals_the_centroid_decides(tmp_path):
 
 # --------------------------------------------------------------------------- broken inputs
 
+
 def written_entry(tmp_path):
     vworld.write_tile(tmp_path, TILE, [building([textured_box()])])
     (entry,) = vworld.scan(tmp_path).entries
@@ -220,11 +265,14 @@ def test_missing_xdo_is_listed_then_fails_naming_it(tmp_path):
         load_entry(entry)
 
 
-@pytest.mark.parametrize("damage,message", [
-    (lambda data: XML_PAGE, "XML error page .*ERROR_SERVICE_FILE_NOTTHING"),
-    (lambda data: data[: len(data) // 2], "truncated"),
-    (lambda data: b"", "empty file"),
-])
+@pytest.mark.parametrize(
+    "damage,message",
+    [
+        (lambda data: XML_PAGE, "XML error page .*ERROR_SERVICE_FILE_NOTTHING"),
+        (lambda data: data[: len(data) // 2], "truncated"),
+        (lambda data: b"", "empty file"),
+    ],
+)
 def test_broken_xdo_fails_naming_it(tmp_path, damage, message):
     entry = written_entry(tmp_path)
     path = tmp_path / "BLD_0001.xdo"
@@ -234,12 +282,18 @@ def test_broken_xdo_fails_naming_it(tmp_path, damage, message):
     assert caught.value.path.endswith("BLD_0001.xdo")
 
 
-@pytest.mark.parametrize("damage,message", [
-    (None, "texture wall.jpg missing"),
-    (lambda data: XML_PAGE, "texture wall.jpg is an XML error page .*ERROR_SERVICE_FILE_NOTTHING"),
-    (lambda data: data[: len(data) - 40], "texture wall.jpg is truncated"),
-    (lambda data: data[:6], "texture wall.jpg is not a readable image"),
-])
+@pytest.mark.parametrize(
+    "damage,message",
+    [
+        (None, "texture wall.jpg missing"),
+        (
+            lambda data: XML_PAGE,
+            "texture wall.jpg is an XML error page .*ERROR_SERVICE_FILE_NOTTHING",
+        ),
+        (lambda data: data[: len(data) - 40], "texture wall.jpg is truncated"),
+        (lambda data: data[:6], "texture wall.jpg is not a readable image"),
+    ],
+)
 def test_broken_texture_leaves_the_part_untextured(tmp_path, damage, message):
     entry = written_entry(tmp_path)
     path = tmp_path / "wall.jpg"
@@ -257,7 +311,11 @@ def test_broken_dat_is_skipped_and_others_still_scanned(tmp_path):
     (tmp_path / "15_1_1.dat").write_bytes(XML_PAGE)
     scan = vworld.scan(tmp_path)
     assert [e.id for e in scan.entries] == ["BLD_0001"]
-    assert len(scan.skipped) == 1 and "XML error page" in scan.skipped[0].reason and scan.skipped[0].source.endswith("15_1_1.dat")
+    assert (
+        len(scan.skipped) == 1
+        and "XML error page" in scan.skipped[0].reason
+        and scan.skipped[0].source.endswith("15_1_1.dat")
+    )
 
 
 def test_declared_version_mismatch_is_read_and_reported(tmp_path):
@@ -288,9 +346,15 @@ def test_model_far_from_the_dat_centre_is_reported(tmp_path):
 def test_entries_pickle_and_name_their_inputs(tmp_path):
     vworld.write_tile(tmp_path, TILE, [building([textured_box()])])
     (entry,) = vworld.scan(tmp_path).entries
-    assert [Path(p).name for p in entry.inputs] == ["15_279418_116113.dat", "BLD_0001.xdo", "wall.jpg"]
+    assert [Path(p).name for p in entry.inputs] == [
+        "15_279418_116113.dat",
+        "BLD_0001.xdo",
+        "wall.jpg",
+    ]
     again = pickle.loads(pickle.dumps(entry))
-    assert again == entry and str(tmp_path) not in repr(entry.key)  # the key survives moving the folder
+    assert again == entry and str(tmp_path) not in repr(
+        entry.key
+    )  # the key survives moving the folder
     assert vworld.load(again).parts[0].triangle_count == 10
 
 
@@ -311,7 +375,9 @@ def test_vworld_box_arrives_in_unity_facing_outward(tmp_path):
     xdo.meshes[0].indices = xdo.meshes[0].indices.reshape(-1, 3)[:, ::-1].reshape(-1).copy()
     path.write_bytes(serialise_xdo(xdo))
     (loaded,) = load_all(tmp_path)
-    scene = trimesh.load(io.BytesIO(glb_bytes(loaded.parts, loaded.id)), file_type="glb", process=False)
+    scene = trimesh.load(
+        io.BytesIO(glb_bytes(loaded.parts, loaded.id)), file_type="glb", process=False
+    )
     (mesh,) = scene.geometry.values()
     unity_positions = np.asarray(mesh.vertices) * [-1.0, 1.0, 1.0]
     unity_triangles = np.asarray(mesh.faces)[:, ::-1]

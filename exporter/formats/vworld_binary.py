@@ -36,12 +36,12 @@ reported as an XML error page.
 Sources: ``../shared/notes/vworld-formats.md`` (compiled from several public VWorld readers in
 Java, C#, C++, Rust and TypeScript, which agree on this layout except on the points above).
 """
+
 from __future__ import annotations
 
 import re
 import struct
 from dataclasses import dataclass, field
-from typing import Optional
 
 import numpy as np
 
@@ -65,6 +65,7 @@ _XML_CODE = re.compile(rb"[A-Z][A-Z0-9]*_[A-Z0-9_]{3,}")
 
 # --------------------------------------------------------------------------- data classes
 
+
 @dataclass
 class DatObject:
     """One object record of a ``.dat``. Strings are raw bytes (see :func:`decode_text`)."""
@@ -81,7 +82,7 @@ class DatObject:
     img_file_name: bytes
 
     @property
-    def xdo_version(self) -> Optional[int]:
+    def xdo_version(self) -> int | None:
         """The ``.xdo`` layout the record declares (1 or 2), or None when the bytes are unknown."""
         return xdo_version_of(self.version)
 
@@ -116,7 +117,7 @@ class XdoMesh:
     color: bytes  # 4 raw bytes, see color_rgba
     image_level: int
     image_name: bytes
-    thumbnail: Optional[bytes] = b""
+    thumbnail: bytes | None = b""
 
     @property
     def positions(self) -> np.ndarray:
@@ -155,6 +156,7 @@ class XdoFile:
 
 # --------------------------------------------------------------------------- small helpers
 
+
 def decode_text(raw: bytes) -> str:
     """Display text of a raw string: UTF-8, else EUC-KR, else Latin-1 (never fails)."""
     for encoding in ("utf-8", "euc-kr"):
@@ -186,14 +188,14 @@ def version_bytes(xdo_version: int) -> bytes:
     return bytes((*VERSION_PREFIX, xdo_version))
 
 
-def xdo_version_of(version: bytes) -> Optional[int]:
+def xdo_version_of(version: bytes) -> int | None:
     """1 or 2 for the version bytes 3,0,0,1 / 3,0,0,2; None for anything else."""
     if len(version) == 4 and tuple(version[:3]) == VERSION_PREFIX and version[3] in XDO_VERSIONS:
         return version[3]
     return None
 
 
-def xml_error(data: bytes) -> Optional[str]:
+def xml_error(data: bytes) -> str | None:
     """None unless ``data`` is XML (a VWorld error page); then the error code or the first text."""
     head = bytes(data[:4096]).lstrip(b"\xef\xbb\xbf \t\r\n")
     if not head.startswith(b"<"):
@@ -205,6 +207,7 @@ def xml_error(data: bytes) -> Optional[str]:
 
 
 # --------------------------------------------------------------------------- reading
+
 
 class _Malformed(Exception):
     """Internal: the bytes do not fit the layout; ``offset`` is how far parsing got."""
@@ -226,11 +229,14 @@ class _Cursor:
 
     def need(self, size: int, what: str) -> None:
         if size > self.left:
-            raise _Malformed(f"truncated: {what} needs {size} bytes at offset {self.pos}, only {self.left} left", self.pos)
+            raise _Malformed(
+                f"truncated: {what} needs {size} bytes at offset {self.pos}, only {self.left} left",
+                self.pos,
+            )
 
     def take(self, size: int, what: str) -> bytes:
         self.need(size, what)
-        chunk = self.data[self.pos:self.pos + size]
+        chunk = self.data[self.pos : self.pos + size]
         self.pos += size
         return chunk
 
@@ -255,7 +261,9 @@ class _Cursor:
         count = self.u32(what)
         if count * item_bytes > self.left:
             raise _Malformed(
-                f"truncated or corrupt: {what} {count} at offset {start} needs {count * item_bytes} bytes, only {self.left} left", start)
+                f"truncated or corrupt: {what} {count} at offset {start} needs {count * item_bytes} bytes, only {self.left} left",
+                start,
+            )
         return count
 
     def array(self, count: int, dtype: str, what: str) -> np.ndarray:
@@ -275,7 +283,9 @@ def _check_bytes(data, path: str, kind: str) -> bytes:
         raise ReadError(path, f"empty file (0 bytes), not a {kind}")
     code = xml_error(data)
     if code is not None:
-        raise ReadError(path, f"is an XML error page from the VWorld service ({code}), not a {kind}")
+        raise ReadError(
+            path, f"is an XML error page from the VWorld service ({code}), not a {kind}"
+        )
     return data
 
 
@@ -301,15 +311,23 @@ def parse_dat(data: bytes, path: str) -> DatFile:
             img_level = cursor.u8(f"{what} img_level")
             data_file = cursor.string(f"{what} data_file")
             img_file = cursor.string(f"{what} img_file_name")
-            objects.append(DatObject(version, kind, key, lon, lat, altitude, bbox, img_level, data_file, img_file))
+            objects.append(
+                DatObject(
+                    version, kind, key, lon, lat, altitude, bbox, img_level, data_file, img_file
+                )
+            )
     except _Malformed as error:
         raise ReadError(path, f"not a valid .dat tile index: {error.problem}") from None
-    return DatFile(level, idx, idy, objects, trailing=data[cursor.pos:])
+    return DatFile(level, idx, idy, objects, trailing=data[cursor.pos :])
 
 
-def _parse_mesh(cursor: _Cursor, what: str, thumbnail_when_empty: bool, seen_empty: list) -> XdoMesh:
+def _parse_mesh(
+    cursor: _Cursor, what: str, thumbnail_when_empty: bool, seen_empty: list
+) -> XdoMesh:
     vertex_count = cursor.count(f"{what} vertex_count", VERTEX_BYTES)
-    vertices = cursor.array(vertex_count * VERTEX_FLOATS, "<f4", f"{what} vertices").reshape(-1, VERTEX_FLOATS)
+    vertices = cursor.array(vertex_count * VERTEX_FLOATS, "<f4", f"{what} vertices").reshape(
+        -1, VERTEX_FLOATS
+    )
     index_count = cursor.count(f"{what} index_count", 2)
     indices = cursor.array(index_count, "<u2", f"{what} indices")
     color = cursor.take(4, f"{what} color")
@@ -317,13 +335,15 @@ def _parse_mesh(cursor: _Cursor, what: str, thumbnail_when_empty: bool, seen_emp
     image_name = cursor.string(f"{what} image_name")
     if not image_name:
         seen_empty.append(True)
-    thumbnail: Optional[bytes] = None
+    thumbnail: bytes | None = None
     if image_name or thumbnail_when_empty:
         thumbnail = cursor.take(cursor.count(f"{what} thumbnail size", 1), f"{what} thumbnail")
     return XdoMesh(vertices, indices, color, image_level, image_name, thumbnail)
 
 
-def _parse_xdo_layout(data: bytes, version: int, thumbnail_when_empty: bool, seen_empty: list) -> XdoFile:
+def _parse_xdo_layout(
+    data: bytes, version: int, thumbnail_when_empty: bool, seen_empty: list
+) -> XdoFile:
     cursor = _Cursor(data)
     kind = cursor.u8("type")
     object_id = cursor.u32("object_id")
@@ -335,14 +355,22 @@ def _parse_xdo_layout(data: bytes, version: int, thumbnail_when_empty: bool, see
     else:
         mesh_count = cursor.u8("face_count")
         if mesh_count * _MESH_MIN_BYTES > cursor.left:
-            raise _Malformed(f"truncated or corrupt: face_count {mesh_count} needs at least {mesh_count * _MESH_MIN_BYTES} bytes, only {cursor.left} left", cursor.pos - 1)
-    meshes = [_parse_mesh(cursor, f"mesh {i}", thumbnail_when_empty, seen_empty) for i in range(mesh_count)]
+            raise _Malformed(
+                f"truncated or corrupt: face_count {mesh_count} needs at least {mesh_count * _MESH_MIN_BYTES} bytes, only {cursor.left} left",
+                cursor.pos - 1,
+            )
+    meshes = [
+        _parse_mesh(cursor, f"mesh {i}", thumbnail_when_empty, seen_empty)
+        for i in range(mesh_count)
+    ]
     if cursor.left:
-        raise _Malformed(f"{cursor.left} bytes left over after the last mesh (offset {cursor.pos})", cursor.pos)
+        raise _Malformed(
+            f"{cursor.left} bytes left over after the last mesh (offset {cursor.pos})", cursor.pos
+        )
     return XdoFile(version, kind, object_id, key, bbox, altitude, meshes)
 
 
-def parse_xdo(data: bytes, path: str, version: Optional[int] = None) -> XdoFile:
+def parse_xdo(data: bytes, path: str, version: int | None = None) -> XdoFile:
     """Parse an ``.xdo`` building model; ``path`` only names the file in errors.
 
     ``version`` is 1 (3.0.0.1), 2 (3.0.0.2) or None (unknown: both layouts are tried). Of the
@@ -353,8 +381,8 @@ def parse_xdo(data: bytes, path: str, version: Optional[int] = None) -> XdoFile:
     if version is not None and version not in XDO_VERSIONS:
         raise ValueError(f"version must be None or one of {XDO_VERSIONS}, got {version!r}")
     data = _check_bytes(data, path, ".xdo model")
-    best: Optional[tuple] = None
-    for layout in ([version] if version else [2, 1]):
+    best: tuple | None = None
+    for layout in [version] if version else [2, 1]:
         for thumbnail_when_empty in (True, False):
             seen_empty: list = []
             try:
@@ -371,10 +399,13 @@ def parse_xdo(data: bytes, path: str, version: Optional[int] = None) -> XdoFile:
 
 # --------------------------------------------------------------------------- writing
 
+
 def _string(raw: bytes, what: str) -> bytes:
     raw = bytes(raw)
     if len(raw) > MAX_STRING_BYTES:
-        raise ValueError(f"{what} is {len(raw)} bytes; a VWorld string holds at most {MAX_STRING_BYTES}")
+        raise ValueError(
+            f"{what} is {len(raw)} bytes; a VWorld string holds at most {MAX_STRING_BYTES}"
+        )
     return bytes((len(raw),)) + raw
 
 
@@ -396,10 +427,15 @@ def serialise_dat(dat: DatFile) -> bytes:
         if len(obj.version) != 4:
             raise ValueError(f"object {i}: version must be 4 bytes, got {len(obj.version)}")
         out += [
-            bytes(obj.version), struct.pack("<B", obj.type), _string(obj.key, f"object {i} key"),
-            struct.pack("<2d", obj.center_lon, obj.center_lat), _f32(obj.altitude),
-            _bbox(obj.bbox, f"object {i} bbox"), struct.pack("<B", obj.img_level),
-            _string(obj.data_file, f"object {i} data_file"), _string(obj.img_file_name, f"object {i} img_file_name"),
+            bytes(obj.version),
+            struct.pack("<B", obj.type),
+            _string(obj.key, f"object {i} key"),
+            struct.pack("<2d", obj.center_lon, obj.center_lat),
+            _f32(obj.altitude),
+            _bbox(obj.bbox, f"object {i} bbox"),
+            struct.pack("<B", obj.img_level),
+            _string(obj.data_file, f"object {i} data_file"),
+            _string(obj.img_file_name, f"object {i} img_file_name"),
         ]
     out.append(bytes(dat.trailing))
     return b"".join(out)
@@ -408,18 +444,26 @@ def serialise_dat(dat: DatFile) -> bytes:
 def _mesh_bytes(mesh: XdoMesh, what: str) -> list:
     vertices = np.asarray(mesh.vertices)
     if vertices.ndim != 2 or vertices.shape[1] != VERTEX_FLOATS:
-        raise ValueError(f"{what}: vertices must have shape (n, {VERTEX_FLOATS}), got {vertices.shape}")
+        raise ValueError(
+            f"{what}: vertices must have shape (n, {VERTEX_FLOATS}), got {vertices.shape}"
+        )
     indices = np.asarray(mesh.indices)
     if indices.size and (indices.min() < 0 or indices.max() > MAX_INDEX):
         raise ValueError(f"{what}: indices must fit u16 (0..{MAX_INDEX})")
     if len(mesh.color) != 4:
         raise ValueError(f"{what}: color must be 4 bytes, got {len(mesh.color)}")
     if mesh.thumbnail is None and mesh.image_name:
-        raise ValueError(f"{what}: a mesh with an image_name always carries a thumbnail field (use b'')")
+        raise ValueError(
+            f"{what}: a mesh with an image_name always carries a thumbnail field (use b'')"
+        )
     out = [
-        struct.pack("<I", len(vertices)), vertices.astype("<f4", copy=False).tobytes(),
-        struct.pack("<I", indices.size), indices.astype("<u2").tobytes(),
-        bytes(mesh.color), struct.pack("<B", mesh.image_level), _string(mesh.image_name, f"{what} image_name"),
+        struct.pack("<I", len(vertices)),
+        vertices.astype("<f4", copy=False).tobytes(),
+        struct.pack("<I", indices.size),
+        indices.astype("<u2").tobytes(),
+        bytes(mesh.color),
+        struct.pack("<B", mesh.image_level),
+        _string(mesh.image_name, f"{what} image_name"),
     ]
     if mesh.thumbnail is not None:
         out += [struct.pack("<I", len(mesh.thumbnail)), bytes(mesh.thumbnail)]
@@ -441,8 +485,15 @@ def serialise_xdo(xdo: XdoFile) -> bytes:
         raise ValueError(f".xdo 3.0.0.2 holds at most {MAX_MESHES} meshes, got {len(xdo.meshes)}")
     empty_thumbnails = {m.thumbnail is None for m in xdo.meshes if not m.image_name}
     if len(empty_thumbnails) > 1:
-        raise ValueError("meshes with an empty image_name must all have a thumbnail field or all lack it")
-    out = [struct.pack("<BI", xdo.type, xdo.object_id), _string(xdo.key, "key"), _bbox(xdo.bbox, "bbox"), _f32(xdo.altitude)]
+        raise ValueError(
+            "meshes with an empty image_name must all have a thumbnail field or all lack it"
+        )
+    out = [
+        struct.pack("<BI", xdo.type, xdo.object_id),
+        _string(xdo.key, "key"),
+        _bbox(xdo.bbox, "bbox"),
+        _f32(xdo.altitude),
+    ]
     if xdo.version == 2:
         out.append(struct.pack("<B", len(xdo.meshes)))
     for i, mesh in enumerate(xdo.meshes):

@@ -14,12 +14,13 @@ Each format module (``vworld``, ``cityjson``, ``folder``) provides ``detect(fold
 ``scan(folder, options) -> Scan`` and ``load(entry, options) -> Building``. Entries are plain
 picklable data (they cross process boundaries).
 """
+
 from __future__ import annotations
 
 import importlib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Optional
+from typing import Any
 
 from ..config import ReaderOptions
 from ..errors import InputError, ReadError
@@ -39,7 +40,7 @@ class Entry:
     format: str
     id: str
     source: str
-    tile: Optional[TileId]
+    tile: TileId | None
     inputs: list[str]
     key: Any = None
 
@@ -73,14 +74,14 @@ def detect_format(folder: str | Path) -> str:
     )
 
 
-def scan_folder(folder: str | Path, options: Optional[ReaderOptions] = None) -> Scan:
+def scan_folder(folder: str | Path, options: ReaderOptions | None = None) -> Scan:
     """List the buildings of a tile folder (see module doc)."""
     options = options or ReaderOptions()
     name = detect_format(folder)
     return _module(name).scan(Path(folder), options)
 
 
-def load_entry(entry: Entry, options: Optional[ReaderOptions] = None) -> Building:
+def load_entry(entry: Entry, options: ReaderOptions | None = None) -> Building:
     """Read one listed building; raises only ReadError."""
     options = options or ReaderOptions()
     try:

@@ -38,13 +38,15 @@ Data form and the choices made:
 Files are parsed once per process (cache keyed by path, mtime, size and CRS), so scanning and
 loading many buildings of one file do not re-parse it.
 """
+
 from __future__ import annotations
 
 import json
 from collections import OrderedDict
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterator, Optional
+from typing import Any
 
 import mapbox_earcut
 import numpy as np
@@ -62,7 +64,13 @@ FORMAT = "cityjson"
 BUILDING_TYPES = ("Building",)
 CHILD_TYPES = ("BuildingPart", "BuildingInstallation")
 # Nesting depth of the surface level in ``boundaries`` per geometry type.
-SURFACE_DEPTH = {"MultiSurface": 1, "CompositeSurface": 1, "Solid": 2, "MultiSolid": 3, "CompositeSolid": 3}
+SURFACE_DEPTH = {
+    "MultiSurface": 1,
+    "CompositeSurface": 1,
+    "Solid": 2,
+    "MultiSolid": 3,
+    "CompositeSolid": 3,
+}
 GROUND = "GroundSurface"
 CRS_HINT = "pass --crs EPSG:<code> (e.g. --crs EPSG:7415) or set readers.crs in the config"
 _CACHE_SIZE = 4
@@ -70,6 +78,7 @@ _SNIFF_BYTES = 65536
 
 
 # --------------------------------------------------------------------------- parsed documents
+
 
 @dataclass
 class _Chunk:
@@ -82,7 +91,7 @@ class _Chunk:
 
     xyz: np.ndarray
     lonlath: np.ndarray
-    uv: Optional[np.ndarray]
+    uv: np.ndarray | None
     textures: list
 
 
@@ -93,15 +102,17 @@ class _Document:
     chunks: list[_Chunk]
     objects: dict  # CityObject id -> (chunk index, CityObject dict)
     themes: list[str] = field(default_factory=list)
-    declared_crs: Optional[str] = None  # metadata.referenceSystem as written (None when absent)
-    children: dict = field(default_factory=dict)  # id -> ids of its BuildingPart/Installation children
+    declared_crs: str | None = None  # metadata.referenceSystem as written (None when absent)
+    children: dict = field(
+        default_factory=dict
+    )  # id -> ids of its BuildingPart/Installation children
 
     @property
-    def theme(self) -> Optional[str]:
+    def theme(self) -> str | None:
         return self.themes[0] if self.themes else None
 
 
-_documents: "OrderedDict[tuple, _Document]" = OrderedDict()
+_documents: OrderedDict[tuple, _Document] = OrderedDict()
 
 
 def _fail(path: Path, problem: str) -> ReadError:
@@ -120,22 +131,26 @@ def _read_json_lines(path: Path) -> list[dict]:
             return [json.loads(line) for line in text.splitlines() if line.strip()]
         return [json.loads(text)]
     except json.JSONDecodeError as error:
-        raise _fail(path, f"is not valid JSON (line {error.lineno}, column {error.colno}: {error.msg})") from None
+        raise _fail(
+            path, f"is not valid JSON (line {error.lineno}, column {error.colno}: {error.msg})"
+        ) from None
 
 
 def _check_version(path: Path, header: dict) -> None:
     if not isinstance(header, dict) or header.get("type") != "CityJSON":
-        raise _fail(path, "is not a CityJSON file (no \"type\": \"CityJSON\")")
+        raise _fail(path, 'is not a CityJSON file (no "type": "CityJSON")')
     version = str(header.get("version", ""))
-    if not version.split(".")[0] in ("1", "2"):
+    if version.split(".")[0] not in ("1", "2"):
         raise _fail(path, f"CityJSON version {version!r} is not supported; allowed: 1.0, 1.1, 2.0")
 
 
-def _crs_of(path: Path, header: dict, override: Optional[str]) -> str:
+def _crs_of(path: Path, header: dict, override: str | None) -> str:
     declared = (header.get("metadata") or {}).get("referenceSystem")
     crs = override or declared
     if not crs:
-        raise _fail(path, f"declares no coordinate reference system (metadata.referenceSystem); {CRS_HINT}")
+        raise _fail(
+            path, f"declares no coordinate reference system (metadata.referenceSystem); {CRS_HINT}"
+        )
     try:
         geodesy.parse_crs(crs)
     except ValueError as error:
@@ -143,23 +158,27 @@ def _crs_of(path: Path, header: dict, override: Optional[str]) -> str:
     return str(crs)
 
 
-def _vertices(path: Path, raw: Any, transform: Optional[dict]) -> np.ndarray:
+def _vertices(path: Path, raw: Any, transform: dict | None) -> np.ndarray:
     """(n, 3) float64 source-CRS coordinates from CityJSON ``vertices`` and ``transform``."""
     try:
         xyz = np.asarray(raw if raw else np.zeros((0, 3)), dtype=np.float64).reshape(-1, 3)
         if transform:
-            xyz = xyz * np.asarray(transform["scale"], dtype=np.float64) + np.asarray(transform["translate"], dtype=np.float64)
+            xyz = xyz * np.asarray(transform["scale"], dtype=np.float64) + np.asarray(
+                transform["translate"], dtype=np.float64
+            )
     except (ValueError, TypeError, KeyError) as error:
         raise _fail(path, f"malformed vertices or transform ({error})") from None
     return xyz
 
 
-def _chunk(path: Path, body: dict, transform: Optional[dict], crs: str, appearance: dict) -> _Chunk:
+def _chunk(path: Path, body: dict, transform: dict | None, crs: str, appearance: dict) -> _Chunk:
     xyz = _vertices(path, body.get("vertices"), transform)
     try:
         lonlath = geodesy.to_lonlath(xyz, crs) if len(xyz) else np.zeros((0, 3))
     except ValueError as error:
-        raise _fail(path, f"coordinates cannot be converted to lon/lat: {error}; {CRS_HINT}") from None
+        raise _fail(
+            path, f"coordinates cannot be converted to lon/lat: {error}; {CRS_HINT}"
+        ) from None
     appearance = body.get("appearance") or appearance or {}
     uv = appearance.get("vertices-texture")
     try:
@@ -169,7 +188,7 @@ def _chunk(path: Path, body: dict, transform: Optional[dict], crs: str, appearan
     return _Chunk(xyz, lonlath, uv, list(appearance.get("textures") or []))
 
 
-def _parse(path: Path, crs_override: Optional[str]) -> _Document:
+def _parse(path: Path, crs_override: str | None) -> _Document:
     records = _read_json_lines(path)
     if not records:
         raise _fail(path, "is empty")
@@ -178,7 +197,9 @@ def _parse(path: Path, crs_override: Optional[str]) -> _Document:
     crs = _crs_of(path, header, crs_override)
     transform = header.get("transform")
     bodies = [header] if not path.name.endswith(".jsonl") else records[1:]
-    document = _Document(path, crs, [], {}, declared_crs=(header.get("metadata") or {}).get("referenceSystem"))
+    document = _Document(
+        path, crs, [], {}, declared_crs=(header.get("metadata") or {}).get("referenceSystem")
+    )
     for body in bodies:
         if not isinstance(body, dict) or not isinstance(body.get("CityObjects"), dict):
             raise _fail(path, "has no CityObjects mapping")
@@ -204,7 +225,7 @@ def _parse(path: Path, crs_override: Optional[str]) -> _Document:
     return document
 
 
-def _document(path: Path, crs_override: Optional[str]) -> _Document:
+def _document(path: Path, crs_override: str | None) -> _Document:
     """The parsed file, from the per-process cache when the file has not changed."""
     try:
         stat = path.stat()
@@ -222,6 +243,7 @@ def _document(path: Path, crs_override: Optional[str]) -> _Document:
 
 
 # --------------------------------------------------------------------------- building structure
+
 
 def _lod_key(lod: Any) -> tuple:
     """``"2.2"`` -> (2, 2), ``2`` -> (2,), missing -> (-1,); compares LoDs numerically."""
@@ -244,7 +266,9 @@ def _members(document: _Document, building_id: str) -> list[str]:
     return order
 
 
-def _selected_geometries(document: _Document, building_id: str) -> tuple[list[tuple[int, dict]], list[str]]:
+def _selected_geometries(
+    document: _Document, building_id: str
+) -> tuple[list[tuple[int, dict]], list[str]]:
     """(chunk index, geometry) pairs at the building's highest LoD, and notes about what was left out."""
     candidates, notes = [], []
     for object_id in _members(document, building_id):
@@ -253,7 +277,9 @@ def _selected_geometries(document: _Document, building_id: str) -> tuple[list[tu
             if not isinstance(geometry, dict):
                 continue
             if geometry.get("type") == "GeometryInstance":
-                notes.append(f"{object_id}: template geometry (GeometryInstance) is not supported and was left out")
+                notes.append(
+                    f"{object_id}: template geometry (GeometryInstance) is not supported and was left out"
+                )
             elif geometry.get("type") in SURFACE_DEPTH:
                 candidates.append((object_id, chunk, geometry))
     if not candidates:
@@ -263,13 +289,18 @@ def _selected_geometries(document: _Document, building_id: str) -> tuple[list[tu
     lods = sorted({str(g.get("lod")) for _, _, g in candidates}, key=_lod_key)
     if len(lods) > 1:
         notes.append(f"LoDs {', '.join(lods)} present; used the highest, {lods[-1]}")
-    without = sorted({oid for oid, _, _ in candidates} - {oid for oid, _, g in candidates if _lod_key(g.get("lod")) == best})
+    without = sorted(
+        {oid for oid, _, _ in candidates}
+        - {oid for oid, _, g in candidates if _lod_key(g.get("lod")) == best}
+    )
     if without:
         notes.append(f"{', '.join(without)}: no geometry at LoD {lods[-1]}, left out")
     return chosen, notes
 
 
-def _surfaces(boundaries: Any, semantics: Any, texture: Any, depth: int) -> Iterator[tuple[list, Any, Any]]:
+def _surfaces(
+    boundaries: Any, semantics: Any, texture: Any, depth: int
+) -> Iterator[tuple[list, Any, Any]]:
     """Walk ``boundaries`` down to surfaces (lists of rings), in lockstep with the semantics and
     texture ``values`` arrays (either may be None at any level). Yields (rings, semantic index or
     None, per-ring texture values or None)."""
@@ -290,29 +321,56 @@ class _Polygon:
 
     chunk: int
     rings: list
-    uv_rings: Optional[list]
-    texture: Optional[int]
+    uv_rings: list | None
+    texture: int | None
 
 
-def _polygons(document: _Document, geometries: list[tuple[int, dict]], options: ReaderOptions) -> tuple[list[_Polygon], list[str]]:
+def _polygons(
+    document: _Document, geometries: list[tuple[int, dict]], options: ReaderOptions
+) -> tuple[list[_Polygon], list[str]]:
     polygons, notes, dropped, bad_texture, malformed = [], [], 0, 0, 0
     theme = document.theme
     for chunk, geometry in geometries:
         depth = SURFACE_DEPTH[geometry["type"]]
         semantic = geometry.get("semantics") or {}
-        surface_types = [s.get("type") if isinstance(s, dict) else None for s in semantic.get("surfaces") or []]
-        tex_values = ((geometry.get("texture") or {}).get(theme) or {}).get("values") if theme else None
-        for rings, sem, tex in _surfaces(geometry.get("boundaries") or [], semantic.get("values"), tex_values, depth):
-            if options.drop_ground_surfaces and isinstance(sem, int) and 0 <= sem < len(surface_types) and surface_types[sem] == GROUND:
+        surface_types = [
+            s.get("type") if isinstance(s, dict) else None for s in semantic.get("surfaces") or []
+        ]
+        tex_values = (
+            ((geometry.get("texture") or {}).get(theme) or {}).get("values") if theme else None
+        )
+        for rings, sem, tex in _surfaces(
+            geometry.get("boundaries") or [], semantic.get("values"), tex_values, depth
+        ):
+            if (
+                options.drop_ground_surfaces
+                and isinstance(sem, int)
+                and 0 <= sem < len(surface_types)
+                and surface_types[sem] == GROUND
+            ):
                 dropped += 1
                 continue
-            if not isinstance(rings, list) or not rings or not all(isinstance(r, list) and len(r) >= 3 for r in rings):
+            if (
+                not isinstance(rings, list)
+                or not rings
+                or not all(isinstance(r, list) and len(r) >= 3 for r in rings)
+            ):
                 malformed += 1
                 continue
             texture, uv_rings = None, None
-            if isinstance(tex, list) and tex and isinstance(tex[0], list) and tex[0] and tex[0][0] is not None:
+            if (
+                isinstance(tex, list)
+                and tex
+                and isinstance(tex[0], list)
+                and tex[0]
+                and tex[0][0] is not None
+            ):
                 ok = len(tex) == len(rings) and all(
-                    isinstance(t, list) and len(t) == len(r) + 1 and all(isinstance(i, int) for i in t) for t, r in zip(tex, rings))
+                    isinstance(t, list)
+                    and len(t) == len(r) + 1
+                    and all(isinstance(i, int) for i in t)
+                    for t, r in zip(tex, rings)
+                )
                 if ok and all(t[0] == tex[0][0] for t in tex):
                     texture, uv_rings = int(tex[0][0]), [t[1:] for t in tex]
                 else:
@@ -323,11 +381,14 @@ def _polygons(document: _Document, geometries: list[tuple[int, dict]], options: 
     if bad_texture:
         notes.append(f"{bad_texture} polygon(s) with malformed texture values exported untextured")
     if malformed:
-        notes.append(f"{malformed} malformed polygon(s) (not a list of rings of 3 or more vertices) left out")
+        notes.append(
+            f"{malformed} malformed polygon(s) (not a list of rings of 3 or more vertices) left out"
+        )
     return polygons, notes
 
 
 # --------------------------------------------------------------------------- triangulation
+
 
 def newell_normal(points: np.ndarray) -> np.ndarray:
     """Area-weighted normal (3,) of a closed ring of points (k, 3) by Newell's method (unnormalised,
@@ -356,7 +417,9 @@ def triangulate_polygon(rings: list[np.ndarray], outward: np.ndarray) -> np.ndar
         triangles = np.array([[0, 1, 2]], dtype=np.int64)
     else:
         ends = np.cumsum([len(r) for r in rings]).astype(np.uint32)
-        triangles = np.asarray(mapbox_earcut.triangulate_float64(flat, ends), dtype=np.int64).reshape(-1, 3)
+        triangles = np.asarray(
+            mapbox_earcut.triangulate_float64(flat, ends), dtype=np.int64
+        ).reshape(-1, 3)
     if len(triangles):
         a, b, c = flat[triangles[:, 0]], flat[triangles[:, 1]], flat[triangles[:, 2]]
         area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
@@ -366,7 +429,8 @@ def triangulate_polygon(rings: list[np.ndarray], outward: np.ndarray) -> np.ndar
 
 # --------------------------------------------------------------------------- parts
 
-def _resolve_image(json_path: Path, name: str) -> Optional[Path]:
+
+def _resolve_image(json_path: Path, name: str) -> Path | None:
     """The image file of a texture ``image`` entry: as given relative to the JSON file, else in an
     ``appearances/`` folder next to it (cjio's and the example data's layout)."""
     base = json_path.parent
@@ -376,7 +440,7 @@ def _resolve_image(json_path: Path, name: str) -> Optional[Path]:
     return None
 
 
-def _load_texture(json_path: Path, texture: Any) -> tuple[Optional[Texture], Optional[str], Optional[str]]:
+def _load_texture(json_path: Path, texture: Any) -> tuple[Texture | None, str | None, str | None]:
     """(Texture, its file, problem): the encoded bytes of appearance texture object ``texture``."""
     name = texture.get("image") if isinstance(texture, dict) else None
     if not isinstance(name, str):
@@ -390,7 +454,13 @@ def _load_texture(json_path: Path, texture: Any) -> tuple[Optional[Texture], Opt
         return None, str(image_path), f"texture {name} {problem}: exported untextured"
 
 
-def _part(local: np.ndarray, uv: Optional[np.ndarray], corners: np.ndarray, texture: Optional[Texture], name: str) -> Part:
+def _part(
+    local: np.ndarray,
+    uv: np.ndarray | None,
+    corners: np.ndarray,
+    texture: Texture | None,
+    name: str,
+) -> Part:
     """A Part from triangle corners (m*3, 2) = (vertex index, texture-vertex index or -1); corners
     sharing both indices become one vertex."""
     unique, inverse = np.unique(corners, axis=0, return_inverse=True)
@@ -398,10 +468,17 @@ def _part(local: np.ndarray, uv: Optional[np.ndarray], corners: np.ndarray, text
     if texture is not None:
         uvs = uv[unique[:, 1]].copy()
         uvs[:, 1] = 1.0 - uvs[:, 1]  # CityJSON bottom-left origin -> glTF top-left
-    return Part(positions=local[unique[:, 0]], triangles=inverse.reshape(-1, 3), uvs=uvs, texture=texture, name=name)
+    return Part(
+        positions=local[unique[:, 0]],
+        triangles=inverse.reshape(-1, 3),
+        uvs=uvs,
+        texture=texture,
+        name=name,
+    )
 
 
 # --------------------------------------------------------------------------- contract
+
 
 def _candidate_files(folder: Path) -> list[Path]:
     files = []
@@ -437,16 +514,28 @@ def _used_vertices(document: _Document, polygons: list[_Polygon]) -> np.ndarray:
     per_chunk: dict[int, list] = {}
     for polygon in polygons:
         per_chunk.setdefault(polygon.chunk, []).extend(i for ring in polygon.rings for i in ring)
-    return np.concatenate([document.chunks[c].lonlath[np.unique(np.asarray(ids, dtype=np.int64))] for c, ids in per_chunk.items()])
+    return np.concatenate(
+        [
+            document.chunks[c].lonlath[np.unique(np.asarray(ids, dtype=np.int64))]
+            for c, ids in per_chunk.items()
+        ]
+    )
 
 
-def _plan(document: _Document, building_id: str, options: ReaderOptions) -> tuple[list[_Polygon], list[str]]:
+def _plan(
+    document: _Document, building_id: str, options: ReaderOptions
+) -> tuple[list[_Polygon], list[str]]:
     geometries, notes = _selected_geometries(document, building_id)
     polygons, more = _polygons(document, geometries, options)
     for polygon in polygons:
         count = len(document.chunks[polygon.chunk].xyz)
-        if any(not isinstance(i, int) or not 0 <= i < count for ring in polygon.rings for i in ring):
-            raise _fail(document.path, f"building {building_id}: vertex index out of range (file has {count} vertices)")
+        if any(
+            not isinstance(i, int) or not 0 <= i < count for ring in polygon.rings for i in ring
+        ):
+            raise _fail(
+                document.path,
+                f"building {building_id}: vertex index out of range (file has {count} vertices)",
+            )
     return polygons, notes + more
 
 
@@ -467,34 +556,67 @@ def scan(folder: Path, options: ReaderOptions) -> Scan:
             result.skipped.append(Skipped(source=str(path), reason=error.problem))
             continue
         declared = document.declared_crs
-        if declared and geodesy.normalise_crs_text(declared) != geodesy.normalise_crs_text(document.crs):
-            result.notes.append(f"{path.name}: declares {declared}; read as {document.crs} (readers.crs / --crs overrides it)")
+        if declared and geodesy.normalise_crs_text(declared) != geodesy.normalise_crs_text(
+            document.crs
+        ):
+            result.notes.append(
+                f"{path.name}: declares {declared}; read as {document.crs} (readers.crs / --crs overrides it)"
+            )
         if len(document.themes) > 1:
-            result.notes.append(f"{path.name}: texture themes {', '.join(document.themes)}; used the first, {document.theme}")
+            result.notes.append(
+                f"{path.name}: texture themes {', '.join(document.themes)}; used the first, {document.theme}"
+            )
         for building_id in _building_ids(document):
             try:
                 polygons, _ = _plan(document, building_id, options)
             except ReadError as error:
-                result.skipped.append(Skipped(source=str(path), reason=error.problem, id=building_id))
+                result.skipped.append(
+                    Skipped(source=str(path), reason=error.problem, id=building_id)
+                )
                 continue
             if not polygons:
-                result.skipped.append(Skipped(source=str(path), reason="no surface geometry (after dropping ground surfaces)", id=building_id))
+                result.skipped.append(
+                    Skipped(
+                        source=str(path),
+                        reason="no surface geometry (after dropping ground surfaces)",
+                        id=building_id,
+                    )
+                )
                 continue
             reference, bounds = geodesy.base_centre(_used_vertices(document, polygons))
             images = {(p.chunk, p.texture) for p in polygons if p.texture is not None}
             inputs = [str(path)]
             for chunk, index in sorted(images):
                 textures = document.chunks[chunk].textures
-                name = textures[index].get("image") if 0 <= index < len(textures) and isinstance(textures[index], dict) else None
+                name = (
+                    textures[index].get("image")
+                    if 0 <= index < len(textures) and isinstance(textures[index], dict)
+                    else None
+                )
                 found = _resolve_image(path, name) if isinstance(name, str) else None
                 if found is not None and str(found) not in inputs:
                     inputs.append(str(found))
             try:
                 tile = building_tile(bounds)
             except ValueError as error:  # e.g. a wrong CRS put the building off the globe
-                result.skipped.append(Skipped(source=str(path), reason=f"building {building_id}: {error} (is the CRS right?)", id=building_id))
+                result.skipped.append(
+                    Skipped(
+                        source=str(path),
+                        reason=f"building {building_id}: {error} (is the CRS right?)",
+                        id=building_id,
+                    )
+                )
                 continue
-            result.entries.append(Entry(format=FORMAT, id=building_id, source=str(path), tile=tile, inputs=inputs, key=building_id))
+            result.entries.append(
+                Entry(
+                    format=FORMAT,
+                    id=building_id,
+                    source=str(path),
+                    tile=tile,
+                    inputs=inputs,
+                    key=building_id,
+                )
+            )
     return result
 
 
@@ -503,17 +625,27 @@ def load(entry: Entry, options: ReaderOptions) -> Building:
     path = Path(entry.source)
     document = _document(path, options.crs)
     building_id = str(entry.key)
-    if building_id not in document.objects or document.objects[building_id][1].get("type") not in BUILDING_TYPES:
+    if (
+        building_id not in document.objects
+        or document.objects[building_id][1].get("type") not in BUILDING_TYPES
+    ):
         raise _fail(path, f"has no Building with id {building_id!r}")
     polygons, problems = _plan(document, building_id, options)
     if not polygons:
-        raise _fail(path, f"building {building_id}: no surface geometry (after dropping ground surfaces)")
+        raise _fail(
+            path, f"building {building_id}: no surface geometry (after dropping ground surfaces)"
+        )
     reference, bounds = geodesy.base_centre(_used_vertices(document, polygons))
     if document.theme and len(document.themes) > 1:
-        problems.append(f"texture themes {', '.join(document.themes)}; used the first, {document.theme}")
+        problems.append(
+            f"texture themes {', '.join(document.themes)}; used the first, {document.theme}"
+        )
 
-    local = {c: geodesy.lonlath_to_local(document.chunks[c].lonlath, reference) for c in {p.chunk for p in polygons}}
-    textures: dict[tuple, Optional[Texture]] = {}
+    local = {
+        c: geodesy.lonlath_to_local(document.chunks[c].lonlath, reference)
+        for c in {p.chunk for p in polygons}
+    }
+    textures: dict[tuple, Texture | None] = {}
     groups: dict[tuple, list[np.ndarray]] = {}
     degenerate = 0
     for polygon in polygons:
@@ -524,7 +656,9 @@ def load(entry: Entry, options: ReaderOptions) -> Building:
             if key not in textures:
                 if not 0 <= polygon.texture < len(chunk.textures):
                     textures[key] = None
-                    problems.append(f"texture index {polygon.texture} not in appearance.textures: exported untextured")
+                    problems.append(
+                        f"texture index {polygon.texture} not in appearance.textures: exported untextured"
+                    )
                 else:
                     texture, _, problem = _load_texture(path, chunk.textures[polygon.texture])
                     textures[key] = texture
@@ -544,18 +678,39 @@ def load(entry: Entry, options: ReaderOptions) -> Building:
         if not len(triangles):
             degenerate += 1
             continue
-        uv_ids = np.concatenate([np.asarray(r, dtype=np.int64) for r in polygon.uv_rings]) if key[1] >= 0 else np.full(len(vertex_ids), -1)
-        groups.setdefault(key, []).append(np.column_stack([vertex_ids[triangles.ravel()], uv_ids[triangles.ravel()]]))
+        uv_ids = (
+            np.concatenate([np.asarray(r, dtype=np.int64) for r in polygon.uv_rings])
+            if key[1] >= 0
+            else np.full(len(vertex_ids), -1)
+        )
+        groups.setdefault(key, []).append(
+            np.column_stack([vertex_ids[triangles.ravel()], uv_ids[triangles.ravel()]])
+        )
     if degenerate:
         problems.append(f"{degenerate} degenerate polygon(s) (no area) left out")
     parts = []
     for key in sorted(groups, key=lambda k: (k[0], k[1] < 0, k[1])):
         texture = textures.get(key) if key[1] >= 0 else None
         name = texture.name if texture is not None else "untextured"
-        parts.append(_part(local[key[0]], document.chunks[key[0]].uv, np.concatenate(groups[key]), texture, name))
+        parts.append(
+            _part(
+                local[key[0]],
+                document.chunks[key[0]].uv,
+                np.concatenate(groups[key]),
+                texture,
+                name,
+            )
+        )
     if not parts:
         raise _fail(path, f"building {building_id}: every polygon is degenerate")
     # CityJSON has no tile of its own: tile stays None and the pipeline files the building under the
     # tile holding the centre of lonlat_bounds (the same one scan put in Entry.tile).
-    return Building(id=building_id, source=str(path), reference=reference, parts=parts, tile=None,
-                    problems=problems, lonlat_bounds=bounds)
+    return Building(
+        id=building_id,
+        source=str(path),
+        reference=reference,
+        parts=parts,
+        tile=None,
+        problems=problems,
+        lonlat_bounds=bounds,
+    )

@@ -46,6 +46,7 @@ MTL's ``Kd`` (white for textured OBJ materials: the texture alone gives the colo
 opened while scanning); ``Building.lonlat_bounds`` gives its true extent and ``Building.tile`` is
 None, so the pipeline files it by the centre of that extent.
 """
+
 from __future__ import annotations
 
 import csv
@@ -55,7 +56,7 @@ import json
 import math
 import re
 from pathlib import Path
-from typing import Any, Optional
+from typing import Any
 
 import numpy as np
 import yaml
@@ -82,7 +83,8 @@ TO_LOCAL = {
 
 # --------------------------------------------------------------------------- index file
 
-def index_file(folder: Path) -> Optional[Path]:
+
+def index_file(folder: Path) -> Path | None:
     for name in INDEX_NAMES:
         if (folder / name).is_file():
             return folder / name
@@ -100,16 +102,25 @@ def _index_rows(path: Path) -> list[dict]:
         columns = [c.strip() for c in reader.fieldnames or []]
         missing = [c for c in ("file", "lon", "lat", "elev") if c not in columns]
         if missing:
-            raise InputError(f"{path}: missing column(s) {', '.join(missing)}; expected a header row file,lon,lat,elev[,up_axis][,id]")
-        return [{(k or "").strip(): (v.strip() if isinstance(v, str) else v) for k, v in row.items()} for row in reader]
+            raise InputError(
+                f"{path}: missing column(s) {', '.join(missing)}; expected a header row file,lon,lat,elev[,up_axis][,id]"
+            )
+        return [
+            {(k or "").strip(): (v.strip() if isinstance(v, str) else v) for k, v in row.items()}
+            for row in reader
+        ]
     try:
         data = yaml.safe_load(text) if path.suffix in (".yaml", ".yml") else json.loads(text)
     except (yaml.YAMLError, json.JSONDecodeError) as error:
-        raise InputError(f"{path}: index file is not valid {path.suffix[1:].upper()} ({str(error).splitlines()[0]})") from None
+        raise InputError(
+            f"{path}: index file is not valid {path.suffix[1:].upper()} ({str(error).splitlines()[0]})"
+        ) from None
     if isinstance(data, dict):
         data = data.get("buildings")
     if not isinstance(data, list) or not all(isinstance(row, dict) for row in data):
-        raise InputError(f"{path}: expected a list of mappings with keys file, lon, lat, elev[, up_axis][, id] (at the top level or under 'buildings')")
+        raise InputError(
+            f"{path}: expected a list of mappings with keys file, lon, lat, elev[, up_axis][, id] (at the top level or under 'buildings')"
+        )
     return data
 
 
@@ -122,7 +133,11 @@ def _row_entry(folder: Path, row: dict) -> Entry:
     if not file.lower().endswith(MODEL_SUFFIXES):
         raise ValueError(f"file {file!r} is not one of {', '.join(MODEL_SUFFIXES)}")
     values = {}
-    for key, low, high in (("lon", -180.0, 180.0), ("lat", -90.0, 90.0), ("elev", -12000.0, 100000.0)):
+    for key, low, high in (
+        ("lon", -180.0, 180.0),
+        ("lat", -90.0, 90.0),
+        ("elev", -12000.0, 100000.0),
+    ):
         raw = row.get(key)
         try:
             value = float(raw)
@@ -137,8 +152,14 @@ def _row_entry(folder: Path, row: dict) -> Entry:
     building_id = str(row.get("id") or "").strip() or Path(file).stem
     model = folder / file
     key = (file, values["lon"], values["lat"], values["elev"], up_axis)
-    return Entry(format=FORMAT, id=building_id, source=str(model), tile=tile_of(values["lon"], values["lat"], 15),
-                 inputs=[str(model)] + _dependencies(model), key=key)
+    return Entry(
+        format=FORMAT,
+        id=building_id,
+        source=str(model),
+        tile=tile_of(values["lon"], values["lat"], 15),
+        inputs=[str(model)] + _dependencies(model),
+        key=key,
+    )
 
 
 # --------------------------------------------------------------------------- dependencies
@@ -170,13 +191,13 @@ def _obj_materials(model: Path) -> tuple[list[Path], list[Path]]:
     return mtls, images
 
 
-def _gltf_header(model: Path) -> Optional[dict]:
+def _gltf_header(model: Path) -> dict | None:
     """The JSON part of a .gltf or .glb file (None when it cannot be read)."""
     try:
         data = model.read_bytes()
         if model.suffix.lower() == ".glb":
             length = int.from_bytes(data[12:16], "little")
-            return json.loads(data[20:20 + length])
+            return json.loads(data[20 : 20 + length])
         return json.loads(data)
     except (OSError, ValueError):
         return None
@@ -190,11 +211,21 @@ def _dependencies(model: Path) -> list[str]:
         mtls, images = _obj_materials(model)
         return [str(p) for p in mtls + images]
     header = _gltf_header(model) or {}
-    uris = [item.get("uri") for key in ("buffers", "images") for item in header.get(key) or [] if isinstance(item, dict)]
-    return [str(model.parent / uri) for uri in uris if isinstance(uri, str) and not uri.startswith("data:")]
+    uris = [
+        item.get("uri")
+        for key in ("buffers", "images")
+        for item in header.get(key) or []
+        if isinstance(item, dict)
+    ]
+    return [
+        str(model.parent / uri)
+        for uri in uris
+        if isinstance(uri, str) and not uri.startswith("data:")
+    ]
 
 
 # --------------------------------------------------------------------------- original image bytes
+
 
 def _encoded_images(model: Path) -> list[tuple[bytes, str]]:
     """(encoded bytes, name) of every image the model file refers to."""
@@ -220,15 +251,25 @@ def _encoded_images(model: Path) -> list[tuple[bytes, str]]:
             buffer = gltf.buffers[view.buffer]
             source = blob if buffer.uri is None else _uri_bytes(model, buffer.uri)
             if source is not None:
-                data = source[(view.byteOffset or 0):(view.byteOffset or 0) + view.byteLength]
+                data = source[(view.byteOffset or 0) : (view.byteOffset or 0) + view.byteLength]
         elif image.uri:
             data = _uri_bytes(model, image.uri)
         if data:
-            found.append((bytes(data), image.name or (Path(image.uri).name if image.uri and not image.uri.startswith("data:") else f"image{number}")))
+            found.append(
+                (
+                    bytes(data),
+                    image.name
+                    or (
+                        Path(image.uri).name
+                        if image.uri and not image.uri.startswith("data:")
+                        else f"image{number}"
+                    ),
+                )
+            )
     return found
 
 
-def _uri_bytes(model: Path, uri: str) -> Optional[bytes]:
+def _uri_bytes(model: Path, uri: str) -> bytes | None:
     import base64
     from urllib.parse import unquote
 
@@ -244,7 +285,9 @@ def _pixel_digest(image: Image.Image) -> tuple:
     return image.size, hashlib.sha1(image.convert("RGBA").tobytes()).hexdigest()
 
 
-def _texture_for(image: Image.Image, candidates: list[tuple[bytes, str]], digests: dict) -> tuple[Texture, Optional[str]]:
+def _texture_for(
+    image: Image.Image, candidates: list[tuple[bytes, str]], digests: dict
+) -> tuple[Texture, str | None]:
     """The Texture of a decoded image: the candidate whose decoded pixels are equal (original
     bytes), else the image re-encoded as PNG with a problem note."""
     wanted = _pixel_digest(image)
@@ -262,12 +305,15 @@ def _texture_for(image: Image.Image, candidates: list[tuple[bytes, str]], digest
     buffer = io.BytesIO()
     image.save(buffer, format="PNG")
     note = "texture re-encoded as PNG (its original bytes were not found)"
-    return Texture(buffer.getvalue(), "image/png", image.width, image.height, name="texture.png"), note
+    return Texture(
+        buffer.getvalue(), "image/png", image.width, image.height, name="texture.png"
+    ), note
 
 
 # --------------------------------------------------------------------------- meshes
 
-def _material_of(visual) -> tuple[Optional[Image.Image], tuple]:
+
+def _material_of(visual) -> tuple[Image.Image | None, tuple]:
     """(texture image or None, RGBA colour 0..1) of a trimesh visual."""
     material = getattr(visual, "material", None)
     image, color = None, (1.0, 1.0, 1.0, 1.0)
@@ -281,12 +327,16 @@ def _material_of(visual) -> tuple[Optional[Image.Image], tuple]:
         values = np.asarray(factor).ravel()
         if values.size in (3, 4):
             # trimesh stores colours as uint8 0..255; plain floats are already 0..1.
-            scaled = values / 255.0 if np.issubdtype(values.dtype, np.integer) or values.max() > 1.0 else values.astype(np.float64)
+            scaled = (
+                values / 255.0
+                if np.issubdtype(values.dtype, np.integer) or values.max() > 1.0
+                else values.astype(np.float64)
+            )
             color = tuple(float(c) for c in np.append(scaled, 1.0)[:4])
     return image, color
 
 
-def _scene_meshes(scene) -> list[tuple[np.ndarray, np.ndarray, Optional[np.ndarray], Any]]:
+def _scene_meshes(scene) -> list[tuple[np.ndarray, np.ndarray, np.ndarray | None, Any]]:
     """(vertices (n, 3) model metres, faces (m, 3) CCW front, uv (n, 2) bottom-left origin or None,
     visual) for every mesh instance of the scene graph, node transforms applied."""
     meshes = []
@@ -295,12 +345,20 @@ def _scene_meshes(scene) -> list[tuple[np.ndarray, np.ndarray, Optional[np.ndarr
         mesh = scene.geometry[name]
         if not hasattr(mesh, "faces") or len(mesh.faces) == 0:
             continue
-        vertices = np.asarray(mesh.vertices, dtype=np.float64) @ transform[:3, :3].T + transform[:3, 3]
+        vertices = (
+            np.asarray(mesh.vertices, dtype=np.float64) @ transform[:3, :3].T + transform[:3, 3]
+        )
         faces = np.asarray(mesh.faces, dtype=np.int64)
         if np.linalg.det(transform[:3, :3]) < 0:  # a mirroring node turns faces inside out
             faces = faces[:, ::-1]
-        uv = getattr(mesh.visual, "uv", None) if getattr(mesh.visual, "kind", None) == "texture" else None
-        meshes.append((vertices, faces, None if uv is None else np.asarray(uv, dtype=np.float64), mesh.visual))
+        uv = (
+            getattr(mesh.visual, "uv", None)
+            if getattr(mesh.visual, "kind", None) == "texture"
+            else None
+        )
+        meshes.append(
+            (vertices, faces, None if uv is None else np.asarray(uv, dtype=np.float64), mesh.visual)
+        )
     return meshes
 
 
@@ -310,10 +368,14 @@ def _load_scene(model: Path):
     try:
         return trimesh.load(str(model), force="scene", process=False)
     except Exception as error:  # trimesh raises many types on malformed files
-        raise ReadError(str(model), f"cannot be read as {model.suffix[1:].upper()} ({type(error).__name__}: {error})") from None
+        raise ReadError(
+            str(model),
+            f"cannot be read as {model.suffix[1:].upper()} ({type(error).__name__}: {error})",
+        ) from None
 
 
 # --------------------------------------------------------------------------- contract
+
 
 def detect(folder: Path) -> bool:
     """True when the folder holds an index file (``buildings.csv``/``.yaml``/``.yml``/``.json``)."""
@@ -325,7 +387,9 @@ def scan(folder: Path, options: ReaderOptions) -> Scan:
     folder = Path(folder)
     index = index_file(folder)
     if index is None:
-        raise InputError(f"{folder}: no index file ({', '.join(INDEX_NAMES)}) for the OBJ/glTF/GLB models")
+        raise InputError(
+            f"{folder}: no index file ({', '.join(INDEX_NAMES)}) for the OBJ/glTF/GLB models"
+        )
     result = Scan(folder=str(folder), format=FORMAT)
     seen: set[str] = set()
     for number, row in enumerate(_index_rows(index), start=1):
@@ -333,10 +397,22 @@ def scan(folder: Path, options: ReaderOptions) -> Scan:
         try:
             entry = _row_entry(folder, row)
         except ValueError as error:
-            result.skipped.append(Skipped(source=str(index), reason=f"row {number}: {error}", id=str(row.get("id") or "") or None))
+            result.skipped.append(
+                Skipped(
+                    source=str(index),
+                    reason=f"row {number}: {error}",
+                    id=str(row.get("id") or "") or None,
+                )
+            )
             continue
         if entry.id in seen:
-            result.skipped.append(Skipped(source=source, reason=f"{index.name} row {number}: duplicate id {entry.id!r}", id=entry.id))
+            result.skipped.append(
+                Skipped(
+                    source=source,
+                    reason=f"{index.name} row {number}: duplicate id {entry.id!r}",
+                    id=entry.id,
+                )
+            )
             continue
         seen.add(entry.id)
         result.entries.append(entry)
@@ -364,7 +440,11 @@ def load(entry: Entry, options: ReaderOptions) -> Building:
     candidates, digests, problems = None, {}, []
     if model.suffix.lower() == ".obj":
         # trimesh drops a material whose image is missing; say so instead of going quietly grey.
-        problems += [f"texture {image.name} missing: exported untextured" for image in _obj_materials(model)[1] if not image.is_file()]
+        problems += [
+            f"texture {image.name} missing: exported untextured"
+            for image in _obj_materials(model)[1]
+            if not image.is_file()
+        ]
     groups: dict[Any, dict] = {}
     for (vertices, faces, uv, visual), points in zip(meshes, lonlath):
         image, color = _material_of(visual)
@@ -380,9 +460,21 @@ def load(entry: Entry, options: ReaderOptions) -> Building:
             if note and note not in problems:
                 problems.append(note)
             key = ("texture", hashlib.sha1(texture.data).hexdigest(), color)
-        group = groups.setdefault(key, {"positions": [], "triangles": [], "uvs": [], "texture": texture, "color": color, "count": 0})
+        group = groups.setdefault(
+            key,
+            {
+                "positions": [],
+                "triangles": [],
+                "uvs": [],
+                "texture": texture,
+                "color": color,
+                "count": 0,
+            },
+        )
         group["positions"].append(geodesy.lonlath_to_local(points, reference))
-        group["triangles"].append(faces[:, ::-1] + group["count"])  # reflection: reverse the winding
+        group["triangles"].append(
+            faces[:, ::-1] + group["count"]
+        )  # reflection: reverse the winding
         if texture is not None:
             flipped = uv.copy()
             flipped[:, 1] = 1.0 - flipped[:, 1]  # trimesh's bottom-left origin -> glTF top-left
@@ -392,12 +484,22 @@ def load(entry: Entry, options: ReaderOptions) -> Building:
     parts = []
     for number, group in enumerate(groups.values()):
         texture = group["texture"]
-        parts.append(Part(
-            positions=np.concatenate(group["positions"]),
-            triangles=np.concatenate(group["triangles"]),
-            uvs=np.concatenate(group["uvs"]) if texture is not None else None,
-            texture=texture, color=group["color"],
-            name=texture.name if texture is not None else f"material{number}",
-        ))
-    return Building(id=entry.id, source=str(model), reference=reference, parts=parts, tile=None,
-                    problems=problems, lonlat_bounds=bounds)
+        parts.append(
+            Part(
+                positions=np.concatenate(group["positions"]),
+                triangles=np.concatenate(group["triangles"]),
+                uvs=np.concatenate(group["uvs"]) if texture is not None else None,
+                texture=texture,
+                color=group["color"],
+                name=texture.name if texture is not None else f"material{number}",
+            )
+        )
+    return Building(
+        id=entry.id,
+        source=str(model),
+        reference=reference,
+        parts=parts,
+        tile=None,
+        problems=problems,
+        lonlat_bounds=bounds,
+    )

@@ -5,6 +5,7 @@ be written without re-encoding. Everything a tile folder may hold instead of an 
 apart: a missing or unreadable file, an XML error page served in its place (VWorld's service does
 that), something that is not an image, and an image that visibly stops early.
 """
+
 from __future__ import annotations
 
 import io
@@ -43,7 +44,9 @@ def read_texture_file(path: Path, name: str) -> Texture:
         with Image.open(io.BytesIO(data)) as image:  # reads the header only
             fmt, (width, height) = image.format, image.size
     except Exception as error:  # Pillow raises many types for bad headers
-        raise TextureFileError(f"is not a readable image ({type(error).__name__}: {error})") from None
+        raise TextureFileError(
+            f"is not a readable image ({type(error).__name__}: {error})"
+        ) from None
     if is_truncated(data, fmt):
         raise TextureFileError(f"is truncated ({len(data)} bytes)")
     mime = Image.MIME.get(fmt or "", "") or "application/octet-stream"

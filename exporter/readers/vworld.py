@@ -23,13 +23,13 @@ Files written by :func:`write_tile`: ``<level>_<idx>_<idy>.dat`` (the tile index
 ``<building id>.xdo`` per building (id made file-system safe, made unique with ``~<n>``) and each
 part's texture under its own file name (``Texture.name``) or ``<xdo stem>_<part>.jpg``/``.png``.
 """
+
 from __future__ import annotations
 
 import math
 import os
 import re
 from pathlib import Path
-from typing import Optional
 
 import numpy as np
 
@@ -37,18 +37,34 @@ from ..atomic import write_bytes_atomic
 from ..config import ReaderOptions
 from ..errors import ReadError
 from ..formats.vworld_binary import (
-    MAX_MESHES, XDO_TYPE, DatFile, DatObject, XdoFile, XdoMesh, color_bytes, color_rgba, decode_text,
-    parse_dat, parse_xdo, serialise_dat, serialise_xdo, version_bytes,
+    MAX_MESHES,
+    XDO_TYPE,
+    DatFile,
+    DatObject,
+    XdoFile,
+    XdoMesh,
+    color_bytes,
+    color_rgba,
+    decode_text,
+    parse_dat,
+    parse_xdo,
+    serialise_dat,
+    serialise_xdo,
+    version_bytes,
 )
 from ..geodesy import EARTH_RADIUS_M, east_up_north, sphere_ecef, sphere_lonlath
 from ..geometry import cross_rows, unit_vectors, vertex_normals
-from .images import TextureFileError, read_texture_file
 from ..model import Building, GeoPoint, Part, Skipped, Texture, TileId
 from . import Entry, Scan
+from .images import TextureFileError, read_texture_file
 
 MAX_PART_VERTICES = 65535  # u16 indices
-ALTITUDE_MISMATCH_M = 10.0  # report when the model's base is further than this from the .dat altitude
-CENTRE_MISMATCH_M = 100.0  # report when the model's centre is further than this from the .dat lon/lat
+ALTITUDE_MISMATCH_M = (
+    10.0  # report when the model's base is further than this from the .dat altitude
+)
+CENTRE_MISMATCH_M = (
+    100.0  # report when the model's centre is further than this from the .dat lon/lat
+)
 BBOX_MISMATCH_M = 1.0  # report when the .dat and .xdo bounding boxes differ by more than this
 DISAGREEING_SHARE = 0.1  # report a mesh whose winding disagrees with its normals on more triangles
 
@@ -75,12 +91,16 @@ def global_point(point: GeoPoint) -> np.ndarray:
 
 def global_to_local(points: np.ndarray, reference: GeoPoint) -> np.ndarray:
     """(n, 3) VWorld global positions (metres) -> local East/Up/North (metres) at ``reference``."""
-    return (np.asarray(points, dtype=np.float64) - global_point(reference)) @ enu_rotation(reference.lon, reference.lat).T
+    return (np.asarray(points, dtype=np.float64) - global_point(reference)) @ enu_rotation(
+        reference.lon, reference.lat
+    ).T
 
 
 def local_to_global(points: np.ndarray, reference: GeoPoint) -> np.ndarray:
     """(n, 3) local East/Up/North positions (metres) at ``reference`` -> VWorld global (metres)."""
-    return np.asarray(points, dtype=np.float64) @ enu_rotation(reference.lon, reference.lat) + global_point(reference)
+    return np.asarray(points, dtype=np.float64) @ enu_rotation(
+        reference.lon, reference.lat
+    ) + global_point(reference)
 
 
 def lonlat_of(points: np.ndarray) -> tuple:
@@ -90,6 +110,7 @@ def lonlat_of(points: np.ndarray) -> tuple:
 
 
 # --------------------------------------------------------------------------- winding
+
 
 def winding_votes(positions: np.ndarray, triangles: np.ndarray, directions: np.ndarray) -> tuple:
     """(agree, disagree): triangles whose ``(b-a)x(c-a)`` has a positive / negative dot with
@@ -101,8 +122,9 @@ def winding_votes(positions: np.ndarray, triangles: np.ndarray, directions: np.n
     return int((dots > 0).sum()), int((dots < 0).sum())
 
 
-def outward_triangles(positions: np.ndarray, triangles: np.ndarray, normals: np.ndarray,
-                      centroid: np.ndarray) -> tuple:
+def outward_triangles(
+    positions: np.ndarray, triangles: np.ndarray, normals: np.ndarray, centroid: np.ndarray
+) -> tuple:
     """Triangles (m, 3) reordered so ``(b-a)x(c-a)`` points outward, with (agree, disagree) votes.
 
     The stored vertex ``normals`` vote; when they give no vote (all zero) the direction from the
@@ -118,6 +140,7 @@ def outward_triangles(positions: np.ndarray, triangles: np.ndarray, normals: np.
 
 # --------------------------------------------------------------------------- files
 
+
 def detect(folder: str | Path) -> bool:
     """True when the folder holds any ``.dat`` tile index."""
     return any(_dat_files(Path(folder)))
@@ -127,7 +150,7 @@ def _dat_files(folder: Path) -> list[Path]:
     return sorted(p for p in folder.iterdir() if p.suffix.lower() == ".dat" and p.is_file())
 
 
-def _find(folder: Path, raw_name: bytes) -> Optional[Path]:
+def _find(folder: Path, raw_name: bytes) -> Path | None:
     """The file a raw VWorld string names: its exact bytes, its decoded text, then any case."""
     if not raw_name:
         return None
@@ -159,7 +182,8 @@ def _read(path: Path) -> bytes:
 
 # --------------------------------------------------------------------------- scan
 
-def scan(folder: str | Path, options: Optional[ReaderOptions] = None) -> Scan:
+
+def scan(folder: str | Path, options: ReaderOptions | None = None) -> Scan:
     """One :class:`Entry` per ``.dat`` object record of every ``.dat`` in ``folder``.
 
     ``Entry.key`` = (dat file name, record index, the :class:`DatObject`); ``Entry.source`` = the
@@ -177,21 +201,38 @@ def scan(folder: str | Path, options: Optional[ReaderOptions] = None) -> Scan:
             continue
         tile = TileId(dat.level, dat.idx, dat.idy)
         if dat.trailing:
-            result.notes.append(f"{dat_path}: {len(dat.trailing)} bytes after the last object record ignored")
+            result.notes.append(
+                f"{dat_path}: {len(dat.trailing)} bytes after the last object record ignored"
+            )
         for index, record in enumerate(dat.objects):
             xdo_path = _find(folder, record.data_file)
             if xdo_path is None and record.key:
                 xdo_path = _find(folder, record.key + b".xdo")
             if xdo_path is None:
                 if not record.data_file:
-                    result.skipped.append(Skipped(source=str(dat_path), reason=f"object {index} names no .xdo file (empty data_file)", id=decode_text(record.key) or None, tile=tile))
+                    result.skipped.append(
+                        Skipped(
+                            source=str(dat_path),
+                            reason=f"object {index} names no .xdo file (empty data_file)",
+                            id=decode_text(record.key) or None,
+                            tile=tile,
+                        )
+                    )
                     continue
                 xdo_path = _expected(folder, record.data_file)
             building_id = _unique(decode_text(record.key).strip() or xdo_path.stem, used_ids)
             inputs = [str(dat_path)] + ([str(xdo_path)] if xdo_path.is_file() else [])
             inputs += [str(p) for p in _texture_files(folder, xdo_path, record)]
-            result.entries.append(Entry(format="vworld", id=building_id, source=str(xdo_path), tile=tile,
-                                        inputs=inputs, key=(dat_path.name, index, record)))
+            result.entries.append(
+                Entry(
+                    format="vworld",
+                    id=building_id,
+                    source=str(xdo_path),
+                    tile=tile,
+                    inputs=inputs,
+                    key=(dat_path.name, index, record),
+                )
+            )
     return result
 
 
@@ -216,7 +257,8 @@ def _texture_files(folder: Path, xdo_path: Path, record: DatObject) -> list[Path
 
 # --------------------------------------------------------------------------- load
 
-def load(entry: Entry, options: Optional[ReaderOptions] = None) -> Building:
+
+def load(entry: Entry, options: ReaderOptions | None = None) -> Building:
     """Read one building: its ``.xdo`` and textures, in the local East/Up/North frame.
 
     Raises :class:`ReadError` naming the ``.xdo`` when it is missing, truncated, an XML error page
@@ -230,7 +272,10 @@ def load(entry: Entry, options: Optional[ReaderOptions] = None) -> Building:
     problems: list[str] = []
 
     if not xdo_path.is_file():
-        raise ReadError(str(xdo_path), f"missing: object {index} ({decode_text(record.key)!r}) of {dat_name} names this .xdo model")
+        raise ReadError(
+            str(xdo_path),
+            f"missing: object {index} ({decode_text(record.key)!r}) of {dat_name} names this .xdo model",
+        )
     xdo = _parse_declared(_read(xdo_path), xdo_path, record, problems)
     reference = _reference(record, xdo, dat_path, xdo_path, problems)
     # The frame once per building: global_to_local / local_to_global's arithmetic, same bits.
@@ -250,7 +295,9 @@ def load(entry: Entry, options: Optional[ReaderOptions] = None) -> Building:
         if not np.all(np.isfinite(positions)):
             raise ReadError(str(xdo_path), f"mesh {j}: positions are not finite")
         normals = mesh.normals.astype(np.float64)
-        if not np.isfinite(normals).all():  # nan_to_num only when needed: it costs more than the check
+        if not np.isfinite(
+            normals
+        ).all():  # nan_to_num only when needed: it costs more than the check
             normals = np.nan_to_num(normals)
         normals = unit_vectors(normals @ rotation.T)
         meshes.append((j, mesh, positions, triangles, normals))
@@ -258,28 +305,43 @@ def load(entry: Entry, options: Optional[ReaderOptions] = None) -> Building:
         raise ReadError(str(xdo_path), "holds no triangles")
 
     centroid = np.concatenate([m[2] for m in meshes]).mean(axis=0)
-    textures: dict[bytes, Optional[Texture]] = {}
+    textures: dict[bytes, Texture | None] = {}
     parts = []
     for j, mesh, positions, triangles, normals in meshes:
         triangles, (agree, disagree) = outward_triangles(positions, triangles, normals, centroid)
         if disagree > DISAGREEING_SHARE * (agree + disagree):
-            problems.append(f"{xdo_path.name} mesh {j}: {disagree} of {agree + disagree} triangles are wound against the stored normals")
+            problems.append(
+                f"{xdo_path.name} mesh {j}: {disagree} of {agree + disagree} triangles are wound against the stored normals"
+            )
         if mesh.image_name and mesh.image_name not in textures:
             textures[mesh.image_name] = _texture(folder, mesh.image_name, problems)
         texture = textures.get(mesh.image_name)
         has_normals = bool(np.any(normals))
-        parts.append(Part(
-            positions=positions, triangles=triangles, normals=normals if has_normals else None,
-            uvs=mesh.uvs, texture=texture, color=_color(mesh.color),
-            name=Path(decode_text(mesh.image_name)).stem if mesh.image_name else f"mesh{j}",
-        ))
+        parts.append(
+            Part(
+                positions=positions,
+                triangles=triangles,
+                normals=normals if has_normals else None,
+                uvs=mesh.uvs,
+                texture=texture,
+                color=_color(mesh.color),
+                name=Path(decode_text(mesh.image_name)).stem if mesh.image_name else f"mesh{j}",
+            )
+        )
 
     everything = np.concatenate([p.positions for p in parts])
     _check_base(everything, center, reference, xdo_path, problems)
     lon, lat = lonlat_of(everything @ rotation + origin)  # local_to_global
     bounds = (float(lon.min()), float(lat.min()), float(lon.max()), float(lat.max()))
-    return Building(id=entry.id, source=str(xdo_path), reference=reference, parts=parts,
-                    tile=entry.tile, problems=problems, lonlat_bounds=bounds)
+    return Building(
+        id=entry.id,
+        source=str(xdo_path),
+        reference=reference,
+        parts=parts,
+        tile=entry.tile,
+        problems=problems,
+        lonlat_bounds=bounds,
+    )
 
 
 def _parse_declared(data: bytes, xdo_path: Path, record: DatObject, problems: list) -> XdoFile:
@@ -294,34 +356,54 @@ def _parse_declared(data: bytes, xdo_path: Path, record: DatObject, problems: li
             xdo = parse_xdo(data, str(xdo_path), 3 - declared)
         except ReadError:
             raise error from None
-    problems.append(f"{xdo_path.name}: the .dat declares version 3.0.0.{declared} but the file has the 3.0.0.{xdo.version} layout")
+    problems.append(
+        f"{xdo_path.name}: the .dat declares version 3.0.0.{declared} but the file has the 3.0.0.{xdo.version} layout"
+    )
     return xdo
 
 
-def _reference(record: DatObject, xdo: XdoFile, dat_path: str, xdo_path: Path, problems: list) -> GeoPoint:
+def _reference(
+    record: DatObject, xdo: XdoFile, dat_path: str, xdo_path: Path, problems: list
+) -> GeoPoint:
     """The local frame's origin: the ``.dat`` centre lon/lat at the ``.dat`` altitude."""
     lon, lat = float(record.center_lon), float(record.center_lat)
     if not (math.isfinite(lon) and math.isfinite(lat) and -90.0 <= lat <= 90.0):
-        raise ReadError(dat_path, f"object {decode_text(record.key)!r}: centre lon/lat ({lon}, {lat}) is not a valid position")
+        raise ReadError(
+            dat_path,
+            f"object {decode_text(record.key)!r}: centre lon/lat ({lon}, {lat}) is not a valid position",
+        )
     altitude = float(record.altitude)
     if not math.isfinite(altitude):
         altitude = float(xdo.altitude) if math.isfinite(float(xdo.altitude)) else 0.0
-        problems.append(f"{Path(dat_path).name}: altitude of {decode_text(record.key)!r} is not a number; used {altitude:g} m")
-    dat_box, xdo_box = np.asarray(record.bbox, dtype=np.float64), np.asarray(xdo.bbox, dtype=np.float64)
+        problems.append(
+            f"{Path(dat_path).name}: altitude of {decode_text(record.key)!r} is not a number; used {altitude:g} m"
+        )
+    dat_box, xdo_box = (
+        np.asarray(record.bbox, dtype=np.float64),
+        np.asarray(xdo.bbox, dtype=np.float64),
+    )
     if np.all(np.isfinite(dat_box)) and np.max(np.abs(dat_box - xdo_box)) > BBOX_MISMATCH_M:
-        problems.append(f"{xdo_path.name}: bounding box differs from the .dat's by {np.max(np.abs(dat_box - xdo_box)):.1f} m; used the .xdo's")
+        problems.append(
+            f"{xdo_path.name}: bounding box differs from the .dat's by {np.max(np.abs(dat_box - xdo_box)):.1f} m; used the .xdo's"
+        )
     return GeoPoint(lon, lat, altitude)
 
 
-def _triangles(mesh: XdoMesh, j: int, xdo_path: Path, problems: list) -> Optional[np.ndarray]:
+def _triangles(mesh: XdoMesh, j: int, xdo_path: Path, problems: list) -> np.ndarray | None:
     """(m, 3) int64 triangles of a mesh, None (with a problem) for an empty one."""
     if len(mesh.indices) == 0 or len(mesh.vertices) == 0:
         problems.append(f"{xdo_path.name} mesh {j}: empty (no triangles), dropped")
         return None
     if len(mesh.indices) % 3:
-        raise ReadError(str(xdo_path), f"mesh {j}: {len(mesh.indices)} indices is not a whole number of triangles")
+        raise ReadError(
+            str(xdo_path),
+            f"mesh {j}: {len(mesh.indices)} indices is not a whole number of triangles",
+        )
     if int(mesh.indices.max()) >= len(mesh.vertices):
-        raise ReadError(str(xdo_path), f"mesh {j}: index {int(mesh.indices.max())} is past the {len(mesh.vertices)} vertices")
+        raise ReadError(
+            str(xdo_path),
+            f"mesh {j}: index {int(mesh.indices.max())} is past the {len(mesh.vertices)} vertices",
+        )
     return mesh.indices.astype(np.int64).reshape(-1, 3)
 
 
@@ -330,21 +412,26 @@ def _color(raw: bytes) -> tuple:
     return (1.0, 1.0, 1.0, 1.0) if raw == b"\x00\x00\x00\x00" else color_rgba(raw)
 
 
-def _check_base(local: np.ndarray, center: np.ndarray, reference: GeoPoint, xdo_path: Path, problems: list) -> None:
+def _check_base(
+    local: np.ndarray, center: np.ndarray, reference: GeoPoint, xdo_path: Path, problems: list
+) -> None:
     """Report a model whose base or centre is far from the ``.dat`` reference (local metres)."""
     middle = (local.min(axis=0) + local.max(axis=0)) / 2.0  # metres, local East/Up/North
     offset = math.hypot(middle[0], middle[2])
     if offset > CENTRE_MISMATCH_M:
-        problems.append(f"{xdo_path.name}: model centre is {offset:.0f} m from the .dat centre lon/lat; positions kept relative to the .dat centre")
+        problems.append(
+            f"{xdo_path.name}: model centre is {offset:.0f} m from the .dat centre lon/lat; positions kept relative to the .dat centre"
+        )
     base = float(local[:, 1].min())  # metres above the reference (Up)
     if abs(base) > ALTITUDE_MISMATCH_M:
         box_height = float(np.linalg.norm(center)) - EARTH_RADIUS_M
         problems.append(
             f"{xdo_path.name}: model base is {base:+.1f} m from the .dat altitude {reference.elev:.1f} m "
-            f"(bounding-box centre height {box_height:.1f} m); positions kept relative to the .dat altitude")
+            f"(bounding-box centre height {box_height:.1f} m); positions kept relative to the .dat altitude"
+        )
 
 
-def _texture(folder: Path, raw_name: bytes, problems: list) -> Optional[Texture]:
+def _texture(folder: Path, raw_name: bytes, problems: list) -> Texture | None:
     """The texture a mesh names, or None with a ``problems`` entry naming the file."""
     name = decode_text(raw_name)
     path = _find(folder, raw_name)
@@ -360,7 +447,10 @@ def _texture(folder: Path, raw_name: bytes, problems: list) -> Optional[Texture]
 
 # --------------------------------------------------------------------------- write
 
-def write_tile(folder: str | Path, tile: TileId, buildings: list[Building], *, version: int = 2) -> list[Path]:
+
+def write_tile(
+    folder: str | Path, tile: TileId, buildings: list[Building], *, version: int = 2
+) -> list[Path]:
     """Write ``buildings`` as a VWorld tile: ``<level>_<idx>_<idy>.dat``, one ``.xdo`` each, textures.
 
     Local East/Up/North positions (metres, at each ``Building.reference``) become float32 offsets
@@ -385,7 +475,9 @@ def write_tile(folder: str | Path, tile: TileId, buildings: list[Building], *, v
     for number, building in enumerate(buildings):
         stem = _unique(_safe_name(building.id) or f"building{number}", used_stems)
         xdo, record, textures = _building_files(building, number, stem, version, texture_files)
-        written.append(write_bytes_atomic(folder / record.data_file.decode("utf-8"), serialise_xdo(xdo)))
+        written.append(
+            write_bytes_atomic(folder / record.data_file.decode("utf-8"), serialise_xdo(xdo))
+        )
         for name, data in textures:
             written.append(write_bytes_atomic(folder / name, data))
         records.append(record)
@@ -399,16 +491,24 @@ def _safe_name(text: str) -> str:
     return re.sub(r"[^\w.-]", "_", text).strip("._")[:60]
 
 
-def _building_files(building: Building, number: int, stem: str, version: int, texture_files: dict) -> tuple:
+def _building_files(
+    building: Building, number: int, stem: str, version: int, texture_files: dict
+) -> tuple:
     """(XdoFile, DatObject, [(texture file name, bytes) to write]) of one building."""
     parts = building.parts
     if version == 1 and len(parts) != 1:
-        raise ValueError(f"building {building.id!r}: .xdo 3.0.0.1 holds exactly one part, got {len(parts)}; use version=2")
+        raise ValueError(
+            f"building {building.id!r}: .xdo 3.0.0.1 holds exactly one part, got {len(parts)}; use version=2"
+        )
     if not 1 <= len(parts) <= MAX_MESHES:
-        raise ValueError(f"building {building.id!r}: .xdo 3.0.0.2 holds 1 to {MAX_MESHES} parts, got {len(parts)}")
+        raise ValueError(
+            f"building {building.id!r}: .xdo 3.0.0.2 holds 1 to {MAX_MESHES} parts, got {len(parts)}"
+        )
     for j, part in enumerate(parts):
         if part.vertex_count > MAX_PART_VERTICES:
-            raise ValueError(f"building {building.id!r} part {j}: {part.vertex_count} vertices; .xdo indices are u16, at most {MAX_PART_VERTICES} vertices a part")
+            raise ValueError(
+                f"building {building.id!r} part {j}: {part.vertex_count} vertices; .xdo indices are u16, at most {MAX_PART_VERTICES} vertices a part"
+            )
         if part.vertex_count == 0 or part.triangle_count == 0:
             raise ValueError(f"building {building.id!r} part {j}: no triangles")
     altitude = np.float32(building.reference.elev)
@@ -421,9 +521,15 @@ def _building_files(building: Building, number: int, stem: str, version: int, te
 
     meshes, new_textures = [], []
     for j, (part, positions) in enumerate(zip(parts, global_parts)):
-        normals = part.normals if part.normals is not None else vertex_normals(part.positions, part.triangles)
+        normals = (
+            part.normals
+            if part.normals is not None
+            else vertex_normals(part.positions, part.triangles)
+        )
         uvs = part.uvs if part.uvs is not None else np.zeros((part.vertex_count, 2), np.float32)
-        vertices = np.hstack([positions - center, np.asarray(normals, np.float64) @ rotation, uvs]).astype("<f4")
+        vertices = np.hstack(
+            [positions - center, np.asarray(normals, np.float64) @ rotation, uvs]
+        ).astype("<f4")
         image_name = b""
         if part.texture is not None:
             name = _texture_name(part.texture, f"{stem}_{j}", texture_files)
@@ -431,11 +537,30 @@ def _building_files(building: Building, number: int, stem: str, version: int, te
                 texture_files[name] = part.texture.data
                 new_textures.append((name, part.texture.data))
             image_name = name.encode("utf-8")
-        meshes.append(XdoMesh(vertices, part.triangles.reshape(-1).astype("<u2"), color_bytes(part.color), 0, image_name, b""))
+        meshes.append(
+            XdoMesh(
+                vertices,
+                part.triangles.reshape(-1).astype("<u2"),
+                color_bytes(part.color),
+                0,
+                image_name,
+                b"",
+            )
+        )
     key = building.id.encode("utf-8")
     xdo = XdoFile(version, XDO_TYPE, number, key, bbox, altitude, meshes)
-    record = DatObject(version_bytes(version), XDO_TYPE, key, reference.lon, reference.lat, altitude, bbox, 0,
-                       f"{stem}.xdo".encode("utf-8"), meshes[0].image_name)
+    record = DatObject(
+        version_bytes(version),
+        XDO_TYPE,
+        key,
+        reference.lon,
+        reference.lat,
+        altitude,
+        bbox,
+        0,
+        f"{stem}.xdo".encode(),
+        meshes[0].image_name,
+    )
     return xdo, record, new_textures
 
 

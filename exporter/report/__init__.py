@@ -11,20 +11,20 @@ write the PNGs -> write the page (:mod:`.page`, numbers from :mod:`.summary`, pl
 :mod:`.plots`). A building whose file is missing or broken gets a labelled placeholder in place of
 its picture; the report never stops for one bad building.
 """
+
 from __future__ import annotations
 
 import json
 import re
 import time
 from pathlib import Path
-from typing import Optional
 from urllib.parse import quote
 
 from ..atomic import write_bytes_atomic, write_text_atomic
 from ..errors import InputError
 from ..manifest import MANIFEST_NAME, slug
-from .page import BuildingRenders, LevelRender, TileEntry, index_page, tile_page
 from .atlas import atlas_detail
+from .page import BuildingRenders, LevelRender, TileEntry, index_page, tile_page
 from .render import backdrop, fit_view, load_glb, png_bytes, render
 
 __all__ = ["write_reports"]
@@ -79,13 +79,19 @@ def render_building(tile_dir: Path, building: dict, size: int = IMAGE_SIZE) -> B
                 view = fit_view(meshes, size)
                 background = backdrop(view)
             name = image_name(building, level)
-            write_bytes_atomic(tile_dir / IMAGE_FOLDER / name, png_bytes(render(meshes, view, background=background)))
+            write_bytes_atomic(
+                tile_dir / IMAGE_FOLDER / name,
+                png_bytes(render(meshes, view, background=background)),
+            )
             entry.image = f"{IMAGE_FOLDER}/{quote(name)}"
             detail = atlas_detail(tile_dir / str(lod.get("file", "")))
             if detail is not None:
                 name = detail_name(building, level)
                 write_bytes_atomic(tile_dir / IMAGE_FOLDER / name, png_bytes(detail))
-                entry.detail, entry.detail_size = f"{IMAGE_FOLDER}/{quote(name)}", (detail.shape[1], detail.shape[0])
+                entry.detail, entry.detail_size = (
+                    f"{IMAGE_FOLDER}/{quote(name)}",
+                    (detail.shape[1], detail.shape[0]),
+                )
         except InputError as error:
             entry.error = str(error).replace(str(tile_dir) + "/", "")
         entry.seconds = time.perf_counter() - started
@@ -106,18 +112,32 @@ def write_tile_report(tile_dir: Path, manifest: dict, size: int = IMAGE_SIZE) ->
     started = time.perf_counter()
     renders = [render_building(tile_dir, building, size) for building in manifest["buildings"]]
     seconds = time.perf_counter() - started
-    drawn = {image_name(r.building, level.level) for r in renders for level in r.levels if level.image is not None}
-    drawn |= {detail_name(r.building, level.level) for r in renders for level in r.levels if level.detail is not None}
+    drawn = {
+        image_name(r.building, level.level)
+        for r in renders
+        for level in r.levels
+        if level.image is not None
+    }
+    drawn |= {
+        detail_name(r.building, level.level)
+        for r in renders
+        for level in r.levels
+        if level.detail is not None
+    }
     remove_stale_images(tile_dir / IMAGE_FOLDER, drawn)
     return write_text_atomic(tile_dir / "report.html", tile_page(manifest, renders, seconds))
 
 
 def find_tiles(out_dir: Path) -> list[Path]:
     """Tile folders of an export (named ``<level>_<idx>_<idy>`` and holding a manifest), sorted."""
-    return sorted(p for p in out_dir.iterdir() if p.is_dir() and TILE_NAME.match(p.name) and (p / MANIFEST_NAME).is_file())
+    return sorted(
+        p
+        for p in out_dir.iterdir()
+        if p.is_dir() and TILE_NAME.match(p.name) and (p / MANIFEST_NAME).is_file()
+    )
 
 
-def write_reports(out_dir: Path, tiles: Optional[list[str]] = None) -> list[Path]:
+def write_reports(out_dir: Path, tiles: list[str] | None = None) -> list[Path]:
     """Write the report pages of an export folder ``out_dir`` (see module doc).
 
     ``tiles`` limits rendering to those tile folder names (the index still lists every tile).
@@ -126,15 +146,21 @@ def write_reports(out_dir: Path, tiles: Optional[list[str]] = None) -> list[Path
     unreadable (an unreadable manifest of a tile not requested is only flagged on the index)."""
     out_dir = Path(out_dir)
     if not out_dir.is_dir():
-        raise InputError(f"{out_dir}: not a folder (expected the output folder of 'vworld-lod export')")
+        raise InputError(
+            f"{out_dir}: not a folder (expected the output folder of 'vworld-lod export')"
+        )
     tile_dirs = find_tiles(out_dir)
     if not tile_dirs:
-        raise InputError(f"{out_dir}: no <level>_<idx>_<idy>/{MANIFEST_NAME} found (run 'vworld-lod export' first)")
+        raise InputError(
+            f"{out_dir}: no <level>_<idx>_<idy>/{MANIFEST_NAME} found (run 'vworld-lod export' first)"
+        )
     names = [p.name for p in tile_dirs]
     if tiles is not None:
         unknown = [t for t in tiles if t not in names]
         if unknown:
-            raise InputError(f"{out_dir}: no tile folder with a {MANIFEST_NAME} for {', '.join(unknown)} (found: {', '.join(names)})")
+            raise InputError(
+                f"{out_dir}: no tile folder with a {MANIFEST_NAME} for {', '.join(unknown)} (found: {', '.join(names)})"
+            )
     selected = set(names if tiles is None else tiles)
     pages, entries = [], []
     for tile_dir in tile_dirs:
@@ -147,6 +173,8 @@ def write_reports(out_dir: Path, tiles: Optional[list[str]] = None) -> list[Path
                 manifest = read_tile_manifest(tile_dir / MANIFEST_NAME)
             except InputError as problem:
                 error = str(problem)
-        entries.append(TileEntry(tile_dir.name, manifest, (tile_dir / "report.html").is_file(), error))
+        entries.append(
+            TileEntry(tile_dir.name, manifest, (tile_dir / "report.html").is_file(), error)
+        )
     pages.append(write_text_atomic(out_dir / "index.html", index_page(entries)))
     return pages

@@ -9,11 +9,11 @@ size with pixelated scaling.
 Data form: the ``.glb``'s embedded images (glTF ``images[]`` in the binary chunk), read with
 pygltflib; output (h, w, 3) uint8 RGB at the atlas' own pixel size.
 """
+
 from __future__ import annotations
 
 import io
 from pathlib import Path
-from typing import Optional
 
 import numpy as np
 from PIL import Image
@@ -30,18 +30,20 @@ def embedded_images(path: Path) -> list[bytes]:
         gltf = GLTF2.load_binary(str(path))
         blob = gltf.binary_blob() or b""
     except Exception as error:  # pygltflib raises many types for a broken file
-        raise InputError(f"{path}: cannot be read as glTF binary ({type(error).__name__}: {error})") from None
+        raise InputError(
+            f"{path}: cannot be read as glTF binary ({type(error).__name__}: {error})"
+        ) from None
     out = []
     for image in gltf.images:
         if image.bufferView is None:
             continue
         view = gltf.bufferViews[image.bufferView]
         start = view.byteOffset or 0
-        out.append(blob[start:start + view.byteLength])
+        out.append(blob[start : start + view.byteLength])
     return out
 
 
-def atlas_detail(path: str | Path, fraction: float = DETAIL_FRACTION) -> Optional[np.ndarray]:
+def atlas_detail(path: str | Path, fraction: float = DETAIL_FRACTION) -> np.ndarray | None:
     """The centre ``fraction`` x ``fraction`` of the largest atlas (by pixels) of a level's ``.glb``
     as (h, w, 3) uint8 at the atlas' resolution; None when the level has no readable image."""
     largest, largest_pixels = None, 0
@@ -58,6 +60,8 @@ def atlas_detail(path: str | Path, fraction: float = DETAIL_FRACTION) -> Optiona
     side_x, side_y = max(1, round(width * fraction)), max(1, round(height * fraction))
     left, top = (width - side_x) // 2, (height - side_y) // 2
     try:
-        return np.asarray(largest.convert("RGB").crop((left, top, left + side_x, top + side_y)), dtype=np.uint8)
+        return np.asarray(
+            largest.convert("RGB").crop((left, top, left + side_x, top + side_y)), dtype=np.uint8
+        )
     except Exception:  # truncated image data
         return None

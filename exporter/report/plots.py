@@ -7,11 +7,11 @@ with no script and no external reference, so the page works offline from ``file:
 Dots are spread sideways by a fixed low-discrepancy sequence (golden-ratio offsets) rather than
 random jitter, so the same data always draws the same picture.
 """
+
 from __future__ import annotations
 
 import math
 from html import escape
-from typing import Optional
 
 GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
 
@@ -32,7 +32,7 @@ def nice_ticks(low: float, high: float, count: int = 5) -> list[float]:
     return ticks
 
 
-def value_range(series: list, fixed: Optional[tuple[float, float]] = None) -> tuple[float, float]:
+def value_range(series: list, fixed: tuple[float, float] | None = None) -> tuple[float, float]:
     """The y range: ``fixed`` when given, else the data's range widened to include 0."""
     if fixed is not None:
         return fixed
@@ -48,8 +48,13 @@ def _format(value: float) -> str:
     return f"{value:.3g}"
 
 
-def strip_plot_svg(title: str, series: list[tuple[str, list[tuple[str, float]]]],
-                   y_range: Optional[tuple[float, float]] = None, width: int = 240, height: int = 170) -> str:
+def strip_plot_svg(
+    title: str,
+    series: list[tuple[str, list[tuple[str, float]]]],
+    y_range: tuple[float, float] | None = None,
+    width: int = 240,
+    height: int = 170,
+) -> str:
     """An SVG strip plot of ``series`` (see module doc) titled ``title``; ``y_range`` fixes the
     vertical axis (e.g. (0, 1) for ratios), else it follows the data. Sizes in CSS pixels."""
     left, right, top, bottom = 40, 8, 22, 22
@@ -68,23 +73,37 @@ def strip_plot_svg(title: str, series: list[tuple[str, list[tuple[str, float]]]]
     ]
     for tick in nice_ticks(low, high, 5):
         y = y_of(tick)
-        parts.append(f'<line x1="{left}" x2="{left + plot_w}" y1="{y:.1f}" y2="{y:.1f}" class="plot-grid"/>')
-        parts.append(f'<text x="{left - 4}" y="{y + 3.5:.1f}" text-anchor="end" class="plot-tick">{_format(tick)}</text>')
+        parts.append(
+            f'<line x1="{left}" x2="{left + plot_w}" y1="{y:.1f}" y2="{y:.1f}" class="plot-grid"/>'
+        )
+        parts.append(
+            f'<text x="{left - 4}" y="{y + 3.5:.1f}" text-anchor="end" class="plot-tick">{_format(tick)}</text>'
+        )
     column_w = plot_w / max(len(series), 1)
     for i, (label, points) in enumerate(series):
         center = left + column_w * (i + 0.5)
-        parts.append(f'<text x="{center:.1f}" y="{height - 6}" text-anchor="middle" class="plot-tick">{escape(label)}</text>')
+        parts.append(
+            f'<text x="{center:.1f}" y="{height - 6}" text-anchor="middle" class="plot-tick">{escape(label)}</text>'
+        )
         spread = column_w * 0.6
         for j, (name, value) in enumerate(points):
             x = center + spread * (((j * GOLDEN) % 1.0) - 0.5)
-            parts.append(f'<circle cx="{x:.1f}" cy="{y_of(value):.1f}" r="3" class="plot-dot"><title>{escape(name)}: {_format(value)}</title></circle>')
+            parts.append(
+                f'<circle cx="{x:.1f}" cy="{y_of(value):.1f}" r="3" class="plot-dot"><title>{escape(name)}: {_format(value)}</title></circle>'
+            )
         if points:
             values = sorted(v for _, v in points)
             middle = len(values) // 2
-            median = values[middle] if len(values) % 2 else (values[middle - 1] + values[middle]) / 2.0
+            median = (
+                values[middle] if len(values) % 2 else (values[middle - 1] + values[middle]) / 2.0
+            )
             y = y_of(median)
-            parts.append(f'<line x1="{center - column_w * 0.4:.1f}" x2="{center + column_w * 0.4:.1f}" y1="{y:.1f}" y2="{y:.1f}" class="plot-median"><title>median {_format(median)}</title></line>')
+            parts.append(
+                f'<line x1="{center - column_w * 0.4:.1f}" x2="{center + column_w * 0.4:.1f}" y1="{y:.1f}" y2="{y:.1f}" class="plot-median"><title>median {_format(median)}</title></line>'
+            )
         else:
-            parts.append(f'<text x="{center:.1f}" y="{top + plot_h / 2:.1f}" text-anchor="middle" class="plot-tick">no data</text>')
+            parts.append(
+                f'<text x="{center:.1f}" y="{top + plot_h / 2:.1f}" text-anchor="middle" class="plot-tick">no data</text>'
+            )
     parts.append("</svg>")
     return "".join(parts)

@@ -30,12 +30,12 @@ perspective-correct interpolation as in
 P. Heckbert & H. Moreton, "Interpolation for Polygon Texture Mapping and Shading" (1991).
 Planar shadows: J. Blinn, "Me and My (Fake) Shadow" (IEEE CG&A, 1988).
 """
+
 from __future__ import annotations
 
 import io
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Optional
 
 import numpy as np
 import trimesh
@@ -62,8 +62,8 @@ class Mesh:
 
     positions: np.ndarray
     triangles: np.ndarray
-    uvs: Optional[np.ndarray] = None
-    image: Optional[np.ndarray] = None
+    uvs: np.ndarray | None = None
+    image: np.ndarray | None = None
     color: np.ndarray = field(default_factory=lambda: np.ones(3, dtype=np.float32))
 
 
@@ -88,7 +88,8 @@ class View:
 
 # --------------------------------------------------------------------------- loading
 
-def _image_array(material, max_side: int = MAX_TEXTURE_SIDE) -> Optional[np.ndarray]:
+
+def _image_array(material, max_side: int = MAX_TEXTURE_SIDE) -> np.ndarray | None:
     """The material's base colour texture as (h, w, 3) uint8, decoded at reduced size when larger
     than ``max_side`` pixels (JPEG: DCT scaling while decoding; others: integer box reduction)."""
     texture = getattr(material, "baseColorTexture", None)
@@ -128,14 +129,18 @@ def load_glb(path: str | Path) -> list[Mesh]:
     try:
         scene = trimesh.load(str(path), file_type="glb", force="scene", process=False)
     except Exception as error:  # trimesh raises many types for a broken file
-        raise InputError(f"{path}: cannot be read as glTF binary ({type(error).__name__}: {error})") from None
+        raise InputError(
+            f"{path}: cannot be read as glTF binary ({type(error).__name__}: {error})"
+        ) from None
     meshes = []
     for node in scene.graph.nodes_geometry:
         transform, name = scene.graph[node]
         geometry = scene.geometry[name]
         if not isinstance(geometry, trimesh.Trimesh) or len(geometry.faces) == 0:
             continue
-        positions = trimesh.transform_points(np.asarray(geometry.vertices, dtype=np.float64), transform)
+        positions = trimesh.transform_points(
+            np.asarray(geometry.vertices, dtype=np.float64), transform
+        )
         # glTF -> local: negate X (West -> East); reversing the triangles keeps them wound outward.
         positions[:, 0] *= -1.0
         triangles = np.asarray(geometry.faces, dtype=np.int64)[:, ::-1]
@@ -146,7 +151,15 @@ def load_glb(path: str | Path) -> list[Mesh]:
         if uvs is None or image is None or len(uvs) != len(positions):
             uvs, image = None, None
         color = _base_color(material) if material is not None else np.ones(3, dtype=np.float32)
-        meshes.append(Mesh(positions, triangles, None if uvs is None else np.asarray(uvs, dtype=np.float64), image, color))
+        meshes.append(
+            Mesh(
+                positions,
+                triangles,
+                None if uvs is None else np.asarray(uvs, dtype=np.float64),
+                image,
+                color,
+            )
+        )
     if not meshes:
         raise InputError(f"{path}: holds no triangle meshes")
     return meshes
@@ -154,8 +167,15 @@ def load_glb(path: str | Path) -> list[Mesh]:
 
 # --------------------------------------------------------------------------- camera
 
-def fit_view(meshes: list[Mesh], size: int = 256, azimuth_deg: float = 135.0, elevation_deg: float = 32.0,
-             fov_deg: float = 30.0, fill: float = 0.9) -> View:
+
+def fit_view(
+    meshes: list[Mesh],
+    size: int = 256,
+    azimuth_deg: float = 135.0,
+    elevation_deg: float = 32.0,
+    fov_deg: float = 30.0,
+    fill: float = 0.9,
+) -> View:
     """A 3/4 view from above whose image ``fill`` share (per side) is the building's projection.
 
     ``azimuth_deg`` is the compass direction the camera stands in, seen from the building (0 =
@@ -170,7 +190,13 @@ def fit_view(meshes: list[Mesh], size: int = 256, azimuth_deg: float = 135.0, el
     radius = max(float(np.linalg.norm(high - low)) / 2.0, 1e-3)
     azimuth, elevation = np.radians(azimuth_deg), np.radians(elevation_deg)
     # Direction from the building to the camera in East/Up/North.
-    back = np.array([np.cos(elevation) * np.sin(azimuth), np.sin(elevation), np.cos(elevation) * np.cos(azimuth)])
+    back = np.array(
+        [
+            np.cos(elevation) * np.sin(azimuth),
+            np.sin(elevation),
+            np.cos(elevation) * np.cos(azimuth),
+        ]
+    )
     half_fov = np.radians(fov_deg) / 2.0
     distance = radius / np.sin(half_fov) * 1.08
     forward = -back
@@ -188,7 +214,9 @@ def fit_view(meshes: list[Mesh], size: int = 256, azimuth_deg: float = 135.0, el
     focal = fill * size / extent
     shift = -np.array([x.min() + x.max(), y.min() + y.max()]) / 2.0 * focal
     reach = float(np.hypot(high[0] - low[0], high[2] - low[2])) * 0.75  # metres: past the shadow
-    return View(eye, right, up, forward, float(focal), int(size), float(low[1]), center, reach, shift)
+    return View(
+        eye, right, up, forward, float(focal), int(size), float(low[1]), center, reach, shift
+    )
 
 
 def project(points: np.ndarray, view: View, size: int) -> np.ndarray:
@@ -197,12 +225,19 @@ def project(points: np.ndarray, view: View, size: int) -> np.ndarray:
     relative = points - view.eye
     depth = relative @ view.forward
     scale = size / view.size
-    x = size / 2.0 + (view.shift[0] + (relative @ view.right) * view.focal / np.maximum(depth, 1e-6)) * scale
-    y = size / 2.0 + (view.shift[1] - (relative @ view.up) * view.focal / np.maximum(depth, 1e-6)) * scale
+    x = (
+        size / 2.0
+        + (view.shift[0] + (relative @ view.right) * view.focal / np.maximum(depth, 1e-6)) * scale
+    )
+    y = (
+        size / 2.0
+        + (view.shift[1] - (relative @ view.up) * view.focal / np.maximum(depth, 1e-6)) * scale
+    )
     return np.stack([x, y, depth], axis=1)
 
 
 # --------------------------------------------------------------------------- shading
+
 
 def face_shading(positions: np.ndarray, triangles: np.ndarray, eye: np.ndarray) -> np.ndarray:
     """(m,) float32 Lambert brightness per face, two-sided (back faces flipped and dimmed)."""
@@ -255,7 +290,11 @@ def fragments(screen: np.ndarray, triangles: np.ndarray, size: int):
     area = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
     # Skip degenerate triangles and any reaching behind the camera (a spike of a broken level):
     # their screen positions are meaningless, the rest of the building still draws.
-    valid = (np.abs(area) > 1e-9) & (screen[triangles][:, :, 2] > NEAR).all(axis=1) & (high > low).all(axis=1)
+    valid = (
+        (np.abs(area) > 1e-9)
+        & (screen[triangles][:, :, 2] > NEAR).all(axis=1)
+        & (high > low).all(axis=1)
+    )
     area = np.where(valid, area, 1.0)
     # Edge functions (barycentric weights) are affine in the pixel centre: w_i = a_i x + b_i y + c_i,
     # edge i opposite corner i. Shapes (m, 3).
@@ -272,7 +311,9 @@ def _batches(counts: np.ndarray, limit: int):
     order = np.flatnonzero(counts)
     start = 0
     while start < len(order):
-        stop = start + max(1, int(np.searchsorted(np.cumsum(counts[order[start:]]), limit, side="right")))
+        stop = start + max(
+            1, int(np.searchsorted(np.cumsum(counts[order[start:]]), limit, side="right"))
+        )
         yield order[start:stop]
         start = stop
 
@@ -290,8 +331,12 @@ def _span_fragments(triangles: np.ndarray, heights: np.ndarray, low, high, a, b,
     x_min = np.where(slope > 0, bound, -np.inf).max(axis=1)
     x_max = np.where(slope < 0, bound, np.inf).min(axis=1)
     empty = ((slope == 0) & (d < 0)).any(axis=1)
-    first = np.maximum(np.ceil(np.nan_to_num(x_min - 0.5, neginf=-1.0)), low[faces, 0]).astype(np.int64)
-    last = np.minimum(np.floor(np.nan_to_num(x_max - 0.5, posinf=size)), high[faces, 0] - 1).astype(np.int64)
+    first = np.maximum(np.ceil(np.nan_to_num(x_min - 0.5, neginf=-1.0)), low[faces, 0]).astype(
+        np.int64
+    )
+    last = np.minimum(np.floor(np.nan_to_num(x_max - 0.5, posinf=size)), high[faces, 0] - 1).astype(
+        np.int64
+    )
     counts = np.where(empty, 0, np.maximum(last - first + 1, 0))
     for spans in _batches(counts, FRAGMENT_CHUNK):
         span_of, dx = _expand(counts[spans])
@@ -305,7 +350,9 @@ def _span_fragments(triangles: np.ndarray, heights: np.ndarray, low, high, a, b,
         yield (ys - 0.5).astype(np.int64), cols, face, weights
 
 
-def fill_flat(canvas: np.ndarray, screen: np.ndarray, triangles: np.ndarray, color: np.ndarray) -> None:
+def fill_flat(
+    canvas: np.ndarray, screen: np.ndarray, triangles: np.ndarray, color: np.ndarray
+) -> None:
     """Paint triangles (no depth test) of (n, 3) screen points in one colour onto (h, w, 3) canvas."""
     for rows, cols, _, _ in fragments(screen, triangles, canvas.shape[0]):
         canvas[rows, cols] = color
@@ -316,7 +363,9 @@ def nearest_per_pixel(pixels: np.ndarray, z: np.ndarray) -> np.ndarray:
 
     One integer sort: positive float32 depths keep their order as uint32 bit patterns, so
     ``pixel << 32 | bits(z)`` sorts by pixel, then depth."""
-    key = (pixels.astype(np.uint64) << np.uint64(32)) | z.astype(np.float32).view(np.uint32).astype(np.uint64)
+    key = (pixels.astype(np.uint64) << np.uint64(32)) | z.astype(np.float32).view(np.uint32).astype(
+        np.uint64
+    )
     order = np.argsort(key)
     sorted_pixels = pixels[order]
     first = np.ones(len(order), dtype=bool)
@@ -338,7 +387,9 @@ def sample_bilinear(image: np.ndarray, texel: np.ndarray) -> np.ndarray:
     return (top * (1.0 - fy) + bottom * fy).astype(np.float32)
 
 
-def fill_mesh(canvas: np.ndarray, depth: np.ndarray, screen: np.ndarray, mesh: Mesh, shading: np.ndarray) -> None:
+def fill_mesh(
+    canvas: np.ndarray, depth: np.ndarray, screen: np.ndarray, mesh: Mesh, shading: np.ndarray
+) -> None:
     """Z-buffered, textured, flat-lit triangles of one mesh; ``screen`` is its (n, 3) projection."""
     size = canvas.shape[0]
     inverse_depth = (1.0 / np.maximum(screen[:, 2], 1e-6)).astype(np.float32)
@@ -346,7 +397,9 @@ def fill_mesh(canvas: np.ndarray, depth: np.ndarray, screen: np.ndarray, mesh: M
     if textured:
         height, width = mesh.image.shape[:2]
         # Texel coordinates: u to the right, v up from the bottom row (trimesh's convention).
-        texels = np.stack([mesh.uvs[:, 0] * width, (1.0 - mesh.uvs[:, 1]) * height], axis=1).astype(np.float32)
+        texels = np.stack([mesh.uvs[:, 0] * width, (1.0 - mesh.uvs[:, 1]) * height], axis=1).astype(
+            np.float32
+        )
     for rows, cols, faces, weights in fragments(screen, mesh.triangles, size):
         corners = mesh.triangles[faces]  # (k, 3)
         perspective = weights * inverse_depth[corners]
@@ -358,7 +411,10 @@ def fill_mesh(canvas: np.ndarray, depth: np.ndarray, screen: np.ndarray, mesh: M
             continue
         rows, cols, faces, z = rows[keep], cols[keep], faces[keep], z[keep]
         if textured:
-            texel = np.einsum("ki,kij->kj", perspective[keep], texels[corners[keep]]) / one_over_z[keep, None]
+            texel = (
+                np.einsum("ki,kij->kj", perspective[keep], texels[corners[keep]])
+                / one_over_z[keep, None]
+            )
             colors = sample_bilinear(mesh.image, texel) * (mesh.color / 255.0)
         else:
             colors = np.broadcast_to(mesh.color, (len(z), 3))
@@ -382,17 +438,29 @@ def backdrop(view: View, supersample: float = 1.5) -> np.ndarray:
     up_component = view.forward[1] - down[:, None] * view.up[1] + across[None, :] * view.right[1]
     with np.errstate(divide="ignore", invalid="ignore"):
         distance = (view.ground - view.eye[1]) / up_component
-    hit_x = view.eye[0] + distance * (view.forward[0] - down[:, None] * view.up[0] + across[None, :] * view.right[0])
-    hit_z = view.eye[2] + distance * (view.forward[2] - down[:, None] * view.up[2] + across[None, :] * view.right[2])
+    hit_x = view.eye[0] + distance * (
+        view.forward[0] - down[:, None] * view.up[0] + across[None, :] * view.right[0]
+    )
+    hit_z = view.eye[2] + distance * (
+        view.forward[2] - down[:, None] * view.up[2] + across[None, :] * view.right[2]
+    )
     center = view.ground_center
-    on_disc = (distance > 0.0) & ((hit_x - center[0]) ** 2 + (hit_z - center[2]) ** 2 <= view.ground_reach**2)
+    on_disc = (distance > 0.0) & (
+        (hit_x - center[0]) ** 2 + (hit_z - center[2]) ** 2 <= view.ground_reach**2
+    )
     canvas[on_disc] = GROUND
     return canvas
 
 
 # --------------------------------------------------------------------------- entry point
 
-def render(meshes: list[Mesh], view: View, supersample: float = 1.5, background: Optional[np.ndarray] = None) -> np.ndarray:
+
+def render(
+    meshes: list[Mesh],
+    view: View,
+    supersample: float = 1.5,
+    background: np.ndarray | None = None,
+) -> np.ndarray:
     """Render ``meshes`` (local East/Up/North, metres) seen from ``view`` into a (size, size, 3)
     uint8 RGB image: ground disc, the building's sun shadow, then the lit building.
     ``background`` is :func:`backdrop` of the same view and supersample (computed when None)."""
@@ -402,12 +470,25 @@ def render(meshes: list[Mesh], view: View, supersample: float = 1.5, background:
         raise ValueError(f"background is {canvas.shape[:2]}, the render needs {(size, size)}")
     depth = np.full((size, size), np.inf, dtype=np.float32)
     for mesh in meshes:
-        fill_flat(canvas, project(shadow_triangles(mesh.positions, view.ground), view, size), mesh.triangles, SHADOW)
+        fill_flat(
+            canvas,
+            project(shadow_triangles(mesh.positions, view.ground), view, size),
+            mesh.triangles,
+            SHADOW,
+        )
     for mesh in meshes:
-        fill_mesh(canvas, depth, project(mesh.positions, view, size), mesh, face_shading(mesh.positions, mesh.triangles, view.eye))
+        fill_mesh(
+            canvas,
+            depth,
+            project(mesh.positions, view, size),
+            mesh,
+            face_shading(mesh.positions, mesh.triangles, view.eye),
+        )
     image = (np.clip(canvas, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
     if size != view.size:
-        image = np.asarray(Image.fromarray(image, "RGB").resize((view.size, view.size), Image.Resampling.BOX))
+        image = np.asarray(
+            Image.fromarray(image, "RGB").resize((view.size, view.size), Image.Resampling.BOX)
+        )
     return image
 
 

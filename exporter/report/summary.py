@@ -10,11 +10,11 @@ LOD0 bounding-box diagonal; lower is better), ``silhouette_iou`` and ``wall_cove
 higher is better), ``boundary_length_change`` (relative change of open-border length; 0 is best),
 ``new_holes`` (count; 0 is best).
 """
+
 from __future__ import annotations
 
 import math
 import statistics
-from typing import Optional
 
 # Metrics shown in plots and captions, in display order: key, plot title, short caption label.
 METRICS = (
@@ -30,18 +30,18 @@ METRICS = (
 SCORE_METRICS = ("silhouette_iou", "wall_coverage")
 
 
-def _number(value) -> Optional[float]:
+def _number(value) -> float | None:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         return None
     return float(value)
 
 
-def lod_metric(lod: dict, key: str) -> Optional[float]:
+def lod_metric(lod: dict, key: str) -> float | None:
     """A level's quality metric, or None when absent or not a finite number."""
     return _number((lod.get("quality") or {}).get(key))
 
 
-def quality_score(building: dict) -> Optional[float]:
+def quality_score(building: dict) -> float | None:
     """The building's worst ``silhouette_iou`` / ``wall_coverage`` over its reduced levels (0..1,
     lower = worse), or None when no reduced level has either metric."""
     values = [lod_metric(lod, key) for lod in building.get("lods", [])[1:] for key in SCORE_METRICS]
@@ -60,7 +60,12 @@ def worst_first(buildings: list[dict]) -> list[dict]:
 
     def key(building: dict):
         score = quality_score(building)
-        return (score is None, score if score is not None else 0.0, -worst_hausdorff(building), str(building.get("id", "")))
+        return (
+            score is None,
+            score if score is not None else 0.0,
+            -worst_hausdorff(building),
+            str(building.get("id", "")),
+        )
 
     return sorted(buildings, key=key)
 
@@ -72,7 +77,7 @@ def level_count(manifest: dict) -> int:
     return max(chains + [len(heights), 0])
 
 
-def _lod_at(building: dict, level: int) -> Optional[dict]:
+def _lod_at(building: dict, level: int) -> dict | None:
     for lod in building.get("lods", []):
         if lod.get("level") == level:
             return lod
@@ -100,18 +105,26 @@ def level_table(manifest: dict) -> list[dict]:
             sizes[size] = sizes.get(size, 0) + 1
         ratios = [v for v in (lod_metric(lod, "triangle_ratio") for lod in lods) if v is not None]
         byte_counts = [lod.get("file_bytes") for lod in lods]
-        rows.append({
-            "level": level,
-            "transition": heights[level] if level < len(heights) else None,
-            "buildings": len(lods),
-            "triangles": sum(int(lod.get("triangles", 0)) for lod in lods),
-            "mean_triangles": statistics.fmean(int(lod.get("triangles", 0)) for lod in lods) if lods else 0.0,
-            "mean_triangle_ratio": statistics.fmean(ratios) if ratios else None,
-            "vertices": sum(int(lod.get("vertices", 0)) for lod in lods),
-            "texture_pixels": sum(w * h for (w, h), n in sizes.items() for _ in range(n)),
-            "texture_sizes": sorted(sizes.items(), key=lambda item: (-item[1], -item[0][0] * item[0][1])),
-            "file_bytes": sum(byte_counts) if lods and all(isinstance(b, int) for b in byte_counts) else None,
-        })
+        rows.append(
+            {
+                "level": level,
+                "transition": heights[level] if level < len(heights) else None,
+                "buildings": len(lods),
+                "triangles": sum(int(lod.get("triangles", 0)) for lod in lods),
+                "mean_triangles": statistics.fmean(int(lod.get("triangles", 0)) for lod in lods)
+                if lods
+                else 0.0,
+                "mean_triangle_ratio": statistics.fmean(ratios) if ratios else None,
+                "vertices": sum(int(lod.get("vertices", 0)) for lod in lods),
+                "texture_pixels": sum(w * h for (w, h), n in sizes.items() for _ in range(n)),
+                "texture_sizes": sorted(
+                    sizes.items(), key=lambda item: (-item[1], -item[0][0] * item[0][1])
+                ),
+                "file_bytes": sum(byte_counts)
+                if lods and all(isinstance(b, int) for b in byte_counts)
+                else None,
+            }
+        )
     base_triangles = rows[0]["triangles"] if rows else 0
     base_pixels = rows[0]["texture_pixels"] if rows else 0
     for row in rows:
@@ -134,7 +147,7 @@ def metric_series(manifest: dict, key: str) -> list[tuple[int, list[tuple[str, f
     return series
 
 
-def metric_stats(values: list[float]) -> Optional[dict]:
+def metric_stats(values: list[float]) -> dict | None:
     """min / median / max of a list of numbers (None when empty)."""
     if not values:
         return None

@@ -17,30 +17,50 @@ and fit its mesh to the budget -> turn it to the tile's street grid -> draw and 
 -> place the footprints in the tile -> set each reference point (lon/lat of the centre, terrain
 elevation 20-60 m).
 """
+
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
-from typing import Optional, Sequence
 
 import numpy as np
 
+from ..geometry import vertex_normals
 from ..model import Building, GeoPoint, Part, Texture, TileId
 from . import atlas, layout
 from . import kinds as kind_lib
 from .kinds import KINDS
-from ..geometry import vertex_normals
 from .mesh import MeshBuilder
 
-__all__ = ["KINDS", "Sample", "DEFAULT_TILE", "generate_buildings", "generate_samples", "generate_tile", "make_building", "triangle_budgets"]
+__all__ = [
+    "KINDS",
+    "Sample",
+    "DEFAULT_TILE",
+    "generate_buildings",
+    "generate_samples",
+    "generate_tile",
+    "make_building",
+    "triangle_budgets",
+]
 
 DEFAULT_TILE = TileId(15, 279418, 116113)  # Seoul City Hall's level-15 tile
 SPREAD = 0.75  # sigma of log(triangles): about 3 % of buildings above 1 000 at mean 326
-KIND_WEIGHTS = {"box_flat": 0.22, "box_gable": 0.1, "box_hip": 0.08, "box_mansard": 0.06, "l_shape": 0.12, "u_shape": 0.07,
-                "t_shape": 0.07, "tower": 0.12, "dome": 0.06, "spire": 0.1}
+KIND_WEIGHTS = {
+    "box_flat": 0.22,
+    "box_gable": 0.1,
+    "box_hip": 0.08,
+    "box_mansard": 0.06,
+    "l_shape": 0.12,
+    "u_shape": 0.07,
+    "t_shape": 0.07,
+    "tower": 0.12,
+    "dome": 0.06,
+    "spire": 0.1,
+}
 
 
 @dataclass
@@ -56,7 +76,9 @@ class Sample:
 
 def triangle_budget(rng: np.random.Generator, mean: float) -> float:
     """One log-normal draw with mean ``mean`` triangles, clipped to [30, 12 x mean]."""
-    return float(np.clip(mean * math.exp(SPREAD * rng.standard_normal() - SPREAD**2 / 2), 30.0, 12.0 * mean))
+    return float(
+        np.clip(mean * math.exp(SPREAD * rng.standard_normal() - SPREAD**2 / 2), 30.0, 12.0 * mean)
+    )
 
 
 def triangle_budgets(count: int, seed: int = 0, mean_triangles: float = 326.0) -> np.ndarray:
@@ -82,15 +104,30 @@ def _texture(rng: np.random.Generator, size: int, name: str, floors: int, bays: 
     return Texture(data=data, mime="image/jpeg", width=size, height=size, name=name)
 
 
-def _part(mb: MeshBuilder, groups, yaw: float, shift: np.ndarray, texture: Texture, name: str) -> Part:
+def _part(
+    mb: MeshBuilder, groups, yaw: float, shift: np.ndarray, texture: Texture, name: str
+) -> Part:
     positions, uvs, triangles = mb.arrays(groups)
     positions = _rotate(positions, yaw, (0, 2)) - shift
-    return Part(positions=positions, triangles=triangles, normals=vertex_normals(positions, triangles),
-                uvs=uvs, texture=texture, name=name)
+    return Part(
+        positions=positions,
+        triangles=triangles,
+        normals=vertex_normals(positions, triangles),
+        uvs=uvs,
+        texture=texture,
+        name=name,
+    )
 
 
-def make_building(rng: np.random.Generator, kind: str, budget: float = 326.0, atlas_size: int = 1024,
-                  building_id: str = "B0000", yaw: float = 0.0, two_part: bool = False) -> Sample:
+def make_building(
+    rng: np.random.Generator,
+    kind: str,
+    budget: float = 326.0,
+    atlas_size: int = 1024,
+    building_id: str = "B0000",
+    yaw: float = 0.0,
+    two_part: bool = False,
+) -> Sample:
     """One building of ``kind`` (see :data:`KINDS`) with about ``budget`` triangles.
 
     Its local origin is the centre of its East/North bounding box at its base; ``reference`` is a
@@ -109,31 +146,74 @@ def make_building(rng: np.random.Generator, kind: str, budget: float = 326.0, at
     bays = int(np.clip(params["perimeter"] / 4 / 3.4, 2, 16))
     if two_part:
         parts = [
-            _part(mb, ["wall"], yaw, shift, _texture(rng, atlas_size, f"{building_id}_0.jpg", floors, bays), "facade"),
-            _part(mb, ["roof", "detail"], yaw, shift, _texture(rng, atlas_size, f"{building_id}_1.jpg", floors, bays), "roof"),
+            _part(
+                mb,
+                ["wall"],
+                yaw,
+                shift,
+                _texture(rng, atlas_size, f"{building_id}_0.jpg", floors, bays),
+                "facade",
+            ),
+            _part(
+                mb,
+                ["roof", "detail"],
+                yaw,
+                shift,
+                _texture(rng, atlas_size, f"{building_id}_1.jpg", floors, bays),
+                "roof",
+            ),
         ]
     else:
-        parts = [_part(mb, None, yaw, shift, _texture(rng, atlas_size, f"{building_id}.jpg", floors, bays), "")]
+        parts = [
+            _part(
+                mb,
+                None,
+                yaw,
+                shift,
+                _texture(rng, atlas_size, f"{building_id}.jpg", floors, bays),
+                "",
+            )
+        ]
     footprints = [_rotate(ring, yaw, (0, 1)) - centre for ring in rings]
-    building = Building(id=building_id, source=f"samplegen:{kind}", reference=GeoPoint(0.0, 0.0, 0.0), parts=parts)
+    building = Building(
+        id=building_id, source=f"samplegen:{kind}", reference=GeoPoint(0.0, 0.0, 0.0), parts=parts
+    )
     return Sample(building=building, kind=kind, footprints=footprints, budget=budget)
 
 
-def _sample(seed: int, i: int, street: float, atlas_size: int, mean_triangles: float,
-            kinds: Optional[Sequence[str]], two_part_share: float) -> Sample:
+def _sample(
+    seed: int,
+    i: int,
+    street: float,
+    atlas_size: int,
+    mean_triangles: float,
+    kinds: Sequence[str] | None,
+    two_part_share: float,
+) -> Sample:
     """Building ``i`` of the tile, from its own random stream only (so workers can draw it)."""
     names, weights = list(KIND_WEIGHTS), np.array(list(KIND_WEIGHTS.values()))
     rng = _building_rng(seed, i)
     budget = triangle_budget(rng, mean_triangles)
-    kind = kinds[i % len(kinds)] if kinds else names[int(rng.choice(len(names), p=weights / weights.sum()))]
+    kind = (
+        kinds[i % len(kinds)]
+        if kinds
+        else names[int(rng.choice(len(names), p=weights / weights.sum()))]
+    )
     two_part = bool(rng.random() < two_part_share)
     yaw = street + math.pi / 2 * int(rng.integers(4)) + rng.normal(0.0, 0.03)
     return make_building(rng, kind, budget, atlas_size, f"B{i:04d}", yaw, two_part)
 
 
-def generate_samples(count: int, seed: int = 0, tile: TileId = DEFAULT_TILE, atlas_size: int = 1024,
-                     mean_triangles: float = 326.0, kinds: Optional[Sequence[str]] = None,
-                     two_part_share: float = 0.05, jobs: int = 1) -> list[Sample]:
+def generate_samples(
+    count: int,
+    seed: int = 0,
+    tile: TileId = DEFAULT_TILE,
+    atlas_size: int = 1024,
+    mean_triangles: float = 326.0,
+    kinds: Sequence[str] | None = None,
+    two_part_share: float = 0.05,
+    jobs: int = 1,
+) -> list[Sample]:
     """:func:`generate_buildings` keeping each building's kind and footprint; ``kinds`` (optional) is
     cycled through instead of drawing kinds at random; ``jobs`` > 1 draws buildings (mostly JPEG
     encoding) in that many processes, with the same result."""
@@ -143,9 +223,19 @@ def generate_samples(count: int, seed: int = 0, tile: TileId = DEFAULT_TILE, atl
         raise ValueError(f"atlas_size must be >= 8 pixels, got {atlas_size}")
     tile_rng = np.random.default_rng(np.random.SeedSequence([seed, 1]))
     street = tile_rng.uniform(0.0, math.pi / 2)  # the tile's street-grid bearing, radians
-    elev_base, elev_slope = tile_rng.uniform(25.0, 55.0), tile_rng.uniform(-0.04, 0.04, size=2)  # metres, m/m
-    draw = partial(_sample, seed, street=street, atlas_size=atlas_size, mean_triangles=mean_triangles,
-                   kinds=tuple(kinds) if kinds else None, two_part_share=two_part_share)
+    elev_base, elev_slope = (
+        tile_rng.uniform(25.0, 55.0),
+        tile_rng.uniform(-0.04, 0.04, size=2),
+    )  # metres, m/m
+    draw = partial(
+        _sample,
+        seed,
+        street=street,
+        atlas_size=atlas_size,
+        mean_triangles=mean_triangles,
+        kinds=tuple(kinds) if kinds else None,
+        two_part_share=two_part_share,
+    )
     if jobs > 1 and count > 1:
         with ProcessPoolExecutor(max_workers=jobs) as pool:
             samples = list(pool.map(draw, range(count), chunksize=max(1, count // (4 * jobs))))
@@ -168,24 +258,62 @@ def _lonlat_bounds(building: Building, lon: float, lat: float) -> tuple:
     scale = math.degrees(1.0) / layout.EARTH_RADIUS_M
     low, high = xz.min(0), xz.max(0)
     cos_lat = math.cos(math.radians(lat))
-    return (lon + low[0] * scale / cos_lat, lat + low[1] * scale, lon + high[0] * scale / cos_lat, lat + high[1] * scale)
+    return (
+        lon + low[0] * scale / cos_lat,
+        lat + low[1] * scale,
+        lon + high[0] * scale / cos_lat,
+        lat + high[1] * scale,
+    )
 
 
-def generate_buildings(count: int, seed: int = 0, tile: TileId = DEFAULT_TILE, atlas_size: int = 1024,
-                       mean_triangles: float = 326.0, *, kinds: Optional[Sequence[str]] = None,
-                       two_part_share: float = 0.05, jobs: int = 1) -> list[Building]:
+def generate_buildings(
+    count: int,
+    seed: int = 0,
+    tile: TileId = DEFAULT_TILE,
+    atlas_size: int = 1024,
+    mean_triangles: float = 326.0,
+    *,
+    kinds: Sequence[str] | None = None,
+    two_part_share: float = 0.05,
+    jobs: int = 1,
+) -> list[Building]:
     """``count`` VWorld-like floorless buildings placed in ``tile`` (see the module doc)."""
-    return [s.building for s in generate_samples(count, seed, tile, atlas_size, mean_triangles, kinds, two_part_share, jobs)]
+    return [
+        s.building
+        for s in generate_samples(
+            count, seed, tile, atlas_size, mean_triangles, kinds, two_part_share, jobs
+        )
+    ]
 
 
-def generate_tile(folder, count: int, seed: int = 0, tile: TileId = DEFAULT_TILE, atlas_size: int = 1024,
-                  mean_triangles: float = 326.0, *, kinds: Optional[Sequence[str]] = None,
-                  two_part_share: float = 0.05, jobs: int = 1) -> Path:
+def generate_tile(
+    folder,
+    count: int,
+    seed: int = 0,
+    tile: TileId = DEFAULT_TILE,
+    atlas_size: int = 1024,
+    mean_triangles: float = 326.0,
+    *,
+    kinds: Sequence[str] | None = None,
+    two_part_share: float = 0.05,
+    jobs: int = 1,
+) -> Path:
     """Write ``count`` generated buildings as a VWorld tile (``.dat``, ``.xdo``, ``.jpg``) into ``folder``; returns it."""
     from ..readers.vworld import write_tile  # the writer lives with the reader
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    buildings = generate_buildings(count, seed, tile, atlas_size, mean_triangles, kinds=kinds, two_part_share=two_part_share, jobs=jobs)
-    write_tile(folder, tile, buildings, version=2 if any(len(b.parts) > 1 for b in buildings) else 1)
+    buildings = generate_buildings(
+        count,
+        seed,
+        tile,
+        atlas_size,
+        mean_triangles,
+        kinds=kinds,
+        two_part_share=two_part_share,
+        jobs=jobs,
+    )
+    write_tile(
+        folder, tile, buildings, version=2 if any(len(b.parts) > 1 for b in buildings) else 1
+    )
     return folder

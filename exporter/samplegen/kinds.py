@@ -15,13 +15,28 @@ units, domes and spires in :data:`DETAIL`.
 Sources: the VWorld paper's description of its input (non-closed, floorless boundary models with
 one texture atlas per building, mean 326.29 triangles per building in Seoul).
 """
+
 from __future__ import annotations
 
 import math
 
 import numpy as np
 
-from .mesh import MeshBuilder, UP, cap, edge_normals, fan, grid_triangles, inset, orient, patch, ring_points, shares, steps, subdivide
+from .mesh import (
+    UP,
+    MeshBuilder,
+    cap,
+    edge_normals,
+    fan,
+    grid_triangles,
+    inset,
+    orient,
+    patch,
+    ring_points,
+    shares,
+    steps,
+    subdivide,
+)
 
 MARGIN = 0.01  # UV inset of each atlas region, so JPEG/mip bleeding stays inside the region
 FACADE = (0.0 + MARGIN, 0.0 + MARGIN, 1.0 - MARGIN, 0.625 - MARGIN)
@@ -30,10 +45,22 @@ DETAIL = (0.5 + MARGIN, 0.625 + MARGIN, 1.0 - MARGIN, 1.0 - MARGIN)
 
 MAX_PERIMETER = 150.0  # metres: about 45 x 30 m, so a level-15 tile (about 100 x 120 m) holds a few of the largest
 
-KINDS = ("box_flat", "box_gable", "box_hip", "box_mansard", "l_shape", "u_shape", "t_shape", "tower", "dome", "spire")
+KINDS = (
+    "box_flat",
+    "box_gable",
+    "box_hip",
+    "box_mansard",
+    "l_shape",
+    "u_shape",
+    "t_shape",
+    "tower",
+    "dome",
+    "spire",
+)
 
 
 # --------------------------------------------------------------------------- shared pieces
+
 
 def rect_ring(cx: float, cz: float, width: float, depth: float) -> np.ndarray:
     """CCW ring (4, 2) of an axis-aligned rectangle centred at ``(cx, cz)``; width along x, depth along z (metres)."""
@@ -41,7 +68,9 @@ def rect_ring(cx: float, cz: float, width: float, depth: float) -> np.ndarray:
     return np.array([[cx - w, cz - d], [cx + w, cz - d], [cx + w, cz + d], [cx - w, cz + d]])
 
 
-def circle_ring(cx: float, cz: float, radius: float, segments: int, phase: float = 0.0) -> np.ndarray:
+def circle_ring(
+    cx: float, cz: float, radius: float, segments: int, phase: float = 0.0
+) -> np.ndarray:
     """CCW ring (segments, 2) on a circle of ``radius`` metres."""
     angle = phase + 2 * math.pi * np.arange(segments) / segments
     return np.stack([cx + radius * np.cos(angle), cz + radius * np.sin(angle)], 1)
@@ -59,7 +88,9 @@ def wall_grid(ring: np.ndarray, floors: int, cells: float) -> tuple[int, list[in
     return rows, shares(round(cells / rows), edge_lengths(ring))
 
 
-def walls(mb: MeshBuilder, ring: np.ndarray, cuts: list[int], y0: float, y1: float, rows: int) -> None:
+def walls(
+    mb: MeshBuilder, ring: np.ndarray, cuts: list[int], y0: float, y1: float, rows: int
+) -> None:
     """One facade grid per footprint edge, from height ``y0`` to ``y1`` metres, facing out of the ring.
 
     Each wall has its own vertices (u runs 0..1 across every wall: a UV seam at each corner).
@@ -85,7 +116,10 @@ def walls(mb: MeshBuilder, ring: np.ndarray, cuts: list[int], y0: float, y1: flo
         outward.append(np.broadcast_to([n[0], 0.0, n[1]], (2 * rows * cols, 3)))
         offset += (rows + 1) * (cols + 1)
     positions = np.vstack(positions)
-    mb.add((positions, np.vstack(uvs), orient(positions, np.vstack(triangles), np.vstack(outward))), "wall")
+    mb.add(
+        (positions, np.vstack(uvs), orient(positions, np.vstack(triangles), np.vstack(outward))),
+        "wall",
+    )
 
 
 def edge_runs(ring: np.ndarray, cuts: list[int]) -> list[np.ndarray]:
@@ -102,7 +136,10 @@ def lift(points2: np.ndarray, y: float) -> np.ndarray:
 
 # --------------------------------------------------------------------------- roofs
 
-def flat_roof(mb: MeshBuilder, ring: np.ndarray, cuts: list[int], y: float, parapet: float, thickness: float) -> np.ndarray:
+
+def flat_roof(
+    mb: MeshBuilder, ring: np.ndarray, cuts: list[int], y: float, parapet: float, thickness: float
+) -> np.ndarray:
     """Roof slab at ``y`` inside a parapet ``parapet`` m high and ``thickness`` m thick; returns the inner ring.
 
     The walls must already reach ``y + parapet``: the parapet's outer face is the facade.
@@ -115,7 +152,14 @@ def flat_roof(mb: MeshBuilder, ring: np.ndarray, cuts: list[int], y: float, para
     for run, n in zip(edge_runs(ring, cuts), edge_normals(ring)):
         run_in = inset_run(run, ring, thickness)
         mb.add(patch(np.stack([lift(run, top), lift(run_in, top)]), DETAIL, UP), "roof")
-        mb.add(patch(np.stack([lift(run_in, y), lift(run_in, top)]), DETAIL, np.array([-n[0], 0.0, -n[1]])), "roof")
+        mb.add(
+            patch(
+                np.stack([lift(run_in, y), lift(run_in, top)]),
+                DETAIL,
+                np.array([-n[0], 0.0, -n[1]]),
+            ),
+            "roof",
+        )
     mb.add(cap(inner_corners, y, ROOF), "roof")
     return inner_corners
 
@@ -129,14 +173,32 @@ def inset_run(run: np.ndarray, ring: np.ndarray, distance: float) -> np.ndarray:
     return (1 - s) * moved[start] + s * moved[end]
 
 
-def mansard_roof(mb: MeshBuilder, ring: np.ndarray, cuts: list[int], y: float, rise: float, depth: float) -> None:
+def mansard_roof(
+    mb: MeshBuilder, ring: np.ndarray, cuts: list[int], y: float, rise: float, depth: float
+) -> None:
     """Steep lower slopes rising ``rise`` m while stepping ``depth`` m in, then a flat top."""
     for run, n in zip(edge_runs(ring, cuts), edge_normals(ring)):
-        mb.add(patch(np.stack([lift(run, y), lift(inset_run(run, ring, depth), y + rise)]), ROOF, np.array([n[0], 0.5, n[1]])), "roof")
+        mb.add(
+            patch(
+                np.stack([lift(run, y), lift(inset_run(run, ring, depth), y + rise)]),
+                ROOF,
+                np.array([n[0], 0.5, n[1]]),
+            ),
+            "roof",
+        )
     mb.add(cap(inset(ring, depth), y + rise, ROOF), "roof")
 
 
-def pitched_roof(mb: MeshBuilder, width: float, depth: float, cuts: list[int], y: float, rise: float, hip: bool, rows: int) -> None:
+def pitched_roof(
+    mb: MeshBuilder,
+    width: float,
+    depth: float,
+    cuts: list[int],
+    y: float,
+    rise: float,
+    hip: bool,
+    rows: int,
+) -> None:
     """Gable or hip roof over the centred rectangle ``width`` (x) x ``depth`` (z) metres, ridge along x.
 
     ``cuts`` are the wall cuts of :func:`rect_ring`'s edges (south, east, north, west). A hip roof
@@ -145,7 +207,9 @@ def pitched_roof(mb: MeshBuilder, width: float, depth: float, cuts: list[int], y
     w, d, top = width / 2, depth / 2, y + rise
     ridge = max(w - d, 0.0) if hip else w
     r0, r1 = np.array([-ridge, top, 0.0]), np.array([ridge, top, 0.0])
-    runs = [lift(run, y) for run in edge_runs(rect_ring(0, 0, width, depth), cuts)]  # south, east, north, west
+    runs = [
+        lift(run, y) for run in edge_runs(rect_ring(0, 0, width, depth), cuts)
+    ]  # south, east, north, west
     south, north = np.array([0.0, 1.0, -1.0]), np.array([0.0, 1.0, 1.0])
     if ridge > 0.25:
         mb.add(patch(_slope(runs[0], r0, r1, rows), ROOF, south), "roof")
@@ -171,7 +235,19 @@ def _slope(eave: np.ndarray, r_start: np.ndarray, r_end: np.ndarray, rows: int) 
 
 # --------------------------------------------------------------------------- round parts
 
-def cylinder(mb: MeshBuilder, cx: float, cz: float, radius: float, segments: int, y0: float, y1: float, rows: int, region=FACADE, group="wall") -> None:
+
+def cylinder(
+    mb: MeshBuilder,
+    cx: float,
+    cz: float,
+    radius: float,
+    segments: int,
+    y0: float,
+    y1: float,
+    rows: int,
+    region=FACADE,
+    group="wall",
+) -> None:
     """Smooth round wall (open at both ends); the UV seam is a duplicated column at angle 0."""
     ring = circle_ring(cx, cz, radius, segments)
     ring = np.vstack([ring, ring[:1]])
@@ -180,7 +256,16 @@ def cylinder(mb: MeshBuilder, cx: float, cz: float, radius: float, segments: int
     mb.add(patch(points, region, lambda m: (m - centre) * [1.0, 0.0, 1.0]), group)
 
 
-def dome(mb: MeshBuilder, cx: float, cz: float, radius: float, segments: int, y0: float, rings: int, height_ratio: float = 1.0) -> None:
+def dome(
+    mb: MeshBuilder,
+    cx: float,
+    cz: float,
+    radius: float,
+    segments: int,
+    y0: float,
+    rings: int,
+    height_ratio: float = 1.0,
+) -> None:
     """Half UV-sphere (``height_ratio`` stretches it vertically) on the circle at ``y0``; pole closed by a fan."""
     polar = np.linspace(0.0, math.pi / 2, rings + 1)[:-1]
     angle = 2 * math.pi * np.arange(segments + 1) / segments
@@ -189,13 +274,22 @@ def dome(mb: MeshBuilder, cx: float, cz: float, radius: float, segments: int, y0
     points[..., 1] = y0 + height_ratio * radius * np.sin(polar)[:, None]
     points[..., 2] = cz + radius * np.cos(polar)[:, None] * np.sin(angle)[None]
     centre = np.array([cx, y0, cz])
-    outward = lambda m: m - centre  # noqa: E731 - radial from the dome's centre
+    outward = lambda m: m - centre
     mb.add(patch(points, DETAIL, outward), "detail")
     apex = np.array([cx, y0 + height_ratio * radius, cz])
     mb.add(fan(apex, points[-1], DETAIL, outward), "detail")
 
 
-def cone(mb: MeshBuilder, cx: float, cz: float, radius: float, segments: int, y0: float, height: float, rows: int) -> None:
+def cone(
+    mb: MeshBuilder,
+    cx: float,
+    cz: float,
+    radius: float,
+    segments: int,
+    y0: float,
+    height: float,
+    rows: int,
+) -> None:
     """Spire: rings shrinking to an apex ``height`` m above ``y0``; the last row is a fan."""
     ring = circle_ring(cx, cz, 1.0, segments)
     ring = np.vstack([ring, ring[:1]])
@@ -205,13 +299,25 @@ def cone(mb: MeshBuilder, cx: float, cz: float, radius: float, segments: int, y0
     points[..., 1] = (y0 + height * t)[:, None]
     points[..., 2] = cz + (ring[:, 1] - cz)[None] * radius * (1 - t)[:, None]
     centre = np.array([cx, 0.0, cz])
-    outward = lambda m: (m - centre) * [1.0, 0.0, 1.0]  # noqa: E731
+    outward = lambda m: (m - centre) * [1.0, 0.0, 1.0]
     if len(t) > 1:
         mb.add(patch(points, DETAIL, outward), "detail")
     mb.add(fan([cx, y0 + height, cz], points[-1], DETAIL, outward), "detail")
 
 
-def box(mb: MeshBuilder, cx: float, cz: float, width: float, depth: float, y0: float, height: float, group: str = "detail", region=DETAIL, rows: int = 1, cols: int = 1) -> None:
+def box(
+    mb: MeshBuilder,
+    cx: float,
+    cz: float,
+    width: float,
+    depth: float,
+    y0: float,
+    height: float,
+    group: str = "detail",
+    region=DETAIL,
+    rows: int = 1,
+    cols: int = 1,
+) -> None:
     """A floorless box (4 sides and a top) standing on ``y0``: rooftop units, stair houses, antennas."""
     ring = rect_ring(cx, cz, width, depth)
     walls_ = MeshBuilder()
@@ -226,7 +332,9 @@ def _remap(uvs: np.ndarray, source: tuple, target: tuple) -> np.ndarray:
     return s * [target[2] - target[0], target[3] - target[1]] + [target[0], target[1]]
 
 
-def rooftop_details(mb: MeshBuilder, rng_values: np.ndarray, wings: list[tuple], y: float, keep_out: float) -> None:
+def rooftop_details(
+    mb: MeshBuilder, rng_values: np.ndarray, wings: list[tuple], y: float, keep_out: float
+) -> None:
     """AC units, a stair house and an antenna on flat roofs, placed by pre-drawn uniforms ``rng_values`` (k, 5).
 
     ``wings`` are ``(x0, z0, width, depth)`` rectangles (metres) covering the roof; ``keep_out``
@@ -243,12 +351,17 @@ def rooftop_details(mb: MeshBuilder, rng_values: np.ndarray, wings: list[tuple],
         free_w, free_d = ww - 2 * keep_out - w, dd - 2 * keep_out - d
         if free_w <= 0 or free_d <= 0:
             continue
-        box(mb, x0 + keep_out + w / 2 + fx * free_w, z0 + keep_out + d / 2 + fz * free_d, w, d, y, h)
+        box(
+            mb, x0 + keep_out + w / 2 + fx * free_w, z0 + keep_out + d / 2 + fz * free_d, w, d, y, h
+        )
 
 
 # --------------------------------------------------------------------------- parameters shared by kinds
 
-def common(rng: np.random.Generator, budget: float, floors_scale: tuple = (0.3, 0.8), max_floors: int = 50) -> dict:
+
+def common(
+    rng: np.random.Generator, budget: float, floors_scale: tuple = (0.3, 0.8), max_floors: int = 50
+) -> dict:
     """Floors, floor height (m), bay width (m) and facade perimeter (m) sized for ``budget`` triangles."""
     cells = 0.35 * budget
     floors = int(np.clip(round(math.sqrt(cells) * rng.uniform(*floors_scale)), 1, max_floors))
@@ -274,11 +387,16 @@ def rect_dims(perimeter: float, aspect: float) -> tuple[float, float]:
 
 # --------------------------------------------------------------------------- kinds
 
+
 def draw_box(rng, budget, roof):
     p = common(rng, budget, max_floors=6 if roof in ("gable", "hip") else 50)
     p["roof"] = roof
     p["width"], p["depth"] = rect_dims(p["perimeter"], rng.uniform(1.0, 2.5))
-    p["rise"] = p["depth"] / 2 * rng.uniform(0.5, 1.1) if roof in ("gable", "hip") else rng.uniform(2.5, 4.0)
+    p["rise"] = (
+        p["depth"] / 2 * rng.uniform(0.5, 1.1)
+        if roof in ("gable", "hip")
+        else rng.uniform(2.5, 4.0)
+    )
     return p
 
 
@@ -290,7 +408,9 @@ def build_box(p, cells, mb):
     if roof == "flat":
         walls(mb, ring, cuts, 0.0, h + p["parapet"], rows)
         flat_roof(mb, ring, cuts, h, p["parapet"], 0.3)
-        rooftop_details(mb, p["details"], [(-p["width"] / 2, -p["depth"] / 2, p["width"], p["depth"])], h, 0.6)
+        rooftop_details(
+            mb, p["details"], [(-p["width"] / 2, -p["depth"] / 2, p["width"], p["depth"])], h, 0.6
+        )
     elif roof == "mansard":
         walls(mb, ring, cuts, 0.0, h, rows)
         mansard_roof(mb, ring, cuts, h, p["rise"], min(1.2, 0.2 * p["depth"]))
@@ -310,7 +430,9 @@ def draw_polygon(rng, budget, shape):
     return p
 
 
-def polygon_outline(shape: str, width: float, depth: float, notch) -> tuple[np.ndarray, list[tuple]]:
+def polygon_outline(
+    shape: str, width: float, depth: float, notch
+) -> tuple[np.ndarray, list[tuple]]:
     """CCW ring and covering wings ``(x0, z0, w, d)`` of an L, U or T footprint, in metres from the SW corner."""
     W, D = width, depth
     nw, nd = notch[0] * W, notch[1] * D
@@ -324,10 +446,21 @@ def polygon_outline(shape: str, width: float, depth: float, notch) -> tuple[np.n
     else:  # t_shape: a bar along the north side on a centred stem
         stem = W - nw
         s0, s1 = (W - stem) / 2, (W + stem) / 2
-        ring = [(s0, 0), (s1, 0), (s1, D - nd), (W, D - nd), (W, D), (0, D), (0, D - nd), (s0, D - nd)]
+        ring = [
+            (s0, 0),
+            (s1, 0),
+            (s1, D - nd),
+            (W, D - nd),
+            (W, D),
+            (0, D),
+            (0, D - nd),
+            (s0, D - nd),
+        ]
         wings = [(s0, 0, stem, D - nd), (0, D - nd, W, nd)]
     shift = np.array([W / 2, D / 2])
-    return np.array(ring, float) - shift, [(x0 - shift[0], z0 - shift[1], w, d) for x0, z0, w, d in wings]
+    return np.array(ring, float) - shift, [
+        (x0 - shift[0], z0 - shift[1], w, d) for x0, z0, w, d in wings
+    ]
 
 
 def build_polygon(p, cells, mb):
@@ -421,7 +554,9 @@ def build_spire(p, cells, mb):
     local = MeshBuilder()
     walls(local, rect_ring(0, 0, s, s), t_cuts, 0.0, tower_h, t_rows)
     pitched_roof(local, s, s, t_cuts, tower_h, p["spire"], True, 1)
-    for positions, uvs, triangles, group in zip(local.positions, local.uvs, local.triangles, local.groups):
+    for positions, uvs, triangles, group in zip(
+        local.positions, local.uvs, local.triangles, local.groups
+    ):
         mb.add((positions + [cx, 0.0, cz], uvs, triangles), group)
     return [nave, rect_ring(cx, cz, s, s)]
 
@@ -439,19 +574,38 @@ DRAW = {
     "spire": draw_spire,
 }
 BUILD = {
-    "box_flat": build_box, "box_gable": build_box, "box_hip": build_box, "box_mansard": build_box,
-    "l_shape": build_polygon, "u_shape": build_polygon, "t_shape": build_polygon,
-    "tower": build_tower, "dome": build_dome, "spire": build_spire,
+    "box_flat": build_box,
+    "box_gable": build_box,
+    "box_hip": build_box,
+    "box_mansard": build_box,
+    "l_shape": build_polygon,
+    "u_shape": build_polygon,
+    "t_shape": build_polygon,
+    "tower": build_tower,
+    "dome": build_dome,
+    "spire": build_spire,
 }
 
 
 # Measured share cells / budget after fitting (median over 400 buildings): a first guess that
 # usually lands within tolerance on the first or second build.
-CELL_SHARE = {"box_flat": 0.31, "box_gable": 0.41, "box_hip": 0.415, "box_mansard": 0.41, "l_shape": 0.355,
-              "u_shape": 0.35, "t_shape": 0.395, "tower": 0.42, "dome": 0.275, "spire": 0.37}
+CELL_SHARE = {
+    "box_flat": 0.31,
+    "box_gable": 0.41,
+    "box_hip": 0.415,
+    "box_mansard": 0.41,
+    "l_shape": 0.355,
+    "u_shape": 0.35,
+    "t_shape": 0.395,
+    "tower": 0.42,
+    "dome": 0.275,
+    "spire": 0.37,
+}
 
 
-def fit_to_budget(kind: str, params: dict, budget: float, tries: int = 4, tolerance: float = 0.04) -> tuple[MeshBuilder, list[np.ndarray]]:
+def fit_to_budget(
+    kind: str, params: dict, budget: float, tries: int = 4, tolerance: float = 0.04
+) -> tuple[MeshBuilder, list[np.ndarray]]:
     """Build ``kind`` choosing the wall-cell count whose triangle total comes closest to ``budget``.
 
     Each retry moves the cell count by the missing triangles / 2 (two triangles a cell).

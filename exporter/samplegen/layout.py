@@ -12,6 +12,7 @@ the tile holds: a level-15 tile is about 97 x 122 m in Seoul, and the paper's 1 
 far denser than that) it takes the candidate overlapping the fewest cells, so footprints then
 overlap. Centres always stay inside the tile.
 """
+
 from __future__ import annotations
 
 import math
@@ -24,7 +25,6 @@ from ..model import TileId
 from ..tiles import tile_bounds, tile_center
 
 
-
 def tile_extent_m(tile: TileId) -> tuple[float, float]:
     """Width (East) and height (North) of ``tile`` in metres at its centre latitude."""
     west, south, east, north = tile_bounds(tile)
@@ -33,13 +33,17 @@ def tile_extent_m(tile: TileId) -> tuple[float, float]:
     return (east - west) * scale * math.cos(math.radians(lat)), (north - south) * scale
 
 
-def footprint_mask(rings: list[np.ndarray], cell: float, grow: int) -> tuple[np.ndarray, np.ndarray]:
+def footprint_mask(
+    rings: list[np.ndarray], cell: float, grow: int
+) -> tuple[np.ndarray, np.ndarray]:
     """Boolean raster (rows = x cells, cols = z cells) of the rings, grown by ``grow`` cells, and the
     grid offset (2,) of the reference point inside it."""
     points = np.vstack(rings)
     low = np.floor(points.min(axis=0) / cell).astype(int) - grow - 1
     high = np.ceil(points.max(axis=0) / cell).astype(int) + grow + 1
-    image = Image.new("L", tuple(int(v) for v in (high - low)[::-1]))  # width = z cells, height = x cells
+    image = Image.new(
+        "L", tuple(int(v) for v in (high - low)[::-1])
+    )  # width = z cells, height = x cells
     draw = ImageDraw.Draw(image)
     for ring in rings:
         pixels = ring / cell - low
@@ -49,8 +53,14 @@ def footprint_mask(rings: list[np.ndarray], cell: float, grow: int) -> tuple[np.
     return np.asarray(image, dtype=bool), -low
 
 
-def place(rng: np.random.Generator, footprints: list[list[np.ndarray]], tile: TileId, gap: float = 2.0,
-          candidates: int = 64, cell: float = 0.5) -> np.ndarray:
+def place(
+    rng: np.random.Generator,
+    footprints: list[list[np.ndarray]],
+    tile: TileId,
+    gap: float = 2.0,
+    candidates: int = 64,
+    cell: float = 0.5,
+) -> np.ndarray:
     """Tile-local centres (n, 2) ``(x, z)`` metres for buildings with these footprint rings."""
     width, height = tile_extent_m(tile)
     half = np.array([width, height]) / 2 * 0.999  # strictly inside the tile
@@ -63,17 +73,23 @@ def place(rng: np.random.Generator, footprints: list[list[np.ndarray]], tile: Ti
     origin = np.array([margin, margin]) + half / cell  # grid index of the tile centre
     areas = [m.sum() for m, _ in masks]
     centres = np.zeros((len(footprints), 2))
-    failures = 0  # consecutive buildings that found no free spot: the tile is full, stop searching hard
+    failures = (
+        0  # consecutive buildings that found no free spot: the tile is full, stop searching hard
+    )
     for i in np.argsort(-np.asarray(areas), kind="stable"):
         points = np.vstack(footprints[i])
         extent = np.maximum(-points.min(axis=0), points.max(axis=0))
-        reach = half - np.minimum(extent, half * 0.95)  # keep the footprint in the tile when it fits
+        reach = half - np.minimum(
+            extent, half * 0.95
+        )  # keep the footprint in the tile when it fits
         trial = rng.uniform(-1.0, 1.0, size=(candidates if failures < 10 else 4, 2)) * reach
         mask, anchor = grown[i]
         overlaps = []
-        for j, centre in enumerate(trial):
+        for _j, centre in enumerate(trial):
             start = np.round(origin + centre / cell).astype(int) - anchor
-            window = occupied[start[0] : start[0] + mask.shape[0], start[1] : start[1] + mask.shape[1]]
+            window = occupied[
+                start[0] : start[0] + mask.shape[0], start[1] : start[1] + mask.shape[1]
+            ]
             overlaps.append(int(np.count_nonzero(window & mask)))
             if overlaps[-1] == 0:
                 break
@@ -90,4 +106,6 @@ def to_lonlat(tile: TileId, xz: np.ndarray) -> np.ndarray:
     """Degrees (n, 2) ``(lon, lat)`` of tile-local ``(x, z)`` metres (n, 2)."""
     lon0, lat0 = tile_center(tile)
     scale = math.degrees(1.0) / EARTH_RADIUS_M
-    return np.column_stack([lon0 + xz[:, 0] * scale / math.cos(math.radians(lat0)), lat0 + xz[:, 1] * scale])
+    return np.column_stack(
+        [lon0 + xz[:, 0] * scale / math.cos(math.radians(lat0)), lat0 + xz[:, 1] * scale]
+    )

@@ -12,6 +12,7 @@ numerical ``(b - a) x (c - a)`` points against the primitive's outward direction
 (the model's winding, see ``exporter/model.py``). Vertices are never shared between primitives,
 so every roof/wall junction is a UV seam, as in VWorld's textured models.
 """
+
 from __future__ import annotations
 
 from functools import lru_cache
@@ -40,7 +41,11 @@ def triangle_normals(positions: np.ndarray, triangles: np.ndarray) -> np.ndarray
 
 def orient(positions: np.ndarray, triangles: np.ndarray, outward: np.ndarray) -> np.ndarray:
     """Reverse triangles whose normal points against ``outward`` ((3,) or (m, 3)); returns (m, 3)."""
-    facing = np.einsum("ij,ij->i", triangle_normals(positions, triangles), np.broadcast_to(outward, (len(triangles), 3)))
+    facing = np.einsum(
+        "ij,ij->i",
+        triangle_normals(positions, triangles),
+        np.broadcast_to(outward, (len(triangles), 3)),
+    )
     if np.all(facing >= 0):
         return triangles
     return np.where((facing < 0)[:, None], triangles[:, ::-1], triangles)
@@ -51,7 +56,9 @@ def grid_triangles(rows: int, cols: int) -> np.ndarray:
     """Two triangles per cell of a ``(rows + 1) x (cols + 1)`` vertex grid stored row-major; (2*rows*cols, 3), read-only."""
     a = (np.arange(rows)[:, None] * (cols + 1) + np.arange(cols)[None, :]).ravel()
     b, d = a + 1, a + cols + 1
-    triangles = np.concatenate([np.stack([a, b, d + 1], 1), np.stack([a, d + 1, d], 1)]).astype(np.int64)
+    triangles = np.concatenate([np.stack([a, b, d + 1], 1), np.stack([a, d + 1, d], 1)]).astype(
+        np.int64
+    )
     triangles.flags.writeable = False
     return triangles
 
@@ -95,7 +102,9 @@ def cap(ring: np.ndarray, y: float, uv_rect: tuple, up: bool = True) -> tuple:
     UVs project ``(x, z)`` onto ``uv_rect`` over the ring's bounding box (north at the top).
     """
     ring = np.asarray(ring, float)
-    triangles = np.asarray(mapbox_earcut.triangulate_float64(ring, np.array([len(ring)], dtype=np.uint32)), np.int64).reshape(-1, 3)
+    triangles = np.asarray(
+        mapbox_earcut.triangulate_float64(ring, np.array([len(ring)], dtype=np.uint32)), np.int64
+    ).reshape(-1, 3)
     positions = np.column_stack([ring[:, 0], np.full(len(ring), y), ring[:, 1]])
     low, high = ring.min(0), ring.max(0)
     st = (ring - low) / np.maximum(high - low, 1e-9)

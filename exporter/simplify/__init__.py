@@ -21,10 +21,10 @@ Pipeline per level (each level is built from the level above; measured, see the 
    UV foldovers, within ``max_error`` of LOD0 (the error guard raises the target otherwise);
 6. split back into parts with per-vertex UVs and normals.
 """
+
 from __future__ import annotations
 
 import dataclasses
-from typing import Optional
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -33,10 +33,16 @@ from ..config import LodSpec, SimplifyOptions
 from ..errors import ProcessError
 from ..geometry import unique_float_rows
 from ..model import Part
-from .protect import (border_vertices, face_areas, footprint_wall_faces, largest_faces, nonmanifold_vertices,
-                      part_border_vertices)
 from .guard import Reference, diagonal, exceeds
 from .planar import retriangulate_planar_checked
+from .protect import (
+    border_vertices,
+    face_areas,
+    footprint_wall_faces,
+    largest_faces,
+    nonmanifold_vertices,
+    part_border_vertices,
+)
 from .quadric import Collapsed, collapse
 from .weld import weld_positions
 
@@ -52,12 +58,16 @@ def _check_part(part: Part, index: int) -> None:
     where = f"part {index} ({part.name or 'unnamed'})"
     if not np.all(np.isfinite(part.positions)):
         raise ProcessError(f"{where}: positions contain NaN or infinity")
-    if len(part.triangles) and (part.triangles.min() < 0 or part.triangles.max() >= len(part.positions)):
+    if len(part.triangles) and (
+        part.triangles.min() < 0 or part.triangles.max() >= len(part.positions)
+    ):
         raise ProcessError(f"{where}: triangle index outside 0..{len(part.positions) - 1}")
     if part.uvs is not None and len(part.uvs) != len(part.positions):
         raise ProcessError(f"{where}: {len(part.uvs)} UVs for {len(part.positions)} positions")
     if part.normals is not None and len(part.normals) != len(part.positions):
-        raise ProcessError(f"{where}: {len(part.normals)} normals for {len(part.positions)} positions")
+        raise ProcessError(
+            f"{where}: {len(part.normals)} normals for {len(part.positions)} positions"
+        )
 
 
 def clean_part(part: Part) -> Part:
@@ -98,20 +108,45 @@ def _join(parts: list[Part], link_distance: float):
     apart than ``NOISE_M`` (only possible with ``link_distance > NOISE_M``)."""
     offsets = np.cumsum([0] + [p.vertex_count for p in parts])
     positions = np.concatenate([p.positions for p in parts]) if parts else np.zeros((0, 3))
-    faces = np.concatenate([p.triangles + offsets[i] for i, p in enumerate(parts)]) if parts else np.zeros((0, 3), np.int64)
-    face_part = np.concatenate([np.full(p.triangle_count, i) for i, p in enumerate(parts)]).astype(np.int64)
+    faces = (
+        np.concatenate([p.triangles + offsets[i] for i, p in enumerate(parts)])
+        if parts
+        else np.zeros((0, 3), np.int64)
+    )
+    face_part = np.concatenate([np.full(p.triangle_count, i) for i, p in enumerate(parts)]).astype(
+        np.int64
+    )
     has_uv = any(p.uvs is not None for p in parts)
-    uvs = np.concatenate([p.uvs if p.uvs is not None else np.zeros((p.vertex_count, 2), np.float32) for p in parts]) if has_uv else None
+    uvs = (
+        np.concatenate(
+            [
+                p.uvs if p.uvs is not None else np.zeros((p.vertex_count, 2), np.float32)
+                for p in parts
+            ]
+        )
+        if has_uv
+        else None
+    )
     # Float noise (a vertex repeated with 1e-7 m differences) is welded whatever the option says.
     welded, welded_positions = weld_positions(positions, max(link_distance, NOISE_M))
-    merged = link_distance > NOISE_M and len(welded_positions) < len(weld_positions(positions, NOISE_M)[1])
+    merged = link_distance > NOISE_M and len(welded_positions) < len(
+        weld_positions(positions, NOISE_M)[1]
+    )
     corner_uvs = uvs[faces] if has_uv else None
     face_chart = uv_charts(faces, len(positions))
     faces = welded[faces]
     # Welding closer than link_distance can fold slivers to edges: drop those.
-    distinct = (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])
-    return (welded_positions, faces[distinct], face_part[distinct], None if corner_uvs is None else corner_uvs[distinct],
-            face_chart[distinct], merged)
+    distinct = (
+        (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])
+    )
+    return (
+        welded_positions,
+        faces[distinct],
+        face_part[distinct],
+        None if corner_uvs is None else corner_uvs[distinct],
+        face_chart[distinct],
+        merged,
+    )
 
 
 def _locks(positions, faces, face_part, options: SimplifyOptions) -> np.ndarray:
@@ -152,12 +187,21 @@ def _split(parts: list[Part], result, face_part_in) -> list[Part]:
         if part.normals is not None and len(vertex):
             # The source vertex nearest in position (and UV) gives the normal; unmoved vertices
             # find their own exactly.
-            src = part.positions if part.uvs is None else np.column_stack([part.positions, part.uvs])
+            src = (
+                part.positions if part.uvs is None else np.column_stack([part.positions, part.uvs])
+            )
             query = positions if part.uvs is None else np.column_stack([positions, uvs])
             _, nearest = cKDTree(src).query(query)
             normals = part.normals[nearest]
-        out.append(dataclasses.replace(part, positions=positions, triangles=inverse.reshape(-1, 3),
-                                       uvs=uvs, normals=normals))
+        out.append(
+            dataclasses.replace(
+                part,
+                positions=positions,
+                triangles=inverse.reshape(-1, 3),
+                uvs=uvs,
+                normals=normals,
+            )
+        )
     return out
 
 
@@ -170,8 +214,12 @@ def _unchanged(positions, faces, corner_uvs) -> Collapsed:
 GUARD_STEPS = 5
 
 
-def simplify_parts(parts: list[Part], target: int, options: SimplifyOptions,
-                   reference: Optional[tuple[np.ndarray, np.ndarray] | Reference] = None) -> list[Part]:
+def simplify_parts(
+    parts: list[Part],
+    target: int,
+    options: SimplifyOptions,
+    reference: tuple[np.ndarray, np.ndarray] | Reference | None = None,
+) -> list[Part]:
     """One level: the parts jointly simplified towards ``target`` triangles (never more than given).
 
     ``reference``: the LOD0 mesh ``(positions (k, 3) metres, faces (m, 3))`` the error guard
@@ -181,9 +229,13 @@ def simplify_parts(parts: list[Part], target: int, options: SimplifyOptions,
     return _simplify_level(parts, target, options, reference)[0]
 
 
-def _simplify_level(parts: list[Part], target: int, options: SimplifyOptions,
-                    reference: Optional[tuple[np.ndarray, np.ndarray] | Reference] = None,
-                    joined: Optional[tuple] = None) -> tuple[list[Part], bool, bool]:
+def _simplify_level(
+    parts: list[Part],
+    target: int,
+    options: SimplifyOptions,
+    reference: tuple[np.ndarray, np.ndarray] | Reference | None = None,
+    joined: tuple | None = None,
+) -> tuple[list[Part], bool, bool]:
     """:func:`simplify_parts`, whether the step kept the surface (only noise welding and the
     planar re-triangulation: no collapse, no link-distance welding) and whether it also kept the
     open boundary's length (lossless). ``joined``: ``_join(parts, link distance)`` when the caller
@@ -191,7 +243,9 @@ def _simplify_level(parts: list[Part], target: int, options: SimplifyOptions,
     total = sum(p.triangle_count for p in parts)
     if total <= target or total == 0:
         return parts, True, True
-    positions, faces, face_part, corner_uvs, face_chart, welded = joined or _join(parts, options.vertex_link_distance)
+    positions, faces, face_part, corner_uvs, face_chart, welded = joined or _join(
+        parts, options.vertex_link_distance
+    )
     boundary_kept = True
     reference = reference if reference is not None else (positions, faces)
     if not isinstance(reference, Reference):
@@ -201,24 +255,36 @@ def _simplify_level(parts: list[Part], target: int, options: SimplifyOptions,
         # Lossless, so only non-manifold vertices are held: straight vertices on the open border or
         # between two parts are dropped from both sides at once (no T-junction, no crack).
         faces, corner_uvs, source, boundary_kept = retriangulate_planar_checked(
-            positions, faces, corner_uvs, face_chart, nonmanifold_vertices(faces, len(positions)))
+            positions, faces, corner_uvs, face_chart, nonmanifold_vertices(faces, len(positions))
+        )
         face_part, face_chart = face_part[source], face_chart[source]
     if len(faces) <= target:
         # The planar pass met the target: no collapse, nothing to lock or protect.
         if len(faces) >= total:
             return parts, True, True
         # Closing a slit of the source keeps the surface but not its open boundary.
-        return _split(parts, _unchanged(positions, faces, corner_uvs), face_part), not welded, \
-            not welded and boundary_kept
+        return (
+            _split(parts, _unchanged(positions, faces, corner_uvs), face_part),
+            not welded,
+            not welded and boundary_kept,
+        )
     locked = _locks(positions, faces, face_part, options)
     movable = ~_protected(positions, faces, options)
 
     def attempt(goal: int) -> Collapsed:
-        return collapse(positions, faces, corner_uvs, face_chart, movable, locked, goal,
-                        preserve_curvature=options.preserve_surface_curvature,
-                        keep_seams=options.preserve_uv_seam_edges,
-                        refuse_foldovers=options.preserve_uv_foldover_edges,
-                        max_iterations=options.max_iterations)
+        return collapse(
+            positions,
+            faces,
+            corner_uvs,
+            face_chart,
+            movable,
+            locked,
+            goal,
+            preserve_curvature=options.preserve_surface_curvature,
+            keep_seams=options.preserve_uv_seam_edges,
+            refuse_foldovers=options.preserve_uv_foldover_edges,
+            max_iterations=options.max_iterations,
+        )
 
     tolerance = options.max_error * diagonal(reference.positions)
     flat = _unchanged(positions, faces, corner_uvs)
@@ -226,7 +292,11 @@ def _simplify_level(parts: list[Part], target: int, options: SimplifyOptions,
     # the same, so there is nothing to run or measure.
     settled = not movable.any()
     result = flat if settled else attempt(target)
-    if options.max_error > 0 and not settled and exceeds(reference, result.positions, result.faces, tolerance):
+    if (
+        options.max_error > 0
+        and not settled
+        and exceeds(reference, result.positions, result.faces, tolerance)
+    ):
         # Raise the target until the level stays within the tolerance (bisection on the count).
         best, low, high = flat, target, len(faces)
         for _ in range(GUARD_STEPS):
@@ -242,8 +312,11 @@ def _simplify_level(parts: list[Part], target: int, options: SimplifyOptions,
     if len(result.faces) >= total:
         return parts, True, True
     # The surface stays only if the collapse changed nothing: no face removed, every vertex where it was.
-    surface_kept = not welded and len(result.faces) == len(faces) and \
-        np.array_equal(result.positions, positions[result.vertex_ids])
+    surface_kept = (
+        not welded
+        and len(result.faces) == len(faces)
+        and np.array_equal(result.positions, positions[result.vertex_ids])
+    )
     return _split(parts, result, face_part), surface_kept, surface_kept and boundary_kept
 
 
@@ -265,7 +338,9 @@ class MeshLevel:
     surface_exact: bool
 
 
-def build_mesh_chain(parts: list[Part], lods: list[LodSpec], options: SimplifyOptions) -> list[MeshLevel]:
+def build_mesh_chain(
+    parts: list[Part], lods: list[LodSpec], options: SimplifyOptions
+) -> list[MeshLevel]:
     """Mesh LoD chain: one :class:`MeshLevel` per level, LOD0 first.
 
     ``parts``: the building's source parts (local East/Up/North metres). Level 0 is the source
@@ -289,12 +364,18 @@ def build_mesh_chain(parts: list[Part], lods: list[LodSpec], options: SimplifyOp
         level_options = dataclasses.replace(options, max_error=options.max_error * scale)
         # Level 1 starts from LOD0 welded the same way as the reference: joined once.
         shared = joined if k == 1 and options.vertex_link_distance <= NOISE_M else None
-        level, surface_kept, lossless = _simplify_level(chain[-1].parts, target, level_options, reference, shared)
-        chain.append(MeshLevel(level, chain[-1].exact and lossless, chain[-1].surface_exact and surface_kept))
+        level, surface_kept, lossless = _simplify_level(
+            chain[-1].parts, target, level_options, reference, shared
+        )
+        chain.append(
+            MeshLevel(level, chain[-1].exact and lossless, chain[-1].surface_exact and surface_kept)
+        )
     return chain
 
 
-def build_mesh_lods(parts: list[Part], lods: list[LodSpec], options: SimplifyOptions) -> list[list[Part]]:
+def build_mesh_lods(
+    parts: list[Part], lods: list[LodSpec], options: SimplifyOptions
+) -> list[list[Part]]:
     """Mesh LoD chain: one list of parts per level, LOD0 first (:func:`build_mesh_chain` without
     the ``exact`` flags)."""
     return [level.parts for level in build_mesh_chain(parts, lods, options)]

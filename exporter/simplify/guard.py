@@ -14,6 +14,7 @@ The reference side (LOD0: its probe points, its surface index, the generator sta
 samples) is prepared once per building (:class:`Reference`) and shared by every level and every
 bisection step.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -36,7 +37,9 @@ class Reference:
         rng = np.random.default_rng(SEED)
         corners = self.positions[np.unique(self.faces)]
         self._corner_count = len(corners)
-        self._points = np.vstack([corners, sample_surface(self.positions, self.faces, SAMPLES, rng)])
+        self._points = np.vstack(
+            [corners, sample_surface(self.positions, self.faces, SAMPLES, rng)]
+        )
         self._rng_after = rng  # the level's samples continue this stream
 
     @property
@@ -49,7 +52,7 @@ class Reference:
     @property
     def corners(self) -> np.ndarray:
         """(c, 3) metres: the reference's vertices used by a face (the first rows of ``points``)."""
-        return self.points[:self._corner_count]
+        return self.points[: self._corner_count]
 
     @property
     def rng_after(self) -> np.random.Generator:
@@ -81,13 +84,19 @@ def deviation(reference, positions: np.ndarray, faces: np.ndarray) -> float:
     if len(faces) == 0:
         return float("inf")
     rng = _resume(reference.rng_after)
-    backward = np.vstack([positions[np.unique(faces)], sample_surface(positions, faces, SAMPLES, rng)])
+    backward = np.vstack(
+        [positions[np.unique(faces)], sample_surface(positions, faces, SAMPLES, rng)]
+    )
     # Exact maxima: only the largest upper bounds are refined (same value as every exact distance).
-    return max(SurfaceIndex(positions, faces).max_distance(reference.points),
-               reference.index.max_distance(backward))
+    return max(
+        SurfaceIndex(positions, faces).max_distance(reference.points),
+        reference.index.max_distance(backward),
+    )
 
 
-def exceeds(reference: Reference, positions: np.ndarray, faces: np.ndarray, tolerance: float) -> bool:
+def exceeds(
+    reference: Reference, positions: np.ndarray, faces: np.ndarray, tolerance: float
+) -> bool:
     """``deviation(reference, positions, faces) > tolerance`` (metres), decided with less work:
     each direction's maximum is taken with ``tolerance`` as its floor (points whose nearest probe
     is within it are not refined; :meth:`~exporter.quality.SurfaceIndex.max_distance` returns
@@ -100,19 +109,31 @@ def exceeds(reference: Reference, positions: np.ndarray, faces: np.ndarray, tole
     backward = np.vstack([corners, sample_surface(positions, faces, SAMPLES, rng)])
     # A point equal to a corner of the other side is on its surface (distance 0, never above the
     # floor): only the others are looked up (most vertices are kept from LOD0).
-    if reference.index.max_distance(backward[_off(backward, reference.corners)], floor=tolerance) > tolerance:
+    if (
+        reference.index.max_distance(backward[_off(backward, reference.corners)], floor=tolerance)
+        > tolerance
+    ):
         return True
     forward = reference.points[_off(reference.points, corners)]
-    return len(forward) > 0 and SurfaceIndex(positions, faces).max_distance(forward, floor=tolerance) > tolerance
+    return (
+        len(forward) > 0
+        and SurfaceIndex(positions, faces).max_distance(forward, floor=tolerance) > tolerance
+    )
 
 
 def _off(points: np.ndarray, corners: np.ndarray) -> np.ndarray:
     """(p,) bool: the points (p, 3) metres not bit for bit equal to any of ``corners`` (c, 3)."""
     row = np.dtype((np.void, 3 * points.dtype.itemsize))
-    return ~np.isin(np.ascontiguousarray(points).view(row).reshape(-1),
-                    np.ascontiguousarray(corners, dtype=points.dtype).view(row).reshape(-1))
+    return ~np.isin(
+        np.ascontiguousarray(points).view(row).reshape(-1),
+        np.ascontiguousarray(corners, dtype=points.dtype).view(row).reshape(-1),
+    )
 
 
 def diagonal(positions: np.ndarray) -> float:
     """Bounding-box diagonal, metres."""
-    return float(np.linalg.norm(positions.max(axis=0) - positions.min(axis=0))) if len(positions) else 0.0
+    return (
+        float(np.linalg.norm(positions.max(axis=0) - positions.min(axis=0)))
+        if len(positions)
+        else 0.0
+    )

@@ -21,6 +21,7 @@ Regions are done in batches (:func:`_retriangulate_many`, ~19 regions per buildi
 but earcut and the per-region float reductions runs once per batch, with the results of the
 one-region reference :func:`_retriangulate` bit for bit (``tests/test_perf_simplify.py``).
 """
+
 from __future__ import annotations
 
 import itertools
@@ -67,8 +68,14 @@ def _plane_basis(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return u, cross3(n, u.tolist())
 
 
-def straight_vertices(positions: np.ndarray, faces: np.ndarray, regions: np.ndarray, locked: np.ndarray,
-                      tolerance: float = 1e-6, on_border: bool = True) -> np.ndarray:
+def straight_vertices(
+    positions: np.ndarray,
+    faces: np.ndarray,
+    regions: np.ndarray,
+    locked: np.ndarray,
+    tolerance: float = 1e-6,
+    on_border: bool = True,
+) -> np.ndarray:
     """(k,) bool: unlocked vertices on exactly two outline edges (edges on the open border or
     between two regions) that run straight through them (collinear within ``tolerance``
     metres): dropping such a vertex from every region that has it changes no outline."""
@@ -103,7 +110,7 @@ def straight_vertices(positions: np.ndarray, faces: np.ndarray, regions: np.ndar
         # Not where the two neighbours already share an edge (a slit / T-junction of the source):
         # dropping would close it and change the open boundary.
         pair = np.sort(np.stack([half[first, 1], half[first + 1, 1]], axis=1), axis=1)
-        existing = (unique[:, 0] * k + unique[:, 1])  # ascending: unique rows are sorted
+        existing = unique[:, 0] * k + unique[:, 1]  # ascending: unique rows are sorted
         closes = _member(pair[:, 0] * k + pair[:, 1], existing)
         straight[two] = (off_line < tolerance) & (between > 0) & (between < 1) & ~closes
     return straight & ~locked
@@ -140,7 +147,10 @@ def _retriangulate(positions, region_faces, region_uvs, droppable):
     flat = [positions[loop] @ np.stack([u, v], axis=1) for loop in loops]
     order = [0]
     if len(loops) > 1:
-        signed = [0.5 * np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1]) for p in flat]
+        signed = [
+            0.5 * np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1])
+            for p in flat
+        ]
         order = np.argsort(-np.abs(signed))
     rings = [loops[i] for i in order]
     vertices = np.concatenate([loop for loop in rings])
@@ -151,7 +161,11 @@ def _retriangulate(positions, region_faces, region_uvs, droppable):
         return None
     new_faces = vertices[tri]
     # The new triangles' outline must be exactly the (dropped) loops: no edge across a hole.
-    expected = {tuple(sorted((loop[i], loop[(i + 1) % len(loop)]))) for loop in rings for i in range(len(loop))}
+    expected = {
+        tuple(sorted((loop[i], loop[(i + 1) % len(loop)])))
+        for loop in rings
+        for i in range(len(loop))
+    }
     # Regions are small (tens of faces): counting edges in a dict beats np.unique's overhead.
     use: dict[tuple, int] = {}
     for x, y in new_faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2).tolist():
@@ -159,7 +173,10 @@ def _retriangulate(positions, region_faces, region_uvs, droppable):
         use[edge] = use.get(edge, 0) + 1
     if {e for e, count in use.items() if count == 1} != expected or max(use.values()) > 2:
         return None
-    n = cross_rows(positions[new_faces[:, 1]] - positions[new_faces[:, 0]], positions[new_faces[:, 2]] - positions[new_faces[:, 0]])
+    n = cross_rows(
+        positions[new_faces[:, 1]] - positions[new_faces[:, 0]],
+        positions[new_faces[:, 2]] - positions[new_faces[:, 0]],
+    )
     new_faces = np.where(((n @ normal) < 0)[:, None], new_faces[:, ::-1], new_faces)
     areas = 0.5 * np.linalg.norm(n, axis=1)  # reversing a face keeps its area
     # Earcut may emit zero-area slivers along collinear outline vertices: not exact, refuse.
@@ -186,8 +203,9 @@ def _member(values: np.ndarray, ordered: np.ndarray) -> np.ndarray:
     return ordered[np.minimum(np.searchsorted(ordered, values), len(ordered) - 1)] == values
 
 
-def _region_loops(half: np.ndarray, half_region: np.ndarray, region_count: int, k: int,
-                  droppable: list) -> list:
+def _region_loops(
+    half: np.ndarray, half_region: np.ndarray, region_count: int, k: int, droppable: list
+) -> list:
     """:func:`_loops` of many regions at once, droppable vertices already removed: per region a
     list of loops (vertex lists) or None (pinched, open chain, no outline, or a loop under 3).
 
@@ -243,14 +261,23 @@ def _retriangulate_many(positions, faces, corner_uvs, members: list, droppable: 
     # One or two regions: the batch's fixed cost (measured ~2 regions' worth) is not worth it; keys
     # that would overflow int64: one region at a time as well.
     if count <= SMALL_BATCH or count * k * k >= 2**62:
-        return [_retriangulate(positions, faces[m], None if corner_uvs is None else corner_uvs[m], droppable)
-                for m in members]
+        return [
+            _retriangulate(
+                positions, faces[m], None if corner_uvs is None else corner_uvs[m], droppable
+            )
+            for m in members
+        ]
     sizes = np.array([len(m) for m in members])
     region_faces = faces[np.concatenate(members)]
     face_region = np.repeat(np.arange(count), sizes)
     bounds = np.concatenate([[0], np.cumsum(sizes)]).tolist()
-    loops = _region_loops(region_faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), np.repeat(face_region, 3), count, k,
-                          droppable.tolist())
+    loops = _region_loops(
+        region_faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2),
+        np.repeat(face_region, 3),
+        count,
+        k,
+        droppable.tolist(),
+    )
     ok = np.array([loop is not None for loop in loops])
     if corner_uvs is not None:
         # One UV per vertex in each region (the first corner's in face order, compared exactly).
@@ -265,7 +292,7 @@ def _retriangulate_many(positions, faces, corner_uvs, members: list, droppable: 
         uv_keys, uv_values = ordered[first], corner_uv[first]
     a, b, c = (positions[region_faces[:, i]] for i in range(3))
     cross = cross_rows(b - a, c - a)
-    normal = np.stack([cross[bounds[r]:bounds[r + 1]].sum(axis=0) for r in range(count)])
+    normal = np.stack([cross[bounds[r] : bounds[r + 1]].sum(axis=0) for r in range(count)])
     area = 0.5 * np.sqrt(_row_dots(normal))
     ok &= area > 0
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -276,25 +303,35 @@ def _retriangulate_many(positions, faces, corner_uvs, members: list, droppable: 
         hy = 1.0 - hx
         u = np.stack([y * 0.0 - z * hy, z * hx - x * 0.0, x * hy - y * hx], axis=1)
         u = u / np.sqrt(_row_dots(u))[:, None]
-        v = np.stack([y * u[:, 2] - z * u[:, 1], z * u[:, 0] - x * u[:, 2], x * u[:, 1] - y * u[:, 0]], axis=1)
-    basis = np.stack([u, v], axis=2)  # (regions, 3, 2): each [r] C-contiguous like np.stack([u, v], axis=1)
+        v = np.stack(
+            [y * u[:, 2] - z * u[:, 1], z * u[:, 0] - x * u[:, 2], x * u[:, 1] - y * u[:, 0]],
+            axis=1,
+        )
+    basis = np.stack(
+        [u, v], axis=2
+    )  # (regions, 3, 2): each [r] C-contiguous like np.stack([u, v], axis=1)
     todo = np.flatnonzero(ok).tolist()
     if not todo:
         return [None] * count
     rings_of = [loops[r] for r in todo]
-    ring_vertices = np.array([v for rings in rings_of for ring in rings for v in ring], dtype=np.int64)
+    ring_vertices = np.array(
+        [v for rings in rings_of for ring in rings for v in ring], dtype=np.int64
+    )
     projected_from = positions[ring_vertices]
     tris, done, expected, at = [], [], [], 0
     for r, rings in zip(todo, rings_of):
         size = sum(len(ring) for ring in rings)
-        vertices = ring_vertices[at:at + size]
-        points = projected_from[at:at + size] @ basis[r]
+        vertices = ring_vertices[at : at + size]
+        points = projected_from[at : at + size] @ basis[r]
         at += size
         if len(rings) > 1:
             # Outer ring first (largest area), then the holes.
             ends = np.cumsum([0] + [len(ring) for ring in rings])
-            flat = [points[ends[i]:ends[i + 1]] for i in range(len(rings))]
-            signed = [0.5 * np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1]) for p in flat]
+            flat = [points[ends[i] : ends[i + 1]] for i in range(len(rings))]
+            signed = [
+                0.5 * np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1])
+                for p in flat
+            ]
             order = np.argsort(-np.abs(signed))
             rings = [rings[i] for i in order]
             vertices = np.concatenate(rings)
@@ -317,13 +354,17 @@ def _retriangulate_many(positions, faces, corner_uvs, members: list, droppable: 
     edge_key = (np.repeat(new_region, 3) * k + pairs[:, 0]) * k + pairs[:, 1]
     edges, uses = np.unique(edge_key, return_counts=True)
     loop_edges = np.array(expected, dtype=np.int64)
-    loop_key = (loop_edges[:, 0] * k + loop_edges[:, 1:].min(axis=1)) * k + loop_edges[:, 1:].max(axis=1)
+    loop_key = (loop_edges[:, 0] * k + loop_edges[:, 1:].min(axis=1)) * k + loop_edges[:, 1:].max(
+        axis=1
+    )
     single = edges[uses == 1]
     if not np.array_equal(single, np.sort(loop_key)):  # the usual case: every region's sets agree
         ok[np.setxor1d(single, loop_key) // (k * k)] = False
     ok[edges[uses > 2] // (k * k)] = False
-    n = cross_rows(positions[new_faces[:, 1]] - positions[new_faces[:, 0]],
-                   positions[new_faces[:, 2]] - positions[new_faces[:, 0]])
+    n = cross_rows(
+        positions[new_faces[:, 1]] - positions[new_faces[:, 0]],
+        positions[new_faces[:, 2]] - positions[new_faces[:, 0]],
+    )
     areas = 0.5 * np.linalg.norm(n, axis=1)  # reversing a face keeps its area
     smallest = np.minimum.reduceat(areas, face_bounds[:-1]).tolist()
     flip = np.zeros(len(new_faces), dtype=bool)
@@ -331,13 +372,17 @@ def _retriangulate_many(positions, faces, corner_uvs, members: list, droppable: 
         lo, hi = face_bounds[i], face_bounds[i + 1]
         total = float(area[r])
         # Earcut may emit zero-area slivers along collinear outline vertices: not exact, refuse.
-        if abs(areas[lo:hi].sum() - total) > 1e-6 * max(total, 1.0) or smallest[i] < 1e-9 * max(total, 1.0):
+        if abs(areas[lo:hi].sum() - total) > 1e-6 * max(total, 1.0) or smallest[i] < 1e-9 * max(
+            total, 1.0
+        ):
             ok[r] = False
         flip[lo:hi] = (n[lo:hi] @ normal[r]) < 0
     new_faces = np.where(flip[:, None], new_faces[:, ::-1], new_faces)
     new_uvs = None
     if corner_uvs is not None:
-        new_uvs = uv_values[np.searchsorted(uv_keys, new_region[:, None] * k + new_faces)].astype(np.float32)
+        new_uvs = uv_values[np.searchsorted(uv_keys, new_region[:, None] * k + new_faces)].astype(
+            np.float32
+        )
     for i, r in enumerate(done):
         if ok[r]:
             lo, hi = face_bounds[i], face_bounds[i + 1]
@@ -349,11 +394,14 @@ def _boundary(positions: np.ndarray, faces: np.ndarray) -> tuple[float, int]:
     """Open-boundary length (metres) and edge count."""
     edges, counts = edge_use(faces)
     border = edges[counts == 1]
-    return float(np.linalg.norm(positions[border[:, 0]] - positions[border[:, 1]], axis=1).sum()), len(border)
+    return float(
+        np.linalg.norm(positions[border[:, 0]] - positions[border[:, 1]], axis=1).sum()
+    ), len(border)
 
 
-def retriangulate_planar(positions: np.ndarray, faces: np.ndarray, corner_uvs, face_chart: np.ndarray,
-                         locked: np.ndarray):
+def retriangulate_planar(
+    positions: np.ndarray, faces: np.ndarray, corner_uvs, face_chart: np.ndarray, locked: np.ndarray
+):
     """Every planar region with droppable vertices re-triangulated from its outline (see the
     module doc); straight vertices on the open border are dropped too unless that would close a
     slit of the source (the open boundary's length must not change).
@@ -365,8 +413,9 @@ def retriangulate_planar(positions: np.ndarray, faces: np.ndarray, corner_uvs, f
     return retriangulate_planar_checked(positions, faces, corner_uvs, face_chart, locked)[:3]
 
 
-def retriangulate_planar_checked(positions: np.ndarray, faces: np.ndarray, corner_uvs, face_chart: np.ndarray,
-                                 locked: np.ndarray):
+def retriangulate_planar_checked(
+    positions: np.ndarray, faces: np.ndarray, corner_uvs, face_chart: np.ndarray, locked: np.ndarray
+):
     """:func:`retriangulate_planar` plus whether the open boundary kept its length (within 1e-9
     relative): False when even the border-keeping pass closed a slit or T-junction of the source
     (same surface, but edges that were open are shared now), so the result is not LOD0's mesh
@@ -391,18 +440,36 @@ def retriangulate_planar_checked(positions: np.ndarray, faces: np.ndarray, corne
     by_region = np.argsort(regions, kind="stable")
     region_start = np.searchsorted(regions[by_region], np.arange(regions.max() + 2))
     done: dict = {}  # both passes share the regions their different border choice does not touch
-    result = _retriangulate_regions(positions, faces, corner_uvs, regions, (interior | straight) & used, done,
-                                    by_region, region_start)
+    result = _retriangulate_regions(
+        positions,
+        faces,
+        corner_uvs,
+        regions,
+        (interior | straight) & used,
+        done,
+        by_region,
+        region_start,
+    )
     length, _ = _boundary(positions, result[0])
     if abs(length - before[0]) > 1e-9 * max(before[0], 1.0):
         # Keep the open border's straight vertices (straight_vertices(on_border=False)).
-        result = _retriangulate_regions(positions, faces, corner_uvs, regions, (interior | straight & ~border) & used,
-                                        done, by_region, region_start)
+        result = _retriangulate_regions(
+            positions,
+            faces,
+            corner_uvs,
+            regions,
+            (interior | straight & ~border) & used,
+            done,
+            by_region,
+            region_start,
+        )
         length, _ = _boundary(positions, result[0])
     return (*result, abs(length - before[0]) <= 1e-9 * max(before[0], 1.0))
 
 
-def _retriangulate_regions(positions, faces, corner_uvs, regions, droppable, done: dict, by_region, region_start):
+def _retriangulate_regions(
+    positions, faces, corner_uvs, regions, droppable, done: dict, by_region, region_start
+):
     """One pass of :func:`retriangulate_planar` with the vertices ``droppable`` (k,) bool (changed
     in place where a region fails). ``done``: region -> (droppable bits of its corners, result),
     reused when the bits are the same; ``by_region`` / ``region_start``: faces of region r are
@@ -414,18 +481,31 @@ def _retriangulate_regions(positions, faces, corner_uvs, regions, droppable, don
         corner_drop = droppable[faces].any(axis=1)
         candidates = np.unique(regions[corner_drop]).tolist()
         bits = droppable[faces[by_region]]
-        keys = [bits[region_start[region]:region_start[region + 1]].tobytes() for region in candidates]
+        keys = [
+            bits[region_start[region] : region_start[region + 1]].tobytes() for region in candidates
+        ]
         # All regions not cached are done in one batch with this round's droppable bits; regions
         # whose bits a failure earlier in the round changed are redone below, in one batch too.
-        todo = [i for i, region in enumerate(candidates) if not (region in done and done[region][0] == keys[i])]
-        batch = _retriangulate_many(positions, faces, corner_uvs,
-                                    [by_region[region_start[candidates[i]]:region_start[candidates[i] + 1]] for i in todo],
-                                    droppable)
+        todo = [
+            i
+            for i, region in enumerate(candidates)
+            if not (region in done and done[region][0] == keys[i])
+        ]
+        batch = _retriangulate_many(
+            positions,
+            faces,
+            corner_uvs,
+            [
+                by_region[region_start[candidates[i]] : region_start[candidates[i] + 1]]
+                for i in todo
+            ],
+            droppable,
+        )
         for i, result in zip(todo, batch):
             done[candidates[i]] = (keys[i], result)
         results, failed = {}, False
         for region, key in zip(candidates, keys):
-            members = by_region[region_start[region]:region_start[region + 1]]
+            members = by_region[region_start[region] : region_start[region + 1]]
             if failed:
                 key = droppable[faces[members]].tobytes()
             if not (region in done and done[region][0] == key):
@@ -433,11 +513,15 @@ def _retriangulate_regions(positions, faces, corner_uvs, regions, droppable, don
                 # every later region and every next-round candidate whose bits changed too (results
                 # depend on the bits only, so whatever is computed ahead is reused or ignored).
                 ahead = np.unique(regions[droppable[faces].any(axis=1)]).tolist()
-                later = sorted(set(candidates[candidates.index(region):]) | set(ahead))
-                members_of = [by_region[region_start[r]:region_start[r + 1]] for r in later]
+                later = sorted(set(candidates[candidates.index(region) :]) | set(ahead))
+                members_of = [by_region[region_start[r] : region_start[r + 1]] for r in later]
                 bits_of = [droppable[faces[m]].tobytes() for m in members_of]
-                stale = [i for i, r in enumerate(later) if not (r in done and done[r][0] == bits_of[i])]
-                redone = _retriangulate_many(positions, faces, corner_uvs, [members_of[i] for i in stale], droppable)
+                stale = [
+                    i for i, r in enumerate(later) if not (r in done and done[r][0] == bits_of[i])
+                ]
+                redone = _retriangulate_many(
+                    positions, faces, corner_uvs, [members_of[i] for i in stale], droppable
+                )
                 for i, result in zip(stale, redone):
                     done[later[i]] = (bits_of[i], result)
             result = done[region][1]

@@ -9,9 +9,8 @@ Sources: the paper's geometric filter (sort faces by area, exclude the largest 3
 simplification); Table II's border / UV-seam options as defined by Whinarn's UnityMeshSimplifier
 (border edge = used by one triangle, seam = one position with two UVs).
 """
-from __future__ import annotations
 
-from typing import Optional
+from __future__ import annotations
 
 import numpy as np
 
@@ -95,8 +94,9 @@ def part_border_vertices(faces: np.ndarray, face_part: np.ndarray, vertex_count:
     return (high > low) & (high >= 0)
 
 
-def footprint_wall_faces(positions: np.ndarray, faces: np.ndarray, border: np.ndarray,
-                         max_normal_up: float = 0.2) -> np.ndarray:
+def footprint_wall_faces(
+    positions: np.ndarray, faces: np.ndarray, border: np.ndarray, max_normal_up: float = 0.2
+) -> np.ndarray:
     """(m,) bool: near-vertical faces (|unit normal . Up| <= ``max_normal_up``) that stand on the
     open bottom border: a border vertex at the building's lowest level (within 1 % of its height).
 
@@ -113,7 +113,9 @@ def footprint_wall_faces(positions: np.ndarray, faces: np.ndarray, border: np.nd
     return (up <= max_normal_up) & on_ground & (length > 0)
 
 
-def planar_regions(positions: np.ndarray, faces: np.ndarray, groups: Optional[np.ndarray] = None) -> np.ndarray:
+def planar_regions(
+    positions: np.ndarray, faces: np.ndarray, groups: np.ndarray | None = None
+) -> np.ndarray:
     """(m,) int64 region of every face: edge-connected faces on one plane (the polygons of the
     building's polygonal model, whatever their triangulation); with ``groups`` (m,) int64 only
     faces of one group (e.g. one UV chart) join."""
@@ -132,8 +134,9 @@ def planar_regions(positions: np.ndarray, faces: np.ndarray, groups: Optional[np
     if groups is not None:
         keep = groups[f] == groups[g]
         f, g = f[keep], g[keep]
-    coplanar = ((normal[f] * normal[g]).sum(1) > COPLANAR_COS) & \
-        (np.abs(((positions[faces[g]].mean(axis=1) - a[f]) * normal[f]).sum(1)) < PLANE_M)
+    coplanar = ((normal[f] * normal[g]).sum(1) > COPLANAR_COS) & (
+        np.abs(((positions[faces[g]].mean(axis=1) - a[f]) * normal[f]).sum(1)) < PLANE_M
+    )
     # Components numbered by their lowest face, as scipy's connected_components numbers them.
     lowest = lowest_member(m, f[coplanar], g[coplanar])
     root = lowest == np.arange(m)

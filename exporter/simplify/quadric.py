@@ -30,10 +30,10 @@ Why this shape:
   triangle flipped against its input face is a foldover: with ``refuse_foldovers`` the pass is
   redone with its vertices locked.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Optional
 
 import numpy as np
 import pymeshlab
@@ -53,22 +53,32 @@ class Collapsed:
 
     positions: np.ndarray
     faces: np.ndarray
-    corner_uvs: Optional[np.ndarray]
+    corner_uvs: np.ndarray | None
     vertex_ids: np.ndarray
     face_ids: np.ndarray
 
 
 # --------------------------------------------------------------------------- the pymeshlab pass
 
-def _anchors(vertex_count: int, faces: np.ndarray, movable: np.ndarray, locked: np.ndarray) -> np.ndarray:
+
+def _anchors(
+    vertex_count: int, faces: np.ndarray, movable: np.ndarray, locked: np.ndarray
+) -> np.ndarray:
     """Locked vertices not already held by an unmovable face: (a,) int64."""
     held = np.zeros(vertex_count, dtype=bool)
     held[faces[~movable].reshape(-1)] = True
     return np.flatnonzero(locked & ~held)
 
 
-def quadric_pass(positions, faces, movable, locked, target: int, preserve_curvature: bool,
-                 optimal_placement: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def quadric_pass(
+    positions,
+    faces,
+    movable,
+    locked,
+    target: int,
+    preserve_curvature: bool,
+    optimal_placement: bool = False,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One pymeshlab collapse pass; returns ``(faces (m', 3) as input vertex indices, face_ids
     (m',), positions (k, 3))`` where ``positions`` is the input with the moved vertices' new
     positions (only with ``optimal_placement``)."""
@@ -76,19 +86,30 @@ def quadric_pass(positions, faces, movable, locked, target: int, preserve_curvat
     k = len(positions)
     corners = (positions[need][:, None, :] + _ANCHOR_OFFSETS[None]).reshape(-1, 3)
     all_positions = np.concatenate([positions, corners])
-    anchor_faces = np.column_stack([need, k + 2 * np.arange(len(need)), k + 2 * np.arange(len(need)) + 1])
+    anchor_faces = np.column_stack(
+        [need, k + 2 * np.arange(len(need)), k + 2 * np.arange(len(need)) + 1]
+    )
     face_q = np.where(movable, 1.0, -1.0) * np.arange(1, len(faces) + 1)
-    mesh = pymeshlab.Mesh(all_positions, np.concatenate([faces, anchor_faces]).astype(np.int32),
-                          v_scalar_array=np.concatenate([np.arange(k), -np.ones(len(corners))]).astype(np.float64),
-                          f_scalar_array=np.concatenate([face_q, np.zeros(len(need))]))
+    mesh = pymeshlab.Mesh(
+        all_positions,
+        np.concatenate([faces, anchor_faces]).astype(np.int32),
+        v_scalar_array=np.concatenate([np.arange(k), -np.ones(len(corners))]).astype(np.float64),
+        f_scalar_array=np.concatenate([face_q, np.zeros(len(need))]),
+    )
     ms = pymeshlab.MeshSet()
     ms.add_mesh(mesh)
     ms.compute_selection_by_condition_per_face(condselect="fq > 0")
     movable_target = max(0, int(target) - int((~movable).sum()))
     ms.meshing_decimation_quadric_edge_collapse(
-        targetfacenum=movable_target, selected=True, preserveboundary=False, preservetopology=PRESERVE_TOPOLOGY,
-        optimalplacement=bool(optimal_placement), planarquadric=True, preservenormal=bool(preserve_curvature),
-        autoclean=False)
+        targetfacenum=movable_target,
+        selected=True,
+        preserveboundary=False,
+        preservetopology=PRESERVE_TOPOLOGY,
+        optimalplacement=bool(optimal_placement),
+        planarquadric=True,
+        preservenormal=bool(preserve_curvature),
+        autoclean=False,
+    )
     out = ms.current_mesh()
     out_q = out.face_scalar_array()
     keep = out_q != 0
@@ -105,6 +126,7 @@ def quadric_pass(positions, faces, movable, locked, target: int, preserve_curvat
 
 
 # --------------------------------------------------------------------------- UVs of the result
+
 
 def closest_barycentric(point: np.ndarray, tri: np.ndarray) -> tuple[int, np.ndarray]:
     """Index of the triangle (t, 3, 3) closest to ``point`` (3,) and the barycentric weights (3,)
@@ -133,7 +155,7 @@ def assign_uvs(positions, faces, corner_uvs, face_chart, out_faces, face_ids, pr
     in_uvs = corner_uvs[face_ids]
     out_uvs = in_uvs.copy()
     # Unchanged corners: the input face's corner holding the same vertex.
-    match = out_faces[:, :, None] == in_faces[:, None, :]            # (m', 3 out, 3 in)
+    match = out_faces[:, :, None] == in_faces[:, None, :]  # (m', 3 out, 3 in)
     found = match.any(axis=2)
     source_corner = match.argmax(axis=2)
     rows = np.arange(len(out_faces))[:, None]
@@ -146,7 +168,9 @@ def assign_uvs(positions, faces, corner_uvs, face_chart, out_faces, face_ids, pr
         sorted_keys = keys.reshape(-1)[order]
         flat_uvs = corner_uvs.reshape(-1, 2)[order]
         changed_o, changed_j = np.nonzero(~found)
-        wanted = face_chart[face_ids[changed_o]] * (len(positions) + 1) + out_faces[changed_o, changed_j]
+        wanted = (
+            face_chart[face_ids[changed_o]] * (len(positions) + 1) + out_faces[changed_o, changed_j]
+        )
         lo = np.searchsorted(sorted_keys, wanted, "left")
         # The usual case at once: the vertex has one UV in the chart (every corner of its
         # (chart, vertex) group equal to the group's first, which is taken).
@@ -162,7 +186,10 @@ def assign_uvs(positions, faces, corner_uvs, face_chart, out_faces, face_ids, pr
             chart = face_chart[face_ids[o]]
             vertex = out_faces[o, j]
             key = chart * (len(positions) + 1) + vertex
-            lo, hi = np.searchsorted(sorted_keys, key, "left"), np.searchsorted(sorted_keys, key, "right")
+            lo, hi = (
+                np.searchsorted(sorted_keys, key, "left"),
+                np.searchsorted(sorted_keys, key, "right"),
+            )
             if hi > lo:
                 block = flat_uvs[lo:hi]
                 if (block == block[0]).all():  # the usual case: one UV per vertex in a chart
@@ -171,7 +198,9 @@ def assign_uvs(positions, faces, corner_uvs, face_chart, out_faces, face_ids, pr
                 candidates = np.unique(block, axis=0)
                 # Several UVs in one chart (a wrapped seam, e.g. a cylinder): nearest to the others.
                 others = out_uvs[o, found[o]] if found[o].any() else in_uvs[o]
-                out_uvs[o, j] = candidates[np.argmin(np.linalg.norm(candidates - others.mean(axis=0), axis=1))]
+                out_uvs[o, j] = candidates[
+                    np.argmin(np.linalg.norm(candidates - others.mean(axis=0), axis=1))
+                ]
             else:
                 crossings.append(vertex)
                 if not project:
@@ -192,10 +221,21 @@ def uv_signs(corner_uvs: np.ndarray) -> np.ndarray:
 
 # --------------------------------------------------------------------------- entry point
 
-def collapse(positions: np.ndarray, faces: np.ndarray, corner_uvs: Optional[np.ndarray],
-             face_chart: Optional[np.ndarray], movable: np.ndarray, locked: np.ndarray, target: int, *,
-             preserve_curvature: bool = False, keep_seams: bool = True, refuse_foldovers: bool = True,
-             max_iterations: int = 100) -> Collapsed:
+
+def collapse(
+    positions: np.ndarray,
+    faces: np.ndarray,
+    corner_uvs: np.ndarray | None,
+    face_chart: np.ndarray | None,
+    movable: np.ndarray,
+    locked: np.ndarray,
+    target: int,
+    *,
+    preserve_curvature: bool = False,
+    keep_seams: bool = True,
+    refuse_foldovers: bool = True,
+    max_iterations: int = 100,
+) -> Collapsed:
     """Collapse edges of the movable faces towards ``target`` faces (see the module doc).
 
     Each iteration is one pymeshlab pass from the input. A pass that crossed a texture seam
@@ -205,17 +245,34 @@ def collapse(positions: np.ndarray, faces: np.ndarray, corner_uvs: Optional[np.n
     """
     locked = np.asarray(locked, dtype=bool).copy()
     source_signs = uv_signs(corner_uvs) if corner_uvs is not None else None
-    unchanged = Collapsed(positions, faces, corner_uvs, np.arange(len(positions)), np.arange(len(faces)))
+    unchanged = Collapsed(
+        positions, faces, corner_uvs, np.arange(len(positions)), np.arange(len(faces))
+    )
     if len(faces) <= target or not movable.any():
         return unchanged
     for _ in range(max_iterations):
         # Without texture, vertices may go to the quadric's optimum; with texture they stay input
         # vertices so their UVs are exact.
-        out_faces, face_ids, moved = quadric_pass(positions, faces, movable, locked, target, preserve_curvature,
-                                                  optimal_placement=corner_uvs is None)
+        out_faces, face_ids, moved = quadric_pass(
+            positions,
+            faces,
+            movable,
+            locked,
+            target,
+            preserve_curvature,
+            optimal_placement=corner_uvs is None,
+        )
         uvs = None
         if corner_uvs is not None:
-            uvs, crossings = assign_uvs(positions, faces, corner_uvs, face_chart, out_faces, face_ids, project=not keep_seams)
+            uvs, crossings = assign_uvs(
+                positions,
+                faces,
+                corner_uvs,
+                face_chart,
+                out_faces,
+                face_ids,
+                project=not keep_seams,
+            )
             offenders = crossings if keep_seams else np.zeros(0, np.int64)
             if refuse_foldovers:
                 before = source_signs[face_ids]

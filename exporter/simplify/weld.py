@@ -8,6 +8,7 @@ Clusters are the connected components of the "closer than ``distance`` metres" g
 (``scipy.spatial.cKDTree.query_pairs``, components by :func:`lowest_member`);
 ``distance == 0`` merges exact duplicates only.
 """
+
 from __future__ import annotations
 
 import numpy as np

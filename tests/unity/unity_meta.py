@@ -9,6 +9,7 @@ Folders ending in ``~`` (and their contents) and dot-files are ignored by Unity 
 
 Run ``python tests/unity/unity_meta.py`` from the repo root to (re)write the metas.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -20,7 +21,7 @@ PACKAGE = Path(__file__).resolve().parents[2] / "unity_package"
 _TAIL = "  externalObjects: {}\n  userData: \n  assetBundleName: \n  assetBundleVariant: \n"
 _IMPORTERS = {
     ".cs": "MonoImporter:\n  externalObjects: {}\n  serializedVersion: 2\n  defaultReferences: []\n"
-           "  executionOrder: 0\n  icon: {instanceID: 0}\n  userData: \n  assetBundleName: \n  assetBundleVariant: \n",
+    "  executionOrder: 0\n  icon: {instanceID: 0}\n  userData: \n  assetBundleName: \n  assetBundleVariant: \n",
     ".asmdef": "AssemblyDefinitionImporter:\n" + _TAIL,
     ".md": "TextScriptImporter:\n" + _TAIL,
     ".json": "TextScriptImporter:\n" + _TAIL,
