@@ -517,7 +517,8 @@ def default_config_yaml(config: Config | None = None) -> str:
         lines.append(entry + "}")
     for name, cls in SECTIONS.items():
         section = getattr(config, name)
-        lines += ["", f"# {cls.__doc__.strip().splitlines()[0]}", f"{name}:"]
+        lines += ["", f"# {(cls.__doc__ or name).strip().splitlines()[0]}", f"{name}:"]
+
         for f in dataclasses.fields(cls):
             value = getattr(section, f.name)
             shown = (

@@ -30,6 +30,7 @@ import re
 from functools import lru_cache
 
 import numpy as np
+import numpy.typing as npt
 from pyproj import CRS, Transformer
 from pyproj.exceptions import CRSError
 
@@ -105,7 +106,7 @@ def to_lonlath(xyz: np.ndarray, crs_text: str) -> np.ndarray:
     return out
 
 
-def sphere_ecef(lonlath: np.ndarray, radius: float = EARTH_RADIUS_M) -> np.ndarray:
+def sphere_ecef(lonlath: npt.ArrayLike, radius: float = EARTH_RADIUS_M) -> np.ndarray:
     """lonlath (n, 3) -> Cartesian metres (n, 3) on the sphere of ``radius`` metres (module doc)."""
     lonlath = np.asarray(lonlath, dtype=np.float64).reshape(-1, 3)
     lon, lat = np.radians(lonlath[:, 0]), np.radians(lonlath[:, 1])

@@ -311,7 +311,7 @@ def glb_bytes(parts: list[Part], name: str) -> bytes:
             and part.uvs is not None
             and len(part.uvs) == len(part.positions)
         )
-        if has_texture:
+        if has_texture and part.texture is not None:
             if part.texture.mime not in GLTF_MIMES:
                 raise ValueError(
                     f"texture {part.texture.name!r} is {part.texture.mime}; glTF needs image/jpeg or image/png"

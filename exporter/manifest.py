@@ -16,6 +16,7 @@ import math
 import re
 from collections.abc import Iterable
 from importlib import resources
+from typing import Any
 
 from . import __version__
 from .config import Config
@@ -70,7 +71,7 @@ def summarize_levels(buildings: list[dict], level_count: int) -> list[dict]:
         mean_triangles = _mean(triangles)
         if level == 0:
             lod0_mean = mean_triangles
-        entry = {
+        entry: dict[str, Any] = {
             "level": level,
             "mean_triangles": round(mean_triangles, 4),
             "ratio_to_lod0": round(mean_triangles / lod0_mean, 6) if lod0_mean else 0.0,
@@ -119,8 +120,9 @@ def build_manifest(
     made by the pipeline (schema ``$defs/building``), written in id order.
     """
     buildings = sorted(buildings, key=lambda b: b["id"])
-    skipped = [skipped_entry(s) for s in skipped]
+    skipped_entries = [skipped_entry(s) for s in skipped]
     west, south, east, north = bounds
+
     return {
         "format": FORMAT,
         "version": VERSION,
@@ -150,10 +152,10 @@ def build_manifest(
             "terrain_levels": config.terrain_levels(),
         },
         "buildings": buildings,
-        "skipped": skipped,
+        "skipped": skipped_entries,
         "summary": {
             "buildings": len(buildings),
-            "skipped": len(skipped),
+            "skipped": len(skipped_entries),
             "levels": summarize_levels(buildings, len(config.lods)),
         },
     }

@@ -221,6 +221,7 @@ class SurfaceIndex:
 
     def _nearest(self, points: np.ndarray, candidates: int) -> tuple[np.ndarray, np.ndarray]:
         """Distances (p, k) metres and indices (p, k) of the k nearest probes, k <= candidates."""
+        assert self.tree is not None  # callers check for an empty surface first
         k = min(candidates, self.tree.n)
         probe_distance, nearest = self.tree.query(points, k=k)
         return probe_distance.reshape(len(points), k), nearest.reshape(len(points), k)
@@ -376,7 +377,8 @@ def rasterise(xy: np.ndarray, faces: np.ndarray, size: int) -> np.ndarray:
     owner = np.repeat(np.arange(len(tri)), lines)
     line = r0[owner] + np.arange(len(owner)) - np.repeat(np.cumsum(lines) - lines, lines)
     y = line - 0.5  # exact: the strips' bottoms and tops
-    lo = hi = None
+    lo: np.ndarray | None = None
+    hi: np.ndarray | None = None
     for i, j in ((0, 1), (1, 2), (2, 0)):
         p, q = tri[:, i], tri[:, j]
         down = p[:, 1] > q[:, 1]
@@ -393,13 +395,14 @@ def rasterise(xy: np.ndarray, faces: np.ndarray, size: int) -> np.ndarray:
         # Row k (strip [y_k, y_k+1]): the edge meets it when py <= y_k+1 and qy >= y_k.
         valid = (py[:-1] <= y[1:]) & (qy[:-1] >= y[:-1])
         low, high = np.minimum(x[:-1], x_top[1:]), np.maximum(x[:-1], x_top[1:])
-        if lo is None:
+        if lo is None or hi is None:
             lo, hi = np.where(valid, low, np.inf), np.where(valid, high, -np.inf)
         else:
             lo, hi = (
                 np.where(valid, np.minimum(lo, low), lo),
                 np.where(valid, np.maximum(hi, high), hi),
             )
+    assert lo is not None and hi is not None  # three edges were met
     keep = (owner[:-1] == owner[1:]) & (lo <= hi)
     rows = line[:-1][keep]
     c0 = np.clip(np.ceil(lo[keep] - 0.5), 0, size - 1).astype(np.int64)

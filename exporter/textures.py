@@ -227,7 +227,8 @@ def _decode(image: Image.Image, where: str) -> Image.Image:
 
 def has_transparency(image: Image.Image) -> bool:
     """True when a decoded RGB/RGBA/L image has at least one pixel with alpha below 255."""
-    return image.mode == "RGBA" and image.getchannel("A").getextrema()[0] < 255
+    low, _ = image.getchannel("A").getextrema()  # one band: (low, high) ints
+    return image.mode == "RGBA" and int(low) < 255  # type: ignore[arg-type]
 
 
 def draft_factors(options: TextureOptions) -> tuple[int, ...]:
@@ -519,7 +520,7 @@ def _build_levels(
         decoded, chain = _decode_jpeg(header, where, options, largest, check)
         # Holding the header could pin its reduced pixels: dropped before a full decode (peak
         # memory on big atlases) and while the levels are made.
-        header = None
+        del header
         if decoded is None:
             decoded = _decode(open_header(data, where, options.max_pixels), where)
     else:
@@ -527,7 +528,8 @@ def _build_levels(
     transparent = has_transparency(decoded)
     if not transparent and decoded.mode == "RGBA":
         decoded = decoded.convert("RGB")
-    fmt = _output_format(source_format, transparent, options)
+    fmt = _output_format(source_format or "", transparent, options)
+
     source_level = (data, source_format, width, height, True) if keeps_bytes else None
 
     # A level made from the level above (never from the full-size source) is a box reduction

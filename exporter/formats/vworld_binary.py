@@ -381,7 +381,7 @@ def parse_xdo(data: bytes, path: str, version: int | None = None) -> XdoFile:
     if version is not None and version not in XDO_VERSIONS:
         raise ValueError(f"version must be None or one of {XDO_VERSIONS}, got {version!r}")
     data = _check_bytes(data, path, ".xdo model")
-    best: tuple | None = None
+    best: tuple[int, _Malformed] | None = None
     for layout in [version] if version else [2, 1]:
         for thumbnail_when_empty in (True, False):
             seen_empty: list = []
@@ -392,9 +392,10 @@ def parse_xdo(data: bytes, path: str, version: int | None = None) -> XdoFile:
                     best = (layout, error)
             if not seen_empty:
                 break  # no empty image_name met: the other thumbnail reading is the same reading
-    layout, error = best
+    assert best is not None  # every reading tried either returned or failed
+    layout, furthest = best
     tried = f"3.0.0.{layout}" if version else f"3.0.0.1 or 3.0.0.2 (closest: 3.0.0.{layout})"
-    raise ReadError(path, f"not a valid .xdo {tried}: {error.problem}")
+    raise ReadError(path, f"not a valid .xdo {tried}: {furthest.problem}")
 
 
 # --------------------------------------------------------------------------- writing

@@ -465,7 +465,7 @@ def _part(
     sharing both indices become one vertex."""
     unique, inverse = np.unique(corners, axis=0, return_inverse=True)
     uvs = None
-    if texture is not None:
+    if texture is not None and uv is not None:
         uvs = uv[unique[:, 1]].copy()
         uvs[:, 1] = 1.0 - uvs[:, 1]  # CityJSON bottom-left origin -> glTF top-left
     return Part(
@@ -664,7 +664,7 @@ def load(entry: Entry, options: ReaderOptions) -> Building:
                     textures[key] = texture
                     if problem:
                         problems.append(problem)
-            uv_ok = all(0 <= i < len(chunk.uv) for r in polygon.uv_rings for i in r)
+            uv_ok = all(0 <= i < len(chunk.uv) for r in polygon.uv_rings or [] for i in r)
             if textures[key] is None or not uv_ok:
                 key = (polygon.chunk, -1)
         vertex_ids = np.concatenate([np.asarray(r, dtype=np.int64) for r in polygon.rings])
@@ -679,7 +679,7 @@ def load(entry: Entry, options: ReaderOptions) -> Building:
             degenerate += 1
             continue
         uv_ids = (
-            np.concatenate([np.asarray(r, dtype=np.int64) for r in polygon.uv_rings])
+            np.concatenate([np.asarray(r, dtype=np.int64) for r in polygon.uv_rings or []])
             if key[1] >= 0
             else np.full(len(vertex_ids), -1)
         )

@@ -140,7 +140,7 @@ def _row_entry(folder: Path, row: dict) -> Entry:
     ):
         raw = row.get(key)
         try:
-            value = float(raw)
+            value = float(raw)  # type: ignore[arg-type]  # None and the like raise TypeError
         except (TypeError, ValueError):
             raise ValueError(f"{key} {raw!r} is not a number") from None
         if not (math.isfinite(value) and low <= value <= high):
@@ -151,14 +151,14 @@ def _row_entry(folder: Path, row: dict) -> Entry:
         raise ValueError(f"up_axis {row.get('up_axis')!r}; allowed: y or z")
     building_id = str(row.get("id") or "").strip() or Path(file).stem
     model = folder / file
-    key = (file, values["lon"], values["lat"], values["elev"], up_axis)
+    entry_key = (file, values["lon"], values["lat"], values["elev"], up_axis)
     return Entry(
         format=FORMAT,
         id=building_id,
         source=str(model),
         tile=tile_of(values["lon"], values["lat"], 15),
         inputs=[str(model)] + _dependencies(model),
-        key=key,
+        key=entry_key,
     )
 
 
@@ -316,7 +316,8 @@ def _texture_for(
 def _material_of(visual) -> tuple[Image.Image | None, tuple]:
     """(texture image or None, RGBA colour 0..1) of a trimesh visual."""
     material = getattr(visual, "material", None)
-    image, color = None, (1.0, 1.0, 1.0, 1.0)
+    image = None
+    color: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0)
     if material is None:
         return image, color
     image = getattr(material, "baseColorTexture", None) or getattr(material, "image", None)
@@ -437,7 +438,8 @@ def load(entry: Entry, options: ReaderOptions) -> Building:
     lonlath = [geodesy.local_to_lonlath(points, origin) for points in at_origin]
     reference, bounds = geodesy.base_centre(np.concatenate(lonlath))
 
-    candidates, digests, problems = None, {}, []
+    candidates, problems = None, []
+    digests: dict[int, tuple] = {}
     if model.suffix.lower() == ".obj":
         # trimesh drops a material whose image is missing; say so instead of going quietly grey.
         problems += [
@@ -448,7 +450,9 @@ def load(entry: Entry, options: ReaderOptions) -> Building:
     groups: dict[Any, dict] = {}
     for (vertices, faces, uv, visual), points in zip(meshes, lonlath):
         image, color = _material_of(visual)
-        texture, key = None, ("color", color)
+        texture = None
+        key: tuple = ("color", color)
+
         if image is not None and uv is not None and len(uv) == len(vertices):
             if model.suffix.lower() == ".obj":
                 # MTL's Kd next to a map_Kd is commonly a leftover (trimesh writes 0.4 grey); like
@@ -475,8 +479,9 @@ def load(entry: Entry, options: ReaderOptions) -> Building:
         group["triangles"].append(
             faces[:, ::-1] + group["count"]
         )  # reflection: reverse the winding
-        if texture is not None:
+        if texture is not None and uv is not None:
             flipped = uv.copy()
+
             flipped[:, 1] = 1.0 - flipped[:, 1]  # trimesh's bottom-left origin -> glTF top-left
             group["uvs"].append(flipped)
         group["count"] += len(vertices)

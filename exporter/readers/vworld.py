@@ -251,8 +251,8 @@ def _texture_files(folder: Path, xdo_path: Path, record: DatObject) -> list[Path
         xdo = parse_xdo(xdo_path.read_bytes(), str(xdo_path), None)
     except (OSError, ReadError):
         return []
-    found = {_find(folder, mesh.image_name) for mesh in xdo.meshes} - {None}
-    return sorted(found)
+    found = {_find(folder, mesh.image_name) for mesh in xdo.meshes}
+    return sorted(p for p in found if p is not None)
 
 
 # --------------------------------------------------------------------------- load

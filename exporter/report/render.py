@@ -36,6 +36,7 @@ from __future__ import annotations
 import io
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import trimesh
@@ -127,7 +128,8 @@ def load_glb(path: str | Path) -> list[Mesh]:
     if not path.is_file():
         raise InputError(f"{path}: file missing")
     try:
-        scene = trimesh.load(str(path), file_type="glb", force="scene", process=False)
+        scene: Any = trimesh.load(str(path), file_type="glb", force="scene", process=False)
+
     except Exception as error:  # trimesh raises many types for a broken file
         raise InputError(
             f"{path}: cannot be read as glTF binary ({type(error).__name__}: {error})"
@@ -395,6 +397,7 @@ def fill_mesh(
     inverse_depth = (1.0 / np.maximum(screen[:, 2], 1e-6)).astype(np.float32)
     textured = mesh.image is not None and mesh.uvs is not None
     if textured:
+        assert mesh.image is not None and mesh.uvs is not None
         height, width = mesh.image.shape[:2]
         # Texel coordinates: u to the right, v up from the bottom row (trimesh's convention).
         texels = np.stack([mesh.uvs[:, 0] * width, (1.0 - mesh.uvs[:, 1]) * height], axis=1).astype(
@@ -411,6 +414,7 @@ def fill_mesh(
             continue
         rows, cols, faces, z = rows[keep], cols[keep], faces[keep], z[keep]
         if textured:
+            assert mesh.image is not None
             texel = (
                 np.einsum("ki,kij->kj", perspective[keep], texels[corners[keep]])
                 / one_over_z[keep, None]

@@ -44,8 +44,10 @@ def lod_metric(lod: dict, key: str) -> float | None:
 def quality_score(building: dict) -> float | None:
     """The building's worst ``silhouette_iou`` / ``wall_coverage`` over its reduced levels (0..1,
     lower = worse), or None when no reduced level has either metric."""
-    values = [lod_metric(lod, key) for lod in building.get("lods", [])[1:] for key in SCORE_METRICS]
-    values = [v for v in values if v is not None]
+    metrics = [
+        lod_metric(lod, key) for lod in building.get("lods", [])[1:] for key in SCORE_METRICS
+    ]
+    values = [v for v in metrics if v is not None]
     return min(values) if values else None
 
 
@@ -120,7 +122,7 @@ def level_table(manifest: dict) -> list[dict]:
                 "texture_sizes": sorted(
                     sizes.items(), key=lambda item: (-item[1], -item[0][0] * item[0][1])
                 ),
-                "file_bytes": sum(byte_counts)
+                "file_bytes": sum(b for b in byte_counts if isinstance(b, int))
                 if lods and all(isinstance(b, int) for b in byte_counts)
                 else None,
             }

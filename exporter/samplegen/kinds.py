@@ -115,9 +115,9 @@ def walls(
         triangles.append(grid_triangles(rows, cols) + offset)
         outward.append(np.broadcast_to([n[0], 0.0, n[1]], (2 * rows * cols, 3)))
         offset += (rows + 1) * (cols + 1)
-    positions = np.vstack(positions)
+    points = np.vstack(positions)
     mb.add(
-        (positions, np.vstack(uvs), orient(positions, np.vstack(triangles), np.vstack(outward))),
+        (points, np.vstack(uvs), orient(points, np.vstack(triangles), np.vstack(outward))),
         "wall",
     )
 
@@ -620,4 +620,5 @@ def fit_to_budget(
         if abs(total - budget) <= tolerance * budget:
             break
         cells = max(1.0, cells + (budget - total) / 2.0)
+    assert best is not None  # tries >= 1
     return best

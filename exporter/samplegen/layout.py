@@ -41,9 +41,9 @@ def footprint_mask(
     points = np.vstack(rings)
     low = np.floor(points.min(axis=0) / cell).astype(int) - grow - 1
     high = np.ceil(points.max(axis=0) / cell).astype(int) + grow + 1
-    image = Image.new(
-        "L", tuple(int(v) for v in (high - low)[::-1])
-    )  # width = z cells, height = x cells
+    cells = high - low
+    image = Image.new("L", (int(cells[1]), int(cells[0])))  # width = z cells, height = x cells
+
     draw = ImageDraw.Draw(image)
     for ring in rings:
         pixels = ring / cell - low

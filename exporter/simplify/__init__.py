@@ -132,7 +132,7 @@ def _join(parts: list[Part], link_distance: float):
     merged = link_distance > NOISE_M and len(welded_positions) < len(
         weld_positions(positions, NOISE_M)[1]
     )
-    corner_uvs = uvs[faces] if has_uv else None
+    corner_uvs = uvs[faces] if uvs is not None else None
     face_chart = uv_charts(faces, len(positions))
     faces = welded[faces]
     # Welding closer than link_distance can fold slivers to edges: drop those.
@@ -190,7 +190,8 @@ def _split(parts: list[Part], result, face_part_in) -> list[Part]:
             src = (
                 part.positions if part.uvs is None else np.column_stack([part.positions, part.uvs])
             )
-            query = positions if part.uvs is None else np.column_stack([positions, uvs])
+            query = positions if uvs is None else np.column_stack([positions, uvs])
+
             _, nearest = cKDTree(src).query(query)
             normals = part.normals[nearest]
         out.append(

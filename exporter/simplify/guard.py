@@ -30,7 +30,9 @@ class Reference:
 
     def __init__(self, positions: np.ndarray, faces: np.ndarray) -> None:
         self.positions, self.faces = positions, faces
-        self._points = self._rng_after = self._index = None
+        self._points: np.ndarray | None = None
+        self._rng_after: np.random.Generator | None = None
+        self._index: SurfaceIndex | None = None
 
     def _sample(self) -> None:
         # Lazily: most buildings never run the guard (the planar pass alone meets the targets).
@@ -47,6 +49,7 @@ class Reference:
         """(p, 3) metres: the reference's vertices and its ``SAMPLES`` surface samples."""
         if self._points is None:
             self._sample()
+        assert self._points is not None
         return self._points
 
     @property
@@ -59,6 +62,7 @@ class Reference:
         """The generator state after the reference's samples."""
         if self._rng_after is None:
             self._sample()
+        assert self._rng_after is not None
         return self._rng_after
 
     @property

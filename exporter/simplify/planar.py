@@ -51,9 +51,10 @@ def _loops(region_faces: np.ndarray) -> list[list[int]] | None:
         while v not in seen:
             seen.add(v)
             loop.append(v)
-            v = following.get(v)
-            if v is None:
+            nxt = following.get(v)
+            if nxt is None:
                 return None
+            v = nxt
         if v != start:
             return None
         loops.append(loop)
@@ -145,7 +146,7 @@ def _retriangulate(positions, region_faces, region_uvs, droppable):
     u, v = _plane_basis(normal)
     # Outer ring first (largest area), then the holes.
     flat = [positions[loop] @ np.stack([u, v], axis=1) for loop in loops]
-    order = [0]
+    order = np.array([0])
     if len(loops) > 1:
         signed = [
             0.5 * np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1])
@@ -318,7 +319,9 @@ def _retriangulate_many(positions, faces, corner_uvs, members: list, droppable: 
         [v for rings in rings_of for ring in rings for v in ring], dtype=np.int64
     )
     projected_from = positions[ring_vertices]
-    tris, done, expected, at = [], [], [], 0
+    tris, done, at = [], [], 0
+    expected: list[tuple] = []
+
     for r, rings in zip(todo, rings_of):
         size = sum(len(ring) for ring in rings)
         vertices = ring_vertices[at : at + size]

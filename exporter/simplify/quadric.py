@@ -142,7 +142,7 @@ def closest_barycentric(point: np.ndarray, tri: np.ndarray) -> tuple[int, np.nda
             continue
         weights = np.clip(np.array([1.0 - v - w, v, w]), 0.0, None)
         weights /= max(weights.sum(), 1e-30)
-        d = np.linalg.norm(weights @ np.stack([a, b, c]) - point)
+        d = float(np.linalg.norm(weights @ np.stack([a, b, c]) - point))
         if d < best_d:
             best, best_d, best_w = i, d, weights
     return best, best_w
@@ -274,8 +274,9 @@ def collapse(
                 project=not keep_seams,
             )
             offenders = crossings if keep_seams else np.zeros(0, np.int64)
-            if refuse_foldovers:
+            if refuse_foldovers and source_signs is not None:
                 before = source_signs[face_ids]
+
                 flipped = (before != 0) & (uv_signs(uvs) != before)
                 offenders = np.union1d(offenders, out_faces[flipped].reshape(-1))
             offenders = offenders[~locked[offenders]]
