@@ -73,7 +73,7 @@ def input_fingerprints(names: list[str], known: dict[str, dict]) -> list[dict]:
     recorded, and that was not modified within ``RACY_NS`` of being hashed then, keeps its recorded
     sha256 without being read again (as make, rsync and git trust stat data); any other file is
     hashed. A missing file has ``sha256`` None."""
-    out = []
+    out: list[dict] = []
     for name in names:
         try:
             stat = os.stat(name)
@@ -393,7 +393,7 @@ class RunStats:
 Progress = Callable[[int, int], None]
 
 
-def _results(work: Iterable[tuple], jobs: int) -> Iterable[EntryResult]:
+def _results(work: Iterable[tuple | EntryResult], jobs: int) -> Iterable[EntryResult]:
     """Run ``process_entry`` over ``work`` (task tuples, or finished results passed through as
     they come), in this process for one job, else in a process pool with a bounded number of
     tasks in flight (memory stays bounded by the work in flight). ``work`` is consumed lazily,
@@ -463,7 +463,7 @@ def export_tiles(
             )
             digest = input_hash(entry, config_hash, fingerprints)
             previous_run = reusable_record(before, digest, out_dir)
-            if previous_run is not None:
+            if previous_run is not None and before is not None:
                 if (
                     fingerprints != before["inputs"]
                 ):  # e.g. touched, same bytes: record the new stat
@@ -490,11 +490,12 @@ def export_tiles(
         for stage, value in result.seconds.items():
             stats.seconds[stage] += value
         if result.record is not None:
+            assert result.tile is not None  # a building written is filed in a tile
             folders_of.setdefault(result.tile, []).append(result.record["folder"])
             stats.buildings += 1
             stats.reused += int(result.reused)
             reused[result.tile] = reused.get(result.tile, 0) + int(result.reused)
-        else:
+        elif result.skipped is not None:
             skipped.setdefault(result.tile, []).append(result.skipped)
             stats.skipped += 1
         if progress:
@@ -502,7 +503,8 @@ def export_tiles(
 
     # Skips without a known tile go to every tile of this run (or a tile of their own when none).
     unplaced = skipped.pop(None, [])
-    tiles = set(folders_of) | set(skipped)
+    tiles = set(folders_of) | {tile for tile in skipped if tile is not None}
+
     if unplaced and not tiles:
         raise InputError(
             f"{', '.join(map(str, folders))}: no building could be read; first problem: {unplaced[0].source}: {unplaced[0].reason}"
