@@ -49,12 +49,13 @@ def _create(tmp: str) -> int:
 def write_bytes_atomic(path: str | Path, data: bytes, durable: bool = False) -> Path:
     """Write ``data`` to ``path`` atomically (same-folder temporary file, [fsync,] rename).
 
-    Folders are made as needed. Returns ``path`` as a :class:`~pathlib.Path`.
+    Folders are made as needed. Returns ``path`` as a :class:`~pathlib.Path`. An OSError (disk
+    full, read-only or denied folder) names ``path``, not the hidden temporary.
     """
     target = os.fspath(path)
     tmp = _temporary(target)
-    fd = _create(tmp)
     try:
+        fd = _create(tmp)
         try:
             view, written = memoryview(data).cast("B"), 0
             while written < len(view):  # os.write may write less than asked (e.g. over 2 GiB)
@@ -64,11 +65,13 @@ def write_bytes_atomic(path: str | Path, data: bytes, durable: bool = False) -> 
         finally:
             os.close(fd)
         os.replace(tmp, target)
-    except BaseException:
+    except BaseException as error:
         try:
             os.unlink(tmp)
-        except FileNotFoundError:
+        except OSError:  # never made, or its folder denies it: the first error is the one to tell
             pass
+        if isinstance(error, OSError) and error.filename != target:
+            raise OSError(error.errno, error.strerror or str(error), target) from error
         raise
     return path if isinstance(path, Path) else Path(path)
 

@@ -1,22 +1,30 @@
 """The ``vworld-lod`` command line: export, init-config, inspect, report.
 
-Exit codes: 0 success; 2 unusable input or config (one line on stderr naming the file and the
-problem); 130 interrupted (whatever was written is complete; re-running resumes).
+Exit codes: 0 success; 2 unusable input, config or output (one line on stderr naming the path and
+the problem; also a usage error, with the likely verb or option); 130 interrupted (whatever was
+written is complete; re-running resumes); 1 a bug (one line; ``--debug`` anywhere on the command
+line, or ``VWORLD_LOD_DEBUG=1``, shows the traceback instead).
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import difflib
+import errno
 import os
+import re
 import sys
 import time
 from pathlib import Path
-from typing import TextIO
+from typing import NoReturn, TextIO
 
 from . import __version__
 from .config import default_config_yaml, load_config
-from .errors import ReadError, VWorldLodError
+from .errors import InputError, ReadError, VWorldLodError
+
+DEBUG_FLAG = "--debug"
+DEBUG_ENV = "VWORLD_LOD_DEBUG"
 
 
 class ProgressPrinter:
@@ -57,9 +65,24 @@ def _effective_config(args):
     return config
 
 
+def _check_out(out: str) -> None:
+    """Refuse an ``--out`` that cannot be an output folder before any input is read."""
+    path = Path(out)
+    if path.exists() and not path.is_dir():
+        raise InputError(f"{path}: exists and is not a folder (--out takes a folder)")
+    existing = next((p for p in [path, *path.parents] if p.exists()), Path("."))
+    if not existing.is_dir():
+        raise InputError(f"{existing}: not a folder, so {path} cannot be made in it")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise InputError(f"{existing}: not writable (permission denied)")
+
+
 def cmd_export(args) -> int:
     from .pipeline import export_tiles
+    from .readers import input_paths
 
+    _check_out(args.out)
+    args.tile_dirs = input_paths(args.tile_dirs)
     config = _effective_config(args)
     progress = None if args.quiet else ProgressPrinter(sys.stderr)
     stats = export_tiles(
@@ -82,6 +105,12 @@ def cmd_export(args) -> int:
 
 def cmd_init_config(args) -> int:
     path = Path(args.path)
+    if path.is_dir():
+        print(
+            f"vworld-lod: {path}: is a folder (give a file name, e.g. {path / 'lod.yaml'})",
+            file=sys.stderr,
+        )
+        return 2
     if path.exists() and not args.force:
         print(f"vworld-lod: {path}: already exists (use --force to overwrite)", file=sys.stderr)
         return 2
@@ -93,8 +122,9 @@ def cmd_init_config(args) -> int:
 
 
 def cmd_inspect(args) -> int:
-    from .readers import load_entry, scan_folder
+    from .readers import input_paths, load_entry, scan_folder
 
+    args.tile_dirs = input_paths(args.tile_dirs)
     config = _effective_config(args)
     out = sys.stdout
     for folder in args.tile_dirs:
@@ -144,8 +174,47 @@ def cmd_report(args) -> int:
     return 0
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line usage errors that name the likely verb or option."""
+
+    argv: list[str] = []  # the command line being parsed (set by main)
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(
+            2, f"{self.prog}: {message}{self._suggestion(message)} (see {self.prog} --help)\n"
+        )
+
+    def _suggestion(self, message: str) -> str:
+        choice = re.search(r"invalid choice: '([^']*)' \(choose from (.*)\)", message)
+        if choice:
+            words = re.findall(r"'([^']*)'", choice.group(2)) or choice.group(2).split(", ")
+            close = difflib.get_close_matches(choice.group(1), words, n=1)
+            return f"; did you mean {close[0]!r}?" if close else ""
+        # Unknown options: those argparse names, and those of the command line (an unknown option
+        # may be reported as a missing required one, e.g. --ot for --out).
+        unknown = re.search(r"unrecognized arguments: (.*)", message)
+        words = (unknown.group(1).split() if unknown else []) + _Parser.argv
+        known = self._options()
+        hints = []
+        for word in dict.fromkeys(w.split("=")[0] for w in words if w.startswith("--")):
+            if word not in known and not any(k.startswith(word) for k in known):
+                close = difflib.get_close_matches(word, known, n=1)
+                hints += [f"{word}: did you mean {close[0]}?"] if close else []
+        return "".join(f"; {hint}" for hint in hints)
+
+    def _options(self) -> list[str]:
+        """Option strings of this parser and its sub-commands."""
+        found: list[str] = []
+        for action in self._actions:
+            found += action.option_strings
+            for sub in (getattr(action, "choices", None) or {}).values():
+                if isinstance(sub, argparse.ArgumentParser):
+                    found += [o for a in sub._actions for o in a.option_strings]
+        return sorted(set(found))
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="vworld-lod",
         description="Turn 3D building tiles into Unity-ready glTF LoD chains and a LODGroup manifest.",
     )
@@ -188,22 +257,50 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _fail(text: str, code: int = 2) -> int:
+    print(f"vworld-lod: {' '.join(text.split())}", file=sys.stderr)  # always one line
+    return code
+
+
+def _os_problem(error: OSError) -> str:
+    """One line for an OSError: the path, the system's reason and, for a full disk, what to do."""
+    where = error.filename if error.filename is not None else "?"
+    text = f"{where}: {error.strerror or error}"
+    if error.errno in (errno.ENOSPC, errno.EDQUOT):
+        text += "; free some space and re-run to finish (completed files are kept)"
+    return text
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    if getattr(args, "jobs", None) is not None and args.jobs < 1:
-        print("vworld-lod: --jobs: must be at least 1", file=sys.stderr)
-        return 2
+    argv = list(sys.argv[1:] if argv is None else argv)
+    debug = DEBUG_FLAG in argv or os.environ.get(DEBUG_ENV, "") not in ("", "0")
+    argv = [a for a in argv if a != DEBUG_FLAG]
     try:
+        _Parser.argv = argv
+        args = build_parser().parse_args(argv)
+
+        if getattr(args, "jobs", None) is not None and args.jobs < 1:
+            return _fail("--jobs: must be at least 1")
         return args.run(args)
-    except VWorldLodError as error:
-        print(f"vworld-lod: {error}", file=sys.stderr)
-        return 2
     except KeyboardInterrupt:
-        print(
-            "vworld-lod: interrupted; finished files are complete, re-run to resume",
-            file=sys.stderr,
-        )
+        if debug:
+            raise
+        _fail("interrupted; finished files are complete, re-run to resume")
         return 130
     except BrokenPipeError:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
+    except Exception as error:
+        if debug:
+            raise
+        if isinstance(error, VWorldLodError):
+            return _fail(str(error))
+        if isinstance(error, OSError):
+            return _fail(_os_problem(error))
+        if isinstance(error, MemoryError):
+            return _fail("out of memory (try fewer --jobs)")
+        return _fail(
+            f"internal error: {type(error).__name__}: {error} (re-run with {DEBUG_FLAG} or "
+            f"{DEBUG_ENV}=1 for the traceback, and please report it)",
+            code=1,
+        )

@@ -11,6 +11,7 @@ Percentages are accepted as ``50%`` or ``0.5``.
 from __future__ import annotations
 
 import dataclasses
+import difflib
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -376,9 +377,7 @@ def _parse_fields(cls, raw: Any, where: str, path: str, base=None):
     values = {}
     for key, value in raw.items():
         if key not in known:
-            raise ConfigError(
-                path, f"{where}.{key}", f"unknown key; allowed keys: {', '.join(known)}"
-            )
+            raise ConfigError(path, f"{where}.{key}", unknown_key(key, list(known)))
         try:
             values[key] = known[key].metadata["parse"](value)
         except ValueError as error:
@@ -456,10 +455,16 @@ def config_from_dict(raw: Any, path: str = "<config>") -> Config:
                 ),
             )
         else:
-            raise ConfigError(
-                path, str(key), f"unknown key; allowed keys: lods, {', '.join(SECTIONS)}"
-            )
+            raise ConfigError(path, str(key), unknown_key(key, ["lods", *SECTIONS]))
     return config
+
+
+def unknown_key(key: Any, allowed: list[str]) -> str:
+    """The problem text for an unknown key: the likely one first (``simplfy`` -> ``simplify``),
+    then every allowed key."""
+    close = difflib.get_close_matches(str(key), allowed, n=1, cutoff=0.6)
+    hint = f"did you mean {close[0]!r}? " if close else ""
+    return f"unknown key; {hint}allowed keys: {', '.join(allowed)}"
 
 
 def load_config(path: str | Path | None) -> Config:

@@ -316,6 +316,8 @@ def process_entry(
         )
         lap("write")
         return EntryResult(tile=tile, record=record, seconds=seconds)
+    except OSError:  # the output cannot be written (disk full, read-only, denied): stop the run
+        raise
     except Exception as error:  # one broken building never stops the tile
         reason = (
             error.problem if isinstance(error, ReadError) else f"{type(error).__name__}: {error}"

@@ -1,4 +1,5 @@
-"""Readers: a tile folder in, buildings (:class:`exporter.model.Building`) out.
+"""Readers: a tile folder (or one index or CityJSON file) in, buildings
+(:class:`exporter.model.Building`) out.
 
 Two steps, so the pipeline can plan, skip unchanged work and load in parallel:
 
@@ -11,8 +12,10 @@ Two steps, so the pipeline can plan, skip unchanged work and load in parallel:
    never stops a tile.
 
 Each format module (``vworld``, ``cityjson``, ``folder``) provides ``detect(folder) -> bool``,
-``scan(folder, options) -> Scan`` and ``load(entry, options) -> Building``. Entries are plain
-picklable data (they cross process boundaries).
+``scan(path, options) -> Scan`` (``path`` a folder, or one file of the format: a VWorld ``.dat``,
+a CityJSON file, an OBJ/glTF index file) and ``load(entry, options) -> Building``. Entries are
+plain picklable data (they cross process boundaries). ``input_paths(paths)`` turns a command
+line's inputs (shell globs expanded: folders and files mixed) into the list to scan.
 """
 
 from __future__ import annotations
@@ -60,25 +63,124 @@ def _module(name: str):
     return importlib.import_module(f"{__name__}.{name}")
 
 
+EXPECTED = (
+    "expected a VWorld .dat index with .xdo files, CityJSON *.city.json / *.json / *.city.jsonl "
+    "files, or OBJ/glTF/GLB files with an index file buildings.csv/.yaml/.json; see README "
+    "'Input formats'"
+)
+# Files a folder's index refers to: given on their own (e.g. by a shell glob over a tile folder)
+# they are read through their index, never alone.
+COMPANIONS = {
+    ".xdo": "a VWorld model: give its .dat index or its folder",
+    ".obj": "a model: give its index file (buildings.csv/.yaml/.json) or its folder",
+    ".gltf": "a model: give its index file (buildings.csv/.yaml/.json) or its folder",
+    ".glb": "a model: give its index file (buildings.csv/.yaml/.json) or its folder",
+    ".mtl": "an OBJ material file: give the models' index file or their folder",
+    ".bin": "a glTF buffer: give the models' index file or their folder",
+    ".jpg": "an image: give the index file or the folder that uses it",
+    ".jpeg": "an image: give the index file or the folder that uses it",
+    ".png": "an image: give the index file or the folder that uses it",
+}
+
+
+def _missing(path: Path) -> InputError:
+    pattern = any(c in str(path) for c in "*?[")
+    hint = " (a shell pattern that matched nothing?)" if pattern else ""
+    return InputError(f"{path}: no such file or folder{hint}")
+
+
+def file_format(path: Path) -> str:
+    """The format of a single input file, by name (and the first 64 KiB of a ``*.json``);
+    InputError naming the file when it is none of them."""
+    name = path.name.lower()
+    try:
+        empty = path.stat().st_size == 0
+    except OSError as error:
+        raise InputError(f"{path}: cannot be read ({error.strerror or error})") from None
+    if empty:
+        raise InputError(f"{path}: empty file; {EXPECTED}")
+    if name.endswith(".dat"):
+        return "vworld"
+    if _module("cityjson").is_cityjson_file(path):
+        return "cityjson"
+    if name.endswith((".csv", ".yaml", ".yml")) or name == "buildings.json":
+        return "folder"
+    if name.endswith(".json") and _mentions(path, b'"file"'):  # an index under another name
+        return "folder"
+
+    suffix = path.suffix.lower()
+    if suffix in COMPANIONS:
+        raise InputError(f"{path}: {COMPANIONS[suffix]}")
+    raise InputError(f"{path}: not an input file; {EXPECTED}")
+
+
 def detect_format(folder: str | Path) -> str:
-    """Name of the first format whose ``detect`` accepts the folder; InputError when none does."""
+    """Name of the format of a folder (the first whose ``detect`` accepts it) or of one file
+    (:func:`file_format`); InputError naming the path when none fits or it cannot be read."""
     folder = Path(folder)
+    if folder.is_file():
+        return file_format(folder)
     if not folder.is_dir():
-        raise InputError(f"{folder}: not a readable folder")
-    for name in FORMATS:
-        if _module(name).detect(folder):
-            return name
-    raise InputError(
-        f"{folder}: no building data found (expected a VWorld .dat index with .xdo files, CityJSON "
-        "*.city.json / *.json files, or OBJ/glTF/GLB files with an index file; see README 'Input formats')"
-    )
+        raise _missing(folder) if not folder.exists() else InputError(f"{folder}: not a folder")
+    try:
+        for name in FORMATS:
+            if _module(name).detect(folder):
+                return name
+    except OSError as error:
+        raise InputError(f"{folder}: cannot be read ({error.strerror or error})") from None
+    raise InputError(f"{folder}: no building data found ({EXPECTED})")
 
 
 def scan_folder(folder: str | Path, options: ReaderOptions | None = None) -> Scan:
-    """List the buildings of a tile folder (see module doc)."""
+    """List the buildings of a tile folder or of one input file (see module doc)."""
     options = options or ReaderOptions()
     name = detect_format(folder)
-    return _module(name).scan(Path(folder), options)
+    try:
+        return _module(name).scan(Path(folder), options)
+    except OSError as error:  # e.g. a file in it that cannot be opened
+        where = error.filename or folder
+        raise InputError(f"{where}: cannot be read ({error.strerror or error})") from None
+
+
+def input_paths(paths: list[str | Path]) -> list[Path]:
+    """The inputs of one command line (shell globs expanded: folders and files mixed), each once.
+
+    A file inside a folder also given is left to that folder when the folder reads it (same
+    format); a companion file (``.xdo``, image, model) is left out when its folder or another file
+    of its folder is given (``vworld-lod export tile/*``), else refused naming the file. Raises
+    InputError for a path that does not exist.
+    """
+    given = [Path(p) for p in paths]
+    for path in given:
+        if not path.exists():
+            raise _missing(path)
+    folders = {p.resolve() for p in given if p.is_dir()}
+    parents = {
+        p.resolve().parent for p in given if p.is_file() and p.suffix.lower() not in COMPANIONS
+    }
+    kept: list[Path] = []
+    seen: set[Path] = set()
+    for path in given:
+        resolved = path.resolve()
+        if resolved in seen:
+            continue
+        seen.add(resolved)
+        if path.is_file():
+            parent = resolved.parent
+            if path.suffix.lower() in COMPANIONS and (parent in folders or parent in parents):
+                continue
+            if parent in folders and _read_by_folder(path, parent):
+                continue
+        kept.append(path)
+    return kept
+
+
+def _read_by_folder(path: Path, folder: Path) -> bool:
+    """True when scanning ``folder`` already lists the buildings of ``path`` (same format)."""
+    try:
+        return detect_format(folder) == file_format(path)
+    except InputError:
+        return False
 
 
 def load_entry(entry: Entry, options: ReaderOptions | None = None) -> Building:
@@ -92,3 +194,11 @@ def load_entry(entry: Entry, options: ReaderOptions | None = None) -> Building:
         raise ReadError(entry.source, "too large to read into memory") from None
     except Exception as error:  # a reader bug must not stop the tile; report it as this building's
         raise ReadError(entry.source, f"unexpected {type(error).__name__}: {error}") from error
+
+
+def _mentions(path: Path, text: bytes) -> bool:
+    try:
+        with path.open("rb") as handle:
+            return text in handle.read(65536)
+    except OSError:
+        return False

@@ -480,28 +480,28 @@ def _part(
 # --------------------------------------------------------------------------- contract
 
 
+def is_cityjson_file(path: Path) -> bool:
+    """True for ``*.city.json`` / ``*.city.jsonl`` (by name) and for a ``*.json`` / ``*.jsonl``
+    whose first 64 KiB mention ``CityJSON`` or ``CityObjects``."""
+    name = path.name.lower()
+    if name.endswith((".city.json", ".city.jsonl")):
+        return True
+    if not name.endswith((".json", ".jsonl")) or name == "buildings.json":
+        return False
+    try:
+        with path.open("rb") as handle:
+            head = handle.read(_SNIFF_BYTES)
+    except OSError:
+        return False
+    return b'"CityJSON"' in head or b'"CityObjects"' in head
+
+
 def _candidate_files(folder: Path) -> list[Path]:
-    files = []
-    for path in sorted(folder.iterdir()):
-        if not path.is_file():
-            continue
-        name = path.name.lower()
-        if name.endswith((".city.json", ".city.jsonl")):
-            files.append(path)
-        elif name.endswith(".json") and name not in ("buildings.json",):
-            try:
-                with path.open("rb") as handle:
-                    head = handle.read(_SNIFF_BYTES)
-            except OSError:
-                continue
-            if b'"CityJSON"' in head or b'"CityObjects"' in head:
-                files.append(path)
-    return files
+    return [p for p in sorted(folder.iterdir()) if p.is_file() and is_cityjson_file(p)]
 
 
 def detect(folder: Path) -> bool:
-    """True when the folder holds CityJSON (``*.city.json``, ``*.city.jsonl`` or a ``*.json``
-    whose first 64 KiB mention ``CityJSON``/``CityObjects``)."""
+    """True when the folder holds CityJSON files (:func:`is_cityjson_file`)."""
     return bool(_candidate_files(Path(folder)))
 
 
@@ -540,19 +540,23 @@ def _plan(
 
 
 def scan(folder: Path, options: ReaderOptions) -> Scan:
-    """List one Entry per Building of every CityJSON file in ``folder`` (each file parsed once).
+    """List one Entry per Building of every CityJSON file in ``folder`` (each file parsed once),
+    or of the one file ``folder`` names.
 
-    A file without a CRS (and no ``options.crs``) raises InputError saying how to give one; other
-    unreadable files are listed in ``Scan.skipped``.
+    A file without a CRS (and no ``options.crs``) raises InputError saying how to give one, as
+    does a file given alone that cannot be read; other unreadable files are listed in
+    ``Scan.skipped``.
     """
     folder = Path(folder)
     result = Scan(folder=str(folder), format=FORMAT)
-    for path in _candidate_files(folder):
+    single = folder.is_file()
+    for path in [folder] if single else _candidate_files(folder):
         try:
             document = _document(path, options.crs)
         except ReadError as error:
-            if CRS_HINT in error.problem:
+            if single or CRS_HINT in error.problem:
                 raise InputError(str(error)) from None
+
             result.skipped.append(Skipped(source=str(path), reason=error.problem))
             continue
         declared = document.declared_crs

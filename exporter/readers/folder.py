@@ -384,14 +384,17 @@ def detect(folder: Path) -> bool:
 
 
 def scan(folder: Path, options: ReaderOptions) -> Scan:
-    """One Entry per index row; bad rows and duplicate ids go to ``Scan.skipped``."""
-    folder = Path(folder)
-    index = index_file(folder)
+    """One Entry per index row of the folder's index file (or of the index file ``folder``
+    names; model paths are relative to its folder); bad rows and duplicate ids go to
+    ``Scan.skipped``."""
+    given = Path(folder)
+    folder, index = (given.parent, given) if given.is_file() else (given, index_file(given))
     if index is None:
         raise InputError(
             f"{folder}: no index file ({', '.join(INDEX_NAMES)}) for the OBJ/glTF/GLB models"
         )
-    result = Scan(folder=str(folder), format=FORMAT)
+    result = Scan(folder=str(given), format=FORMAT)
+
     seen: set[str] = set()
     for number, row in enumerate(_index_rows(index), start=1):
         source = str(folder / str(row.get("file") or ""))

@@ -35,7 +35,7 @@ import numpy as np
 
 from ..atomic import write_bytes_atomic
 from ..config import ReaderOptions
-from ..errors import ReadError
+from ..errors import InputError, ReadError
 from ..formats.vworld_binary import (
     MAX_MESHES,
     XDO_TYPE,
@@ -184,20 +184,26 @@ def _read(path: Path) -> bytes:
 
 
 def scan(folder: str | Path, options: ReaderOptions | None = None) -> Scan:
-    """One :class:`Entry` per ``.dat`` object record of every ``.dat`` in ``folder``.
+    """One :class:`Entry` per ``.dat`` object record of every ``.dat`` in ``folder`` (or of the
+    one ``.dat`` it names: its folder's ``.xdo``/``.jpg`` files are used).
 
     ``Entry.key`` = (dat file name, record index, the :class:`DatObject`); ``Entry.source`` = the
     ``.xdo`` path (which may be missing: reported by :func:`load`). A ``.dat`` that cannot be read
-    goes to ``skipped``.
+    goes to ``skipped`` (InputError when it was given alone).
     """
-    folder = Path(folder)
-    result = Scan(folder=str(folder), format="vworld")
+    given = Path(folder)
+    result = Scan(folder=str(given), format="vworld")
+    single = given.is_file()
+    folder, dat_files = (given.parent, [given]) if single else (given, _dat_files(given))
     used_ids: set[str] = set()
-    for dat_path in _dat_files(folder):
+    for dat_path in dat_files:
         try:
             dat = parse_dat(_read(dat_path), str(dat_path))
         except ReadError as error:
+            if single:
+                raise InputError(str(error)) from None
             result.skipped.append(Skipped(source=str(dat_path), reason=error.problem))
+
             continue
         tile = TileId(dat.level, dat.idx, dat.idy)
         if dat.trailing:
