@@ -227,8 +227,11 @@ def _decode(image: Image.Image, where: str) -> Image.Image:
 
 def has_transparency(image: Image.Image) -> bool:
     """True when a decoded RGB/RGBA/L image has at least one pixel with alpha below 255."""
+    if image.mode != "RGBA":
+        return False
     low, _ = image.getchannel("A").getextrema()  # one band: (low, high) ints
-    return image.mode == "RGBA" and int(low) < 255  # type: ignore[arg-type]
+    return int(low) < 255  # type: ignore[arg-type]
+
 
 
 def draft_factors(options: TextureOptions) -> tuple[int, ...]:
