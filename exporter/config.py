@@ -478,6 +478,9 @@ def load_config(path: str | Path | None) -> Config:
         raise ConfigError(
             str(path), "<file>", f"cannot be read ({error.strerror or error})"
         ) from None
+    except UnicodeDecodeError:
+        raise ConfigError(str(path), "<file>", "not UTF-8 text (expected YAML)") from None
+
     try:
         raw = yaml.safe_load(text)
     except yaml.YAMLError as error:

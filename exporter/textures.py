@@ -233,7 +233,6 @@ def has_transparency(image: Image.Image) -> bool:
     return int(low) < 255  # type: ignore[arg-type]
 
 
-
 def draft_factors(options: TextureOptions) -> tuple[int, ...]:
     """IDCT reduction factors a JPEG source may be decoded at under ``options``."""
     return {"auto": AUTO_DRAFT_FACTORS, "always": ALWAYS_DRAFT_FACTORS, "never": ()}[
