@@ -224,7 +224,7 @@ def build_parser() -> argparse.ArgumentParser:
     export = commands.add_parser(
         "export", help="export tile folders to glTF LoD chains + lod_manifest.json per tile"
     )
-    export.add_argument("tile_dirs", nargs="+", metavar="TILE_DIR")
+    export.add_argument("tile_dirs", nargs="+", metavar="INPUT")
     export.add_argument("--out", required=True, help="output folder (one subfolder per tile)")
     export.add_argument("--config", help="YAML config (see init-config); defaults from the paper")
     export.add_argument("--crs", help="CRS of input files that do not declare one, e.g. EPSG:7415")
@@ -246,7 +246,7 @@ def build_parser() -> argparse.ArgumentParser:
     init.set_defaults(run=cmd_init_config)
 
     inspect = commands.add_parser("inspect", help="print what tile folders hold, writing nothing")
-    inspect.add_argument("tile_dirs", nargs="+", metavar="TILE_DIR")
+    inspect.add_argument("tile_dirs", nargs="+", metavar="INPUT")
     inspect.add_argument("--config", help="YAML config (reader options)")
     inspect.add_argument("--crs", help="CRS of input files that do not declare one, e.g. EPSG:7415")
     inspect.set_defaults(run=cmd_inspect)

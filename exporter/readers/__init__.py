@@ -121,7 +121,11 @@ def detect_format(folder: str | Path) -> str:
     if folder.is_file():
         return file_format(folder)
     if not folder.is_dir():
-        raise _missing(folder) if not folder.exists() else InputError(f"{folder}: not a folder")
+        raise (
+            _missing(folder)
+            if not folder.exists()
+            else InputError(f"{folder}: not a file or folder")
+        )
     try:
         for name in FORMATS:
             if _module(name).detect(folder):
