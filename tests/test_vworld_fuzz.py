@@ -31,7 +31,7 @@ from exporter.formats.vworld_binary import (
 from exporter.model import Building, GeoPoint, Part, TileId
 from exporter.readers import vworld
 
-FUZZ = settings(max_examples=300, deadline=500, suppress_health_check=[HealthCheck.too_slow])
+FUZZ = settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 
 def _mesh(seed: int, name: bytes, thumbnail) -> XdoMesh:
@@ -173,7 +173,7 @@ def tile_files(tmp_path_factory) -> Path:
     return folder
 
 
-@settings(max_examples=60, deadline=1000, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     flips=st.lists(st.tuples(st.integers(0, 10_000), st.integers(0, 7)), min_size=1, max_size=6),
     cut=st.integers(0, 10_000),
