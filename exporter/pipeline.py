@@ -36,6 +36,7 @@ from .errors import InputError, ProcessError, ReadError
 from .manifest import MANIFEST_NAME, build_manifest, dumps, safe_folder_name
 from .model import Building, Part, Skipped, Texture, TileId
 from .readers import Entry, load_entry, scan_folder
+from .tile_index import write_tile_index
 
 RECORD_NAME = "building.json"
 STAGES = ("read", "simplify", "textures", "quality", "write")
@@ -522,6 +523,7 @@ def export_tiles(
                 reused.get(tile, 0),
             )
         )
+    write_tile_index(out_dir, stats.tiles)  # after the manifests: it names only complete tiles
     stats.wall_seconds = time.perf_counter() - started
     return stats
 

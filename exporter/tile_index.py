@@ -1,0 +1,147 @@
+"""The tile index of an export (``OUT/tiles.json``): every tile of ``OUT`` the Unity streamer may load.
+
+Data form: one JSON object (schema ``schema/tile_index.schema.json``, written for Unity's
+JsonUtility: no variable-key objects, no nested arrays, no top-level array)::
+
+    {"format": "vworld-lod-tile-index", "version": "1.0",
+     "tiles": [{"name": "15_279418_116113", "level": 15, "idx": 279418, "idy": 116113,
+                "bounds": {"west": .., "south": .., "east": .., "north": ..},   # degrees
+                "center": {"lon": .., "lat": .., "elev": 0.0},                  # degrees, metres
+                "manifest": "15_279418_116113/lod_manifest.json",               # relative to OUT
+                "buildings": 42}]}
+
+Tiles are listed in (level, idx, idy) order. The index lists every tile folder of ``OUT`` that holds
+a manifest, not only the tiles of the run that wrote it, so incremental and multi-run exports into
+one ``OUT`` stay complete. Tiles of this run come with their building count
+(:class:`exporter.pipeline.TileResult`); other tiles keep their entry of the previous index when
+their manifest is older than it, else their manifest is read. Written atomically
+(``exporter.atomic``) after the manifests, so a reader never sees an index naming a manifest that
+is not complete yet.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Iterable
+from importlib import resources
+from pathlib import Path
+
+from .atomic import write_text_atomic
+from .manifest import MANIFEST_NAME
+from .model import TileId
+from .tiles import tile_bounds, tile_center
+
+FORMAT = "vworld-lod-tile-index"
+VERSION = "1.0"
+INDEX_NAME = "tiles.json"
+
+
+def tile_from_name(name: str) -> TileId | None:
+    """The tile of a ``<level>_<idx>_<idy>`` folder name, or None when the name is not one."""
+    parts = name.split("_")
+    if len(parts) != 3 or not all(p.isdigit() for p in parts):
+        return None
+    tile = TileId(int(parts[0]), int(parts[1]), int(parts[2]))
+    try:
+        tile_bounds(tile)  # IDX/IDY inside the level's grid
+    except ValueError:
+        return None
+    return tile
+
+
+def tile_entry(tile: TileId, buildings: int) -> dict:
+    """The index entry of ``tile`` with ``buildings`` buildings (bounds and centre in degrees)."""
+    west, south, east, north = tile_bounds(tile)
+    lon, lat = tile_center(tile)
+    return {
+        "name": tile.name,
+        "level": tile.level,
+        "idx": tile.idx,
+        "idy": tile.idy,
+        "bounds": {"west": west, "south": south, "east": east, "north": north},
+        "center": {"lon": lon, "lat": lat, "elev": 0.0},
+        "manifest": f"{tile.name}/{MANIFEST_NAME}",
+        "buildings": int(buildings),
+    }
+
+
+def _manifest_buildings(path: Path) -> int | None:
+    """``summary.buildings`` of the manifest at ``path``; None when it cannot be read."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+        count = data["summary"]["buildings"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    return count if isinstance(count, int) and not isinstance(count, bool) else None
+
+
+def _previous_entries(index_path: Path) -> tuple[dict[str, dict], int]:
+    """Entries of an earlier index by tile name, and its mtime in ns (0 when there is none)."""
+    try:
+        stamp = index_path.stat().st_mtime_ns
+        data = json.loads(index_path.read_text(encoding="utf-8"))
+        tiles = data["tiles"] if data.get("format") == FORMAT else []
+        return {t["name"]: t for t in tiles if isinstance(t, dict) and "name" in t}, stamp
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return {}, 0
+
+
+def build_index(out_dir: str | Path, fresh: dict[str, int] | None = None) -> dict:
+    """The index of every ``<level>_<idx>_<idy>/lod_manifest.json`` under ``out_dir``.
+
+    ``fresh`` maps tile names of the current run to their building counts; other tiles reuse the
+    previous index's entry when their manifest is older than that index, else their manifest's
+    ``summary.buildings`` is read. A manifest that cannot be read is left out of the index.
+    """
+    out_dir = Path(out_dir)
+    fresh = fresh or {}
+    previous, index_stamp = _previous_entries(out_dir / INDEX_NAME)
+    entries = []
+    with os.scandir(out_dir) as folders:
+        names = sorted(f.name for f in folders if f.is_dir())
+    for name in names:
+        tile = tile_from_name(name)
+        manifest = out_dir / name / MANIFEST_NAME
+        if tile is None:
+            continue
+        try:
+            manifest_stamp = manifest.stat().st_mtime_ns
+        except OSError:
+            continue  # a tile folder without a complete manifest (or no tile at all)
+        count = fresh.get(name)
+        if count is None and name in previous and manifest_stamp < index_stamp:
+            count = previous[name].get("buildings")
+        if not isinstance(count, int) or isinstance(count, bool):
+            count = _manifest_buildings(manifest)
+        if count is None:
+            continue
+        entries.append((tile, tile_entry(tile, count)))
+    entries.sort(key=lambda item: (item[0].level, item[0].idx, item[0].idy))
+    return {"format": FORMAT, "version": VERSION, "tiles": [entry for _, entry in entries]}
+
+
+def write_tile_index(out_dir: str | Path, tiles: Iterable = ()) -> Path:
+    """Write ``OUT/tiles.json`` (atomically, fsynced) for every tile of ``out_dir``; returns its path.
+
+    ``tiles``: the run's :class:`exporter.pipeline.TileResult` (``.tile``, ``.buildings``).
+    """
+    fresh = {result.tile.name: result.buildings for result in tiles}
+    index = build_index(out_dir, fresh)
+    text = json.dumps(index, ensure_ascii=False, allow_nan=False, indent=1) + "\n"
+    return write_text_atomic(Path(out_dir) / INDEX_NAME, text, durable=True)
+
+
+def load_schema() -> dict:
+    return json.loads(
+        resources.files("exporter")
+        .joinpath("schema/tile_index.schema.json")
+        .read_text(encoding="utf-8")
+    )
+
+
+def validate_index(index: dict) -> None:
+    """Raise ``jsonschema.ValidationError`` when ``index`` breaks the schema (needs jsonschema)."""
+    import jsonschema
+
+    jsonschema.validate(index, load_schema())
