@@ -8,12 +8,16 @@ JsonUtility: no variable-key objects, no nested arrays, no top-level array)::
                 "bounds": {"west": .., "south": .., "east": .., "north": ..},   # degrees
                 "center": {"lon": .., "lat": .., "elev": 0.0},                  # degrees, metres
                 "manifest": "15_279418_116113/lod_manifest.json",               # relative to OUT
-                "buildings": 42}]}
+                "buildings": 42,
+                "globe": {"earth_radius_m": 6378137.0, "unity_radius": 6378137.0}}]}
+
+``globe`` repeats the manifest's radii (R in metres, UR in Unity units), so a streamer can place
+tile centres in Unity units before reading any manifest.
 
 Tiles are listed in (level, idx, idy) order. The index lists every tile folder of ``OUT`` that holds
 a manifest, not only the tiles of the run that wrote it, so incremental and multi-run exports into
 one ``OUT`` stay complete. Tiles of this run come with their building count
-(:class:`exporter.pipeline.TileResult`); other tiles keep their entry of the previous index when
+(:class:`exporter.pipeline.TileResult`) and the run's radii; other tiles keep their entry of the previous index when
 their manifest is older than it, else their manifest is read. Written atomically
 (``exporter.atomic``) after the manifests, so a reader never sees an index naming a manifest that
 is not complete yet.
@@ -22,6 +26,7 @@ is not complete yet.
 from __future__ import annotations
 
 import json
+import math
 import os
 from collections.abc import Iterable
 from importlib import resources
@@ -50,8 +55,9 @@ def tile_from_name(name: str) -> TileId | None:
     return tile
 
 
-def tile_entry(tile: TileId, buildings: int) -> dict:
-    """The index entry of ``tile`` with ``buildings`` buildings (bounds and centre in degrees)."""
+def tile_entry(tile: TileId, buildings: int, globe: dict) -> dict:
+    """The index entry of ``tile`` with ``buildings`` buildings (bounds and centre in degrees) and
+    ``globe`` ``{"earth_radius_m", "unity_radius"}``."""
     west, south, east, north = tile_bounds(tile)
     lon, lat = tile_center(tile)
     return {
@@ -63,17 +69,33 @@ def tile_entry(tile: TileId, buildings: int) -> dict:
         "center": {"lon": lon, "lat": lat, "elev": 0.0},
         "manifest": f"{tile.name}/{MANIFEST_NAME}",
         "buildings": int(buildings),
+        "globe": {
+            "earth_radius_m": float(globe["earth_radius_m"]),
+            "unity_radius": float(globe["unity_radius"]),
+        },
     }
 
 
-def _manifest_buildings(path: Path) -> int | None:
-    """``summary.buildings`` of the manifest at ``path``; None when it cannot be read."""
+def _facts(buildings, globe) -> tuple[int, dict] | None:
+    """``(buildings, globe)`` when both are well formed, else None."""
+    try:
+        radii = {k: float(globe[k]) for k in ("earth_radius_m", "unity_radius")}
+    except (KeyError, TypeError, ValueError):
+        return None
+    if not all(math.isfinite(v) and v > 0 for v in radii.values()):
+        return None
+    if not isinstance(buildings, int) or isinstance(buildings, bool) or buildings < 0:
+        return None
+    return buildings, radii
+
+
+def _manifest_facts(path: Path) -> tuple[int, dict] | None:
+    """``summary.buildings`` and the globe radii of the manifest at ``path``; None when unreadable."""
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
-        count = data["summary"]["buildings"]
+        return _facts(data["summary"]["buildings"], data["globe"])
     except (OSError, ValueError, KeyError, TypeError):
         return None
-    return count if isinstance(count, int) and not isinstance(count, bool) else None
 
 
 def _previous_entries(index_path: Path) -> tuple[dict[str, dict], int]:
@@ -87,12 +109,12 @@ def _previous_entries(index_path: Path) -> tuple[dict[str, dict], int]:
         return {}, 0
 
 
-def build_index(out_dir: str | Path, fresh: dict[str, int] | None = None) -> dict:
+def build_index(out_dir: str | Path, fresh: dict[str, tuple[int, dict]] | None = None) -> dict:
     """The index of every ``<level>_<idx>_<idy>/lod_manifest.json`` under ``out_dir``.
 
-    ``fresh`` maps tile names of the current run to their building counts; other tiles reuse the
-    previous index's entry when their manifest is older than that index, else their manifest's
-    ``summary.buildings`` is read. A manifest that cannot be read is left out of the index.
+    ``fresh`` maps tile names of the current run to ``(buildings, globe radii)``; other tiles reuse
+    the previous index's entry when their manifest is older than that index, else their manifest's
+    ``summary.buildings`` and ``globe`` are read. A manifest that cannot be read is left out.
     """
     out_dir = Path(out_dir)
     fresh = fresh or {}
@@ -109,24 +131,31 @@ def build_index(out_dir: str | Path, fresh: dict[str, int] | None = None) -> dic
             manifest_stamp = manifest.stat().st_mtime_ns
         except OSError:
             continue  # a tile folder without a complete manifest (or no tile at all)
-        count = fresh.get(name)
-        if count is None and name in previous and manifest_stamp < index_stamp:
-            count = previous[name].get("buildings")
-        if not isinstance(count, int) or isinstance(count, bool):
-            count = _manifest_buildings(manifest)
-        if count is None:
+        facts = fresh.get(name)
+        if facts is None and name in previous and manifest_stamp < index_stamp:
+            facts = _facts(previous[name].get("buildings"), previous[name].get("globe"))
+        if facts is None:
+            facts = _manifest_facts(manifest)
+        if facts is None:
             continue
-        entries.append((tile, tile_entry(tile, count)))
+        entries.append((tile, tile_entry(tile, *facts)))
     entries.sort(key=lambda item: (item[0].level, item[0].idx, item[0].idy))
     return {"format": FORMAT, "version": VERSION, "tiles": [entry for _, entry in entries]}
 
 
-def write_tile_index(out_dir: str | Path, tiles: Iterable = ()) -> Path:
+def write_tile_index(out_dir: str | Path, tiles: Iterable = (), globe=None) -> Path:
     """Write ``OUT/tiles.json`` (atomically, fsynced) for every tile of ``out_dir``; returns its path.
 
-    ``tiles``: the run's :class:`exporter.pipeline.TileResult` (``.tile``, ``.buildings``).
+    ``tiles``: the run's :class:`exporter.pipeline.TileResult` (``.tile``, ``.buildings``);
+    ``globe``: the run's :class:`exporter.config.GlobeOptions` (without it those tiles' manifests
+    are read for their radii).
     """
-    fresh = {result.tile.name: result.buildings for result in tiles}
+    radii = (
+        {"earth_radius_m": globe.earth_radius, "unity_radius": globe.unity_radius}
+        if globe is not None
+        else None
+    )
+    fresh = {r.tile.name: (r.buildings, radii) for r in tiles} if radii is not None else {}
     index = build_index(out_dir, fresh)
     text = json.dumps(index, ensure_ascii=False, allow_nan=False, indent=1) + "\n"
     return write_text_atomic(Path(out_dir) / INDEX_NAME, text, durable=True)

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from exporter.config import GlobeOptions
 from exporter.model import TileId
 from exporter.tile_index import INDEX_NAME, build_index, validate_index, write_tile_index
 from exporter.tiles import tile_bounds, tile_center
@@ -17,7 +18,10 @@ def fake_manifest(out: Path, tile: TileId, buildings: int) -> Path:
     """Just enough of a manifest for the index: the file exists and has ``summary.buildings``."""
     path = out / tile.name / "lod_manifest.json"
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps({"summary": {"buildings": buildings}}), encoding="utf-8")
+    globe = {"earth_radius_m": 6378137.0, "unity_radius": 1000.0}
+    path.write_text(
+        json.dumps({"summary": {"buildings": buildings}, "globe": globe}), encoding="utf-8"
+    )
     return path
 
 
@@ -35,7 +39,7 @@ def test_index_lists_every_tile_with_a_manifest_in_order_with_bounds_and_centre(
     fake_manifest(tmp_path, C, 1)
     (tmp_path / "15_1_1").mkdir()  # a tile folder whose manifest is not written (yet)
     (tmp_path / "notes").mkdir()  # not a tile
-    path = write_tile_index(tmp_path, [Result(A, 5)])
+    path = write_tile_index(tmp_path, [Result(A, 5)], GlobeOptions(unity_radius=500.0))
     index = json.loads(path.read_text(encoding="utf-8"))
     validate_index(index)
     assert [t["name"] for t in index["tiles"]] == [C.name, A.name, B.name]  # (level, idx, idy)
@@ -46,6 +50,9 @@ def test_index_lists_every_tile_with_a_manifest_in_order_with_bounds_and_centre(
     lon, lat = tile_center(A)
     assert by_name[A.name]["center"] == {"lon": lon, "lat": lat, "elev": 0.0}
     assert by_name[A.name]["manifest"] == f"{A.name}/lod_manifest.json"
+    # The run's radii for its tiles; the others' from their manifests.
+    assert by_name[A.name]["globe"] == {"earth_radius_m": 6378137.0, "unity_radius": 500.0}
+    assert by_name[B.name]["globe"] == {"earth_radius_m": 6378137.0, "unity_radius": 1000.0}
     assert [p.name for p in tmp_path.iterdir() if p.name.endswith(".tmp")] == []
 
 
@@ -85,3 +92,6 @@ def test_the_pipeline_writes_the_index_after_the_manifests(tmp_path):
     assert set(listed) == {A.name, B.name}
     assert listed[A.name]["buildings"] == manifest["summary"]["buildings"] == stats.buildings
     assert listed[A.name]["center"]["lon"] == pytest.approx(manifest["tile"]["center"]["lon"])
+    assert listed[A.name]["globe"] == {
+        k: manifest["globe"][k] for k in ("earth_radius_m", "unity_radius")
+    }
