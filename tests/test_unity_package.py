@@ -158,6 +158,8 @@ def test_stubs_declare_nothing_the_package_does_not_use():
         "CallbackFunction",
         "None",
         "SpeedTree",
+        "AsyncOperation",
+        "DownloadHandler",
     }
     # Base classes, and types named only by the signatures of used members (real Unity/glTFast
     # declares them too); LODFadeMode's other values mirror LodFadeKind's (cast by value).
@@ -196,37 +198,28 @@ def write_glb(path: Path, size: float) -> None:
     path.write_bytes(glb_bytes([part], path.stem))
 
 
-def manifest_from_exporter_modules(out: Path, placement_mode: str) -> Path:
-    """A tile written with exporter.manifest.build_manifest and exporter.placement (the pipeline's
-    own building blocks), with real GLB files, for when no full export is at hand."""
-    from exporter.config import Config
+def write_tile_manifest(folder: Path, tile, config, spots, glb: bool = True) -> Path:
+    """A tile's manifest written with exporter.manifest.build_manifest and exporter.placement (the
+    pipeline's own building blocks): one building per ``(fx, fy, elev)`` spot (fractions of the
+    tile's width and height, metres), with real GLB files when ``glb``."""
     from exporter.manifest import MANIFEST_NAME, build_manifest, dumps, validate_manifest
     from exporter.model import GeoPoint, Skipped
     from exporter.placement import building_placement, relative_placement, tile_placement
-    from exporter.tiles import tile_bounds, tile_center, tile_of
+    from exporter.tiles import tile_bounds, tile_center
 
-    config = Config()
-    config.globe.placement = placement_mode
-    tile = tile_of(126.9780, 37.5665, 15)  # Seoul City Hall
     lon0, lat0 = tile_center(tile)
     west, south, east, north = tile_bounds(tile)
-    folder = out / tile.name
     records = []
-    for n, (fx, fy, elev) in enumerate([(0.1, 0.2, 12.5), (0.8, 0.9, 40.0), (0.5, 0.5, 0.0)]):
+    for n, (fx, fy, elev) in enumerate(spots):
         ref = GeoPoint(west + fx * (east - west), south + fy * (north - south), elev)
         bid = f"B{n}"
         lods = []
         for level in range(len(config.lods)):
             file = f"{bid}/lod{level}.glb"
-            write_glb(folder / file, 10.0 - level)
+            if glb:
+                write_glb(folder / file, 10.0 - level)
             lods.append(
-                {
-                    "level": level,
-                    "file": file,
-                    "triangles": 2,
-                    "vertices": 4,
-                    "texture_size": [0, 0],
-                }
+                {"level": level, "file": file, "triangles": 2, "vertices": 4, "texture_size": [0, 0]}
             )
         records.append(
             {
@@ -251,8 +244,22 @@ def manifest_from_exporter_modules(out: Path, placement_mode: str) -> Path:
     )
     validate_manifest(manifest)
     path = folder / MANIFEST_NAME
+    path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(dumps(manifest), encoding="utf-8")
     return path
+
+
+def manifest_from_exporter_modules(out: Path, placement_mode: str) -> Path:
+    """A Seoul tile written by the exporter's modules, with real GLB files, for when no full
+    export is at hand."""
+    from exporter.config import Config
+    from exporter.tiles import tile_of
+
+    config = Config()
+    config.globe.placement = placement_mode
+    tile = tile_of(126.9780, 37.5665, 15)  # Seoul City Hall
+    spots = [(0.1, 0.2, 12.5), (0.8, 0.9, 40.0), (0.5, 0.5, 0.0)]
+    return write_tile_manifest(out / tile.name, tile, config, spots)
 
 
 def broken_variants(manifest_path: Path) -> list[tuple[Path, str]]:

@@ -39,6 +39,13 @@ namespace VWorldLod.EditorTools
         public static BuildReport Build(string manifestAssetPath)
         {
             var report = new BuildReport { ManifestPath = manifestAssetPath };
+            if (VWorldLodMenu.InStreamingAssets(manifestAssetPath))
+            {
+                // StreamingAssets ships verbatim in the player: prefabs written there would ship too.
+                Debug.LogError("VWorld LoD: " + manifestAssetPath + " is under StreamingAssets, which is for runtime streaming (VWorldLodStreamer); no prefabs are built there. Copy the tile folder elsewhere under Assets/ to build prefabs.");
+                report.Failed = 1;
+                return report;
+            }
             TilePlan plan;
             try
             {
@@ -158,13 +165,17 @@ namespace VWorldLod.EditorTools
             var root = new GameObject(plan.TileName);
             try
             {
-                LodGroupAssembly.ApplyPlacement(root.transform, plan.TileRoot);
+                // The root keeps its manifest placement relative to the scene's georeference
+                // wherever the prefab is dropped (VWorldLodTilePlacement); buildings sit at their
+                // relative_placement under it.
+                root.AddComponent<VWorldLodTilePlacement>().Configure(plan);
+                root.GetComponent<VWorldLodTilePlacement>().Place();
                 foreach (BuildingPlan building in buildings)
                 {
                     var prefab = AssetDatabase.LoadAssetAtPath<GameObject>(prefabFolder + "/" + building.Name + ".prefab");
                     if (prefab == null) continue;
                     var instance = (GameObject)PrefabUtility.InstantiatePrefab(prefab, root.transform);
-                    LodGroupAssembly.ApplyPlacement(instance.transform, building.Local);
+                    LodGroupAssembly.ApplyPlacement(instance.transform, building.Relative);
                 }
                 string path = prefabFolder + "/" + plan.TileName + ".prefab";
                 bool ok;

@@ -1,6 +1,8 @@
 // Menu items and the automatic build on import.
 //   Tools/VWorld LoD/Build LOD Groups from Manifest…   pick a lod_manifest.json under Assets/
 //   Tools/VWorld LoD/Build Automatically on Import      toggle (EditorPrefs, on by default)
+// Nothing is built for manifests under Assets/StreamingAssets/ (runtime streaming's folder, shipped
+// verbatim in the player).
 using System.Collections.Generic;
 using System.IO;
 using UnityEditor;
@@ -49,6 +51,12 @@ namespace VWorldLod.EditorTools
             return true;
         }
 
+        /// <summary>Whether an asset path lies under Assets/StreamingAssets/ (shipped verbatim, streamed at run time).</summary>
+        public static bool InStreamingAssets(string assetPath)
+        {
+            return assetPath.Replace('\\', '/').StartsWith("Assets/StreamingAssets/", System.StringComparison.OrdinalIgnoreCase);
+        }
+
         /// <summary>"Assets/..." for an absolute path inside Application.dataPath, else null.</summary>
         public static string ToAssetPath(string absolutePath)
         {
@@ -70,7 +78,8 @@ namespace VWorldLod.EditorTools
             if (!VWorldLodMenu.BuildOnImport) return;
             foreach (string path in importedAssets)
             {
-                if (path.StartsWith("Assets/") && Path.GetFileName(path) == VWorldLodMenu.ManifestFileName && !pending.Contains(path))
+                if (path.StartsWith("Assets/") && !VWorldLodMenu.InStreamingAssets(path)
+                    && Path.GetFileName(path) == VWorldLodMenu.ManifestFileName && !pending.Contains(path))
                     pending.Add(path);
             }
             // Creating prefabs while assets are still importing is not allowed: wait for the editor loop.

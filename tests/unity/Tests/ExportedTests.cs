@@ -172,7 +172,7 @@ namespace VWorldLod.Tests
             });
         }
 
-        static Placement ToPose(object value)
+        public static Placement ToPose(object value)
         {
             var d = (Dictionary<string, object>)value;
             var p = (List<object>)d["position"];

@@ -1,5 +1,6 @@
 // Entry point of the C# test assembly:
 //   mono VWorldLod.Tests.exe [--manifest PATH]... [--broken PATH FIELD]... [--placements PATH]... [--names PATH]...
+//                            [--georef PATH]... [--float32 PATH]... [--streaming PATH]...
 // Always runs the self-contained tests; the options add tests on files made by the Python side.
 using System;
 
@@ -13,12 +14,17 @@ namespace VWorldLod.Tests
             var t = new TestRunner();
             PlanTests.Run(t);
             UnityLayerTests.Run(t);
+            GeoreferenceTests.Run(t);
+            StreamingTests.RunSelfContained(t);
             for (int i = 0; i < args.Length; i++)
             {
                 if (args[i] == "--manifest" && i + 1 < args.Length) ExportedTests.RunManifest(t, args[++i]);
                 else if (args[i] == "--broken" && i + 2 < args.Length) { ExportedTests.RunBroken(t, args[i + 1], args[i + 2]); i += 2; }
                 else if (args[i] == "--placements" && i + 1 < args.Length) ExportedTests.RunPlacements(t, args[++i]);
                 else if (args[i] == "--names" && i + 1 < args.Length) ExportedTests.RunNames(t, args[++i]);
+                else if (args[i] == "--georef" && i + 1 < args.Length) GeoreferenceTests.RunCases(t, args[++i]);
+                else if (args[i] == "--float32" && i + 1 < args.Length) GeoreferenceTests.RunFloat32(t, args[++i]);
+                else if (args[i] == "--streaming" && i + 1 < args.Length) StreamingTests.Run(t, args[++i]);
                 else
                 {
                     Console.Error.WriteLine("unknown or incomplete argument: " + args[i]);

@@ -3,13 +3,27 @@
 // from GltfImportBase<Root>, which derives from GltfImportBase; the generic middle class is left
 // out here because callers never name it. Bodies throw: loading needs the Unity runtime.
 using System;
+using System.Collections.Generic;
 using System.Threading;
 using System.Threading.Tasks;
 using UnityEngine;
 
 namespace GLTFast.Loading { public interface IDownloadProvider { } }
 namespace GLTFast.Materials { public interface IMaterialGenerator { } }
-namespace GLTFast.Logging { public interface ICodeLogger { } }
+namespace GLTFast.Logging
+{
+    public interface ICodeLogger { }
+
+    public class CollectingLogger : ICodeLogger
+    {
+        public IEnumerable<LogItem> Items { get { throw new NotSupportedException("stand-in"); } }
+    }
+
+    public class LogItem
+    {
+        public LogType Type { get { throw new NotSupportedException("stand-in"); } }
+    }
+}
 
 namespace GLTFast
 {

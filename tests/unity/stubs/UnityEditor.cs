@@ -10,6 +10,7 @@ namespace UnityEditor
     {
         public MenuItem(string itemName) { }
         public MenuItem(string itemName, bool isValidateFunction) { }
+        public MenuItem(string itemName, bool isValidateFunction, int priority) { }
     }
 
     public sealed class Menu
@@ -27,6 +28,21 @@ namespace UnityEditor
     {
         public delegate void CallbackFunction();
         public static CallbackFunction delayCall;
+        public static event Action hierarchyChanged { add { } remove { } }
+        public static bool isPlayingOrWillChangePlaymode { get { throw new NotSupportedException("stand-in"); } }
+    }
+
+    [AttributeUsage(AttributeTargets.Class)]
+    public sealed class InitializeOnLoad : Attribute { }
+
+    public sealed class Undo
+    {
+        public static void RegisterCreatedObjectUndo(UnityEngine.Object objectToUndo, string name) { throw new NotSupportedException("stand-in"); }
+    }
+
+    public sealed class Selection
+    {
+        public static GameObject activeGameObject { get; set; }
     }
 
     public sealed class EditorUtility

@@ -20,6 +20,7 @@ namespace UnityEngine
     {
         internal GameObject owner;
         public Transform transform { get { return owner.transform; } }
+        public GameObject gameObject { get { return owner; } }
     }
 
     public class Behaviour : Component { }
@@ -31,7 +32,39 @@ namespace UnityEngine
         public Vector3 localPosition { get; set; }
         public Quaternion localRotation { get; set; }
         public Vector3 localScale { get; set; }
+        // World pose of a root Transform (the stand-in has no hierarchy).
+        public Vector3 position { get; set; }
+        internal Quaternion worldRotation;
+        public bool hasChanged { get; set; }
+        public void SetPositionAndRotation(Vector3 position, Quaternion rotation)
+        {
+            this.position = position;
+            worldRotation = rotation;
+            hasChanged = true;
+        }
         public void SetParent(Transform parent, bool worldPositionStays) { throw new NotSupportedException("stand-in"); }
+    }
+
+    public class Camera : Behaviour
+    {
+        public static Camera main { get { throw new NotSupportedException("stand-in"); } }
+    }
+
+    [AttributeUsage(AttributeTargets.Class)]
+    public sealed class ExecuteAlways : Attribute { }
+
+    [AttributeUsage(AttributeTargets.Class)]
+    public sealed class DisallowMultipleComponent : Attribute { }
+
+    public class AsyncOperation
+    {
+        public event Action<AsyncOperation> completed { add { throw new NotSupportedException("stand-in"); } remove { } }
+    }
+
+    public enum LogType
+    {
+        Warning = 2,
+        Log = 3,
     }
 
     public class Renderer : Component { }
@@ -63,12 +96,15 @@ namespace UnityEngine
         }
 
         public T[] GetComponentsInChildren<T>() { throw new NotSupportedException("stand-in"); }
+        public T[] GetComponentsInChildren<T>(bool includeInactive) { throw new NotSupportedException("stand-in"); }
+        public void SetActive(bool value) { throw new NotSupportedException("stand-in"); }
     }
 
     public struct Vector3
     {
-        internal float[] values;
-        public Vector3(float x, float y, float z) { values = new[] { x, y, z }; }
+        public float x, y, z;
+        internal float[] values { get { return new[] { x, y, z }; } }
+        public Vector3(float x, float y, float z) { this.x = x; this.y = y; this.z = z; }
     }
 
     public struct Quaternion
@@ -112,7 +148,7 @@ namespace UnityEngine
     {
         public static void Log(object message) { Console.WriteLine(message); }
         public static void LogError(object message) { Console.Error.WriteLine(message); }
-        public static void LogException(Exception exception) { Console.Error.WriteLine(exception); }
+        public static void LogWarning(object message) { Console.Error.WriteLine(message); }
     }
 
     public static class JsonUtility
@@ -124,5 +160,31 @@ namespace UnityEngine
     {
         public static string dataPath { get { throw new NotSupportedException("stand-in"); } }
         public static string streamingAssetsPath { get { throw new NotSupportedException("stand-in"); } }
+    }
+}
+
+namespace UnityEngine.Networking
+{
+    public class DownloadHandler
+    {
+        public string text { get { throw new NotSupportedException("stand-in"); } }
+    }
+
+    public class UnityWebRequestAsyncOperation : AsyncOperation { }
+
+    public class UnityWebRequest : IDisposable
+    {
+        public enum Result
+        {
+            Success = 1,
+        }
+
+        public static UnityWebRequest Get(string uri) { throw new NotSupportedException("stand-in"); }
+        public UnityWebRequestAsyncOperation SendWebRequest() { throw new NotSupportedException("stand-in"); }
+        public void Abort() { throw new NotSupportedException("stand-in"); }
+        public void Dispose() { throw new NotSupportedException("stand-in"); }
+        public Result result { get { throw new NotSupportedException("stand-in"); } }
+        public string error { get { throw new NotSupportedException("stand-in"); } }
+        public DownloadHandler downloadHandler { get { throw new NotSupportedException("stand-in"); } }
     }
 }

@@ -8,6 +8,10 @@
 //                  under it at relative_placement (tile East/Up/North, metres, scale 1);
 //   globe:         no tile root transform (identity); each building at its placement (Unity globe frame).
 // Either way Compose(TileRoot, building.Local) is the building's globe placement.
+// In a scene (Editor prefabs, runtime streaming) both modes are placed the same way: the tile
+// root at RootPose(origin) -- relative to the scene's georeference (GeoOrigin), or with no origin
+// at tile.placement on the paper's globe -- and each building under it at its relative_placement
+// (Relative), so under a georeference Transforms only hold small numbers.
 using System;
 using System.Collections.Generic;
 using System.IO;
@@ -43,8 +47,10 @@ namespace VWorldLod
         /// <summary>Id made safe for a GameObject, prefab or file name.</summary>
         public string Name;
         public LevelPlan[] Levels;
-        /// <summary>The building's transform under the tile root (see file header).</summary>
+        /// <summary>The building's transform under the tile root in the manifest's mode (see file header).</summary>
         public Placement Local;
+        /// <summary>relative_placement: the building in the tile's East/Up/North frame (metres).</summary>
+        public Placement Relative;
         /// <summary>Warnings the exporter recorded for this building.</summary>
         public string[] Problems;
     }
@@ -57,13 +63,29 @@ namespace VWorldLod
         public string Folder;
         public string TileName;
         public PlacementMode Mode;
-        /// <summary>The tile root's transform (identity in globe mode).</summary>
+        /// <summary>The tile root's transform in the Unity globe frame (identity in globe mode).</summary>
         public Placement TileRoot;
+        /// <summary>tile.placement: the tile centre's East/Up/North frame on the globe (either mode).</summary>
+        public Placement GlobeRoot;
+        /// <summary>tile.center: lon/lat in degrees, elev in metres.</summary>
+        public double CenterLon, CenterLat, CenterElev;
+        /// <summary>globe.earth_radius_m (R, metres) and globe.unity_radius (UR, Unity units).</summary>
+        public double EarthRadius, UnityRadius;
         public LodFadeKind FadeMode;
         public bool AnimateCrossFading;
         public BuildingPlan[] Buildings;
         /// <summary>Buildings that cannot be built, one error each (naming manifest, building and field).</summary>
         public ManifestException[] Failures;
+
+        /// <summary>
+        /// The tile root's pose with buildings at Relative under it: relative to the scene's
+        /// georeference (East/Up/North at origin, Unity units), or with origin null the paper's
+        /// absolute globe placement (tile.placement).
+        /// </summary>
+        public Placement RootPose(GeoOrigin origin)
+        {
+            return origin == null ? GlobeRoot : origin.FramePose(CenterLon, CenterLat, CenterElev, EarthRadius, UnityRadius);
+        }
     }
 
     public static class LodPlanner
@@ -121,6 +143,12 @@ namespace VWorldLod
                 TileName = m.tile.name,
                 Mode = mode,
                 TileRoot = mode == PlacementMode.TileRelative ? Placement.FromData(m.tile.placement) : Placement.Identity,
+                GlobeRoot = Placement.FromData(m.tile.placement),
+                CenterLon = m.tile.center.lon,
+                CenterLat = m.tile.center.lat,
+                CenterElev = m.tile.center.elev,
+                EarthRadius = m.globe.earth_radius_m,
+                UnityRadius = m.globe.unity_radius,
                 FadeMode = ManifestValidator.ParseFadeMode(m.lod_group.fade_mode).Value,
                 AnimateCrossFading = m.lod_group.animate_cross_fading,
                 Buildings = plans.ToArray(),
@@ -148,6 +176,7 @@ namespace VWorldLod
                 Name = SafeName(b.id),
                 Levels = levels,
                 Local = Placement.FromData(mode == PlacementMode.TileRelative ? b.relative_placement : b.placement),
+                Relative = Placement.FromData(b.relative_placement),
                 Problems = b.problems ?? new string[0],
             };
         }
@@ -160,6 +189,24 @@ namespace VWorldLod
         public static double LevelHeight(double[] heights, int k, int levelCount)
         {
             return k == levelCount - 1 ? heights[heights.Length - 1] : heights[k];
+        }
+
+        /// <summary>
+        /// Screen-relative heights for a building of which only the levels in loaded (ascending,
+        /// at least one) are there yet, e.g. while streaming coarsest first: each loaded level also
+        /// covers the missing finer levels below it down to the next loaded one, the first one
+        /// shows above its height (LODGroup's LOD0 has no upper bound) and the last one keeps the
+        /// building's culling height. With every level loaded these are the plan's own heights.
+        /// </summary>
+        public static double[] LoadedHeights(BuildingPlan building, int[] loaded)
+        {
+            int n = building.Levels.Length;
+            var heights = new double[loaded.Length];
+            for (int i = 0; i < loaded.Length; i++)
+                heights[i] = i == loaded.Length - 1
+                    ? building.Levels[n - 1].ScreenRelativeHeight
+                    : building.Levels[loaded[i + 1] - 1].ScreenRelativeHeight;
+            return heights;
         }
 
         /// <summary>

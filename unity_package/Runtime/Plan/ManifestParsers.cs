@@ -22,6 +22,12 @@ namespace VWorldLod
     {
         public TileManifest Parse(string json, string manifestPath)
         {
+            return ParseAs<TileManifest>(json, manifestPath);
+        }
+
+        /// <summary>Any [Serializable] class of this package (the manifest, the tile index) from JSON text.</summary>
+        public static T ParseAs<T>(string json, string manifestPath) where T : class
+        {
             object tree;
             try
             {
@@ -33,7 +39,7 @@ namespace VWorldLod
             }
             if (!(tree is Dictionary<string, object>))
                 throw new ManifestException(manifestPath, "", "the top level is not a JSON object");
-            return (TileManifest)Fill(typeof(TileManifest), tree, "", manifestPath);
+            return (T)Fill(typeof(T), tree, "", manifestPath);
         }
 
         static object Fill(Type type, object value, string field, string manifestPath)

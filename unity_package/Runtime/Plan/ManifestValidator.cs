@@ -35,6 +35,9 @@ namespace VWorldLod
                 throw new ManifestException(manifestPath, "lod_group.fade_mode", "expected \"none\", \"cross_fade\" or \"speed_tree\", found " + Quote(m.lod_group.fade_mode));
             if (!(m.lod_group.fade_transition_width >= 0 && m.lod_group.fade_transition_width <= 1))
                 throw new ManifestException(manifestPath, "lod_group.fade_transition_width", "must be in [0, 1], found " + m.lod_group.fade_transition_width);
+            GeoCenter c = m.tile.center;
+            if (c == null || GeoOrigin.Problem(c.lon, c.lat, c.elev) != null)
+                throw new ManifestException(manifestPath, "tile.center", c == null ? "missing" : "lon " + c.lon + ", lat " + c.lat + ", elev " + c.elev + " is not a place on the globe");
             string placementProblem = PlacementProblem(m.tile.placement);
             if (placementProblem != null)
                 throw new ManifestException(manifestPath, "tile.placement", placementProblem);
@@ -91,11 +94,15 @@ namespace VWorldLod
                 if (!fileExists(path))
                     return new ManifestException(manifestPath, lodField + ".file", path + " does not exist");
             }
-            PlacementData used = mode == PlacementMode.TileRelative ? b.relative_placement : b.placement;
-            string usedName = mode == PlacementMode.TileRelative ? "relative_placement" : "placement";
-            string placementProblem = PlacementProblem(used);
-            if (placementProblem != null)
-                return new ManifestException(manifestPath, where + "." + usedName, placementProblem);
+            // Both placements: the manifest's mode uses one, a georeferenced scene relative_placement.
+            bool relativeFirst = mode == PlacementMode.TileRelative;
+            for (int pass = 0; pass < 2; pass++)
+            {
+                bool relative = relativeFirst == (pass == 0);
+                string placementProblem = PlacementProblem(relative ? b.relative_placement : b.placement);
+                if (placementProblem != null)
+                    return new ManifestException(manifestPath, where + "." + (relative ? "relative_placement" : "placement"), placementProblem);
+            }
             return null;
         }
 
@@ -148,7 +155,8 @@ namespace VWorldLod
             return null;
         }
 
-        static int MajorVersion(string version)
+        /// <summary>The number before the first '.' of a "major.minor" version, or -1.</summary>
+        public static int MajorVersion(string version)
         {
             if (string.IsNullOrEmpty(version)) return -1;
             int dot = version.IndexOf('.');

@@ -1,8 +1,9 @@
 // The thin Unity side shared by the Editor importer and the runtime loader: applies a planned
 // Placement to a Transform and sets up a building's LODGroup from its LevelPlans.
 //
-// Frames: Placement values are in the parent's frame (see LodPlan.cs); Unity stores float, so globe
-// positions (~6.4e6 units for UR = R) keep ~0.5 unit steps: prefer tile_relative placement.
+// Frames: Placement values are in the parent's frame (see LodPlan.cs); Unity stores float, so
+// globe positions (~6.4e6 units for UR = R) keep 0.25-0.5 unit steps: place tile roots relative
+// to a georeference (VWorldLodGeoreference) to keep them small.
 using UnityEngine;
 
 namespace VWorldLod
@@ -18,25 +19,46 @@ namespace VWorldLod
             t.localScale = new Vector3(s, s, s);
         }
 
-        /// <summary>
-        /// Adds (or reuses) the LODGroup on root and sets one LOD per level: renderers[k] are the
-        /// renderers of level k, heights and fade settings from the plan; bounds recalculated.
-        /// </summary>
-        public static LODGroup Configure(GameObject root, BuildingPlan building, TilePlan tile, Renderer[][] renderers)
+        /// <summary>Sets t's world position and rotation and its local uniform scale (parents unscaled) to pose.</summary>
+        public static void ApplyWorldPlacement(Transform t, Placement pose)
         {
+            t.SetPositionAndRotation(new Vector3((float)pose.px, (float)pose.py, (float)pose.pz),
+                                     new Quaternion((float)pose.qx, (float)pose.qy, (float)pose.qz, (float)pose.qw));
+            float s = (float)pose.scale;
+            t.localScale = new Vector3(s, s, s);
+        }
+
+        /// <summary>
+        /// The LODGroup of a building of which only `levels` (ascending) are loaded so far:
+        /// renderers[i] are those of levels[i], heights from LodPlanner.LoadedHeights.
+        /// </summary>
+        public static LODGroup ConfigureLoaded(GameObject root, BuildingPlan building, TilePlan tile, int[] levels, Renderer[][] renderers)
+        {
+            double[] heights = LodPlanner.LoadedHeights(building, levels);
             LODGroup group = root.GetComponent<LODGroup>();
             if (group == null) group = root.AddComponent<LODGroup>();
-            var lods = new LOD[building.Levels.Length];
-            for (int k = 0; k < lods.Length; k++)
+            var lods = new LOD[levels.Length];
+            for (int i = 0; i < lods.Length; i++)
             {
-                lods[k] = new LOD((float)building.Levels[k].ScreenRelativeHeight, renderers[k]);
-                lods[k].fadeTransitionWidth = (float)building.Levels[k].FadeTransitionWidth;
+                lods[i] = new LOD((float)heights[i], renderers[i]);
+                lods[i].fadeTransitionWidth = (float)building.Levels[levels[i]].FadeTransitionWidth;
             }
             group.fadeMode = (LODFadeMode)(int)tile.FadeMode;
             group.animateCrossFading = tile.AnimateCrossFading;
             group.SetLODs(lods);
             group.RecalculateBounds();
             return group;
+        }
+
+        /// <summary>
+        /// Adds (or reuses) the LODGroup on root and sets one LOD per level: renderers[k] are the
+        /// renderers of level k, heights and fade settings from the plan; bounds recalculated.
+        /// </summary>
+        public static LODGroup Configure(GameObject root, BuildingPlan building, TilePlan tile, Renderer[][] renderers)
+        {
+            var all = new int[building.Levels.Length];
+            for (int k = 0; k < all.Length; k++) all[k] = k;
+            return ConfigureLoaded(root, building, tile, all, renderers);
         }
     }
 }

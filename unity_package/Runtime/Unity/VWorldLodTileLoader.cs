@@ -1,25 +1,29 @@
-// Loads one exported tile at play time: reads lod_manifest.json from the local file system,
-// plans it with the same code as the Editor importer (LodPlanner), loads every LoD's glTF
-// through glTFast and builds one LODGroup per building under a tile root.
+// Loads one exported tile at play time: reads lod_manifest.json (from StreamingAssets, an
+// absolute path or an http(s) URL), plans it with the same code as the Editor importer
+// (LodPlanner), loads every LoD's glTF through glTFast (GltfLevelLoader: messages in the console
+// naming the file) and builds one LODGroup per building under a tile root placed relative to the
+// scene's georeference (VWorldLodTilePlacement). For many tiles around a moving camera use
+// VWorldLodStreamer instead.
 //
-// Meshes loaded this way are not assets: they live as long as this component (its GltfImports
-// are disposed in OnDestroy) and cannot be saved into prefabs; use the Editor importer for that.
+// Meshes loaded this way are not assets: they live as long as this component and cannot be saved
+// into prefabs; use the Editor importer for that. Destroying the component cancels loads in
+// flight (each cleans up after itself, without exceptions) and frees what was loaded.
 using System;
 using System.Collections.Generic;
-using System.IO;
+using System.Threading;
 using System.Threading.Tasks;
-using GLTFast;
 using UnityEngine;
 
 namespace VWorldLod
 {
     public class VWorldLodTileLoader : MonoBehaviour
     {
-        /// <summary>Path of a lod_manifest.json; relative paths are under StreamingAssets.</summary>
+        /// <summary>A lod_manifest.json: relative to StreamingAssets, an absolute path, or an http(s) URL.</summary>
         public string manifestPath = "";
         public bool loadOnStart = true;
 
-        readonly List<GltfImport> imports = new List<GltfImport>();
+        readonly CancellationTokenSource cancel = new CancellationTokenSource();
+        readonly List<LoadedLevel> loaded = new List<LoadedLevel>();
 
         async void Start()
         {
@@ -31,78 +35,83 @@ namespace VWorldLod
             catch (Exception e)
             {
                 // async void: anything not caught here would vanish.
-                Debug.LogException(e);
+                Debug.LogError("VWorld LoD: " + manifestPath + ": " + e.Message);
             }
         }
 
-        /// <summary>Builds the tile under this GameObject; returns its plan (failures included).</summary>
+        /// <summary>Builds the tile under this GameObject; returns its plan (failures included), or null when the manifest is unusable or loading was cancelled.</summary>
         public async Task<TilePlan> LoadAsync()
         {
-            string path = Path.IsPathRooted(manifestPath) ? manifestPath : Path.Combine(Application.streamingAssetsPath, manifestPath);
-            TilePlan plan = LodPlanner.Load(path, new JsonUtilityManifestParser(), File.Exists);
+            string url = StreamingPaths.Resolve(manifestPath, Application.streamingAssetsPath, "lod_manifest.json");
+            CancellationToken token = cancel.Token;
+            TilePlan plan;
+            try
+            {
+                string text = await WebText.GetAsync(url, token);
+                if (text == null || token.IsCancellationRequested) return null;
+                plan = LodPlanner.Plan(new JsonUtilityManifestParser().Parse(text, url), url, path => true);
+            }
+            catch (Exception e)
+            {
+                Debug.LogError("VWorld LoD: " + (e is ManifestException || e.Message.StartsWith(url) ? e.Message : url + ": " + e.Message));
+                return null;
+            }
             foreach (ManifestException failure in plan.Failures)
-                Debug.LogError(failure.Message);
+                Debug.LogError("VWorld LoD: " + failure.Message);
 
             var tileRoot = new GameObject(plan.TileName);
             tileRoot.transform.SetParent(transform, false);
-            LodGroupAssembly.ApplyPlacement(tileRoot.transform, plan.TileRoot);
+            tileRoot.AddComponent<VWorldLodTilePlacement>().Configure(plan);
+            tileRoot.GetComponent<VWorldLodTilePlacement>().Place();
 
             int built = 0;
             foreach (BuildingPlan building in plan.Buildings)
             {
-                try
-                {
-                    if (await BuildBuildingAsync(plan, building, tileRoot.transform)) built++;
-                }
-                catch (Exception e)
-                {
-                    // One building's failure (I/O, a glTF glTFast rejects) must not stop the tile.
-                    Debug.LogError(plan.ManifestPath + ": building " + building.Id + ": " + e.Message);
-                }
+                if (await BuildBuildingAsync(plan, building, tileRoot.transform, token)) built++;
+                if (token.IsCancellationRequested) return null;
             }
-            Debug.Log(plan.ManifestPath + ": built " + built + " of " + (plan.Buildings.Length + plan.Failures.Length) + " buildings");
+            Debug.Log("VWorld LoD: " + url + ": built " + built + " of " + (plan.Buildings.Length + plan.Failures.Length) + " buildings");
             return plan;
         }
 
         // One LODGroup under tileRoot; false (and nothing left behind) when a level does not load.
-        async Task<bool> BuildBuildingAsync(TilePlan plan, BuildingPlan building, Transform tileRoot)
+        async Task<bool> BuildBuildingAsync(TilePlan plan, BuildingPlan building, Transform tileRoot, CancellationToken token)
         {
             var root = new GameObject(building.Name);
             root.transform.SetParent(tileRoot, false);
-            LodGroupAssembly.ApplyPlacement(root.transform, building.Local);
-            var renderers = new Renderer[building.Levels.Length][];
-            try
+            LodGroupAssembly.ApplyPlacement(root.transform, building.Relative);
+            var levels = new List<LoadedLevel>();
+            for (int k = 0; k < building.Levels.Length; k++)
             {
-                for (int k = 0; k < building.Levels.Length; k++)
+                LoadedLevel level = await GltfLevelLoader.LoadAsync(building.Levels[k].Path, root.transform, building.Name + "_LOD" + k, token);
+                if (level == null)
                 {
-                    var level = new GameObject(building.Name + "_LOD" + k);
-                    level.transform.SetParent(root.transform, false);
-                    var gltf = new GltfImport();
-                    imports.Add(gltf);
-                    bool ok = await gltf.Load(new Uri(Path.GetFullPath(building.Levels[k].Path)))
-                              && await gltf.InstantiateMainSceneAsync(level.transform);
-                    if (!ok)
-                    {
-                        Debug.LogError(plan.ManifestPath + ": building " + building.Id + ": glTFast could not load " + building.Levels[k].Path);
-                        Destroy(root);
-                        return false;
-                    }
-                    renderers[k] = level.GetComponentsInChildren<Renderer>();
+                    foreach (LoadedLevel l in levels) l.Release();
+                    Destroy(root);
+                    return false;
                 }
+                if (token.IsCancellationRequested)
+                {
+                    // Destroyed while this level finished: nobody else will free it.
+                    level.Release();
+                    foreach (LoadedLevel l in levels) l.Release();
+                    return false;
+                }
+                levels.Add(level);
             }
-            catch
-            {
-                Destroy(root);
-                throw;
-            }
+            loaded.AddRange(levels);
+            var renderers = new Renderer[levels.Count][];
+            for (int k = 0; k < renderers.Length; k++) renderers[k] = levels[k].Renderers;
             LodGroupAssembly.Configure(root, building, plan, renderers);
+            foreach (LoadedLevel level in levels) level.Root.SetActive(true);
             return true;
         }
 
         void OnDestroy()
         {
-            foreach (GltfImport gltf in imports) gltf.Dispose();
-            imports.Clear();
+            cancel.Cancel();
+            foreach (LoadedLevel level in loaded) level.Release();
+            loaded.Clear();
         }
     }
 }

@@ -1,0 +1,352 @@
+// TileStreamer driven through a camera path over a multi-tile export written by the Python side
+// (exporter.manifest + exporter.tile_index), with a fake backend whose loads complete one frame
+// after they start: which tiles load and unload at each step (against the expectation computed in
+// Python), the order of loads, the concurrency cap, cancellation and early destroy.
+using System;
+using System.Collections.Generic;
+using System.IO;
+using System.Linq;
+using System.Threading;
+using System.Threading.Tasks;
+
+namespace VWorldLod.Tests
+{
+    public class FakeBackend : IStreamingBackend
+    {
+        public class Handle { public string What; public bool Released; }
+
+        class Load
+        {
+            public int Frame;
+            public Action<bool> Complete; // argument: whether to answer a cancelled load with null
+            public CancellationToken Token;
+        }
+
+        readonly List<Load> pending = new List<Load>();
+        public readonly List<Handle> Handles = new List<Handle>();
+        public readonly List<string> Reports = new List<string>();
+        public readonly List<string> Shown = new List<string>();
+        public readonly List<string> UnloadedTiles = new List<string>();
+        public int Frame;
+        public bool Disposed;
+        int answers;
+        readonly string indexFolder;
+
+        public FakeBackend(string indexFolder) { this.indexFolder = indexFolder; }
+
+        public int Pending { get { return pending.Count; } }
+
+        public Task<TilePlan> LoadTile(TileIndexEntry tile, CancellationToken cancellation)
+        {
+            var done = new TaskCompletionSource<TilePlan>();
+            pending.Add(new Load
+            {
+                Frame = Frame,
+                Token = cancellation,
+                Complete = nullWhenCancelled =>
+                {
+                    if (cancellation.IsCancellationRequested && nullWhenCancelled) { done.SetResult(null); return; }
+                    try
+                    {
+                        string path = Path.Combine(indexFolder, tile.manifest);
+                        TilePlan plan = LodPlanner.Load(path, new PlainJsonManifestParser(), p => true);
+                        foreach (ManifestException f in plan.Failures) Report(f.Message);
+                        done.SetResult(plan);
+                    }
+                    catch (ManifestException e)
+                    {
+                        Report(e.Message);
+                        done.SetResult(null);
+                    }
+                },
+            });
+            return done.Task;
+        }
+
+        public Task<object> LoadLevel(TilePlan tile, BuildingPlan building, int level, CancellationToken cancellation)
+        {
+            var done = new TaskCompletionSource<object>();
+            pending.Add(new Load
+            {
+                Frame = Frame,
+                Token = cancellation,
+                Complete = nullWhenCancelled =>
+                {
+                    var handle = new Handle { What = building.Levels[level].Path };
+                    Handles.Add(handle);
+                    if (cancellation.IsCancellationRequested && nullWhenCancelled)
+                    {
+                        handle.Released = true; // the backend cleans up itself and answers null
+                        done.SetResult(null);
+                        return;
+                    }
+                    done.SetResult(handle);
+                },
+            });
+            return done.Task;
+        }
+
+        /// <summary>Completes the loads started before this frame (cancelled ones alternately answered with null or a result).</summary>
+        public void CompleteStartedBefore(int frame)
+        {
+            foreach (Load p in pending.Where(p => p.Frame < frame).ToList())
+            {
+                pending.Remove(p);
+                p.Complete(answers++ % 2 == 0);
+            }
+        }
+
+        public void ShowLevels(TilePlan tile, BuildingPlan building, int[] levels, object[] loaded)
+        {
+            if (Disposed) throw new TestFailure("ShowLevels after Dispose");
+            for (int i = 0; i < levels.Length; i++)
+            {
+                if (i > 0 && levels[i] <= levels[i - 1]) throw new TestFailure("levels not ascending");
+                var h = (Handle)loaded[i];
+                if (h.Released || h.What != building.Levels[levels[i]].Path) throw new TestFailure("wrong or released handle for " + building.Id + " level " + levels[i]);
+            }
+            LodPlanner.LoadedHeights(building, levels);
+            Shown.Add(tile.TileName + " " + building.Id + " " + string.Join(",", levels));
+        }
+
+        public void ReleaseLevel(object loaded)
+        {
+            var h = (Handle)loaded;
+            if (h.Released) throw new TestFailure("released twice: " + h.What);
+            h.Released = true;
+        }
+
+        public void UnloadTile(TilePlan tile) { UnloadedTiles.Add(tile.TileName); }
+
+        public void Report(string message) { Reports.Add(message); }
+    }
+
+    public static class StreamingTests
+    {
+        static List<object> L(object o) { return (List<object>)o; }
+        static Dictionary<string, object> D(object o) { return (Dictionary<string, object>)o; }
+
+        /// <summary>
+        /// path: {"index": tiles.json path, "origin": {lon, lat, elev}, "settings": {load, unload, max},
+        /// "camera": [[x, y, z]...], "expected": [{"load": [...], "unload": [...]}] per step,
+        /// "broken": tile name whose manifest is broken}.
+        /// </summary>
+        public static void Run(TestRunner t, string path)
+        {
+            var spec = D(PlainJson.Parse(File.ReadAllText(path)));
+            string indexPath = (string)spec["index"];
+            var o = D(spec["origin"]);
+            var origin = new GeoOrigin((double)o["lon"], (double)o["lat"], (double)o["elev"]);
+            var s = D(spec["settings"]);
+            var settings = new StreamingSettings { LoadRadius = (double)s["load"], UnloadRadius = (double)s["unload"], MaxConcurrentLoads = (int)(double)s["max"] };
+            var camera = L(spec["camera"]).Select(p => L(p).Select(v => (double)v).ToArray()).ToList();
+            var expected = L(spec["expected"]).Select(D).ToList();
+            string broken = (string)spec["broken"];
+
+            var problems = new List<string>();
+            TileIndexEntry[] tiles = null;
+            t.Check("streaming: reads the generated tiles.json", () =>
+            {
+                tiles = TileIndexReader.Read(File.ReadAllText(indexPath), indexPath, json => PlainJsonManifestParser.ParseAs<TileIndex>(json, indexPath), problems);
+                Assert.True(tiles.Length >= 9, "tiles: " + tiles.Length);
+                Assert.Equal(0, problems.Count, "problems");
+            });
+            if (tiles == null) return;
+            string folder = Path.GetDirectoryName(indexPath);
+
+            t.Check("streaming: camera path loads and unloads the expected tiles, step by step", () =>
+            {
+                var backend = new FakeBackend(folder);
+                var streamer = new TileStreamer(tiles, e => e.ScenePosition(origin), settings, backend);
+                var events = new List<string>();
+                streamer.OnEvent = events.Add;
+                var requestsByTile = new Dictionary<string, List<string>>();
+                for (int step = 0; step < camera.Count; step++)
+                {
+                    events.Clear();
+                    backend.Frame = step;
+                    backend.CompleteStartedBefore(step);
+                    double[] c = camera[step];
+                    streamer.Update(c[0], c[1], c[2]);
+                    Assert.True(streamer.InFlight <= settings.MaxConcurrentLoads, "in flight " + streamer.InFlight + " at step " + step);
+                    var loads = events.Where(e => e.StartsWith("load ")).Select(e => e.Substring(5)).ToList();
+                    var unloads = events.Where(e => e.StartsWith("unload ")).Select(e => e.Substring(7)).ToList();
+                    var wantLoads = L(expected[step]["load"]).Cast<string>().ToList();
+                    var wantUnloads = L(expected[step]["unload"]).Cast<string>().ToList();
+                    Assert.Equal(string.Join(" ", wantUnloads.OrderBy(x => x)), string.Join(" ", unloads.OrderBy(x => x)), "unloads at step " + step);
+                    Assert.Equal(string.Join(" ", wantLoads.OrderBy(x => x)), string.Join(" ", loads.OrderBy(x => x)), "loads at step " + step);
+                    for (int i = 1; i < loads.Count; i++)
+                    {
+                        TileIndexEntry a = tiles.First(x => x.name == loads[i - 1]), b = tiles.First(x => x.name == loads[i]);
+                        Assert.True(Dist(a.ScenePosition(origin), c) <= Dist(b.ScenePosition(origin), c), "loads nearest first at step " + step);
+                    }
+                    foreach (string e in events.Where(e => e.StartsWith("request ")))
+                    {
+                        string[] parts = e.Split(' ');
+                        List<string> list;
+                        if (!requestsByTile.TryGetValue(parts[1], out list)) requestsByTile[parts[1]] = list = new List<string>();
+                        list.Add(e);
+                    }
+                }
+                Assert.Equal(settings.MaxConcurrentLoads, streamer.MaxInFlightSeen, "the cap is reached and never passed");
+                // Per tile and load: the manifest first, then every building's levels coarsest first.
+                int levelRequests = 0;
+                foreach (var pair in requestsByTile)
+                {
+                    var passes = new Dictionary<string, int>();
+                    bool manifestFirst = pair.Value[0] == "request " + pair.Key;
+                    Assert.True(manifestFirst, pair.Key + ": manifest requested first");
+                    foreach (string e in pair.Value.Skip(1))
+                    {
+                        string[] parts = e.Split(' ');
+                        if (parts.Length == 2) { passes.Clear(); continue; } // loaded again later
+                        int level = int.Parse(parts[3]);
+                        int previous;
+                        if (passes.TryGetValue(parts[2], out previous))
+                            Assert.True(level == previous - 1, pair.Key + " " + parts[2] + ": level " + level + " after " + previous + " (coarsest first)");
+                        passes[parts[2]] = level;
+                        levelRequests++;
+                    }
+                }
+                Assert.True(levelRequests > 0, "levels were requested");
+                Assert.True(backend.Shown.Count > 0, "buildings were shown");
+                Assert.True(backend.Reports.Any(r => r.Contains(broken) && r.Contains("not valid JSON")), "the broken manifest is reported by name: " + string.Join(" | ", backend.Reports));
+                Assert.True(backend.Shown.Any(x => !x.StartsWith(broken)), "other tiles still load");
+
+                // Everything that came back is released once its tile is gone.
+                streamer.Update(1e9, 0, 0);
+                for (int frame = camera.Count; backend.Pending > 0 || streamer.InFlight > 0; frame++)
+                {
+                    backend.Frame = frame;
+                    backend.CompleteStartedBefore(frame);
+                    streamer.Update(1e9, 0, 0);
+                    if (frame > camera.Count + 10) throw new TestFailure("loads never finished");
+                }
+                Assert.Equal(0, streamer.LoadedTiles().Count, "no tile left loaded");
+                var leaked = backend.Handles.Where(h => !h.Released).Select(h => h.What).ToList();
+                Assert.True(leaked.Count == 0, "unreleased levels: " + string.Join(", ", leaked));
+                streamer.Dispose();
+            });
+
+            t.Check("streaming: early destroy with loads in flight throws nothing and frees everything", () =>
+            {
+                var backend = new FakeBackend(folder);
+                var streamer = new TileStreamer(tiles, e => e.ScenePosition(origin), settings, backend);
+                double[] c = camera[camera.Count / 2];
+                for (int frame = 0; frame < 4; frame++)
+                {
+                    backend.Frame = frame;
+                    backend.CompleteStartedBefore(frame);
+                    streamer.Update(c[0], c[1], c[2]);
+                }
+                Assert.True(backend.Pending > 0 && backend.Shown.Count > 0, "destroyed mid-load");
+                streamer.Dispose();
+                backend.Disposed = true;
+                streamer.Dispose(); // twice: still nothing
+                streamer.Update(c[0], c[1], c[2]); // after destroy: ignored
+                backend.CompleteStartedBefore(int.MaxValue);
+                var leaked = backend.Handles.Where(h => !h.Released).Select(h => h.What).ToList();
+                Assert.True(leaked.Count == 0, "unreleased levels: " + string.Join(", ", leaked));
+                Assert.True(backend.UnloadedTiles.Count > 0, "tile roots removed");
+            });
+
+            t.Check("streaming: moving the origin re-places tile centres (Reposition)", () =>
+            {
+                var backend = new FakeBackend(folder);
+                GeoOrigin current = origin;
+                var streamer = new TileStreamer(tiles, e => e.ScenePosition(current), settings, backend);
+                var events = new List<string>();
+                streamer.OnEvent = events.Add;
+                TileIndexEntry far = tiles.OrderBy(e => Dist(e.ScenePosition(origin), new double[3])).Last();
+                streamer.Update(0, 0, 0);
+                Assert.True(!events.Contains("load " + far.name), "the far tile is not loaded around the origin");
+                current = new GeoOrigin(far.center.lon, far.center.lat, far.center.elev);
+                streamer.Reposition();
+                events.Clear();
+                streamer.Update(0, 0, 0); // same camera position, new origin: now at the far tile
+                Assert.True(events.Contains("load " + far.name), "the far tile loads after the origin moved: " + string.Join(", ", events));
+                streamer.Dispose();
+            });
+        }
+
+        static double Dist(double[] a, double[] b)
+        {
+            return Math.Sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
+        }
+
+        /// <summary>Self-contained checks of the streamer's inputs: bad tile indexes, settings, URLs.</summary>
+        public static void RunSelfContained(TestRunner t)
+        {
+            const string good = @"{""format"": ""vworld-lod-tile-index"", ""version"": ""1.0"", ""tiles"": [
+ {""name"": ""15_1_1"", ""level"": 15, ""idx"": 1, ""idy"": 1, ""center"": {""lon"": 1, ""lat"": 2, ""elev"": 0},
+  ""manifest"": ""15_1_1/lod_manifest.json"", ""buildings"": 2, ""globe"": {""earth_radius_m"": 6378137, ""unity_radius"": 6378137}, ""future"": 1},
+ {""name"": ""15_1_2"", ""level"": 15, ""idx"": 1, ""idy"": 2, ""center"": {""lon"": 1, ""lat"": 95, ""elev"": 0},
+  ""manifest"": ""15_1_2/lod_manifest.json"", ""buildings"": 2, ""globe"": {""earth_radius_m"": 6378137, ""unity_radius"": 6378137}},
+ {""name"": ""15_1_3"", ""level"": 15, ""idx"": 1, ""idy"": 3, ""center"": {""lon"": 1, ""lat"": 3, ""elev"": 0},
+  ""manifest"": ""../secret.json"", ""buildings"": 2, ""globe"": {""earth_radius_m"": 6378137, ""unity_radius"": 6378137}}]}";
+            Func<string, TileIndex> parse = json => PlainJsonManifestParser.ParseAs<TileIndex>(json, "x/tiles.json");
+            t.Check("tile index: a bad entry is left out and named, the others kept", () =>
+            {
+                var problems = new List<string>();
+                TileIndexEntry[] tiles = TileIndexReader.Read(good, "x/tiles.json", parse, problems);
+                Assert.Equal(1, tiles.Length, "usable tiles");
+                Assert.Equal(2, problems.Count, "problems");
+                Assert.Contains("x/tiles.json: tiles[1] (15_1_2): center", problems[0], "pole-crossing centre");
+                Assert.Contains("leaves the index's folder", problems[1], "path escaping the export");
+            });
+            foreach (string[] bad in new[]
+            {
+                new[] { "", "the tile index is empty" },
+                new[] { "{\"format\": \"vworld-lod-tile-index\", \"version\": \"1.0\", \"tiles\": [", "not valid JSON" },
+                new[] { "{\"format\": \"vworld-lod-manifest\", \"version\": \"1.0\"}", "format" },
+                new[] { "{\"format\": \"vworld-lod-tile-index\", \"version\": \"2.0\"}", "version \"2.0\" is not supported" },
+            })
+            {
+                string[] b = bad;
+                t.Check("tile index: refuses " + (b[0].Length == 0 ? "an empty file" : b[1]), () =>
+                {
+                    var e = Assert.Throws<ManifestException>(() => TileIndexReader.Read(b[0], "x/tiles.json", parse, new List<string>()), "broken index");
+                    Assert.True(e.Message.StartsWith("x/tiles.json: "), "names the file: " + e.Message);
+                    Assert.Contains(b[1], e.Message, "says what");
+                });
+            }
+            t.Check("streaming settings: unload radius below load radius and no concurrency are refused", () =>
+            {
+                Assert.Contains("unload radius", new StreamingSettings { LoadRadius = 100, UnloadRadius = 50 }.Problem(), "radii");
+                Assert.Contains("concurrent", new StreamingSettings { MaxConcurrentLoads = 0 }.Problem(), "cap");
+                Assert.True(new StreamingSettings().Problem() == null, "defaults are fine");
+                Assert.Throws<ArgumentException>(() => new TileStreamer(new TileIndexEntry[0], e => new double[3], new StreamingSettings { MaxConcurrentLoads = 0 }, new FakeBackend(".")), "constructor");
+            });
+            t.Check("streaming paths: StreamingAssets, absolute folders, http(s) and Android URLs", () =>
+            {
+                Assert.Equal("https://example.org/city/tiles.json", StreamingPaths.Resolve("https://example.org/city/", "/sa", "tiles.json"), "http folder");
+                Assert.Equal("https://example.org/city/tiles.json", StreamingPaths.Resolve("https://example.org/city/tiles.json", "/sa", "tiles.json"), "http file");
+                Assert.Equal("file:///sa/city/tiles.json", StreamingPaths.Resolve("city", "/sa", "tiles.json"), "StreamingAssets folder");
+                Assert.Equal("file:///data/export/tiles.json", StreamingPaths.Resolve("/data/export", "/sa", "tiles.json"), "absolute folder");
+                Assert.Equal("jar:file:///app.apk!/assets/city/tiles.json", StreamingPaths.Resolve("city/tiles.json", "jar:file:///app.apk!/assets", "tiles.json"), "Android");
+                Assert.Equal("https://example.org/city/15_1_1/lod_manifest.json", StreamingPaths.Beside("https://example.org/city/tiles.json", "15_1_1/lod_manifest.json"), "manifest beside the index");
+            });
+            t.Check("streaming: a backend that throws or faults is reported, never thrown", () =>
+            {
+                var tiles = TileIndexReader.Read(good, "x/tiles.json", parse, new List<string>());
+                var backend = new ThrowingBackend();
+                var streamer = new TileStreamer(tiles, e => new double[3], new StreamingSettings(), backend);
+                streamer.Update(0, 0, 0);
+                streamer.Update(0, 0, 0);
+                streamer.Dispose();
+                Assert.True(backend.Reports.Any(r => r.Contains("15_1_1/lod_manifest.json") && r.Contains("disk on fire")), "reported with the file: " + string.Join(" | ", backend.Reports));
+            });
+        }
+
+        class ThrowingBackend : IStreamingBackend
+        {
+            public readonly List<string> Reports = new List<string>();
+            public Task<TilePlan> LoadTile(TileIndexEntry tile, CancellationToken c) { throw new IOException("disk on fire"); }
+            public Task<object> LoadLevel(TilePlan tile, BuildingPlan b, int level, CancellationToken c) { throw new IOException("disk on fire"); }
+            public void ShowLevels(TilePlan tile, BuildingPlan b, int[] levels, object[] loaded) { throw new IOException("disk on fire"); }
+            public void ReleaseLevel(object loaded) { throw new IOException("disk on fire"); }
+            public void UnloadTile(TilePlan tile) { throw new IOException("disk on fire"); }
+            public void Report(string message) { Reports.Add(message); }
+        }
+    }
+}

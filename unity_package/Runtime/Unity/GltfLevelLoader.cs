@@ -1,0 +1,69 @@
+// Loads one level's glTF with glTFast at run time, the way the streamer and the tile loader need:
+// glTFast's messages go to Unity's console with the file named; cancellation (a tile unloaded, the
+// component destroyed) never throws and leaves nothing behind; an import is only disposed once
+// its own load has finished (disposing one in flight makes glTFast throw).
+//
+// glTFast's API used (present with these signatures from 6.3.0 on; see the package docs):
+//   new GltfImport(IDownloadProvider, IDeferAgent, IMaterialGenerator, ICodeLogger)
+//   Task<bool> Load(Uri, ImportSettings, CancellationToken)
+//   Task<bool> InstantiateMainSceneAsync(Transform, CancellationToken)
+//   CollectingLogger.Items / LogItem.Type (a logger of our own would have to follow ICodeLogger,
+//   which gained members in 6.4 and 6.10).
+using System;
+using System.Threading;
+using System.Threading.Tasks;
+using GLTFast;
+using GLTFast.Logging;
+using UnityEngine;
+
+namespace VWorldLod
+{
+    public static class GltfLevelLoader
+    {
+        /// <summary>
+        /// The level at url instantiated under parent as an inactive GameObject named objectName,
+        /// or null when it could not be loaded (reported in the console, naming url) or the load
+        /// was cancelled (not reported).
+        /// </summary>
+        public static async Task<LoadedLevel> LoadAsync(string url, Transform parent, string objectName, CancellationToken cancellation)
+        {
+            var level = new GameObject(objectName);
+            level.SetActive(false);
+            level.transform.SetParent(parent, false);
+            var logger = new CollectingLogger();
+            var gltf = new GltfImport(null, null, null, logger);
+            bool ok = false;
+            Exception error = null;
+            try
+            {
+                ok = await gltf.Load(new Uri(url), null, cancellation)
+                     && !cancellation.IsCancellationRequested
+                     && await gltf.InstantiateMainSceneAsync(level.transform, cancellation);
+            }
+            catch (Exception e)
+            {
+                error = e;
+            }
+            bool cancelled = cancellation.IsCancellationRequested;
+            if (!cancelled) LogMessages(url, logger);
+            if (ok && !cancelled && level != null) return new LoadedLevel(level, gltf);
+            if (level != null) UnityEngine.Object.Destroy(level);
+            gltf.Dispose();
+            if (!cancelled)
+                Debug.LogError("VWorld LoD: " + url + ": glTFast could not load it" + (error != null ? ": " + error.Message : " (glTFast's reasons are logged above)"));
+            return null;
+        }
+
+        // glTFast's errors and warnings, each naming the file (its info messages are left out).
+        static void LogMessages(string url, CollectingLogger logger)
+        {
+            if (logger.Items == null) return;
+            foreach (LogItem item in logger.Items)
+            {
+                string text = "VWorld LoD: " + url + ": glTFast: " + item;
+                if (item.Type == LogType.Warning) Debug.LogWarning(text);
+                else if (item.Type != LogType.Log) Debug.LogError(text);
+            }
+        }
+    }
+}

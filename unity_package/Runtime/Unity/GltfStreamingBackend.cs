@@ -1,0 +1,97 @@
+// The Unity side of TileStreamer: manifests read with UnityWebRequest and planned with
+// LodPlanner, tile roots placed by VWorldLodTilePlacement (relative to the scene's
+// georeference), levels loaded with glTFast (GltfLevelLoader) and shown through one LODGroup per
+// building that gains levels as they arrive (LodGroupAssembly.ConfigureLoaded).
+using System;
+using System.Collections.Generic;
+using System.Threading;
+using System.Threading.Tasks;
+using UnityEngine;
+
+namespace VWorldLod
+{
+    public class GltfStreamingBackend : IStreamingBackend
+    {
+        readonly Transform parent;
+        readonly string indexUrl;
+        readonly Dictionary<TilePlan, GameObject> tileRoots = new Dictionary<TilePlan, GameObject>();
+        readonly Dictionary<BuildingPlan, GameObject> buildingRoots = new Dictionary<BuildingPlan, GameObject>();
+
+        /// <summary>Tile roots go under parent; manifests are read beside indexUrl.</summary>
+        public GltfStreamingBackend(Transform parent, string indexUrl)
+        {
+            this.parent = parent;
+            this.indexUrl = indexUrl;
+        }
+
+        public async Task<TilePlan> LoadTile(TileIndexEntry tile, CancellationToken cancellation)
+        {
+            string url = StreamingPaths.Beside(indexUrl, tile.manifest);
+            try
+            {
+                string text = await WebText.GetAsync(url, cancellation);
+                if (text == null || cancellation.IsCancellationRequested) return null;
+                TilePlan plan = LodPlanner.Plan(new JsonUtilityManifestParser().Parse(text, url), url, path => true);
+                foreach (ManifestException failure in plan.Failures) Report(failure.Message);
+                var root = new GameObject(plan.TileName);
+                root.transform.SetParent(parent, false);
+                root.AddComponent<VWorldLodTilePlacement>().Configure(plan);
+                root.GetComponent<VWorldLodTilePlacement>().Place();
+                tileRoots[plan] = root;
+                return plan;
+            }
+            catch (ManifestException e)
+            {
+                if (!cancellation.IsCancellationRequested) Report(e.Message);
+            }
+            catch (Exception e)
+            {
+                if (!cancellation.IsCancellationRequested) Report(e.Message.StartsWith(url) ? e.Message : url + ": " + e.Message);
+            }
+            return null;
+        }
+
+        public async Task<object> LoadLevel(TilePlan tile, BuildingPlan building, int level, CancellationToken cancellation)
+        {
+            GameObject tileRoot;
+            if (!tileRoots.TryGetValue(tile, out tileRoot) || tileRoot == null) return null;
+            GameObject root;
+            if (!buildingRoots.TryGetValue(building, out root) || root == null)
+            {
+                root = new GameObject(building.Name);
+                root.transform.SetParent(tileRoot.transform, false);
+                LodGroupAssembly.ApplyPlacement(root.transform, building.Relative);
+                buildingRoots[building] = root;
+            }
+            return await GltfLevelLoader.LoadAsync(building.Levels[level].Path, root.transform, building.Name + "_LOD" + level, cancellation);
+        }
+
+        public void ShowLevels(TilePlan tile, BuildingPlan building, int[] levels, object[] loaded)
+        {
+            GameObject root;
+            if (!buildingRoots.TryGetValue(building, out root) || root == null) return;
+            var renderers = new Renderer[loaded.Length][];
+            for (int i = 0; i < loaded.Length; i++) renderers[i] = ((LoadedLevel)loaded[i]).Renderers;
+            LodGroupAssembly.ConfigureLoaded(root, building, tile, levels, renderers);
+            foreach (object level in loaded) ((LoadedLevel)level).Root.SetActive(true);
+        }
+
+        public void ReleaseLevel(object loaded)
+        {
+            ((LoadedLevel)loaded).Release();
+        }
+
+        public void UnloadTile(TilePlan tile)
+        {
+            GameObject root;
+            if (tileRoots.TryGetValue(tile, out root) && root != null) UnityEngine.Object.Destroy(root);
+            tileRoots.Remove(tile);
+            foreach (BuildingPlan building in tile.Buildings) buildingRoots.Remove(building);
+        }
+
+        public void Report(string message)
+        {
+            Debug.LogError("VWorld LoD: " + message);
+        }
+    }
+}

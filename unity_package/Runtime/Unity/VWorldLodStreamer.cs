@@ -1,0 +1,105 @@
+// Streams an export's tiles around the camera at play time: reads the export's tile index
+// (tiles.json, written by vworld-lod export) from StreamingAssets, an absolute folder or an
+// http(s) base URL; loads the tiles whose centre is within loadRadius of the camera and unloads
+// those beyond unloadRadius; each building shows its coarsest level first and gains finer ones as
+// they arrive; at most maxConcurrentLoads loads are in flight. Tiles are placed relative to the
+// scene's VWorldLodGeoreference (re-placed when its origin moves). The decisions are TileStreamer's
+// (plain C#, tested under mono); this component only feeds it the camera position every frame.
+using System;
+using System.Collections.Generic;
+using System.Threading;
+using UnityEngine;
+
+namespace VWorldLod
+{
+    public class VWorldLodStreamer : MonoBehaviour
+    {
+        /// <summary>tiles.json (or its folder): relative to StreamingAssets, an absolute path, or an http(s) URL.</summary>
+        public string tileIndex = TileIndexReader.FileName;
+        /// <summary>What the radii are measured from; the main camera when empty.</summary>
+        public Transform target;
+        /// <summary>Scene units (metres for UR = R): tiles whose centre comes this close are loaded.</summary>
+        public float loadRadius = 500;
+        /// <summary>Loaded tiles whose centre is further than this are unloaded (at least loadRadius).</summary>
+        public float unloadRadius = 650;
+        /// <summary>Manifest and glTF loads in flight at once.</summary>
+        public int maxConcurrentLoads = 4;
+
+        readonly CancellationTokenSource cancel = new CancellationTokenSource();
+        TileStreamer streamer;
+
+        async void Start()
+        {
+            try
+            {
+                await StartStreamingAsync();
+            }
+            catch (Exception e)
+            {
+                // async void: anything not caught here would vanish.
+                Debug.LogError("VWorld LoD: streaming stopped: " + e.Message);
+            }
+        }
+
+        async System.Threading.Tasks.Task StartStreamingAsync()
+        {
+            var settings = new StreamingSettings { LoadRadius = loadRadius, UnloadRadius = unloadRadius, MaxConcurrentLoads = maxConcurrentLoads };
+            if (settings.Problem() != null)
+            {
+                Debug.LogError("VWorld LoD: " + name + ": " + settings.Problem());
+                return;
+            }
+            string url = StreamingPaths.Resolve(tileIndex, Application.streamingAssetsPath, TileIndexReader.FileName);
+            string text;
+            try
+            {
+                text = await WebText.GetAsync(url, cancel.Token);
+            }
+            catch (Exception e)
+            {
+                Debug.LogError("VWorld LoD: cannot read the tile index " + e.Message + "; nothing is streamed");
+                return;
+            }
+            if (text == null || cancel.IsCancellationRequested) return;
+            var problems = new List<string>();
+            TileIndexEntry[] tiles;
+            try
+            {
+                tiles = TileIndexReader.Read(text, url, json => JsonUtility.FromJson<TileIndex>(json), problems);
+            }
+            catch (ManifestException e)
+            {
+                Debug.LogError("VWorld LoD: " + e.Message + "; nothing is streamed");
+                return;
+            }
+            foreach (string problem in problems) Debug.LogError("VWorld LoD: " + problem);
+            if (VWorldLodGeoreference.Current == null)
+                Debug.LogWarning("VWorld LoD: no VWorldLodGeoreference in the scene: tiles use the paper's absolute globe placement, where float32 positions jitter by 0.25-0.5 m; add one (GameObject > VWorld LoD > Georeference)");
+            streamer = new TileStreamer(tiles, t => t.ScenePosition(VWorldLodGeoreference.CurrentOrigin), settings, new GltfStreamingBackend(transform, url));
+            VWorldLodGeoreference.OriginChanged += Reposition;
+        }
+
+        void Reposition()
+        {
+            if (streamer != null) streamer.Reposition();
+        }
+
+        void Update()
+        {
+            if (streamer == null) return;
+            Transform from = target;
+            if (from == null && Camera.main != null) from = Camera.main.transform;
+            if (from == null) return;
+            Vector3 p = from.position;
+            streamer.Update(p.x, p.y, p.z);
+        }
+
+        void OnDestroy()
+        {
+            cancel.Cancel();
+            VWorldLodGeoreference.OriginChanged -= Reposition;
+            if (streamer != null) streamer.Dispose();
+            streamer = null;
+        }
+    }
+}
