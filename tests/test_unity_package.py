@@ -219,7 +219,13 @@ def write_tile_manifest(folder: Path, tile, config, spots, glb: bool = True) -> 
             if glb:
                 write_glb(folder / file, 10.0 - level)
             lods.append(
-                {"level": level, "file": file, "triangles": 2, "vertices": 4, "texture_size": [0, 0]}
+                {
+                    "level": level,
+                    "file": file,
+                    "triangles": 2,
+                    "vertices": 4,
+                    "texture_size": [0, 0],
+                }
             )
         records.append(
             {
@@ -480,4 +486,189 @@ def test_csharp_plans_the_real_export_of_the_demo_tile(build, tmp_path):
     args = ["--manifest", manifest]
     for path, field in broken_variants(manifest):
         args += ["--broken", path, field]
-    check_run(run_csharp(build, *args), 57 + 6 + 6)
+    # Georeference at the tile centre: every building's float32 world position within 1 mm.
+    from exporter.model import GeoPoint
+
+    centre = json.loads(manifest.read_text(encoding="utf-8"))["tile"]["center"]
+    origin = GeoPoint(centre["lon"], centre["lat"], centre["elev"])
+    args += ["--float32", float32_spec(tmp_path / "float32.json", [manifest], origin, 1e-3)]
+    result = check_run(run_csharp(build, *args), 57 + 6 + 6 + 1)
+    worst = float(re.search(r"^MEASURE float32_georeferenced_max_error (\S+)$", result, re.M)[1])
+    assert worst < 1e-3
+
+
+# --------------------------------------------------------------------------- georeference + streaming
+
+
+def georef_cases(path: Path) -> Path:
+    """Scene poses of East/Up/North frames relative to georeference origins around the world,
+    computed by exporter.placement (enu_offset, enu_matrix): origins at Seoul, the antimeridian
+    (points on both sides), near the poles, the equator, below sea level; two Unity radii."""
+    from exporter.model import GeoPoint
+    from exporter.placement import enu_matrix, enu_offset, placement_dict, quaternion_from_matrix
+
+    rng = np.random.default_rng(23)
+    earth = 6378137.0
+    origins = [(126.978, 37.5665, 20.0), (179.9995, -16.5, 0.0), (-180.0, 64.0, 5.0)]
+    origins += [(12.0, 89.9995, 0.0), (-70.0, -89.99, 2800.0), (0.0, 0.0, -30.0)]
+    cases = []
+    for unity_radius in (earth, 1000.0):
+        for lon0, lat0, h0 in origins:
+            origin = GeoPoint(lon0, lat0, h0)
+            for _ in range(6):
+                lon = lon0 + rng.uniform(-0.02, 0.02)
+                lon = lon - 360.0 if lon > 180.0 else lon + 360.0 if lon < -180.0 else lon
+                lat = float(np.clip(lat0 + rng.uniform(-0.02, 0.02), -90.0, 90.0))
+                point = GeoPoint(lon, lat, float(rng.uniform(-20.0, 400.0)))
+                position = enu_offset(point, origin, earth) * (unity_radius / earth)
+                turn = enu_matrix(lon0, lat0).T @ enu_matrix(point.lon, point.lat)
+                cases.append(
+                    {
+                        "origin": {"lon": lon0, "lat": lat0, "elev": h0},
+                        "point": {"lon": point.lon, "lat": point.lat, "elev": point.elev},
+                        "earth_radius_m": earth,
+                        "unity_radius": unity_radius,
+                        "pose": placement_dict(
+                            position, quaternion_from_matrix(turn), unity_radius / earth
+                        ),
+                    }
+                )
+    path.write_text(json.dumps({"cases": cases}), encoding="utf-8")
+    return path
+
+
+@needs_mono
+def test_csharp_georeference_matches_exporter_placement(build, tmp_path):
+    """GeoOrigin.FramePose against exporter.placement to 1e-9 relative (double precision)."""
+    out = check_run(run_csharp(build, "--georef", georef_cases(tmp_path / "georef.json")), 75)
+    worst = float(re.search(r"^MEASURE georef_vs_python.position_rel (\S+)$", out, re.M).group(1))
+    assert worst < 1e-9
+
+
+def float32_spec(path: Path, manifests: list[Path], origin, tolerance: float) -> Path:
+    """Expected double-precision scene positions (exporter.placement.enu_offset * UR/R) of every
+    building reference point of ``manifests`` relative to ``origin`` (a GeoPoint)."""
+    from exporter.model import GeoPoint
+    from exporter.placement import enu_offset
+
+    expected = []
+    for manifest in manifests:
+        data = json.loads(manifest.read_text(encoding="utf-8"))
+        scale = data["globe"]["unity_radius"] / data["globe"]["earth_radius_m"]
+        for b in data["buildings"]:
+            c = b["center"]
+            offset = enu_offset(
+                GeoPoint(c["lon"], c["lat"], c["elev"]), origin, data["globe"]["earth_radius_m"]
+            )
+            expected.append(
+                {"tile": data["tile"]["name"], "id": b["id"], "position": list(offset * scale)}
+            )
+    spec = {
+        "origin": {"lon": origin.lon, "lat": origin.lat, "elev": origin.elev},
+        "manifests": [str(m) for m in manifests],
+        "expected": expected,
+        "tolerance": tolerance,
+    }
+    path.write_text(json.dumps(spec), encoding="utf-8")
+    return path
+
+
+def multi_tile_export(out: Path) -> tuple[Path, list, str]:
+    """A 5 x 3 block of Seoul tiles plus two tiles ~0.9 km east and north, three buildings each,
+    with OUT/tiles.json written by exporter.tile_index; then one manifest broken (as a damaged
+    copy would be). Returns (tiles.json, tiles, name of the broken tile)."""
+    from exporter.config import Config
+    from exporter.model import TileId
+    from exporter.tile_index import write_tile_index
+    from exporter.tiles import tile_of
+
+    config = Config()
+    base = tile_of(126.9780, 37.5665, 15)
+    offsets = [(dx, dy) for dx in range(-2, 3) for dy in range(-1, 2)] + [(9, 0), (0, 7)]
+    tiles = [TileId(15, base.idx + dx, base.idy + dy) for dx, dy in offsets]
+    spots = [(0.2, 0.3, 15.0), (0.7, 0.6, 32.0), (0.5, 0.9, 0.0)]
+    manifests = [write_tile_manifest(out / t.name, t, config, spots, glb=False) for t in tiles]
+    index = write_tile_index(out)
+    broken = tiles[3]
+    manifests[3].write_text(manifests[3].read_text(encoding="utf-8")[:400], encoding="utf-8")
+    return index, tiles, broken.name
+
+
+def expected_streaming(tiles, origin, camera, load: float, unload: float) -> list[dict]:
+    """Per camera step, the tiles to load (centre within ``load``) and unload (beyond ``unload``),
+    from exporter.placement's East/Up/North offsets of the tile centres (Unity units = metres)."""
+    from exporter.model import GeoPoint
+    from exporter.placement import enu_offset
+    from exporter.tiles import tile_center
+
+    centres = {t.name: enu_offset(GeoPoint(*tile_center(t), 0.0), origin, 6378137.0) for t in tiles}
+    loaded: set[str] = set()
+    steps = []
+    for position in camera:
+        distance = {n: float(np.linalg.norm(c - position)) for n, c in centres.items()}
+        gone = sorted(n for n in loaded if distance[n] > unload)
+        loaded -= set(gone)
+        new = sorted(n for n in centres if n not in loaded and distance[n] <= load)
+        loaded |= set(new)
+        steps.append({"load": new, "unload": gone})
+    return steps
+
+
+@needs_mono
+def test_csharp_streams_a_multi_tile_export_along_a_camera_path(build, tmp_path):
+    """TileStreamer over a generated export: the tiles Python expects load and unload at each
+    step, levels coarsest first, at most 3 loads in flight, a broken manifest named and skipped,
+    early destroy without exceptions; and every building within 1 km of the georeference origin
+    lands within 1 mm of its exact position in float32."""
+    from exporter.model import GeoPoint
+    from exporter.tiles import tile_center
+
+    index, tiles, broken = multi_tile_export(tmp_path / "out")
+    origin = GeoPoint(*tile_center(tiles[7]), 0.0)  # the block's middle tile
+    camera = [np.array([x, 30.0, 0.0]) for x in np.arange(-400.0, 1000.0, 25.0)]
+    camera += [np.array([0.0, 30.0, z]) for z in np.arange(0.0, 950.0, 50.0)]
+    load, unload = 150.0, 200.0
+    steps = expected_streaming(tiles, origin, camera, load, unload)
+    assert sum(len(s["unload"]) for s in steps) >= 10 and sum(len(s["load"]) for s in steps) >= 15
+    spec = {
+        "index": str(index),
+        "origin": {"lon": origin.lon, "lat": origin.lat, "elev": origin.elev},
+        "settings": {"load": load, "unload": unload, "max": 3},
+        "camera": [list(map(float, c)) for c in camera],
+        "expected": steps,
+        "broken": broken,
+    }
+    (tmp_path / "streaming.json").write_text(json.dumps(spec), encoding="utf-8")
+    good = [tmp_path / "out" / t.name / "lod_manifest.json" for t in tiles if t.name != broken]
+    float32 = float32_spec(tmp_path / "float32.json", good, origin, 1e-3)
+    out = check_run(
+        run_csharp(build, "--streaming", tmp_path / "streaming.json", "--float32", float32), 79
+    )
+    worst = float(re.search(r"^MEASURE float32_georeferenced_max_error (\S+)$", out, re.M).group(1))
+    assert worst < 1e-3
+
+
+@needs_mono
+def test_csharp_streaming_detects_a_wrong_expectation(build, tmp_path):
+    """The step-by-step comparison is not vacuous: one tile expected a step late fails it."""
+    from exporter.model import GeoPoint
+    from exporter.tiles import tile_center
+
+    index, tiles, broken = multi_tile_export(tmp_path / "out")
+    origin = GeoPoint(*tile_center(tiles[7]), 0.0)
+    camera = [np.array([x, 30.0, 0.0]) for x in np.arange(-400.0, 400.0, 25.0)]
+    steps = expected_streaming(tiles, origin, camera, 150.0, 200.0)
+    late = next(i for i, s in enumerate(steps) if s["load"] and i + 1 < len(steps))
+    steps[late + 1]["load"].append(steps[late]["load"].pop())
+    spec = {
+        "index": str(index),
+        "origin": {"lon": origin.lon, "lat": origin.lat, "elev": origin.elev},
+        "settings": {"load": 150.0, "unload": 200.0, "max": 3},
+        "camera": [list(map(float, c)) for c in camera],
+        "expected": steps,
+        "broken": broken,
+    }
+    (tmp_path / "streaming.json").write_text(json.dumps(spec), encoding="utf-8")
+    result = run_csharp(build, "--streaming", tmp_path / "streaming.json")
+    assert result.returncode != 0
+    assert f"loads at step {late}" in result.stdout

@@ -232,7 +232,7 @@ namespace VWorldLod.Tests
             {
                 var backend = new FakeBackend(folder);
                 var streamer = new TileStreamer(tiles, e => e.ScenePosition(origin), settings, backend);
-                double[] c = camera[camera.Count / 2];
+                double[] c = { 0, 30, 0 }; // the georeference origin: among the tiles
                 for (int frame = 0; frame < 4; frame++)
                 {
                     backend.Frame = frame;
