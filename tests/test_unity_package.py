@@ -91,9 +91,14 @@ def passed_failed(output: str) -> tuple[int, int]:
 
 def test_package_json_is_a_unity_package_depending_on_gltfast():
     data = json.loads((PACKAGE / "package.json").read_text(encoding="utf-8"))
-    assert data["name"] == "com.vworldlod.importer" and data["version"] == "0.1.0"
+    assert data["name"] == "com.vworldlod.importer" and data["version"] == "0.2.0"
     assert data["unity"] == "2022.3" and data["displayName"] and data["description"]
-    assert re.fullmatch(r"\d+\.\d+\.\d+", data["dependencies"]["com.unity.cloud.gltfast"])
+    # glTFast 6.3.0: the first release without the HDRP 17 compiler error and the exception on a
+    # missing runtime shader (its CHANGELOG); the API the package calls exists there (see
+    # Runtime/Unity/GltfLevelLoader.cs). UnityWebRequest reads tiles.json and manifests.
+    gltfast = tuple(int(v) for v in data["dependencies"]["com.unity.cloud.gltfast"].split("."))
+    assert gltfast >= (6, 3, 0)
+    assert data["dependencies"]["com.unity.modules.unitywebrequest"] == "1.0.0"
 
 
 def test_asmdefs_group_runtime_and_editor():

@@ -65,6 +65,22 @@ namespace VWorldLod.Tests
                         ExportedTests.SamePose(GlobeFrame(lon, lat, elev, R, ur, ur / R), composed, "lon " + lon + " lat " + lat, "georef_vs_globe");
                     }
             });
+            t.Check("georef: Geographic inverts ScenePosition (moving the origin to the camera)", () =>
+            {
+                var rng = new Random(29);
+                foreach (double ur in new[] { R, 1000.0 })
+                    for (int n = 0; n < 100; n++)
+                    {
+                        var o = new GeoOrigin(rng.NextDouble() * 360 - 180, rng.NextDouble() * 170 - 85, rng.NextDouble() * 50);
+                        double lon = o.Longitude + (rng.NextDouble() - 0.5) * 0.1, lat = o.Latitude + (rng.NextDouble() - 0.5) * 0.1, elev = rng.NextDouble() * 500;
+                        double[] p = o.ScenePosition(lon, lat, elev, R, ur);
+                        double[] back = o.Geographic(p[0], p[1], p[2], R, ur);
+                        double lonBack = back[0] - lon > 180 ? back[0] - 360 : back[0] - lon < -180 ? back[0] + 360 : back[0];
+                        Assert.Near(lon, lonBack, 1e-9, "lon");
+                        Assert.Near(lat, back[1], 1e-9, "lat");
+                        Assert.Near(elev, back[2], 1e-6, "elev (m)");
+                    }
+            });
             t.Check("georef: tiles across the antimeridian are placed continuously", () =>
             {
                 var east = new GeoOrigin(180, 10, 0);

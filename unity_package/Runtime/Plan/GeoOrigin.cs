@@ -99,6 +99,26 @@ namespace VWorldLod
             return new Placement(p[0], p[1], p[2], r[0], r[1], r[2], r[3], unityRadius / earthRadius);
         }
 
+        /// <summary>
+        /// (3,) lon, lat (degrees) and elev (metres) of the scene point (x, y, z) (Unity units):
+        /// the inverse of ScenePosition, through the globe frame (exact to ~1e-9 m per metre of
+        /// distance from the origin; meant for moving the origin, e.g. to where the camera is).
+        /// </summary>
+        public double[] Geographic(double x, double y, double z, double earthRadius, double unityRadius)
+        {
+            double toMetres = earthRadius / unityRadius;
+            double[] q = Placement.EastUpNorthRotation(Longitude, Latitude);
+            double[] d = Placement.Rotate(q[0], q[1], q[2], q[3], x * toMetres, y * toMetres, z * toMetres);
+            double[] o = Placement.GlobePosition(Longitude, Latitude, Height, earthRadius, earthRadius);
+            double gx = o[0] + d[0], gy = o[1] + d[1], gz = o[2] + d[2];
+            double horizontal = Math.Sqrt(gx * gx + gz * gz);
+            // Unity globe frame: x = h cos(lat) sin(lon), y = h sin(lat), z = -h cos(lat) cos(lon).
+            double lon = Math.Atan2(gx, -gz) * 180.0 / Math.PI;
+            double lat = Math.Atan2(gy, horizontal) * 180.0 / Math.PI;
+            double elev = Math.Sqrt(gx * gx + gy * gy + gz * gz) - earthRadius;
+            return new[] { lon, lat, elev };
+        }
+
         /// <summary>The scene pose of a tile's root: its manifest's tile centre, elev, globe radii.</summary>
         public Placement TileRoot(TileManifest m)
         {

@@ -35,6 +35,7 @@ namespace VWorldLod
 
         bool dirty;
         string reported;
+        GeoOrigin lastGood;
 
         /// <summary>The scene's georeference (the first active one), or null.</summary>
         public static VWorldLodGeoreference Current
@@ -52,7 +53,10 @@ namespace VWorldLod
             }
         }
 
-        /// <summary>This component's origin (see CurrentOrigin); logs once why it is unusable.</summary>
+        /// <summary>
+        /// This component's origin (see CurrentOrigin). Fields that are not a usable origin (e.g.
+        /// while typing in the Inspector) log once why and keep the last usable origin.
+        /// </summary>
         public GeoOrigin Origin
         {
             get
@@ -61,12 +65,16 @@ namespace VWorldLod
                 string problem = GeoOrigin.Problem(longitude, latitude, height);
                 if (problem != null)
                 {
-                    if (reported != problem) Debug.LogError("VWorld LoD: " + name + ": " + problem + "; tiles keep the globe placement until it is fixed");
+                    if (reported != problem)
+                        Debug.LogError("VWorld LoD: " + name + ": " + problem + "; tiles keep "
+                                       + (lastGood == null ? "the globe placement" : "the origin " + lastGood) + " until it is fixed");
                     reported = problem;
-                    return null;
+                    return lastGood;
                 }
                 reported = null;
-                return new GeoOrigin(longitude, latitude, height);
+                if (lastGood == null || lastGood.Longitude != longitude || lastGood.Latitude != latitude || lastGood.Height != height)
+                    lastGood = new GeoOrigin(longitude, latitude, height);
+                return lastGood;
             }
         }
 
@@ -83,6 +91,23 @@ namespace VWorldLod
             latitude = lat;
             height = heightMetres;
             PlaceAll();
+            return true;
+        }
+
+        /// <summary>
+        /// Moves the origin to where target is (for a camera that travelled far: float32 precision
+        /// is best near the origin) and target to the scene's origin, keeping its geographic place;
+        /// tiles are re-placed and streamers told. Radii R and UR as in the manifests (default 1 m
+        /// per unit). Other objects of the scene are not moved.
+        /// </summary>
+        public bool RecenterOn(Transform target, double earthRadius = 6378137, double unityRadius = 6378137)
+        {
+            GeoOrigin origin = Origin;
+            if (origin == null) return false;
+            Vector3 p = target.position;
+            double[] geo = origin.Geographic(p.x, p.y, p.z, earthRadius, unityRadius);
+            if (!SetOrigin(geo[0], geo[1], geo[2])) return false;
+            target.position = new Vector3(0, 0, 0);
             return true;
         }
 
