@@ -523,7 +523,7 @@ def export_tiles(
                 reused.get(tile, 0),
             )
         )
-    write_tile_index(out_dir, stats.tiles, config.globe)  # after the manifests: it names only complete tiles
+    write_tile_index(out_dir, stats.tiles, config.globe)  # after the manifests: only complete tiles
     stats.wall_seconds = time.perf_counter() - started
     return stats
 

@@ -29,24 +29,14 @@ namespace VWorldLod
             string url = StreamingPaths.Beside(indexUrl, tile.manifest);
             try
             {
-                string text = await WebText.GetAsync(url, cancellation);
-                if (text == null || cancellation.IsCancellationRequested) return null;
-                TilePlan plan = LodPlanner.Plan(new JsonUtilityManifestParser().Parse(text, url), url, path => true);
-                foreach (ManifestException failure in plan.Failures) Report(failure.Message);
-                var root = new GameObject(plan.TileName);
-                root.transform.SetParent(parent, false);
-                root.AddComponent<VWorldLodTilePlacement>().Configure(plan);
-                root.GetComponent<VWorldLodTilePlacement>().Place();
-                tileRoots[plan] = root;
+                TilePlan plan = await RuntimeTile.LoadPlanAsync(url, cancellation);
+                if (plan == null || cancellation.IsCancellationRequested) return null;
+                tileRoots[plan] = RuntimeTile.CreateRoot(plan, parent);
                 return plan;
-            }
-            catch (ManifestException e)
-            {
-                if (!cancellation.IsCancellationRequested) Report(e.Message);
             }
             catch (Exception e)
             {
-                if (!cancellation.IsCancellationRequested) Report(e.Message.StartsWith(url) ? e.Message : url + ": " + e.Message);
+                if (!cancellation.IsCancellationRequested) Debug.LogError(RuntimeTile.Describe(e, url));
             }
             return null;
         }

@@ -47,22 +47,15 @@ namespace VWorldLod
             TilePlan plan;
             try
             {
-                string text = await WebText.GetAsync(url, token);
-                if (text == null || token.IsCancellationRequested) return null;
-                plan = LodPlanner.Plan(new JsonUtilityManifestParser().Parse(text, url), url, path => true);
+                plan = await RuntimeTile.LoadPlanAsync(url, token);
+                if (plan == null || token.IsCancellationRequested) return null;
             }
             catch (Exception e)
             {
-                Debug.LogError("VWorld LoD: " + (e is ManifestException || e.Message.StartsWith(url) ? e.Message : url + ": " + e.Message));
+                Debug.LogError(RuntimeTile.Describe(e, url));
                 return null;
             }
-            foreach (ManifestException failure in plan.Failures)
-                Debug.LogError("VWorld LoD: " + failure.Message);
-
-            var tileRoot = new GameObject(plan.TileName);
-            tileRoot.transform.SetParent(transform, false);
-            tileRoot.AddComponent<VWorldLodTilePlacement>().Configure(plan);
-            tileRoot.GetComponent<VWorldLodTilePlacement>().Place();
+            GameObject tileRoot = RuntimeTile.CreateRoot(plan, transform);
 
             int built = 0;
             foreach (BuildingPlan building in plan.Buildings)
