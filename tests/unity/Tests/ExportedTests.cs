@@ -91,6 +91,19 @@ namespace VWorldLod.Tests
                 foreach (BuildingEntry b in m.buildings)
                     SamePose(Placement.FromData(b.placement), Placement.Compose(root, Placement.FromData(b.relative_placement)), b.id, "csharp_compose_vs_manifest_globe");
             });
+            t.Check("exported: a tile root's placement component puts it at tile.placement (globe) or RootPose (georeferenced)", () =>
+            {
+                TilePlan plan = LodPlanner.Plan(m, path, p => true);
+                var placement = new UnityEngine.GameObject("tile").AddComponent<VWorldLodTilePlacement>();
+                placement.Configure(plan);
+                SamePose(Placement.FromData(m.tile.placement), placement.Pose(null), "globe pose", "tile_component_globe");
+                var origin = new GeoOrigin(m.tile.center.lon + 0.01, m.tile.center.lat - 0.01, 12);
+                SamePose(plan.RootPose(origin), placement.Pose(origin), "georeferenced pose", "tile_component_georef");
+                placement.Place(); // no georeference in this "scene": the globe pose, as floats
+                UnityEngine.Vector3 at = placement.transform.position;
+                Assert.Near(m.tile.placement.position[0], at.x, 1, "x (float32 of ~6e6)");
+                Assert.True(!placement.transform.hasChanged, "placing clears hasChanged");
+            });
             t.Check("exported: both placement modes put each building at the same globe pose", () =>
             {
                 string keep = m.globe.placement;

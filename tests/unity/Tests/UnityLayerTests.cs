@@ -1,6 +1,7 @@
 // The thin Unity layer (Runtime/Unity/LodGroupAssembly.cs) run against the stand-in
 // UnityEngine, whose GameObject, Transform and LODGroup record what they are given.
 using System;
+using System.Linq;
 using UnityEngine;
 
 namespace VWorldLod.Tests
@@ -50,6 +51,30 @@ namespace VWorldLod.Tests
                 Assert.Equal("1.5 -2 3.25", string.Join(" ", p), "position");
                 Assert.Equal("0 0.6 0 0.8", string.Join(" ", q), "rotation");
                 Assert.Equal("2 2 2", string.Join(" ", s), "uniform scale");
+            });
+            t.Check("unity: a building streamed coarsest first shows its loaded levels with covering heights", () =>
+            {
+                TilePlan plan = LodPlanner.Plan(PlanTests.Parse(PlanTests.Sample), PlanTests.ManifestPath, p => true);
+                BuildingPlan b = plan.Buildings[0]; // three levels: 0.5, 0.17, 0.02
+                var cases = new[]
+                {
+                    new { Levels = new[] { 2 }, Heights = new[] { 0.02f } },
+                    new { Levels = new[] { 1, 2 }, Heights = new[] { 0.17f, 0.02f } },
+                    new { Levels = new[] { 0, 2 }, Heights = new[] { 0.17f, 0.02f } }, // level 1 failed: 0 covers it
+                    new { Levels = new[] { 0, 1, 2 }, Heights = new[] { 0.5f, 0.17f, 0.02f } },
+                    new { Levels = new[] { 0 }, Heights = new[] { 0.02f } },
+                };
+                foreach (var c in cases)
+                {
+                    var root = new GameObject(b.Name);
+                    var renderers = new Renderer[c.Levels.Length][];
+                    for (int i = 0; i < renderers.Length; i++) renderers[i] = new[] { new Renderer() };
+                    LODGroup group = LodGroupAssembly.ConfigureLoaded(root, b, plan, c.Levels, renderers);
+                    string what = "levels " + string.Join(",", c.Levels);
+                    Assert.Equal(string.Join(" ", c.Heights), string.Join(" ", group.lods.Select(l => l.height)), what);
+                    for (int i = 0; i < renderers.Length; i++)
+                        Assert.True(ReferenceEquals(renderers[i], group.lods[i].given), what + ": renderers of entry " + i);
+                }
             });
             t.Check("unity: LodFadeKind casts to the LODFadeMode of the same name", () =>
             {
