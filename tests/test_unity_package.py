@@ -68,7 +68,7 @@ def build(tmp_path_factory) -> dict[str, Path]:
     tests = mcs(
         d / "VWorldLod.Tests.exe",
         scripts(UNITY_TESTS / "Tests"),
-        [runtime, engine, gltfast, Path("System.Core.dll")],
+        [runtime, editor_asm, engine, editor, gltfast, Path("System.Core.dll")],
         library=False,
     )
     return {"plan": plan, "runtime": runtime, "editor": editor_asm, "tests": tests, "dir": d}
@@ -630,7 +630,9 @@ def test_csharp_streams_a_multi_tile_export_along_a_camera_path(build, tmp_path)
 
     index, tiles, broken = multi_tile_export(tmp_path / "out")
     origin = GeoPoint(*tile_center(tiles[7]), 0.0)  # the block's middle tile
-    camera = [np.array([x, 30.0, 0.0]) for x in np.arange(-400.0, 1000.0, 25.0)]
+    camera = [np.array([x, 30.0, 0.0]) for x in np.arange(-400.0, 0.0, 25.0)]
+    camera += [np.array([0.0, 30.0, 0.0])] * 15  # a pause: the tiles around finish loading
+    camera += [np.array([x, 30.0, 0.0]) for x in np.arange(0.0, 1000.0, 25.0)]
     camera += [np.array([0.0, 30.0, z]) for z in np.arange(0.0, 950.0, 50.0)]
     load, unload = 150.0, 200.0
     steps = expected_streaming(tiles, origin, camera, load, unload)

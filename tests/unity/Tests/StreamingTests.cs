@@ -29,6 +29,10 @@ namespace VWorldLod.Tests
         public readonly List<string> UnloadedTiles = new List<string>();
         public int Frame;
         public bool Disposed;
+        /// <summary>Loads that completed after their tile was unloaded (or the streamer destroyed).</summary>
+        public int CompletedAfterCancel;
+        /// <summary>Level files that fail to load (reported, answered with null).</summary>
+        public readonly HashSet<string> BrokenLevels = new HashSet<string>();
         int answers;
         readonly string indexFolder;
 
@@ -72,6 +76,13 @@ namespace VWorldLod.Tests
                 Token = cancellation,
                 Complete = nullWhenCancelled =>
                 {
+                    if (cancellation.IsCancellationRequested) CompletedAfterCancel++;
+                    if (BrokenLevels.Contains(building.Levels[level].Path))
+                    {
+                        Report(building.Levels[level].Path + ": glTFast could not load it");
+                        done.SetResult(null);
+                        return;
+                    }
                     var handle = new Handle { What = building.Levels[level].Path };
                     Handles.Add(handle);
                     if (cancellation.IsCancellationRequested && nullWhenCancelled)
@@ -157,6 +168,8 @@ namespace VWorldLod.Tests
             t.Check("streaming: camera path loads and unloads the expected tiles, step by step", () =>
             {
                 var backend = new FakeBackend(folder);
+                string brokenLevel = Path.Combine(folder, tiles[7].name, "B1", "lod1.glb").Replace('\\', '/');
+                backend.BrokenLevels.Add(brokenLevel);
                 var streamer = new TileStreamer(tiles, e => e.ScenePosition(origin), settings, backend);
                 var events = new List<string>();
                 streamer.OnEvent = events.Add;
@@ -212,8 +225,12 @@ namespace VWorldLod.Tests
                 Assert.True(backend.Shown.Count > 0, "buildings were shown");
                 Assert.True(backend.Reports.Any(r => r.Contains(broken) && r.Contains("not valid JSON")), "the broken manifest is reported by name: " + string.Join(" | ", backend.Reports));
                 Assert.True(backend.Shown.Any(x => !x.StartsWith(broken)), "other tiles still load");
+                Assert.True(backend.Reports.Any(r => r.StartsWith(brokenLevel)), "the broken level is reported by name: " + brokenLevel);
+                Assert.True(backend.Shown.Contains(tiles[7].name + " B1 0,2"), "its building shows LOD0 and LOD2 without LOD1: " + string.Join(" | ", backend.Shown.Where(x => x.StartsWith(tiles[7].name + " B1"))));
 
-                // Everything that came back is released once its tile is gone.
+                // Away with loads in flight: they finish after their tiles are unloaded, and
+                // everything that came back is released.
+                Assert.True(streamer.InFlight > 0, "loads in flight at the end of the path");
                 streamer.Update(1e9, 0, 0);
                 for (int frame = camera.Count; backend.Pending > 0 || streamer.InFlight > 0; frame++)
                 {
@@ -223,6 +240,7 @@ namespace VWorldLod.Tests
                     if (frame > camera.Count + 10) throw new TestFailure("loads never finished");
                 }
                 Assert.Equal(0, streamer.LoadedTiles().Count, "no tile left loaded");
+                Assert.True(backend.CompletedAfterCancel > 0, "some loads finished after their tile was unloaded (mid-load unloads exercised)");
                 var leaked = backend.Handles.Where(h => !h.Released).Select(h => h.What).ToList();
                 Assert.True(leaked.Count == 0, "unreleased levels: " + string.Join(", ", leaked));
                 streamer.Dispose();

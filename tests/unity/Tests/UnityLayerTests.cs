@@ -76,6 +76,17 @@ namespace VWorldLod.Tests
                         Assert.True(ReferenceEquals(renderers[i], group.lods[i].given), what + ": renderers of entry " + i);
                 }
             });
+            t.Check("editor: no prefabs are built under StreamingAssets (refused before any asset is touched)", () =>
+            {
+                Assert.True(EditorTools.VWorldLodMenu.InStreamingAssets("Assets/StreamingAssets/city/15_1_1/lod_manifest.json"), "under StreamingAssets");
+                Assert.True(EditorTools.VWorldLodMenu.InStreamingAssets("Assets\\StreamingAssets\\a.json"), "Windows separators");
+                Assert.True(!EditorTools.VWorldLodMenu.InStreamingAssets("Assets/Tiles/15_1_1/lod_manifest.json"), "elsewhere under Assets");
+                Assert.True(!EditorTools.VWorldLodMenu.InStreamingAssets("Assets/StreamingAssetsOld/lod_manifest.json"), "a look-alike folder");
+                // The stand-in AssetDatabase and EditorUtility throw when called: Build must stop first.
+                EditorTools.BuildReport report = EditorTools.LodGroupPrefabBuilder.Build("Assets/StreamingAssets/city/15_1_1/lod_manifest.json");
+                Assert.Equal(1, report.Failed, "refused");
+                Assert.Equal(0, report.Built, "nothing built");
+            });
             t.Check("unity: LodFadeKind casts to the LODFadeMode of the same name", () =>
             {
                 foreach (LodFadeKind kind in Enum.GetValues(typeof(LodFadeKind)))
