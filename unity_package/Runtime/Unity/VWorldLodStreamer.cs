@@ -91,7 +91,10 @@ namespace VWorldLod
             if (from == null && Camera.main != null) from = Camera.main.transform;
             if (from == null) return;
             Vector3 p = from.position;
-            streamer.Update(p.x, p.y, p.z);
+            // Georeferenced, the radii are horizontal (East/North): a camera high above the city
+            // still loads the tiles below it. On the globe (no local up) they are 3D.
+            bool georeferenced = VWorldLodGeoreference.CurrentOrigin != null;
+            streamer.Update(p.x, georeferenced ? 0 : p.y, p.z);
         }
 
         void OnDestroy()
