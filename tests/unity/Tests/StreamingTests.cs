@@ -335,6 +335,19 @@ namespace VWorldLod.Tests
                 Assert.True(new StreamingSettings().Problem() == null, "defaults are fine");
                 Assert.Throws<ArgumentException>(() => new TileStreamer(new TileIndexEntry[0], e => new double[3], new StreamingSettings { MaxConcurrentLoads = 0 }, new FakeBackend(".")), "constructor");
             });
+            t.Check("streaming: horizontal distances ignore the camera's height", () =>
+            {
+                var tiles = TileIndexReader.Read(good, "x/tiles.json", parse, new List<string>());
+                foreach (bool horizontal in new[] { false, true })
+                {
+                    var streamer = new TileStreamer(tiles, e => new double[] { 10, -40, 0 }, new StreamingSettings { LoadRadius = 100, UnloadRadius = 120, Horizontal = horizontal }, new FakeBackend("."));
+                    var events = new List<string>();
+                    streamer.OnEvent = events.Add;
+                    streamer.Update(0, 400, 0); // 440 above the tile centre, 10 beside it
+                    Assert.Equal(horizontal, events.Contains("load 15_1_1"), "loaded with Horizontal = " + horizontal);
+                    streamer.Dispose();
+                }
+            });
             t.Check("streaming paths: StreamingAssets, absolute folders, http(s) and Android URLs", () =>
             {
                 Assert.Equal("https://example.org/city/tiles.json", StreamingPaths.Resolve("https://example.org/city/", "/sa", "tiles.json"), "http folder");

@@ -13,6 +13,8 @@ namespace VWorldLod
         public double UnloadRadius = 650;
         /// <summary>Loads in flight at once, cancelled ones included until they have finished.</summary>
         public int MaxConcurrentLoads = 4;
+        /// <summary>Measure distances in the x-z plane only (East/North under a georeference), ignoring heights.</summary>
+        public bool Horizontal;
 
         /// <summary>Why these settings cannot be used, or null.</summary>
         public string Problem()

@@ -204,7 +204,8 @@ namespace VWorldLod
             for (int i = 0; i < tiles.Length; i++)
             {
                 double[] p = positions[i];
-                distances[i] = Math.Sqrt((p[0] - x) * (p[0] - x) + (p[1] - y) * (p[1] - y) + (p[2] - z) * (p[2] - z));
+                double dy = settings.Horizontal ? 0 : p[1] - y;
+                distances[i] = Math.Sqrt((p[0] - x) * (p[0] - x) + dy * dy + (p[2] - z) * (p[2] - z));
             }
             var leaving = new List<int>();
             foreach (int i in active.Keys) if (distances[i] > settings.UnloadRadius) leaving.Add(i);

@@ -27,6 +27,7 @@ namespace VWorldLod
 
         readonly CancellationTokenSource cancel = new CancellationTokenSource();
         TileStreamer streamer;
+        StreamingSettings settings;
 
         async void Start()
         {
@@ -43,7 +44,7 @@ namespace VWorldLod
 
         async System.Threading.Tasks.Task StartStreamingAsync()
         {
-            var settings = new StreamingSettings { LoadRadius = loadRadius, UnloadRadius = unloadRadius, MaxConcurrentLoads = maxConcurrentLoads };
+            settings = new StreamingSettings { LoadRadius = loadRadius, UnloadRadius = unloadRadius, MaxConcurrentLoads = maxConcurrentLoads };
             if (settings.Problem() != null)
             {
                 Debug.LogError("VWorld LoD: " + name + ": " + settings.Problem());
@@ -93,8 +94,8 @@ namespace VWorldLod
             Vector3 p = from.position;
             // Georeferenced, the radii are horizontal (East/North): a camera high above the city
             // still loads the tiles below it. On the globe (no local up) they are 3D.
-            bool georeferenced = VWorldLodGeoreference.CurrentOrigin != null;
-            streamer.Update(p.x, georeferenced ? 0 : p.y, p.z);
+            settings.Horizontal = VWorldLodGeoreference.CurrentOrigin != null;
+            streamer.Update(p.x, p.y, p.z);
         }
 
         void OnDestroy()
