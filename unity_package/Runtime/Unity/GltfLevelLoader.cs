@@ -8,7 +8,7 @@
 //   Task<bool> Load(Uri, ImportSettings, CancellationToken)
 //   Task<bool> InstantiateMainSceneAsync(Transform, CancellationToken)
 //   CollectingLogger.Items / LogItem.Type (a logger of our own would have to follow ICodeLogger,
-//   which gained members in 6.4 and 6.10).
+//   which gained a member in 6.4 that has a default implementation only from 6.10).
 using System;
 using System.Threading;
 using System.Threading.Tasks;
