@@ -451,17 +451,6 @@ def test_assign_uvs_equals_the_corner_by_corner_lookup():
             assert same(fast[0], expected[0]) and same(fast[1], expected[1])
 
 
-def test_guard_resumes_the_reference_stream_like_deepcopy():
-    import copy
-
-    from exporter.simplify.guard import _resume
-
-    rng = np.random.default_rng(7)
-    rng.random(37)
-    assert same(_resume(rng).random(100), copy.deepcopy(rng).random(100))
-    assert same(_resume(rng).random(3), rng.random(3))  # and leaves the original where it was
-
-
 def test_exact_levels_measure_as_identity_and_slit_closing_is_not_exact(tmp_path):
     # VWorld-like buildings read back from generated .xdo files (float32 positions, as the
     # issue 8 tile): every level flagged exact must measure as LOD0 itself (what the pipeline
@@ -498,11 +487,13 @@ def test_exact_levels_measure_as_identity_and_slit_closing_is_not_exact(tmp_path
 # --------------------------------------------------------------------------- error guard
 
 
-def test_guard_exceeds_is_deviation_above_the_tolerance():
-    # The guard's decision with floors and shared corners skipped equals the full symmetric
-    # deviation compared with the tolerance, also at the deviation itself and one ulp around it.
+def test_guard_exceeds_agrees_with_the_certified_bounds():
+    # The guard's decision (early exits) against the bounds of the symmetric distance: it
+    # refuses every tolerance below the lower bound, accepts every one from the upper bound up,
+    # and the true distance (a dense sampling's maximum stands in, from below) lies between.
     from exporter.simplify import simplify_parts
-    from exporter.simplify.guard import Reference, deviation, exceeds
+    from exporter.simplify.guard import Reference, deviation, deviation_bounds, exceeds
+    from tests.hausdorff_check import dense_hausdorff
 
     builder, atlas = Builder(), Atlas()
     add_dome(builder, atlas, 0.0, 0.0, 0.0, 10.0, 8, 24)
@@ -526,18 +517,16 @@ def test_guard_exceeds_is_deviation_above_the_tolerance():
             (jitter, faces),
             (positions, faces),
         ]:
-            d = deviation(reference, level_positions, level_faces)
-            for tolerance in (
-                0.0,
-                0.5 * d,
-                np.nextafter(d, 0.0),
-                d,
-                np.nextafter(d, np.inf),
-                2.0 * d + 1e-3,
-            ):
-                assert exceeds(reference, level_positions, level_faces, tolerance) == (
-                    d > tolerance
-                )
+            lower, upper = deviation_bounds(reference, level_positions, level_faces)
+            assert deviation(reference, level_positions, level_faces) == upper
+            dense = dense_hausdorff((positions, faces), (level_positions, level_faces), 6)
+            assert lower <= dense * (1 + 1e-9) + 1e-12 and dense <= upper * (1 + 1e-9) + 1e-12
+            for tolerance in (0.5 * lower, np.nextafter(lower, 0.0)):
+                if lower > 0:
+                    assert exceeds(reference, level_positions, level_faces, tolerance)
+                    checked += 1
+            for tolerance in (upper, 2.0 * upper + 1e-3):
+                assert not exceeds(reference, level_positions, level_faces, tolerance)
                 checked += 1
         assert exceeds(reference, positions, faces[:0], 1.0)  # nothing left: infinitely far
-    assert checked == 4 * 5 * 6
+    assert checked >= 4 * 4 * 4
