@@ -48,7 +48,8 @@ from .geometry import cross_rows, unique_float_rows
 from .quality import SurfaceIndex
 
 MAX_DEPTH = 7  # 4-splits per triangle at most (edges down to 1/128 of the triangle's)
-MAX_OPEN = 4096  # sub-triangles bounded per round at most (the work stops there, still valid)
+MAX_OPEN = 4096  # sub-triangles bounded per round at most (the worst split first)
+MAX_ROUNDS = 12  # refinement rounds at most (the bounds left are still valid)
 SHRINK = 1e-7  # relative shrink of a triangle before the containment test (see module doc)
 CANDIDATES = 4  # nearest probes of each point whose triangles give the single-triangle bound
 CENTRE_PROBES = 3  # nearest probes of a triangle's centroid whose regions are tried first
@@ -56,11 +57,12 @@ LOWER_POINTS = 16  # open corners measured exactly per round of exceeds (the far
 RTOL = 0.02  # default relative gap upper - lower of hausdorff_bounds
 ATOL = 1e-6  # default absolute gap of hausdorff_bounds, share of the bounding-box diagonal
 PLANE_SLACK_MAX = 1e-3  # metres: regions flatter than this give the in-plane bound
+SAME_PLANE_COS = 1.0 - 1e-10  # regions this parallel (cosine of their normals) ...
+SAME_PLANE = 1e-6  # ... and this close (x the mesh's diagonal, slack included) are merged
 STRAIGHT = 1.0 - 1e-10  # edges whose directions have a cosine below -this continue each other
+# Last containment tries: the triangle shrunk about its incentre by these x the target's diagonal.
+LOOSE = (3e-7, 3e-6, 1e-5)
 T_JUNCTION = 1e-6  # a vertex this close to an edge (share of its length) splits it
-# Later containment tries: T shrunk by these x the target's diagonal (metres), for triangles that
-# poke out of a region by float noise (float32 vertices: ~6e-8 of the coordinates).
-LOOSE = (3e-7, 1e-5)
 
 __all__ = ["Surface", "hausdorff_bounds", "directed_bounds", "exceeds", "split4"]
 
@@ -117,23 +119,26 @@ class _Regions:
 
         m = len(faces)
         region = planar_regions(positions, faces) if m else np.zeros(0, np.int64)
-        r = int(region.max()) + 1 if m else 0
         tri = positions[faces]
         cross = cross_rows(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-        normal = np.zeros((r, 3))
-        np.add.at(normal, region, cross)
-        length = np.linalg.norm(normal, axis=1)
-        good = length > 0
-        normal[good] /= length[good, None]
-        normal[~good] = (0.0, 0.0, 1.0)
-        # Plane offset halfway between the extreme vertices: the smallest slack for this normal.
-        heights = np.einsum("mkj,mj->mk", tri, normal[region])
-        high = np.full(r, -np.inf)
-        low = np.full(r, np.inf)
-        np.maximum.at(high, region, heights.max(axis=1))
-        np.minimum.at(low, region, heights.min(axis=1))
-        self.offset = 0.5 * (high + low)
-        self.slack = 0.5 * (high - low)
+        self.scale = (
+            float(np.linalg.norm(positions.max(axis=0) - positions.min(axis=0))) if m else 0.0
+        )
+        normal, offset, slack = _planes(tri, cross, region)
+        # Regions on one plane that only meet at T-junctions (or not at all) are one region.
+        if len(normal) > 1:
+            same = (normal @ normal.T > SAME_PLANE_COS) & (
+                np.abs(offset[:, None] - offset[None, :]) + slack[:, None] + slack[None, :]
+                <= SAME_PLANE * max(self.scale, 1e-9)
+            )
+            if same.sum() > len(normal):
+                from scipy.sparse.csgraph import connected_components
+
+                _, label = connected_components(same, directed=False)
+                region = label[region]
+                normal, offset, slack = _planes(tri, cross, region)
+        r = len(normal)
+        self.offset, self.slack = offset, slack
         self.normal, self.region = normal, region
         helper = np.where(np.abs(normal[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
         u = cross_rows(normal, helper)
@@ -175,21 +180,12 @@ class _Regions:
         loose = np.flatnonzero(~interior & upright)
         if len(loose):
             # Split the unmatched half-edges at unmatched ends of the same region lying on them.
-            ends = np.unique(
-                np.concatenate([region[loose] * k + a[loose], region[loose] * k + b[loose]])
+            ends, pick = np.unique(
+                np.concatenate([region[loose] * k + a[loose], region[loose] * k + b[loose]]),
+                return_index=True,
             )
             end_region, end_vertex = ends // k, ends % k
-            where = np.concatenate([loose, loose])
-            point_of = dict(
-                zip(
-                    np.concatenate(
-                        [region[loose] * k + a[loose], region[loose] * k + b[loose]]
-                    ).tolist(),
-                    np.concatenate([start2[loose], end2[loose]]).tolist(),
-                )
-            )
-            end_point = np.array([point_of[e] for e in ends.tolist()]).reshape(-1, 2)
-            del where
+            end_point = np.concatenate([start2[loose], end2[loose]])[pick]
             order = np.argsort(end_region, kind="stable")
             first = np.searchsorted(end_region[order], np.arange(r + 1))
             counts = first[region[loose] + 1] - first[region[loose]]
@@ -231,14 +227,99 @@ class _Regions:
                         np.stack([sub_p[~sub_ok], sub_q[~sub_ok]], axis=1),
                     ]
                 )
-                self._store(seg_region, seg, r)
+                ends = np.concatenate(
+                    [np.column_stack([a[keep], b[keep]]), np.column_stack([sub_a, sub_b])[~sub_ok]]
+                )
+                oriented = np.concatenate([upright[keep], np.ones((~sub_ok).sum(), bool)])
+                self._store(*self._straighten(seg_region, seg, ends, oriented), r)
                 return
         boundary = np.flatnonzero(~interior)
-        self._store(region[boundary], np.stack([start2[boundary], end2[boundary]], axis=1), r)
+        self._store(
+            *self._straighten(
+                region[boundary],
+                np.stack([start2[boundary], end2[boundary]], axis=1),
+                np.column_stack([a[boundary], b[boundary]]),
+                upright[boundary],
+            ),
+            r,
+        )
+
+    def _straighten(self, seg_region, seg, ends, oriented):
+        """Boundary runs a -> b -> ... -> c whose inner vertices lie within ``T_JUNCTION`` x |ac|
+        of the chord ac become the one segment ac (the planar stage drops such straight outline
+        vertices, and a level's edge ac would otherwise poke out of the region by float noise).
+        A vertex bulging outwards (right of a -> c, the region on the left) cuts a sliver off the
+        region (the new region is inside the old); one bulging inwards adds a sliver, whose
+        height goes into the region's ``gap``. Only runs through vertices with one boundary edge
+        in and one out, on faces that keep their orientation."""
+        if len(seg) < 2:
+            return seg_region, seg
+        outgoing, incoming = {}, {}
+        for i, (g, (va, vb), ok) in enumerate(
+            zip(seg_region.tolist(), ends.tolist(), oriented.tolist())
+        ):
+            if ok:
+                outgoing.setdefault((g, va), []).append(i)
+                incoming.setdefault((g, vb), []).append(i)
+
+        def through(g, v):
+            out, into = outgoing.get((g, v), ()), incoming.get((g, v), ())
+            return out[0] if len(out) == 1 and len(into) == 1 else None
+
+        points = seg.tolist()
+        used = np.zeros(len(seg), bool)
+        merged_region, merged = [], []
+        order = sorted(
+            range(len(seg)), key=lambda i: through(seg_region[i], ends[i, 0]) is not None
+        )
+        for i in order:
+            if used[i]:
+                continue
+            used[i] = True
+            g = int(seg_region[i])
+            if not oriented[i]:
+                merged_region.append(g)
+                merged.append(points[i])
+                continue
+            start, end = points[i][0], points[i][1]
+            inner = []
+            j = i
+            while True:
+                nxt = through(g, int(ends[j, 1]))
+                if nxt is None or used[nxt]:
+                    break
+                candidate = points[nxt][1]
+                cx, cy = candidate[0] - start[0], candidate[1] - start[1]
+                length = (cx * cx + cy * cy) ** 0.5
+                offsets = [
+                    (cx * (q[1] - start[1]) - cy * (q[0] - start[0])) / length
+                    if length > 0
+                    else 1e300
+                    for q in inner + [end]
+                ]
+                if max(abs(o) for o in offsets) > T_JUNCTION * length:
+                    break
+                inner.append(end)
+                end = candidate
+                used[nxt] = True
+                j = nxt
+            if inner:
+                cx, cy = end[0] - start[0], end[1] - start[1]
+                length = (cx * cx + cy * cy) ** 0.5
+                inward = max(
+                    (cx * (q[1] - start[1]) - cy * (q[0] - start[0])) / length for q in inner
+                )
+                if inward > 0:
+                    self.gap[g] = max(self.gap[g], inward)
+            merged_region.append(g)
+            merged.append([start, end])
+        return np.array(merged_region, np.int64), np.array(merged, np.float64).reshape(-1, 2, 2)
 
     def _store(self, seg_region: np.ndarray, seg: np.ndarray, r: int) -> None:
         order = np.argsort(seg_region, kind="stable")
-        self.seg = seg[order]
+        seg = seg[order]
+        self.seg_x0, self.seg_y0 = seg[:, 0, 0].copy(), seg[:, 0, 1].copy()
+        self.seg_x1, self.seg_y1 = seg[:, 1, 0].copy(), seg[:, 1, 1].copy()
         self.seg_start = np.searchsorted(seg_region[order], np.arange(r + 1))
 
 
@@ -347,6 +428,25 @@ def _matched(region, a, b, ok, k) -> np.ndarray:
     return ok & (count(key) == 1) & (count(rkey) == 1)
 
 
+def _planes(tri: np.ndarray, cross: np.ndarray, region: np.ndarray):
+    """Each region's plane: unit ``normal`` (r, 3) (area-weighted), ``offset`` (r,) metres
+    halfway between the extreme corners (the smallest slack for that normal) and ``slack`` (r,)
+    metres, the largest distance of the region's corners to the plane."""
+    r = int(region.max()) + 1 if len(region) else 0
+    normal = np.zeros((r, 3))
+    np.add.at(normal, region, cross)
+    length = np.linalg.norm(normal, axis=1)
+    good = length > 0
+    normal[good] /= length[good, None]
+    normal[~good] = (0.0, 0.0, 1.0)
+    heights = np.einsum("mkj,mj->mk", tri, normal[region])
+    high = np.full(r, -np.inf)
+    low = np.full(r, np.inf)
+    np.maximum.at(high, region, heights.max(axis=1))
+    np.minimum.at(low, region, heights.min(axis=1))
+    return normal, 0.5 * (high + low), 0.5 * (high - low)
+
+
 def split4(tri: np.ndarray) -> np.ndarray:
     """(4n, 3, 3): each triangle (n, 3, 3) split at its edge midpoints (children of triangle i
     are rows 4i..4i+3)."""
@@ -363,9 +463,10 @@ def split4(tri: np.ndarray) -> np.ndarray:
     ).reshape(-1, 3, 3)
 
 
-def _single_triangle_bound(tri: np.ndarray, target: Surface) -> np.ndarray:
+def _single_triangle_bound(tri: np.ndarray, target: Surface, nearest: np.ndarray) -> np.ndarray:
     """Step 1: (n,) metres ``min_t max_v d(v, t)`` over candidate triangles t of ``target`` (the
-    owners of the nearest probes of the vertices and centroid)."""
+    owners of the nearest probes of the vertices and centroid, and the face ``nearest`` (n,) to
+    the centroid)."""
     from .quality import point_triangle_distance
 
     index = target.index
@@ -373,8 +474,10 @@ def _single_triangle_bound(tri: np.ndarray, target: Surface) -> np.ndarray:
     n = len(tri)
     points = np.concatenate([tri, tri.mean(axis=1, keepdims=True)], axis=1)  # (n, 4, 3)
     k = min(CANDIDATES, index.tree.n)
-    _, nearest = index.tree.query(points.reshape(-1, 3), k=k)
-    owners = np.sort(index.owner[nearest.reshape(n, -1)], axis=1)  # (n, 4k)
+    _, probes = index.tree.query(points.reshape(-1, 3), k=k)
+    owners = np.sort(
+        np.column_stack([index.owner[probes.reshape(n, -1)], nearest]), axis=1
+    )  # (n, 4k + 1)
     fresh = np.ones(owners.shape, dtype=bool)
     fresh[:, 1:] = owners[:, 1:] != owners[:, :-1]
     row = np.repeat(np.arange(n), fresh.sum(axis=1))
@@ -385,76 +488,168 @@ def _single_triangle_bound(tri: np.ndarray, target: Surface) -> np.ndarray:
     return np.minimum.reduceat(d.max(axis=1), starts)
 
 
-def _planar_bound(tri: np.ndarray, target: Surface, row: np.ndarray, cand: np.ndarray, cap):
-    """Step 2: (n,) the in-plane bound of each triangle over the regions of its candidate
-    triangles (``row``, ``cand`` pairs), inf where no region contains it; only pairs whose plane
-    distance stays below ``cap`` (n,) metres are tested."""
+def _planar_bound(tri: np.ndarray, target: Surface, row: np.ndarray, face: np.ndarray, cap):
+    """Step 2: (n,) metres the in-plane bound of each triangle (n, 3, 3) over the regions of its
+    candidate faces of ``target`` (``row``, ``face`` pairs: faces near its centroid), inf where
+    none holds. A pair counts only if the centroid projected on the region's plane lies in the
+    face (a point of the shrunk triangle in the region, see the module doc) and, with ``cap``
+    (metres), the plane bound stays below it."""
     reg = target.regions
     n = len(tri)
     bound = np.full(n, np.inf)
+    region = reg.region[face]
+    keep = reg.slack[region] <= PLANE_SLACK_MAX
+    row, face, region = row[keep], face[keep], region[keep]
     if len(row) == 0:
         return bound
-    region = reg.region[cand]
-    pair = np.unique(row * (len(reg.normal) + 1) + region)
-    row, region = pair // (len(reg.normal) + 1), pair % (len(reg.normal) + 1)
-    normal = reg.normal[region]
-    height = np.abs(np.einsum("pkj,pj->pk", tri[row], normal) - reg.offset[region, None]).max(
-        axis=1
-    )
-    keep = reg.slack[region] <= PLANE_SLACK_MAX
+    u, v, normal = reg.u[region], reg.v[region], reg.normal[region]
+    t = tri[row]
+    # (p, 3) in-plane coordinates and heights of the corners, metres
+    tx = _dot3(t, u[:, None])
+    ty = _dot3(t, v[:, None])
+    height = np.abs(_dot3(t, normal[:, None]) - reg.offset[region, None])
+    height = np.maximum(np.maximum(height[:, 0], height[:, 1]), height[:, 2])
+    cx, cy = tx.sum(1) / 3.0, ty.sum(1) / 3.0
+    keep = _inside_face(cx, cy, reg.tri2[face])
     if cap is not None:
         keep &= height + reg.slack[region] < cap[row]
-    row, region, height = row[keep], region[keep], height[keep]
-    if len(row) == 0:
+    if not keep.any():
         return bound
-    t = tri[row]
-    t2 = np.stack(
-        [
-            np.einsum("pkj,pj->pk", t, reg.u[region]),
-            np.einsum("pkj,pj->pk", t, reg.v[region]),
-        ],
-        axis=-1,
-    )  # (p, 3, 2) metres in the plane
-    p0, p1, p2 = t2[:, 0], t2[:, 1], t2[:, 2]
-    la = np.hypot(*(p2 - p1).T)  # side lengths opposite each vertex
-    lb = np.hypot(*(p0 - p2).T)
-    lc = np.hypot(*(p1 - p0).T)
+    # One test per (triangle, region).
+    key = row[keep] * (len(reg.normal) + 1) + region[keep]
+    _, first = np.unique(key, return_index=True)
+    pick = np.flatnonzero(keep)[first]
+    row, region, height, tx, ty = row[pick], region[pick], height[pick], tx[pick], ty[pick]
+    la = np.hypot(tx[:, 2] - tx[:, 1], ty[:, 2] - ty[:, 1])  # side opposite each corner
+    lb = np.hypot(tx[:, 0] - tx[:, 2], ty[:, 0] - ty[:, 2])
+    lc = np.hypot(tx[:, 1] - tx[:, 0], ty[:, 1] - ty[:, 0])
     perimeter = la + lb + lc
     area2 = np.abs(
-        (p1[:, 0] - p0[:, 0]) * (p2[:, 1] - p0[:, 1])
-        - (p1[:, 1] - p0[:, 1]) * (p2[:, 0] - p0[:, 0])
+        (tx[:, 1] - tx[:, 0]) * (ty[:, 2] - ty[:, 0])
+        - (ty[:, 1] - ty[:, 0]) * (tx[:, 2] - tx[:, 0])
     )
     with np.errstate(divide="ignore", invalid="ignore"):
-        incentre = (la[:, None] * p0 + lb[:, None] * p1 + lc[:, None] * p2) / perimeter[:, None]
+        ix = (la * tx[:, 0] + lb * tx[:, 1] + lc * tx[:, 2]) / perimeter
+        iy = (la * ty[:, 0] + lb * ty[:, 1] + lc * ty[:, 2]) / perimeter
         inradius = area2 / perimeter
-    reach = np.sqrt(((t2 - incentre[:, None]) ** 2).sum(-1)).max(axis=1)
-    # Too thin to shrink safely against rounding (1e-12 of the reach): left to subdivision.
-    fine = np.isfinite(inradius) & (inradius > 1e-9 * (reach + np.abs(t2).max(axis=(1, 2))))
-    row, region, height, t2, incentre, reach = (
-        x[fine] for x in (row, region, height, t2, incentre, reach)
-    )
-    if len(row) == 0:
-        return bound
-    inradius = inradius[fine]
-    # First tight (rounding only), then loose for triangles poking out by float noise.
+    reach = np.sqrt(np.max((tx - ix[:, None]) ** 2 + (ty - iy[:, None]) ** 2, axis=1))
+    size = np.max(np.abs(tx), axis=1) + np.max(np.abs(ty), axis=1) + reach
+    # Too thin to shrink safely against rounding: left to the other bounds.
+    fine = np.isfinite(inradius) & (inradius > 1e-9 * size)
+    inradius = np.where(fine, inradius, 1.0)
     value = np.full(len(row), np.inf)
-    for loose in (0.0, *LOOSE):
+    # First shrunk about the incentre by rounding only; then, for triangles crossed by boundary
+    # edges (float noise: a level edge along a region's outline), each side moved in by what
+    # the crossing edges need of it.
+    todo = np.flatnonzero(fine)
+    ratio = np.full(len(todo), SHRINK)
+    sx = ix[todo, None] + (tx[todo] - ix[todo, None]) * (1.0 - SHRINK)
+    sy = iy[todo, None] + (ty[todo] - iy[todo, None]) * (1.0 - SHRINK)
+    owner, seg = _boundary_crosses(sx, sy, region[todo], reg, pairs=True)
+    inside = np.ones(len(todo), bool)
+    inside[owner] = False
+    rho = 2.0 * ratio * reach[todo] + reg.gap[region[todo]]
+    value[todo[inside]] = (np.sqrt(height[todo] ** 2 + rho**2) + reg.slack[region[todo]])[inside]
+    if len(owner):
+        retry = np.unique(owner)
+        moved = _sides_in(tx[todo], ty[todo], inradius[todo], owner, seg, reg, retry)
+        if moved is not None:
+            pick, mx, my, shift = moved
+            crossed = _boundary_crosses(mx, my, region[todo[pick]], reg)
+            ok = ~crossed
+            which = todo[pick[ok]]
+            rho = 2.0 * shift[ok] + reg.gap[region[which]]
+            value[which] = np.sqrt(height[which] ** 2 + rho**2) + reg.slack[region[which]]
+    # Last tries: shrunk about the incentre by a share of the target's diagonal.
+    for loose in LOOSE:
         delta = np.maximum(SHRINK * inradius, loose * reg.scale)
-        todo = np.flatnonzero(~np.isfinite(value) & (delta < 0.5 * inradius))
+        todo = np.flatnonzero(fine & ~np.isfinite(value) & (delta < 0.5 * inradius))
         if len(todo) == 0:
             break
-        ratio = (delta / inradius)[todo]
-        c = incentre[todo, None]
-        inner = c + (t2[todo] - c) * (1.0 - ratio[:, None, None])
-        inside = _incentre_inside(incentre[todo], region[todo], reg) & ~_boundary_crosses(
-            inner, region[todo], reg
-        )
+        ratio = delta[todo] / inradius[todo]
+        sx = ix[todo, None] + (tx[todo] - ix[todo, None]) * (1.0 - ratio[:, None])
+        sy = iy[todo, None] + (ty[todo] - iy[todo, None]) * (1.0 - ratio[:, None])
+        inside = ~_boundary_crosses(sx, sy, region[todo], reg)
         rho = 2.0 * ratio * reach[todo] + reg.gap[region[todo]]
         value[todo[inside]] = (np.sqrt(height[todo] ** 2 + rho**2) + reg.slack[region[todo]])[
             inside
         ]
     np.minimum.at(bound, row, value)
     return bound
+
+
+def _sides_in(tx, ty, inradius, owner, seg, reg, retry):
+    """Triangles (p, 3) metres with each side moved inwards just past the boundary edges that
+    cross them (``owner``, ``seg`` pairs): every crossing edge is charged to the side it enters
+    least; a side moves by the largest charge (at least ``SHRINK`` x the inradius). Returns the
+    rows ``retry`` kept (the moves stay below a quarter of the inradius), their new corners (q, 3)
+    and each one's largest corner displacement (metres; d(., moved triangle) is convex, so every
+    point of the triangle is that close to it), or None."""
+    # Inward unit normals of the sides i -> i+1 (side i is opposite corner i+2).
+    ex = np.roll(tx, -1, axis=1) - tx
+    ey = np.roll(ty, -1, axis=1) - ty
+    length = np.hypot(ex, ey)
+    orient = np.sign(
+        (tx[:, 1] - tx[:, 0]) * (ty[:, 2] - ty[:, 0])
+        - (ty[:, 1] - ty[:, 0]) * (tx[:, 2] - tx[:, 0])
+    )
+    nx, ny = -ey / length * orient[:, None], ex / length * orient[:, None]
+    x0, y0 = reg.seg_x0[seg], reg.seg_y0[seg]
+    x1, y1 = reg.seg_x1[seg], reg.seg_y1[seg]
+    depth = np.maximum(
+        (x0[:, None] - tx[owner]) * nx[owner] + (y0[:, None] - ty[owner]) * ny[owner],
+        (x1[:, None] - tx[owner]) * nx[owner] + (y1[:, None] - ty[owner]) * ny[owner],
+    )  # (q, 3): how far each crossing edge enters past each side
+    side = np.argmin(depth, axis=1)
+    need = np.zeros(tx.shape)
+    np.maximum.at(need, (owner, side), depth[np.arange(len(owner)), side])
+    need = need[retry]
+    r = inradius[retry]
+    size = np.abs(tx[retry]).max(axis=1) + np.abs(ty[retry]).max(axis=1)
+    delta = np.maximum(need * (1 + 1e-6) + 1e-12 * size[:, None], SHRINK * r[:, None])
+    keep = (delta < 0.25 * r[:, None]).all(axis=1)
+    if not keep.any():
+        return None
+    retry, delta = retry[keep], delta[keep]
+    px, py = tx[retry], ty[retry]
+    nxr, nyr = nx[retry], ny[retry]
+    # Corner i lies on sides i-1 and i: solve n . x = n . p + delta for both moved sides.
+    a1x, a1y = np.roll(nxr, 1, axis=1), np.roll(nyr, 1, axis=1)
+    c1 = a1x * np.roll(px, 1, axis=1) + a1y * np.roll(py, 1, axis=1) + np.roll(delta, 1, axis=1)
+    c2 = nxr * px + nyr * py + delta
+    det = a1x * nyr - a1y * nxr
+    mx = (c1 * nyr - a1y * c2) / det
+    my = (a1x * c2 - c1 * nxr) / det
+    shift = np.sqrt((mx - px) ** 2 + (my - py) ** 2).max(axis=1)
+    good = np.isfinite(shift)
+    return retry[good], mx[good], my[good], shift[good]
+
+
+def _dot3(points: np.ndarray, axis: np.ndarray) -> np.ndarray:
+    """``(points * axis).sum(-1)`` for (..., 3) arrays, written out."""
+    return (
+        points[..., 0] * axis[..., 0]
+        + points[..., 1] * axis[..., 1]
+        + points[..., 2] * axis[..., 2]
+    )
+
+
+def _inside_face(x: np.ndarray, y: np.ndarray, tri2: np.ndarray) -> np.ndarray:
+    """(p,) bool: the point (x, y) lies in the 2-D triangle (p, 3, 2) (closed, with a 1e-9
+    relative margin: a point wrongly inside lies that close to an edge of the face; if that edge
+    bounds the region, the boundary test sees it cross the shrunk triangle)."""
+    pos = np.ones(len(x), bool)
+    neg = np.ones(len(x), bool)
+    for i, j in ((0, 1), (1, 2), (2, 0)):
+        ex, ey = tri2[:, j, 0] - tri2[:, i, 0], tri2[:, j, 1] - tri2[:, i, 1]
+        wx, wy = x - tri2[:, i, 0], y - tri2[:, i, 1]
+        side = ex * wy - ey * wx
+        margin = (
+            1e-9 * (np.abs(ex) + np.abs(ey)) * (np.abs(wx) + np.abs(wy) + np.abs(ex) + np.abs(ey))
+        )
+        pos &= side >= -margin
+        neg &= side <= margin
+    return pos | neg
 
 
 def _ranges(starts: np.ndarray, counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -464,43 +659,42 @@ def _ranges(starts: np.ndarray, counts: np.ndarray) -> tuple[np.ndarray, np.ndar
     return owner, starts[owner] + item
 
 
-def _incentre_inside(point: np.ndarray, region: np.ndarray, reg: _Regions) -> np.ndarray:
-    """(p,) bool: the point (p, 2) lies in one of its region's projected faces (closed, with a
-    1e-9 relative margin: a point wrongly inside is caught by the boundary test, see the doc)."""
-    counts = reg.face_start[region + 1] - reg.face_start[region]
-    owner, item = _ranges(reg.face_start[region], counts)
-    t = reg.tri2[reg.face_order[item]]
-    q = point[owner]
-    pos = np.ones(len(owner), bool)
-    neg = np.ones(len(owner), bool)
-    for i, j in ((0, 1), (1, 2), (2, 0)):
-        e = t[:, j] - t[:, i]
-        w = q - t[:, i]
-        side = e[:, 0] * w[:, 1] - e[:, 1] * w[:, 0]
-        margin = 1e-9 * np.abs(e).sum(1) * (np.abs(w).sum(1) + np.abs(e).sum(1))
-        pos &= side >= -margin
-        neg &= side <= margin
-    inside = pos | neg
-    result = np.zeros(len(point), bool)
-    result[owner[inside]] = True
-    return result
-
-
-def _boundary_crosses(tri2: np.ndarray, region: np.ndarray, reg: _Regions) -> np.ndarray:
-    """(p,) bool: a boundary edge of the region meets the open triangle (p, 3, 2) (separating
-    axes: the triangle's three edge normals and the segment's normal)."""
+def _boundary_crosses(
+    tx: np.ndarray, ty: np.ndarray, region: np.ndarray, reg: _Regions, pairs: bool = False
+):
+    """(p,) bool: a boundary edge of the region meets the open triangle with corners (tx, ty)
+    (p, 3) metres (bounding boxes first, then separating axes: the triangle's three edge
+    normals and the segment's normal)."""
     counts = reg.seg_start[region + 1] - reg.seg_start[region]
     owner, item = _ranges(reg.seg_start[region], counts)
-    s = reg.seg[item]  # (q, 2, 2)
-    t = tri2[owner]  # (q, 3, 2)
+    low_x, high_x = np.min(tx, axis=1), np.max(tx, axis=1)
+    low_y, high_y = np.min(ty, axis=1), np.max(ty, axis=1)
+    x0, y0, x1, y1 = reg.seg_x0[item], reg.seg_y0[item], reg.seg_x1[item], reg.seg_y1[item]
+    near = (
+        (np.maximum(x0, x1) > low_x[owner])
+        & (np.minimum(x0, x1) < high_x[owner])
+        & (np.maximum(y0, y1) > low_y[owner])
+        & (np.minimum(y0, y1) < high_y[owner])
+    )
+    owner, item = owner[near], item[near]
+    x0, y0, x1, y1 = x0[near], y0[near], x1[near], y1[near]
+    px, py = tx[owner], ty[owner]  # (q, 3)
     separated = np.zeros(len(owner), bool)
-    axes = [t[:, 1] - t[:, 0], t[:, 2] - t[:, 1], t[:, 0] - t[:, 2], s[:, 1] - s[:, 0]]
-    for axis in axes:
-        normal = np.stack([-axis[:, 1], axis[:, 0]], axis=1)
-        tp = np.einsum("qkj,qj->qk", t, normal)
-        sp = np.einsum("qkj,qj->qk", s, normal)
-        separated |= (sp.max(axis=1) <= tp.min(axis=1)) | (sp.min(axis=1) >= tp.max(axis=1))
-    result = np.zeros(len(tri2), bool)
+    for i, j in ((0, 1), (1, 2), (2, 0), (-1, -1)):
+        if i < 0:
+            nx, ny = y0 - y1, x1 - x0
+        else:
+            nx, ny = py[:, i] - py[:, j], px[:, j] - px[:, i]
+        t0 = px[:, 0] * nx + py[:, 0] * ny
+        t1 = px[:, 1] * nx + py[:, 1] * ny
+        t2 = px[:, 2] * nx + py[:, 2] * ny
+        s0, s1 = x0 * nx + y0 * ny, x1 * nx + y1 * ny
+        separated |= (np.maximum(s0, s1) <= np.minimum(np.minimum(t0, t1), t2)) | (
+            np.minimum(s0, s1) >= np.maximum(np.maximum(t0, t1), t2)
+        )
+    if pairs:
+        return owner[~separated], item[~separated]
+    result = np.zeros(len(tx), bool)
     result[owner[~separated]] = True
     return result
 
@@ -551,32 +745,46 @@ def directed_bounds(
             return tolerance
         return max(lower, floor) * (1 + rtol) + atol
 
-    for depth in range(max_depth + 1):
+    # Best-first refinement: the pending triangles with the largest bounds are split first.
+    depth = np.zeros(len(tri), np.int64)
+    bound = _bound(tri, target, goal()) if len(tri) else np.zeros(0)
+    for _ in range(MAX_ROUNDS):
+        open_ = bound > goal()
+        if (~open_).any():
+            upper_done = max(upper_done, float(bound[~open_].max()))
+            tri, bound, depth = tri[open_], bound[open_], depth[open_]
         if len(tri) == 0:
             break
-        bound = _bound(tri, target, goal())
-        open_ = np.flatnonzero(bound > goal())
-        if len(open_) and tolerance is not None:
-            # Lower bound: exact distances of the open triangles' corners (the farthest first).
-            corners = tri[open_].reshape(-1, 3)
-            upper = index.upper(corners)
-            worst = np.argsort(-upper)[:LOWER_POINTS]
-            worst = worst[upper[worst] > tolerance]
-            if len(worst):
-                lower = max(lower, float(index.refine(corners[worst], upper[worst]).max()))
-            if lower > tolerance:
-                return lower, float(bound.max())
-        done = np.ones(len(tri), bool)
-        done[open_] = False
-        if done.any():
-            upper_done = max(upper_done, float(bound[done].max()))
-        if len(open_) == 0:
+        # Lower bound: exact distances of the corners of the worst open triangles.
+        worst = np.argsort(-bound, kind="stable")[:LOWER_POINTS]
+        corners = tri[worst].reshape(-1, 3)
+        upper = index.upper(corners)
+        far = upper > max(lower, floor if tolerance is None else tolerance)
+        if far.any():
+            lower = max(lower, float(index.refine(corners[far], upper[far]).max()))
+        if tolerance is not None and lower > tolerance:
+            return lower, float(bound.max())
+        if bound.max() <= goal():
+            continue
+        deep = depth >= max_depth
+        if tolerance is not None and deep.any():
+            return lower, float(bound.max())  # cannot be certified within the depth
+        order = np.flatnonzero(~deep)[np.argsort(-bound[~deep], kind="stable")]
+        split, wait = order[: MAX_OPEN // 4], order[MAX_OPEN // 4 :]
+        if len(split) == 0:
             break
-        if depth == max_depth or 4 * len(open_) > MAX_OPEN:
-            # Out of depth or work: the open triangles keep their (valid) bounds.
+        children = split4(tri[split])
+        child_depth = np.repeat(depth[split] + 1, 4)
+        keep = np.concatenate([wait, np.flatnonzero(deep)])
+        tri = np.concatenate([tri[keep], children])
+        depth = np.concatenate([depth[keep], child_depth])
+        bound = np.concatenate([bound[keep], _bound(children, target, goal())])
+    if len(tri):
+        open_ = bound > goal()
+        if open_.any():
             upper_done = max(upper_done, float(bound[open_].max()))
-            break
-        tri = split4(tri[open_])
+        elif len(bound):
+            upper_done = max(upper_done, float(bound.max()))
     return lower, max(lower, upper_done)
 
 
@@ -593,8 +801,11 @@ def _bound(tri: np.ndarray, target: Surface, goal: float) -> np.ndarray:
     faces = index.owner[near.reshape(n, k)]
     bound = _planar_bound(tri, target, np.repeat(np.arange(n), k), faces.reshape(-1), cap=None)
     open_ = np.flatnonzero(bound > goal)
+    extra = None
     if len(open_):
         nearest = _nearest_face(index, centre[open_])
+        extra = np.full(n, -1)
+        extra[open_] = nearest
         fresh = ~(faces[open_] == nearest[:, None]).any(axis=1)
         if fresh.any():
             bound[open_[fresh]] = np.minimum(
@@ -613,7 +824,9 @@ def _bound(tri: np.ndarray, target: Surface, goal: float) -> np.ndarray:
         else:
             open_ = open_[still]
     if len(open_):
-        bound[open_] = np.minimum(bound[open_], _single_triangle_bound(tri[open_], target))
+        bound[open_] = np.minimum(
+            bound[open_], _single_triangle_bound(tri[open_], target, extra[open_])
+        )
     return bound
 
 

@@ -170,8 +170,8 @@ def samplegen_buildings(folder, count):
 
 def test_exact_quality_agrees_with_measure_lod_on_lossless_levels(box, tmp_path):
     """Tolerances of measure_lod on a re-triangulated surface: distances are float rounding (the
-    samplegen walls are float32 .xdo vertices, flat only to ~1e-7 m), so within 1e-6 x diagonal;
-    the conservative raster and the outline length are the same up to rounding."""
+    samplegen walls are float32 .xdo vertices, flat only to ~1e-7 m), certified within 1e-5 x
+    diagonal; the conservative raster and the outline length are the same up to rounding."""
     buildings = [box, crafted_building(2), crafted_building(4)] + samplegen_buildings(
         tmp_path / "tile", 3
     )
@@ -183,7 +183,8 @@ def test_exact_quality_agrees_with_measure_lod_on_lossless_levels(box, tmp_path)
         measured, exact = measure_lod(lod0, level), exact_quality(lod0, level)
         assert set(exact) == KEYS
         assert exact["triangle_ratio"] == measured["triangle_ratio"]
-        assert exact["hausdorff_rel"] == 0.0 and measured["hausdorff_rel"] < 1e-6
+        # Both certified upper bounds (flatness of the polygons): the same function, same value.
+        assert exact["hausdorff_rel"] == measured["hausdorff_rel"] <= 5e-4
         assert exact["silhouette_iou"] == 1.0 and measured["silhouette_iou"] >= 0.999
         assert exact["wall_coverage"] == measured["wall_coverage"] == 1.0
         assert (
@@ -203,7 +204,8 @@ def test_exact_quality_differs_from_measure_lod_on_a_changed_level():
     chain = build_mesh_lods(crafted_building(2), Config().lods, Config().simplify)
     measured, exact = measure_lod(chain[0], chain[2]), exact_quality(chain[0], chain[2])
     assert exact["triangle_ratio"] == measured["triangle_ratio"] < 1.0
-    assert measured["hausdorff_rel"] > 1e-3 > exact["hausdorff_rel"]  # the dome was collapsed
+    # The dome was collapsed: exact_quality's certificate fails and it reports the true bound.
+    assert measured["hausdorff_rel"] == exact["hausdorff_rel"] > 1e-3
     assert measured["silhouette_iou"] < 1.0 == exact["silhouette_iou"]
 
 
@@ -279,7 +281,7 @@ def assert_boundary_quality_is_measure_lods(source, level):
     assert set(bounded) == KEYS
     for key in BOUNDARY_KEYS:
         assert bounded[key] == measured[key] and type(bounded[key]) is type(measured[key])
-    assert bounded["hausdorff_rel"] == 0.0 and measured["hausdorff_rel"] < 1e-6
+    assert bounded["hausdorff_rel"] == measured["hausdorff_rel"] <= 5e-4  # certified, both
     assert bounded["silhouette_iou"] == 1.0 and measured["silhouette_iou"] >= 0.999
     assert bounded["wall_coverage"] == measured["wall_coverage"] == 1.0
     exact = exact_quality(source, level)
