@@ -62,6 +62,7 @@ SAME_PLANE = 1e-6  # ... and this close (x the mesh's diagonal, slack included) 
 STRAIGHT = 1.0 - 1e-10  # edges whose directions have a cosine below -this continue each other
 # Last containment tries: the triangle shrunk about its incentre by these x the target's diagonal.
 LOOSE = (3e-7, 3e-6, 1e-5)
+TRUSTED = 1e-6  # faces flatter than this (altitude / longest edge) give no single-face bound
 T_JUNCTION = 1e-6  # a vertex this close to an edge (share of its length) splits it
 
 __all__ = ["Surface", "hausdorff_bounds", "directed_bounds", "exceeds", "split4"]
@@ -70,16 +71,21 @@ __all__ = ["Surface", "hausdorff_bounds", "directed_bounds", "exceeds", "split4"
 class Surface:
     """One side prepared for bounds: welded positions (k, 3) metres, faces (m, 3), its exact
     point-distance index, its planar regions (planes, slack, projected triangles and boundary
-    edges) and its triangles' vertex keys (for "this triangle is one of mine")."""
+    edges) and straight edge chains, each made when first needed. ``reference``: prepared once
+    and used often (the thorough preparation) rather than per call."""
 
-    def __init__(self, positions: np.ndarray, faces: np.ndarray) -> None:
+    def __init__(self, positions: np.ndarray, faces: np.ndarray, reference: bool = True) -> None:
         positions = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
         faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
         self.positions, self.faces = positions, faces
+        # A reference (prepared once, used many times) gets the thorough preparation: straight
+        # outline runs merged, 2 probe samples per face; a level (prepared per call) the quick one.
+        self.reference = reference
         self.tri = positions[faces]  # (m, 3, 3) metres
         self._index: SurfaceIndex | None = None
         self._regions: _Regions | None = None
         self._chains: _Chains | None = None
+        self._trusted: np.ndarray | None = None
 
     @property
     def empty(self) -> bool:
@@ -88,8 +94,20 @@ class Surface:
     @property
     def index(self) -> SurfaceIndex:
         if self._index is None:
-            self._index = SurfaceIndex(self.positions, self.faces)
+            self._index = SurfaceIndex(self.positions, self.faces, 2 if self.reference else 0)
         return self._index
+
+    @property
+    def trusted(self) -> np.ndarray:
+        """(m,) bool: faces whose point distances keep their digits (smallest altitude at least
+        ``TRUSTED`` x the longest edge)."""
+        if self._trusted is None:
+            t = self.tri
+            cross = cross_rows(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+            area2 = np.sqrt((cross**2).sum(1))
+            longest = np.sqrt(((t - t[:, [1, 2, 0]]) ** 2).sum(-1)).max(axis=1)
+            self._trusted = area2 >= TRUSTED * longest**2
+        return self._trusted
 
     @property
     def chains(self) -> _Chains:
@@ -100,7 +118,7 @@ class Surface:
     @property
     def regions(self) -> _Regions:
         if self._regions is None:
-            self._regions = _Regions(self.positions, self.faces)
+            self._regions = _Regions(self.positions, self.faces, self.reference)
         return self._regions
 
 
@@ -114,9 +132,10 @@ class _Regions:
     metres the boundary edges of each region projected (CSR); ``face_start`` (r + 1,) and
     ``face_order`` (m,) the faces of each region (CSR)."""
 
-    def __init__(self, positions: np.ndarray, faces: np.ndarray) -> None:
+    def __init__(self, positions: np.ndarray, faces: np.ndarray, straighten: bool = True) -> None:
         from .simplify.protect import planar_regions
 
+        self.straighten = straighten
         m = len(faces)
         region = planar_regions(positions, faces) if m else np.zeros(0, np.int64)
         tri = positions[faces]
@@ -245,13 +264,20 @@ class _Regions:
         )
 
     def _straighten(self, seg_region, seg, ends, oriented):
+        if not self.straighten:
+            return seg_region, seg
+        return self._straight_runs(seg_region, seg, ends, oriented)
+
+    def _straight_runs(self, seg_region, seg, ends, oriented):
         """Boundary runs a -> b -> ... -> c whose inner vertices lie within ``T_JUNCTION`` x |ac|
-        of the chord ac become the one segment ac (the planar stage drops such straight outline
-        vertices, and a level's edge ac would otherwise poke out of the region by float noise).
-        A vertex bulging outwards (right of a -> c, the region on the left) cuts a sliver off the
-        region (the new region is inside the old); one bulging inwards adds a sliver, whose
-        height goes into the region's ``gap``. Only runs through vertices with one boundary edge
-        in and one out, on faces that keep their orientation."""
+        of the chord ac, on the region's side of it (left of a -> c), become the one segment ac
+        (the planar stage drops such straight outline vertices, and a level's edge ac would
+        otherwise be crossed by a -> b -> c through float noise). The region grows by slivers
+        whose height goes into its ``gap`` (every point of the new region is that close to the
+        old one). A vertex off to the outside is never crossed by a triangle inside the region,
+        so it is left (1e-9 x |ac| of rounding allowed, counted in ``gap`` too). Only runs
+        through vertices with one boundary edge in and one out, on faces that keep their
+        orientation."""
         if len(seg) < 2:
             return seg_region, seg
         outgoing, incoming = {}, {}
@@ -297,7 +323,9 @@ class _Regions:
                     else 1e300
                     for q in inner + [end]
                 ]
-                if max(abs(o) for o in offsets) > T_JUNCTION * length:
+                # Inward (left, the region's side) only: the new region then contains the old
+                # one, and is within the largest offset of it.
+                if max(offsets) > T_JUNCTION * length or min(offsets) < -1e-9 * length:
                     break
                 inner.append(end)
                 end = candidate
@@ -306,11 +334,10 @@ class _Regions:
             if inner:
                 cx, cy = end[0] - start[0], end[1] - start[1]
                 length = (cx * cx + cy * cy) ** 0.5
-                inward = max(
-                    (cx * (q[1] - start[1]) - cy * (q[0] - start[0])) / length for q in inner
+                offset = max(
+                    abs(cx * (q[1] - start[1]) - cy * (q[0] - start[0])) / length for q in inner
                 )
-                if inward > 0:
-                    self.gap[g] = max(self.gap[g], inward)
+                self.gap[g] = max(self.gap[g], offset)
             merged_region.append(g)
             merged.append([start, end])
         return np.array(merged_region, np.int64), np.array(merged, np.float64).reshape(-1, 2, 2)
@@ -482,8 +509,10 @@ def _single_triangle_bound(tri: np.ndarray, target: Surface, nearest: np.ndarray
     fresh[:, 1:] = owners[:, 1:] != owners[:, :-1]
     row = np.repeat(np.arange(n), fresh.sum(axis=1))
     cand = owners[fresh]
-    # (pairs, 3): each vertex's distance to the candidate triangle
+    # (pairs, 3): each vertex's distance to the candidate triangle; slivers, whose distances
+    # lose digits (Ericson's barycentric products cancel), are no candidates.
     d = point_triangle_distance(tri[row], index.tri[cand][:, None])
+    d[~target.trusted[cand]] = np.inf
     starts = np.concatenate([[0], np.cumsum(fresh.sum(axis=1))[:-1]])
     return np.minimum.reduceat(d.max(axis=1), starts)
 
@@ -852,7 +881,7 @@ def _nearest_face(index: SurfaceIndex, points: np.ndarray) -> np.ndarray:
 
 
 def _prepare(side) -> Surface:
-    return side if isinstance(side, Surface) else Surface(*side)
+    return side if isinstance(side, Surface) else Surface(*side, reference=False)
 
 
 def hausdorff_bounds(

@@ -203,15 +203,15 @@ class SurfaceIndex:
     """A triangle mesh prepared for exact point-to-surface distances (see :func:`distance_to_surface`).
 
     Holds the triangles (m, 3, 3) metres, their centres and bounding radii, and a
-    ``scipy.spatial.cKDTree`` of probes (corners, centroids and 2m area-weighted samples, fixed
-    seed) labelled with their triangle.
+    ``scipy.spatial.cKDTree`` of probes (corners, centroids and ``samples_per_face`` x m
+    area-weighted samples, fixed seed) labelled with their triangle.
     """
 
-    def __init__(self, positions: np.ndarray, faces: np.ndarray) -> None:
+    def __init__(self, positions: np.ndarray, faces: np.ndarray, samples_per_face: int = 2) -> None:
         self.tri = positions[faces]
         m = len(faces)
         samples, sample_faces = sample_surface(
-            positions, faces, 2 * m, np.random.default_rng(SEED), with_faces=True
+            positions, faces, samples_per_face * m, np.random.default_rng(SEED), with_faces=True
         )
         self.centres = self.tri.mean(axis=1)
         self.radii = np.sqrt(((self.tri - self.centres[:, None]) ** 2).sum(-1).max(axis=1))
