@@ -263,12 +263,16 @@ class _Regions:
             r,
         )
 
-    def _straighten(self, seg_region, seg, ends, oriented):
+    def _straighten(
+        self, seg_region: np.ndarray, seg: np.ndarray, ends: np.ndarray, oriented: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
         if not self.straighten:
             return seg_region, seg
         return self._straight_runs(seg_region, seg, ends, oriented)
 
-    def _straight_runs(self, seg_region, seg, ends, oriented):
+    def _straight_runs(
+        self, seg_region: np.ndarray, seg: np.ndarray, ends: np.ndarray, oriented: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Boundary runs a -> b -> ... -> c whose inner vertices lie within ``T_JUNCTION`` x |ac|
         of the chord ac, on the region's side of it (left of a -> c), become the one segment ac
         (the planar stage drops such straight outline vertices, and a level's edge ac would
@@ -280,7 +284,8 @@ class _Regions:
         orientation."""
         if len(seg) < 2:
             return seg_region, seg
-        outgoing, incoming = {}, {}
+        outgoing: dict[tuple[int, int], list[int]] = {}
+        incoming: dict[tuple[int, int], list[int]] = {}
         for i, (g, (va, vb), ok) in enumerate(
             zip(seg_region.tolist(), ends.tolist(), oriented.tolist())
         ):
@@ -308,7 +313,7 @@ class _Regions:
                 merged.append(points[i])
                 continue
             start, end = points[i][0], points[i][1]
-            inner = []
+            inner: list[list[float]] = []
             j = i
             while True:
                 nxt = through(g, int(ends[j, 1]))
@@ -853,6 +858,7 @@ def _bound(tri: np.ndarray, target: Surface, goal: float) -> np.ndarray:
         else:
             open_ = open_[still]
     if len(open_):
+        assert extra is not None  # set whenever a triangle stayed open
         bound[open_] = np.minimum(
             bound[open_], _single_triangle_bound(tri[open_], target, extra[open_])
         )
@@ -881,7 +887,7 @@ def _nearest_face(index: SurfaceIndex, points: np.ndarray) -> np.ndarray:
 
 
 def _prepare(side) -> Surface:
-    return side if isinstance(side, Surface) else Surface(*side, reference=False)
+    return side if isinstance(side, Surface) else Surface(side[0], side[1], reference=False)
 
 
 def hausdorff_bounds(
