@@ -44,8 +44,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import quality as _quality
 from .geometry import cross_rows, unique_float_rows
-from .quality import SurfaceIndex
 
 MAX_DEPTH = 7  # 4-splits per triangle at most (edges down to 1/128 of the triangle's)
 MAX_OPEN = 4096  # sub-triangles bounded per round at most (the worst split first)
@@ -82,7 +82,7 @@ class Surface:
         # outline runs merged, 2 probe samples per face; a level (prepared per call) the quick one.
         self.reference = reference
         self.tri = positions[faces]  # (m, 3, 3) metres
-        self._index: SurfaceIndex | None = None
+        self._index: _quality.SurfaceIndex | None = None
         self._regions: _Regions | None = None
         self._chains: _Chains | None = None
         self._trusted: np.ndarray | None = None
@@ -92,9 +92,11 @@ class Surface:
         return len(self.faces) == 0
 
     @property
-    def index(self) -> SurfaceIndex:
+    def index(self) -> _quality.SurfaceIndex:
         if self._index is None:
-            self._index = SurfaceIndex(self.positions, self.faces, 2 if self.reference else 0)
+            self._index = _quality.SurfaceIndex(
+                self.positions, self.faces, 2 if self.reference else 0
+            )
         return self._index
 
     @property
@@ -499,8 +501,6 @@ def _single_triangle_bound(tri: np.ndarray, target: Surface, nearest: np.ndarray
     """Step 1: (n,) metres ``min_t max_v d(v, t)`` over candidate triangles t of ``target`` (the
     owners of the nearest probes of the vertices and centroid, and the face ``nearest`` (n,) to
     the centroid)."""
-    from .quality import point_triangle_distance
-
     index = target.index
     assert index.tree is not None  # callers check for an empty surface first
     n = len(tri)
@@ -516,7 +516,7 @@ def _single_triangle_bound(tri: np.ndarray, target: Surface, nearest: np.ndarray
     cand = owners[fresh]
     # (pairs, 3): each vertex's distance to the candidate triangle; slivers, whose distances
     # lose digits (Ericson's barycentric products cancel), are no candidates.
-    d = point_triangle_distance(tri[row], index.tri[cand][:, None])
+    d = _quality.point_triangle_distance(tri[row], index.tri[cand][:, None])
     d[~target.trusted[cand]] = np.inf
     starts = np.concatenate([[0], np.cumsum(fresh.sum(axis=1))[:-1]])
     return np.minimum.reduceat(d.max(axis=1), starts)
@@ -865,11 +865,9 @@ def _bound(tri: np.ndarray, target: Surface, goal: float) -> np.ndarray:
     return bound
 
 
-def _nearest_face(index: SurfaceIndex, points: np.ndarray) -> np.ndarray:
+def _nearest_face(index: _quality.SurfaceIndex, points: np.ndarray) -> np.ndarray:
     """(p,) int64: a face of ``index`` at the least distance from each point (p, 3) metres (the
     faces whose bounding sphere comes within the probes' upper bound are all checked)."""
-    from .quality import point_triangle_distance
-
     upper = index.upper(points)
     squared = (points[:, 0, None] - index.centres[None, :, 0]) ** 2
     squared += (points[:, 1, None] - index.centres[None, :, 1]) ** 2
@@ -877,7 +875,7 @@ def _nearest_face(index: SurfaceIndex, points: np.ndarray) -> np.ndarray:
     rows, cols = np.nonzero(
         np.sqrt(squared) - index.radii[None] <= upper[:, None] * (1 + 1e-9) + 1e-12
     )
-    distance = point_triangle_distance(points[rows], index.tri[cols])
+    distance = _quality.point_triangle_distance(points[rows], index.tri[cols])
     order = np.lexsort((distance, rows))
     first = np.ones(len(order), bool)
     first[1:] = rows[order][1:] != rows[order][:-1]

@@ -67,6 +67,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from . import hausdorff
 from .geometry import cross_rows, unique_float_rows
 from .model import Part
 
@@ -594,8 +595,6 @@ _SURFACES: OrderedDict[bytes, tuple] = OrderedDict()
 def _source_surface(parts: list[Part]):
     """The source as a :class:`exporter.hausdorff.Surface` and its diagonal (metres), cached
     like the source side (one per building, shared by its levels)."""
-    from . import hausdorff
-
     key = _source_key(parts)
     if key in _SURFACES:
         _SURFACES.move_to_end(key)
@@ -611,8 +610,6 @@ def certified_hausdorff_rel(source_parts: list[Part], lod_parts: list[Part]) -> 
     ``HAUSDORFF_RTOL`` of the lower bound or below ``HAUSDORFF_ATOL`` (then its value is what the
     refinement reached; :func:`exporter.hausdorff.hausdorff_bounds`); inf for an empty level,
     0 for an empty source and level."""
-    from . import hausdorff
-
     if not any(p.triangle_count for p in source_parts):
         return 0.0 if not any(p.triangle_count for p in lod_parts) else float("inf")
     surface, diagonal = _source_surface(source_parts)
