@@ -204,7 +204,7 @@ class SimplifyOptions:
         default=0.005,
         metadata=meta(
             _number(0.0, maximum=1.0),
-            "largest allowed deviation of a level from LOD0 (symmetric sampled Hausdorff distance) as a share of the building's bounding-box diagonal; a level that would exceed it keeps more triangles (0 = no limit)",
+            "largest allowed deviation of a level from LOD0 (symmetric Hausdorff distance, certified from above) as a share of the building's bounding-box diagonal; a level that would exceed it keeps more triangles (0 = no limit)",
         ),
     )
     protect_walls: bool = field(

@@ -11,9 +11,10 @@ gives the same keys without measuring, for a level known to be a lossless re-tri
 measures only the boundary keys):
 
 - ``triangle_ratio``: level triangles / source triangles.
-- ``hausdorff_rel``: symmetric Hausdorff distance / diagonal, measured from every vertex plus a
-  fixed number of area-weighted surface samples (seeded) of each side to the other side's
-  surface (exact point-to-triangle distances).
+- ``hausdorff_rel``: symmetric Hausdorff distance / diagonal, a certified upper bound
+  (:mod:`exporter.hausdorff`: never below the true value, within ``HAUSDORFF_RTOL`` of a certified
+  lower bound or below ``HAUSDORFF_ATOL``), also for the levels :func:`exact_quality` and
+  :func:`boundary_quality` report (a re-triangulated polygon is flat only to rounding).
 - ``silhouette_iou``: minimum over the orthographic views from the top and the four sides of the
   IoU of the two silhouettes rasterised at ``RESOLUTION`` pixels on the source's box (an
   orthographic silhouette seen from the back is the mirror of the front, so three rasters
@@ -625,11 +626,11 @@ def boundary_quality(source_parts: list[Part], lod_parts: list[Part]) -> dict:
 
     The lossless planar pass can close a zero-width slit or T-junction of the source: the
     surface stays the same, part of the open boundary becomes shared edges. The surface keys are
-    then identity's (``hausdorff_rel`` 0, ``silhouette_iou`` and ``wall_coverage`` 1, as in
+    then identity's (``silhouette_iou`` and ``wall_coverage`` 1, as in
     :func:`exact_quality`); ``triangle_ratio``, ``boundary_length_change`` and ``new_holes`` are
-    computed as measure_lod computes them (the same values bit for bit). Cost: the two welds and
-    open-boundary passes only (the source's cached). The caller vouches that the surface is
-    unchanged (not checked).
+    computed as measure_lod computes them (the same values bit for bit), ``hausdorff_rel`` is
+    measure_lod's certified bound (the re-triangulated polygons are flat only to rounding). The
+    caller vouches that the surface is unchanged (not checked).
     """
     if sum(p.triangle_count for p in source_parts) == 0:
         return measure_lod(source_parts, lod_parts)
@@ -655,13 +656,14 @@ def exact_quality(source_parts: list[Part], lod_parts: list[Part]) -> dict:
 
     For a lossless level (the source re-triangulated: same surface, same outline, same UV
     mapping, e.g. ``planar_retriangulation`` meeting the target) the geometric metrics follow
-    from "same surface": ``hausdorff_rel`` 0, ``silhouette_iou`` and ``wall_coverage`` 1,
+    from "same surface": ``silhouette_iou`` and ``wall_coverage`` 1,
     ``boundary_length_change`` 0, ``new_holes`` 0. Only ``triangle_ratio`` depends on the
-    triangulation and is computed as measure_lod does. No sampling or rasterising: the caller
-    vouches for exactness (this function does not check it). measure_lod on such a level agrees
-    up to the flatness of the source's polygons: hausdorff_rel <= 3e-8 on generated VWorld-like
-    tiles (float32 vertices), <= 1.1e-5 on real Zürich LoD2 roofs; every other metric within
-    2e-13 (levels the simplifier reports exact; see tests/test_quality.py).
+    triangulation and is computed as measure_lod does; ``hausdorff_rel`` is measure_lod's
+    certified bound (the source's polygons are flat only to rounding: true values ~3e-8 on
+    generated VWorld-like tiles, float32 vertices, up to 1.1e-5 on real Zürich LoD2 roofs; the
+    bound is typically <= 1e-5, up to ~1e-4 with slivers). No rasterising: the caller vouches for
+    exactness (this function does not check it); every other metric agrees with measure_lod's
+    within 2e-13 (see tests/test_quality.py).
     """
     source_tris = sum(p.triangle_count for p in source_parts)
     lod_tris = sum(p.triangle_count for p in lod_parts)
