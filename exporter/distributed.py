@@ -53,8 +53,6 @@ IN_FLIGHT_PER_WORKER = 2
 WORKER_WAIT_S = 60.0
 # Seconds to keep trying to reach the scheduler (dask's own default, 30 s, is long for a typo).
 CONNECT_TIMEOUT_S = 10.0
-# Seconds to keep trying to reach the scheduler (dask's own default, 30 s, is long for a typo).
-CONNECT_TIMEOUT_S = 10.0
 
 # Distributions whose version must be the same on the client, the scheduler (for the first three)
 # and every worker: the Dask stack, then everything the per-building work uses.
