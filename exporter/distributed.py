@@ -83,8 +83,8 @@ class ClusterOptions:
 
     address: str
     batch_size: int = BATCH_SIZE
-    worker_wait_s: float = WORKER_WAIT_S
-    connect_timeout_s: float = CONNECT_TIMEOUT_S
+    worker_wait_s: float | None = None  # None: WORKER_WAIT_S
+    connect_timeout_s: float | None = None  # None: CONNECT_TIMEOUT_S
     local_workers: int | None = None
 
 
@@ -281,19 +281,22 @@ def cluster_session(options: ClusterOptions, folders: list[str], out_dir: str, n
             client = distributed.Client(cluster)
         else:
             try:
-                client = distributed.Client(options.address, timeout=options.connect_timeout_s)
+                client = distributed.Client(
+                    options.address, timeout=options.connect_timeout_s or CONNECT_TIMEOUT_S
+                )
             except (OSError, TimeoutError, ValueError) as error:
                 raise ClusterError(
                     f"cannot reach the Dask scheduler {options.address}: {_one_line(error)}"
                 ) from None
         if client.dashboard_link:
             notify(f"dask dashboard: {client.dashboard_link}")
+        wait_s = options.worker_wait_s or WORKER_WAIT_S
         try:
-            client.wait_for_workers(1, timeout=options.worker_wait_s)
+            client.wait_for_workers(1, timeout=wait_s)
         except (TimeoutError, distributed.TimeoutError):
             raise ClusterError(
-                f"the Dask scheduler {options.address} has no workers "
-                f"(waited {options.worker_wait_s:g} s); start some with `dask worker {options.address}`"
+                f"the Dask scheduler {options.address} has no workers (waited {wait_s:g} s); "
+                f"start some with `dask worker {options.address}`"
             ) from None
         check_versions(client)
         client.register_plugin(_worker_setup_plugin())
