@@ -25,6 +25,7 @@ as_completed, get_versions, resilience).
 from __future__ import annotations
 
 import hashlib
+import logging
 import math
 import os
 import platform
@@ -269,6 +270,12 @@ def cluster_session(options: ClusterOptions, folders: list[str], out_dir: str, n
     notify = notify or (lambda text: None)
     cluster = None
     client = None
+    # Dask's client logs its reconnection attempts with tracebacks; the run reports what happened
+    # in one line instead (the scheduler's and workers' own logs keep the details).
+    loggers = [logging.getLogger(name) for name in _dask_logger_names()]
+    levels = [logger.level for logger in loggers]
+    for logger in loggers:
+        logger.setLevel(logging.CRITICAL)
     try:
         if options.address == "local":
             cluster = distributed.LocalCluster(
@@ -303,10 +310,19 @@ def cluster_session(options: ClusterOptions, folders: list[str], out_dir: str, n
         check_storage(client, folders, out_dir)
         yield client
     finally:
-        if client is not None:
-            client.close(timeout=5)
-        if cluster is not None:
-            cluster.close(timeout=5)
+        try:
+            if client is not None:
+                client.close(timeout=5)
+            if cluster is not None:
+                cluster.close(timeout=5)
+        finally:
+            for logger, level in zip(loggers, levels):
+                logger.setLevel(level)
+
+
+def _dask_logger_names() -> list[str]:
+    names = [name for name in logging.root.manager.loggerDict if name.startswith("distributed")]
+    return ["distributed", *names]
 
 
 def check_versions(client) -> None:

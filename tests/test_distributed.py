@@ -157,6 +157,39 @@ def test_a_worker_killed_mid_run_costs_only_its_tasks(tmp_path, tiles, local_ref
 
 
 @pytest.mark.slow
+def test_a_lost_scheduler_is_a_one_line_error_and_a_restarted_one_finishes_the_job(
+    tmp_path, tiles, local_reference
+):
+    out = tmp_path / "out"
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    with DaskCluster(tmp_path / "dask", workers=2) as cluster:
+        command = [sys.executable, "-m", "exporter", "export", *map(str, tiles), "--out", str(out)]
+        process = subprocess.Popen(
+            [*command, "--scheduler", cluster.address], env=env, stderr=subprocess.PIPE, text=True
+        )
+        try:
+            deadline = time.monotonic() + 60
+            while len(list(out.glob(f"*/*/{RECORD_NAME}"))) < 3 and time.monotonic() < deadline:
+                time.sleep(0.02)
+            assert process.poll() is None, "the run ended before the scheduler was lost"
+            os.killpg(cluster.processes[0].pid, signal.SIGKILL)  # the scheduler
+            _, err = process.communicate(timeout=60)
+        finally:
+            if process.poll() is None:
+                process.kill()
+                process.wait()
+    assert process.returncode == 2, err
+    last = err.strip().splitlines()[-1]
+    assert last.startswith("vworld-lod: lost the Dask scheduler") and "re-run to resume" in last
+    assert "Traceback" not in err
+    assert not any(out.glob("*/lod_manifest.json")), "no manifest before all its buildings"
+    with DaskCluster(tmp_path / "dask2", workers=2) as restarted:
+        stats = export_tiles(tiles, out, Config(), scheduler=restarted.address)
+    assert stats.reused >= 3, "what was finished before the loss is kept"
+    assert output_bytes(out) == output_bytes(local_reference)
+
+
+@pytest.mark.slow
 def test_a_run_interrupted_on_the_cluster_exits_130_and_resumes(
     tmp_path, cluster, tiles, local_reference
 ):
