@@ -155,7 +155,7 @@ class DaskCluster:
                     os.killpg(process.pid, signal.SIGTERM)
                 except ProcessLookupError:
                     pass
-        deadline = time.monotonic() + 3  # a graceful stop, else killed
+        deadline = time.monotonic() + 1  # a graceful stop, else killed
         for process in self.processes:
             try:
                 process.wait(timeout=max(0.1, deadline - time.monotonic()))

@@ -67,7 +67,13 @@ def cluster(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def tiles(tmp_path_factory) -> list[Path]:
-    return make_tiles(tmp_path_factory.mktemp("input"))
+    """Three tiles of five buildings; two of the first tile's are broken (listed as skipped,
+    in the same order whichever worker finds them)."""
+    made = make_tiles(tmp_path_factory.mktemp("input"))
+    for name in ("B0001.xdo", "B0003.xdo"):
+        path = made[0] / name
+        path.write_bytes(path.read_bytes()[:40])
+    return made
 
 
 @pytest.fixture(scope="module")
@@ -86,18 +92,18 @@ def test_a_cluster_export_equals_the_local_one_byte_for_byte_and_reruns_skip_eve
     out = tmp_path / "out"
     options = ClusterOptions(cluster.address, batch_size=2)
     stats = export_tiles(relative, out, Config(), scheduler=options)
-    assert (stats.buildings, stats.skipped, stats.reused) == (15, 0, 0)
+    assert (stats.buildings, stats.skipped, stats.reused) == (13, 2, 0)
     local = tmp_path / "local"
     export_tiles(relative, local, Config(), jobs=1)
     assert output_bytes(out) == output_bytes(local)
     for tile in TILES:
         manifest = json.loads((out / tile.name / "lod_manifest.json").read_text())
-        assert len(manifest["buildings"]) == 5
+        assert len(manifest["buildings"]) + len(manifest["skipped"]) == 5
         assert all(not Path(b["source"]).is_absolute() for b in manifest["buildings"])
 
     before = {path: path.stat().st_mtime_ns for path in out.rglob("*.glb")}
     again = export_tiles(relative, out, Config(), scheduler=options)
-    assert again.reused == again.buildings == 15, "an unchanged re-run redoes nothing"
+    assert again.reused == again.buildings == 13, "an unchanged re-run redoes nothing"
     assert {path: path.stat().st_mtime_ns for path in out.rglob("*.glb")} == before
     assert output_bytes(out) == output_bytes(local)
 
@@ -328,6 +334,16 @@ def test_the_storage_probe_names_what_a_worker_cannot_see_or_write(tmp_path):
     assert dist.probe_storage(
         {str(folder): dist.listing_digest(str(folder))}, nowhere, "t", cwd
     ).startswith(f"cannot write into the output folder {nowhere}")
+
+
+def test_a_batch_on_a_worker_that_lost_the_shared_folder_fails_naming_it(tmp_path, tiles):
+    from exporter.readers import scan_folder
+
+    entry = scan_folder(tiles[0], Config().readers).entries[0]
+    gone = str(tmp_path / "unmounted" / "out")
+    with pytest.raises(dist.StorageLost, match=f"cannot see {gone}"):
+        dist.process_batch([(entry, Config(), gone, "digest", ())], os.getcwd())
+    assert not (tmp_path / "unmounted").exists(), "nothing written where the mount was"
 
 
 def test_without_dask_the_option_is_a_one_line_error(tmp_path, capsys, monkeypatch):
