@@ -324,10 +324,10 @@ def test_the_storage_probe_names_what_a_worker_cannot_see_or_write(tmp_path):
     assert len(list(out.glob(".probe-t-*.tmp"))) == 1
     missing = str(tmp_path / "gone")
     assert dist.probe_storage({missing: listing}, str(out), "t", cwd) == (
-        f"cannot read the input folder {missing}"
+        f"cannot read the input {missing}"
     )
     (folder / "b.dat").write_bytes(b"")  # the worker sees other files than the client
-    assert "sees other files in the input folder" in dist.probe_storage(
+    assert f"sees another {folder} than the client" in dist.probe_storage(
         {str(folder): listing}, str(out), "t", cwd
     )
     nowhere = str(tmp_path / "no" / "such" / "out")
