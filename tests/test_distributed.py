@@ -120,6 +120,15 @@ def test_the_command_line_runs_on_the_cluster_and_prints_the_dashboard(
     assert output_bytes(out) == output_bytes(local_reference)
 
 
+def test_a_single_file_input_runs_on_the_cluster_as_locally(cluster, tiles, tmp_path):
+    dat = tiles[1] / f"{TILES[1].name}.dat"  # a VWorld index file given alone
+    local, out = tmp_path / "local", tmp_path / "out"
+    export_tiles([dat], local, Config(), jobs=1)
+    export_tiles([dat], out, Config(), scheduler=cluster.address)
+    assert output_bytes(out) == output_bytes(local)
+    assert len(list(out.rglob("*.glb"))) == 15
+
+
 @pytest.mark.slow
 def test_a_worker_killed_mid_run_costs_only_its_tasks(tmp_path, tiles, local_reference):
     out = tmp_path / "out"
