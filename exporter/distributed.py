@@ -29,6 +29,7 @@ import logging
 import math
 import os
 import platform
+import time
 import uuid
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
@@ -52,6 +53,9 @@ BATCH_SIZE = 16
 IN_FLIGHT_PER_WORKER = 2
 # Seconds to wait for the first worker to join before giving up.
 WORKER_WAIT_S = 60.0
+# Seconds between looks at the worker count during a run, and between polls for finished batches.
+WORKER_CHECK_S = 2.0
+POLL_S = 0.01
 # Seconds to keep trying to reach the scheduler (dask's own default, 30 s, is long for a typo).
 CONNECT_TIMEOUT_S = 10.0
 
@@ -375,18 +379,52 @@ def cluster_results(client, work: Iterable, total: int, options: ClusterOptions)
     from distributed import KilledWorker, as_completed
     from distributed.utils import CancelledError
 
-    workers = max(1, len(client.scheduler_info(n_workers=-1)["workers"]))
+    workers = max(1, len(client.nthreads()))
     size = batch_size_for(total, workers, options.batch_size)
-    limit = IN_FLIGHT_PER_WORKER * workers
+    wait_s = options.worker_wait_s or WORKER_WAIT_S
     cwd = os.getcwd()
     running = as_completed()
     submitted = set()
     batch: list[tuple] = []
+    # The worker count, looked up every few seconds: it sets how many batches are in flight
+    # (workers may join, e.g. an adaptive dask-jobqueue cluster) and notices a cluster left with
+    # none (its batches would wait forever).
+    checked = with_workers = time.monotonic()
+
+    def count_workers() -> int:
+        nonlocal workers, checked, with_workers
+        now = time.monotonic()
+        if now - checked >= WORKER_CHECK_S:
+            checked = now
+            try:
+                workers = len(client.nthreads())
+            except OSError as error:
+                raise lost_scheduler(error) from None
+            if workers:
+                with_workers = now
+            elif now - with_workers > wait_s:
+                raise ClusterError(
+                    f"every worker of {options.address} left mid-run and none came back in "
+                    f"{wait_s:g} s; finished buildings are kept, re-run to resume"
+                )
+        return workers
+
+    def lost_scheduler(error: BaseException) -> ClusterError:
+        return ClusterError(
+            f"lost the Dask scheduler {options.address} mid-run ({_one_line(error)}); "
+            "finished buildings are kept, re-run to resume"
+        )
 
     def submit(items: list[tuple]) -> None:
         future = client.submit(process_batch, items, cwd, pure=False)
         submitted.add(future)
         running.add(future)
+
+    def next_finished():
+        while not running.has_ready():
+            time.sleep(POLL_S)
+            count_workers()
+        return next(running)
 
     def collect(future) -> list:
         submitted.discard(future)
@@ -400,10 +438,7 @@ def cluster_results(client, work: Iterable, total: int, options: ClusterOptions)
         except StorageLost as error:
             raise ClusterError(str(error)) from None
         except (CancelledError, OSError) as error:
-            raise ClusterError(
-                f"lost the Dask scheduler {options.address} mid-run ({_one_line(error)}); "
-                "finished buildings are kept, re-run to resume"
-            ) from None
+            raise lost_scheduler(error) from None
 
     try:
         for item in work:
@@ -414,12 +449,12 @@ def cluster_results(client, work: Iterable, total: int, options: ClusterOptions)
             if len(batch) >= size:
                 submit(batch)
                 batch = []
-                while running.count() >= limit:
-                    yield from collect(next(running))
+                while running.count() >= IN_FLIGHT_PER_WORKER * max(1, count_workers()):
+                    yield from collect(next_finished())
         if batch:
             submit(batch)
-        for future in running:
-            yield from collect(future)
+        while not running.is_empty():
+            yield from collect(next_finished())
     finally:
         if submitted:  # stopped early (an error, Ctrl-C): workers drop what has not started
             client.cancel(list(submitted))

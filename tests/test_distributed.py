@@ -205,6 +205,34 @@ def test_a_lost_scheduler_is_a_one_line_error_and_a_restarted_one_finishes_the_j
 
 
 @pytest.mark.slow
+def test_a_cluster_left_without_workers_stops_after_a_bounded_wait(tmp_path):
+    import threading
+
+    tiles = make_tiles(tmp_path / "in", count=12)  # 36 buildings: still running at the kill
+    out = tmp_path / "out"
+    with DaskCluster(tmp_path / "dask", workers=1) as cluster:
+
+        def kill_when_started() -> None:
+            deadline = time.monotonic() + 60
+            while not any(out.glob(f"*/*/{RECORD_NAME}")) and time.monotonic() < deadline:
+                time.sleep(0.02)
+            cluster.kill_worker(0)
+
+        killer = threading.Thread(target=kill_when_started)
+        killer.start()
+        started = time.monotonic()
+        try:
+            with pytest.raises(ClusterError, match="every worker of .* left mid-run"):
+                export_tiles(
+                    tiles, out, Config(), scheduler=ClusterOptions(cluster.address, worker_wait_s=1)
+                )
+        finally:
+            killer.join()
+        assert time.monotonic() - started < 30, "a bounded wait, never a hang"
+    assert not any(out.glob("*/lod_manifest.json"))
+
+
+@pytest.mark.slow
 def test_a_run_interrupted_on_the_cluster_exits_130_and_resumes(
     tmp_path, cluster, tiles, local_reference
 ):
