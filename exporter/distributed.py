@@ -29,6 +29,7 @@ import logging
 import math
 import os
 import platform
+import signal
 import time
 import uuid
 from collections.abc import Iterable, Iterator
@@ -282,13 +283,14 @@ def cluster_session(options: ClusterOptions, folders: list[str], out_dir: str, n
         logger.setLevel(logging.CRITICAL)
     try:
         if options.address == "local":
-            cluster = distributed.LocalCluster(
-                n_workers=options.local_workers or os.cpu_count() or 1,
-                threads_per_worker=1,
-                processes=True,
-                dashboard_address=":0",
-                silence_logs=40,  # logging.ERROR: the run's own progress line stays readable
-            )
+            with _sigint_ignored():  # inherited: Ctrl-C stops the client, which stops them
+                cluster = distributed.LocalCluster(
+                    n_workers=options.local_workers or os.cpu_count() or 1,
+                    threads_per_worker=1,
+                    processes=True,
+                    dashboard_address=":0",
+                    silence_logs=40,  # logging.ERROR: the run's own progress line stays readable
+                )
             client = distributed.Client(cluster)
         else:
             try:
@@ -322,6 +324,22 @@ def cluster_session(options: ClusterOptions, folders: list[str], out_dir: str, n
         finally:
             for logger, level in zip(loggers, levels):
                 logger.setLevel(level)
+
+
+@contextmanager
+def _sigint_ignored():
+    """SIGINT ignored while the local cluster's worker processes start, so that they inherit it:
+    a terminal's Ctrl-C reaches the whole process group, and workers that got it would print
+    tracebacks while the client shuts them down."""
+    try:
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    except ValueError:  # not the main thread: signals are not ours to change
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def _dask_logger_names() -> list[str]:

@@ -233,9 +233,10 @@ def test_a_cluster_left_without_workers_stops_after_a_bounded_wait(tmp_path):
 
 
 @pytest.mark.slow
-def test_a_run_interrupted_on_the_cluster_exits_130_and_resumes(
-    tmp_path, cluster, tiles, local_reference
-):
+def test_ctrl_c_on_a_local_cluster_exits_130_quietly_and_a_rerun_resumes(tmp_path, cluster):
+    tiles = make_tiles(tmp_path / "in", count=12)  # 36 buildings: still running at the signal
+    reference = tmp_path / "reference"
+    export_tiles(tiles, reference, Config(), jobs=1)
     out = tmp_path / "out"
     command = [
         sys.executable,
@@ -247,27 +248,41 @@ def test_a_run_interrupted_on_the_cluster_exits_130_and_resumes(
         "--out",
         str(out),
         "--scheduler",
-        cluster.address,
+        "local",
+        "--jobs",
+        "2",
         "--quiet",
     ]
     env = {**os.environ, "PYTHONPATH": str(REPO)}
-    process = subprocess.Popen(command, env=env, stderr=subprocess.PIPE, text=True)
+    # A session of its own: the signal goes to the whole process group, as a terminal's Ctrl-C.
+    process = subprocess.Popen(
+        command, env=env, stderr=subprocess.PIPE, text=True, start_new_session=True
+    )
     try:
         deadline = time.monotonic() + 60
         while len(list(out.glob(f"*/*/{RECORD_NAME}"))) < 2 and time.monotonic() < deadline:
             time.sleep(0.02)
-        process.send_signal(signal.SIGINT)
+        assert process.poll() is None, "the run ended before the signal: nothing tested"
+        os.killpg(process.pid, signal.SIGINT)
         _, err = process.communicate(timeout=60)
     finally:
         if process.poll() is None:
-            process.kill()
+            os.killpg(process.pid, signal.SIGKILL)
             process.wait()
-    if process.returncode != 0:  # it was stopped midway (not finished before the signal)
-        assert process.returncode == 130, err
-        assert "interrupted" in err and "Traceback" not in err
-        assert not any(out.glob("*/lod_manifest.json")), "no manifest for an unfinished tile"
+    assert process.returncode == 130, err
+    assert "interrupted" in err and "Traceback" not in err and "KeyboardInterrupt" not in err
+    assert not any(out.glob("*/lod_manifest.json")), "no manifest for an unfinished tile"
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline:  # the local cluster's processes went with the client
+        try:
+            os.killpg(process.pid, 0)
+        except ProcessLookupError:
+            break
+        time.sleep(0.1)
+    else:
+        raise AssertionError("processes of the local cluster outlived the interrupted run")
     export_tiles(tiles, out, Config(), scheduler=cluster.address)
-    assert output_bytes(out) == output_bytes(local_reference)
+    assert output_bytes(out) == output_bytes(reference)
 
 
 # --------------------------------------------------------------------------- bad input
