@@ -350,7 +350,15 @@ def _dask_logger_names() -> list[str]:
 def check_versions(client) -> None:
     """Refuse workers (and a scheduler) whose :func:`identity` differs from the client's."""
     mine = identity()
-    theirs = {f"worker {who}": found for who, found in client.run(identity).items()}
+    theirs = {}
+    unusable = []
+    for who, found in client.run(identity, on_error="return").items():
+        if isinstance(found, BaseException):  # e.g. vworld-lod not installed there
+            unusable.append(f"worker {who}: cannot run vworld-lod ({_one_line(found)})")
+        else:
+            theirs[f"worker {who}"] = found
+    if unusable:
+        raise ClusterError("; ".join(unusable))
     scheduler = client.get_versions(packages=list(DASK_PACKAGES))["scheduler"]
     theirs["scheduler"] = {
         name: str(version)
@@ -370,8 +378,12 @@ def check_storage(client, folders: list[str], out_dir: str) -> None:
     inputs = {folder: listing_digest(folder) for folder in folders}
     token = uuid.uuid4().hex[:12]
     try:
-        found = client.run(probe_storage, inputs, out_dir, token, os.getcwd())
-        problems = [f"worker {who}: {problem}" for who, problem in found.items() if problem]
+        found = client.run(probe_storage, inputs, out_dir, token, os.getcwd(), on_error="return")
+        problems = [
+            f"worker {who}: {_one_line(problem) if isinstance(problem, BaseException) else problem}"
+            for who, problem in found.items()
+            if problem
+        ]
         if not problems and len(_probe_files(out_dir, token)) < len(set(found)):
             problems.append(
                 f"a worker wrote its probe file into its own {out_dir}, which this client does not "
