@@ -218,7 +218,7 @@ def process_batch(items: list[tuple], cwd: str) -> list:
     except OSError:
         pass  # absolute paths do not need it; relative ones fail the check below
     folders = {item[2] for item in items}
-    folders |= {os.path.dirname(name) for item in items for name in item[0].inputs}
+    folders |= {os.path.dirname(name) or "." for item in items for name in item[0].inputs}
     for folder in sorted(folders):
         if not os.path.isdir(folder):
             raise StorageLost(f"worker {_worker_address()}: cannot see {folder}")

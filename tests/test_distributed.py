@@ -120,8 +120,9 @@ def test_the_command_line_runs_on_the_cluster_and_prints_the_dashboard(
     assert output_bytes(out) == output_bytes(local_reference)
 
 
-def test_a_single_file_input_runs_on_the_cluster_as_locally(cluster, tiles, tmp_path):
-    dat = tiles[1] / f"{TILES[1].name}.dat"  # a VWorld index file given alone
+def test_a_single_file_input_runs_on_the_cluster_as_locally(cluster, tiles, tmp_path, monkeypatch):
+    monkeypatch.chdir(tiles[1])
+    dat = Path(f"{TILES[1].name}.dat")  # a VWorld index file given alone, in the current folder
     local, out = tmp_path / "local", tmp_path / "out"
     export_tiles([dat], local, Config(), jobs=1)
     export_tiles([dat], out, Config(), scheduler=cluster.address)
