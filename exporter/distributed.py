@@ -10,12 +10,14 @@ with the local pool: the output is byte-identical to a local run.
 Steps of :func:`cluster_session` (before any work): connect (bounded:
 ``ClusterOptions.connect_timeout_s``) -> wait a bounded time for at least one worker -> refuse
 workers (or a scheduler) whose versions differ from the client's (Python, this package and a hash
-of its code, the key dependencies) -> a probe on every worker that it sees the input folders (the
-same file names as the client) and writes into the output folder (a file the client then finds).
+of its code, the key dependencies) -> a probe on every worker that it sees the inputs as the
+client does (a folder's file names, a file's size) and writes into the output folder (a file the
+client then finds). Relative paths work from the client's working folder on the workers.
 
 Failures: a worker lost mid-run costs its tasks in flight; the scheduler re-runs them elsewhere,
 at most ``distributed.scheduler.allowed-failures`` times before the run stops with a one-line
-error; a lost scheduler stops the run with a one-line error. Either way the finished buildings
+error; a lost scheduler, or a cluster left without workers for ``WORKER_WAIT_S``, stops the run
+with a one-line error. Either way the finished buildings
 stay (a record is written after its files), no manifest is half-written, and re-running resumes.
 
 Dask's documentation: https://distributed.dask.org/en/stable/ (Client, LocalCluster,
@@ -47,8 +49,9 @@ DASK_MISSING = (
 )
 
 # Buildings per task, chosen by benchmarks/bench_distributed.py (README, "Running at scale"): a
-# task costs ~2-4 ms of scheduler + transfer time on loopback against ~25 ms of work per building,
-# so 16 buildings keep the overhead under 1 % while a lost worker costs little.
+# task cost 7-11 ms of client + scheduler time on loopback against 38-135 ms of work per building
+# (both measured on 2 loaded cores), so 16 buildings keep the overhead near 1 % while a lost
+# worker costs little (16 x ~23 ms unloaded).
 BATCH_SIZE = 16
 # Batches in flight per worker: one running, one queued, so no worker waits for the client.
 IN_FLIGHT_PER_WORKER = 2
