@@ -1,6 +1,7 @@
 """The export pipeline: tile folders in, per-tile glTF LoD chains and manifests out.
 
-Per building (``process_entry``, run in worker processes): read -> mesh LoDs -> texture LoDs ->
+Per building (``process_entry``, run in worker processes: the local pool, or a Dask cluster's
+workers with ``scheduler``, see ``exporter.distributed``): read -> mesh LoDs -> texture LoDs ->
 quality -> placement -> write ``lod<k>.glb`` files -> write the building's record
 (``building.json``) last. A record's presence therefore means the building's files are complete;
 its ``input_hash`` (input files' sha256 + effective config + generator version) lets a re-run skip
@@ -27,6 +28,7 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -38,6 +40,9 @@ from .manifest import MANIFEST_NAME, build_manifest, dumps, safe_folder_name
 from .model import Building, Part, Skipped, Texture, TileId
 from .readers import Entry, load_entry, scan_folder
 from .tile_index import write_tile_index
+
+if TYPE_CHECKING:
+    from .distributed import ClusterOptions
 
 RECORD_NAME = "building.json"
 STAGES = ("read", "simplify", "textures", "quality", "write")
@@ -434,7 +439,7 @@ def _result_stream(
     total: int,
     folders: list[str | Path],
     out_dir: Path,
-    scheduler,
+    scheduler: str | ClusterOptions | None,
     notify: Callable[[str], None] | None,
 ) -> Iterator[Iterable[EntryResult]]:
     """The results of ``work``: from the local pool (``_results``), or, with ``scheduler`` (an
@@ -459,7 +464,7 @@ def export_tiles(
     jobs: int | None = None,
     force: bool = False,
     progress: Progress | None = None,
-    scheduler=None,
+    scheduler: str | ClusterOptions | None = None,
     notify: Callable[[str], None] | None = None,
 ) -> RunStats:
     """Export every building of ``folders`` into ``out``; returns what was done.
