@@ -11,7 +11,9 @@ exported, every building redone (``force``), by:
 Reported, each a ratio of times measured in the same run (the machine is shared and noisy), per
 round (``--repeat`` rounds, each running the three configurations one after the other): W workers
 vs 1 worker (target >= 1.7x for W = 2) and the cluster vs the local pool on the same cores
-(target: within 15 %). Then the batch size: the per-task overhead of the cluster (no-op tasks kept
+(target: within 15 %), with the cores the workers actually got (their CPU seconds / wall time)
+and their CPU time per building, which tell the machine's share apart from the code's. Then the
+batch size: the per-task overhead of the cluster (no-op tasks kept
 in flight as the export keeps its batches: the client's and the scheduler's time per task)
 against the work per building, and exports at several batch sizes, each against a local-pool run
 made right after it.
@@ -29,6 +31,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -75,6 +78,20 @@ def run_export(tiles, out, cpus, jobs=1, scheduler=None, batch=16) -> dict:
     if result.returncode != 0:
         raise SystemExit(f"export failed: {result.stderr[-3000:]}")
     return json.loads(result.stdout.strip().splitlines()[-1])
+
+
+def _process_cpu_s() -> float:
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
+
+
+def workers_cpu_s(address: str) -> float:
+    """CPU seconds the cluster's worker processes have used so far (summed): with the wall time,
+    how many cores the workers actually got on the shared machine, and CPU time per building."""
+    from distributed import Client
+
+    with Client(address, timeout=10) as client:
+        return sum(client.run(_process_cpu_s).values())
 
 
 def task_overhead_ms(address: str, tasks: int = 400) -> float:
@@ -154,13 +171,21 @@ def main() -> None:
             for round_index in range(args.repeat):
                 times = {"local": run_export(tiles, out, cpus, jobs=args.workers)}
                 for workers in sizes:
+                    before = workers_cpu_s(clusters[workers].address)
                     times[workers] = run_export(
                         tiles, out, cpus, scheduler=clusters[workers].address
                     )
+                    cpu_s = workers_cpu_s(clusters[workers].address) - before
+                    times[workers]["cores"] = cpu_s / times[workers]["seconds"]
+                    times[workers]["cpu_ms"] = cpu_s / total * 1000.0
                 rounds.append(times)
                 print(
                     f"  round {round_index + 1}: local pool {times['local']['seconds']:.2f} s, "
-                    + ", ".join(f"{w} worker(s) {times[w]['seconds']:.2f} s" for w in sizes)
+                    + ", ".join(
+                        f"{w} worker(s) {times[w]['seconds']:.2f} s (got {times[w]['cores']:.2f} "
+                        f"cores, {times[w]['cpu_ms']:.1f} CPU ms/building)"
+                        for w in sizes
+                    )
                 )
             local = rounds[0]["local"]
             work_ms = local["work_s"] / total * 1000.0
@@ -198,6 +223,12 @@ def main() -> None:
                         round(x, 3) for x in ratios("speedup")
                     ],
                     "cluster_vs_local_pool": [round(x, 3) for x in ratios("pool")],
+                    "cores_obtained": {
+                        str(w): [round(r[w]["cores"], 2) for r in rounds] for w in sizes
+                    },
+                    "worker_cpu_ms_per_building": {
+                        str(w): [round(r[w]["cpu_ms"], 1) for r in rounds] for w in sizes
+                    },
                     "per_task_overhead_ms": round(overhead, 2),
                     "work_ms_per_building": round(work_ms, 1),
                     "batch_vs_local_pool": {
