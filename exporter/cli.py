@@ -86,7 +86,14 @@ def cmd_export(args) -> int:
     config = _effective_config(args)
     progress = None if args.quiet else ProgressPrinter(sys.stderr)
     stats = export_tiles(
-        args.tile_dirs, args.out, config, jobs=args.jobs, force=args.force, progress=progress
+        args.tile_dirs,
+        args.out,
+        config,
+        jobs=args.jobs,
+        force=args.force,
+        progress=progress,
+        scheduler=args.scheduler,
+        notify=None if args.quiet else lambda text: print(text, file=sys.stderr, flush=True),
     )
     if not args.quiet:
         for tile in stats.tiles:
@@ -233,6 +240,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     export.add_argument(
         "--force", action="store_true", help="redo every building, even unchanged ones"
+    )
+    export.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run the per-building work on the Dask cluster at ADDRESS (tcp://host:8786), or "
+        "'local' for a one-machine Dask cluster; needs vworld-lod[dask]",
     )
     export.add_argument("--quiet", action="store_true", help="print nothing but errors")
     export.add_argument(

@@ -1,6 +1,7 @@
 """The export pipeline: tile folders in, per-tile glTF LoD chains and manifests out.
 
-Per building (``process_entry``, run in worker processes): read -> mesh LoDs -> texture LoDs ->
+Per building (``process_entry``, run in worker processes: the local pool, or a Dask cluster's
+workers with ``scheduler``, see ``exporter.distributed``): read -> mesh LoDs -> texture LoDs ->
 quality -> placement -> write ``lod<k>.glb`` files -> write the building's record
 (``building.json``) last. A record's presence therefore means the building's files are complete;
 its ``input_hash`` (input files' sha256 + effective config + generator version) lets a re-run skip
@@ -22,10 +23,12 @@ import json
 import os
 import shutil
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -37,6 +40,9 @@ from .manifest import MANIFEST_NAME, build_manifest, dumps, safe_folder_name
 from .model import Building, Part, Skipped, Texture, TileId
 from .readers import Entry, load_entry, scan_folder
 from .tile_index import write_tile_index
+
+if TYPE_CHECKING:
+    from .distributed import ClusterOptions
 
 RECORD_NAME = "building.json"
 STAGES = ("read", "simplify", "textures", "quality", "write")
@@ -426,6 +432,31 @@ def _results(work: Iterable[tuple | EntryResult], jobs: int) -> Iterable[EntryRe
             raise
 
 
+@contextmanager
+def _result_stream(
+    work: Iterable[tuple | EntryResult],
+    jobs: int,
+    total: int,
+    folders: list[str | Path],
+    out_dir: Path,
+    scheduler: str | ClusterOptions | None,
+    notify: Callable[[str], None] | None,
+) -> Iterator[Iterable[EntryResult]]:
+    """The results of ``work``: from the local pool (``_results``), or, with ``scheduler`` (an
+    address, ``"local"`` or :class:`exporter.distributed.ClusterOptions`), from a Dask cluster
+    checked before any work starts (``exporter.distributed``)."""
+    if scheduler is None:
+        yield _results(work, min(jobs, max(1, total)))
+        return
+    from .distributed import ClusterOptions, cluster_results, cluster_session
+
+    options = scheduler if isinstance(scheduler, ClusterOptions) else ClusterOptions(scheduler)
+    if options.address == "local" and options.local_workers is None:
+        options = dataclasses.replace(options, local_workers=jobs)
+    with cluster_session(options, [str(f) for f in folders], str(out_dir), notify) as client:
+        yield cluster_results(client, work, total, options)
+
+
 def export_tiles(
     folders: list[str | Path],
     out: str | Path,
@@ -433,10 +464,17 @@ def export_tiles(
     jobs: int | None = None,
     force: bool = False,
     progress: Progress | None = None,
+    scheduler: str | ClusterOptions | None = None,
+    notify: Callable[[str], None] | None = None,
 ) -> RunStats:
     """Export every building of ``folders`` into ``out``; returns what was done.
 
-    Raises InputError for a folder that cannot be used at all (before writing anything)."""
+    ``scheduler``: run the per-building work on a Dask cluster (a ``tcp://host:port`` address,
+    ``"local"``, or :class:`exporter.distributed.ClusterOptions`) instead of the local process
+    pool; the output is the same. ``notify(text)`` gets notices such as the dashboard address.
+
+    Raises InputError for a folder that cannot be used at all (before writing anything), and
+    ``exporter.distributed.ClusterError`` for a cluster that cannot run the work."""
     started = time.perf_counter()
     out_dir = Path(out)
     scans = [scan_folder(folder, config.readers) for folder in folders]  # all folders checked first
@@ -485,24 +523,31 @@ def export_tiles(
     for scan in scans:
         for item in scan.skipped:
             skipped.setdefault(item.tile, []).append(item)
+    # Buildings that fail are listed after the scan's skips in entry order, not in the order
+    # results come back, so that every scheduler writes the same manifest.
+    failed: list[Skipped] = []
     stats = RunStats()
     done = 0
     total = len(entries)
-    for result in _results(work(), min(jobs, max(1, len(entries)))):
-        done += 1
-        for stage, value in result.seconds.items():
-            stats.seconds[stage] += value
-        if result.record is not None:
-            assert result.tile is not None  # a building written is filed in a tile
-            folders_of.setdefault(result.tile, []).append(result.record["folder"])
-            stats.buildings += 1
-            stats.reused += int(result.reused)
-            reused[result.tile] = reused.get(result.tile, 0) + int(result.reused)
-        elif result.skipped is not None:
-            skipped.setdefault(result.tile, []).append(result.skipped)
-            stats.skipped += 1
-        if progress:
-            progress(done, total)
+    with _result_stream(work(), jobs, total, folders, out_dir, scheduler, notify) as results:
+        for result in results:
+            done += 1
+            for stage, value in result.seconds.items():
+                stats.seconds[stage] += value
+            if result.record is not None:
+                assert result.tile is not None  # a building written is filed in a tile
+                folders_of.setdefault(result.tile, []).append(result.record["folder"])
+                stats.buildings += 1
+                stats.reused += int(result.reused)
+                reused[result.tile] = reused.get(result.tile, 0) + int(result.reused)
+            elif result.skipped is not None:
+                failed.append(result.skipped)
+                stats.skipped += 1
+            if progress:
+                progress(done, total)
+    order = {entry.id: index for index, entry in enumerate(entries)}
+    for item in sorted(failed, key=lambda item: order.get(item.id or "", len(order))):
+        skipped.setdefault(item.tile, []).append(item)
 
     # Skips without a known tile go to every tile of this run (or a tile of their own when none).
     unplaced = skipped.pop(None, [])
