@@ -204,7 +204,7 @@ class SimplifyOptions:
         default=100, metadata=meta(_integer(1, 100000), "maximum simplification passes per level")
     )
     max_screen_error_px: float = field(
-        default=1.0,
+        default=2.0,
         metadata=meta(
             _number(0.0),
             "largest allowed deviation of a level from LOD0 in pixels, when the level is shown at the largest size the LODGroup shows it (lods[k-1].transition x reference_screen_height_px for level k); converted per building to metres with LODGroup.size = the largest side of the bounds (certified by the error guard; 0 = no limit: every level goes to its mesh cap)",

@@ -311,7 +311,10 @@ def test_not_exact_when_the_collapse_removed_faces():
         dome,
         [LodSpec(0.5), LodSpec(0.2, mesh=0.5), LodSpec(0.1, mesh=0.5)],
         dataclasses.replace(
-            SimplifyOptions(), max_screen_error_px=0.0, protect_largest=0.0, preserve_uv_foldover_edges=False
+            SimplifyOptions(),
+            max_screen_error_px=0.0,
+            protect_largest=0.0,
+            preserve_uv_foldover_edges=False,
         ),
     )
     assert [level.exact for level in levels] == [True, False, False]
@@ -481,7 +484,8 @@ def test_exact_levels_measure_as_identity_and_slit_closing_is_not_exact(tmp_path
             elif metrics["hausdorff_rel"] < 1e-6 and metrics["boundary_length_change"] < -1e-3:
                 assert level.surface_exact or not above.surface_exact
                 slit_closed += 1
-    assert exact > 10 and slit_closed > 0, (exact, slit_closed)
+    # Levels go as far as their error budget allows, so only some stay exact.
+    assert exact > 5 and slit_closed > 0, (exact, slit_closed)
 
 
 # --------------------------------------------------------------------------- error guard

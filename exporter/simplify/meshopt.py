@@ -52,8 +52,11 @@ import numpy as np
 from numpy.ctypeslib import ndpointer
 
 from ..geometry import unique_float_rows, vertex_normals
+from .protect import face_areas
 from .quadric import Collapsed, assign_uvs, uv_signs
 
+# Square metres: faces below this are degenerate (as exporter.simplify.ZERO_AREA_M2).
+ZERO_AREA_M2 = 1e-12
 SIMPLIFY_LOCK_BORDER = 1 << 0
 SIMPLIFY_ERROR_ABSOLUTE = 1 << 2
 
@@ -277,6 +280,9 @@ def collapse(
             target_error,
         )
         out = kept.reshape(-1, 3).astype(np.int64)
+        # meshopt keeps triangles that collapsed onto a line (distinct, collinear corners): drop
+        # them as level 0 drops its zero-area faces.
+        out = out[face_areas(positions, vertex_of[out]) >= ZERO_AREA_M2]
         out_faces = vertex_of[out]
         if corner_uvs is None:
             uvs = None
