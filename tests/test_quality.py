@@ -197,10 +197,10 @@ def test_exact_quality_agrees_with_measure_lod_on_lossless_levels(box, tmp_path)
 
 
 def test_exact_quality_differs_from_measure_lod_on_a_changed_level():
+    import dataclasses
+
     from exporter.config import Config
     from exporter.simplify import build_mesh_lods
-
-    import dataclasses
 
     # A budget large enough (8 px at 1080) that the dome of building 2 is collapsed.
     options = dataclasses.replace(Config().simplify, max_screen_error_px=8.0)
