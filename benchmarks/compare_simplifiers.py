@@ -16,9 +16,21 @@ Prints one table of the quality metrics (:func:`exporter.quality.measure_lod`) p
 level, the Table III row of this method (mean triangles per level and ratio to LOD0), and times
 as ratios against pymeshlab QEC measured in the same run.
 
+``--equal-error`` compares at equal certified error instead: per building and level, the budget is
+this project's (``simplify.max_screen_error_px`` converted to metres, ``MeshLevel.tolerance``);
+``this project (meshoptimizer)`` and ``this project (pymeshlab)`` are ``build_mesh_chain`` with
+either engine; ``meshopt_simplify`` (vertices split by UV so seams are kept, border locked) and
+``fast-simplification`` get their error parameter (meshopt's absolute ``target_error``, FQMS's
+``target_reduction``) searched by bisection (10 steps) for the smallest result the guard
+(``exporter.simplify.guard.exceeds``) accepts. Printed: triangles as a share of LOD0, the ratio to
+meshopt_simplify, the share within budget, IoU / wall coverage minima, boundary change, new holes,
+for the default configuration and ``protect_largest: 0%``. Peers' times include their search.
+
 Usage::
 
     python benchmarks/compare_simplifiers.py --buildings 300 --seed 0
+    python benchmarks/compare_simplifiers.py --equal-error --buildings 300 --seed 5
+    python benchmarks/compare_simplifiers.py --equal-error --folder ../shared/data/real --crs EPSG:7415
     python benchmarks/compare_simplifiers.py --gltfpack ~/.cache/vworld-lod/npm/node_modules/.bin/gltfpack
     python benchmarks/compare_simplifiers.py --folder ../shared/data/real --crs EPSG:7415
 
