@@ -243,11 +243,13 @@ def _simplify_level(
     reference: tuple[np.ndarray, np.ndarray] | Reference | None = None,
     joined: tuple | None = None,
     tolerance: float = float("inf"),
+    planar_done: bool = False,
 ) -> tuple[list[Part], bool, bool]:
     """:func:`simplify_parts`, whether the step kept the surface (only noise welding and the
     planar re-triangulation: no collapse, no link-distance welding) and whether it also kept the
     open boundary's length (lossless). ``joined``: ``_join(parts, link distance)`` when the caller
-    has it already (level 1 shares LOD0's with the guard's reference)."""
+    has it already (level 1 shares LOD0's with the guard's reference). ``planar_done``: the parts
+    are the planar stage's own output (the level above kept LOD0's surface), so it is not rerun."""
     total = sum(p.triangle_count for p in parts)
     capped = options.engine == "pymeshlab" or not np.isfinite(tolerance)
     if total == 0 or (total <= target and capped):
@@ -260,7 +262,7 @@ def _simplify_level(
     if not isinstance(reference, Reference):
         reference = Reference(*reference)
     # Lossless first: flat polygons re-triangulated from their outlines.
-    if options.planar_retriangulation:
+    if options.planar_retriangulation and not planar_done:
         # Lossless, so only non-manifold vertices are held: straight vertices on the open border or
         # between two parts are dropped from both sides at once (no T-junction, no crack).
         faces, corner_uvs, source, boundary_kept = retriangulate_planar_checked(
@@ -452,8 +454,10 @@ def build_mesh_chain(
         tolerance = screen_tolerance(size, lods[k - 1].transition, options)
         # Level 1 starts from LOD0 welded the same way as the reference: joined once.
         shared = joined if k == 1 and options.vertex_link_distance <= NOISE_M else None
+        # A level above that kept LOD0's surface is the planar stage's output: not redone.
+        planar_done = k > 1 and chain[-1].surface_exact
         level, surface_kept, lossless = _simplify_level(
-            chain[-1].parts, target, options, reference, shared, tolerance
+            chain[-1].parts, target, options, reference, shared, tolerance, planar_done
         )
         chain.append(
             MeshLevel(
