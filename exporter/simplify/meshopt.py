@@ -298,7 +298,7 @@ def collapse(
                 _best_sources(faces, out_faces),
                 project=True,
             )
-        if expected is not None:
+        if expected is not None and uvs is not None:
             want = expected[out]
             # The orientation the face's corners agree on (any one of them, when the others are 0).
             agreed = np.where(
