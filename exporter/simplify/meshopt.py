@@ -46,6 +46,7 @@ Mapping of the paper's Table II (the module's flat steps, in :func:`collapse`):
 from __future__ import annotations
 
 import ctypes
+import importlib.metadata
 
 import meshoptimizer._loader as _binding
 import numpy as np
@@ -65,6 +66,15 @@ SIMPLIFY_ERROR_ABSOLUTE = 1 << 2
 UV_WEIGHT = 1.0
 NORMAL_WEIGHT = 0.5
 
+# The signatures below are read from the header of the library this wheel ships: another wheel
+# version may ship another library, so it is checked rather than trusted.
+WHEEL_VERSION = "0.2.30a0"
+if importlib.metadata.version("meshoptimizer") != WHEEL_VERSION:
+    raise ImportError(
+        f"meshoptimizer {importlib.metadata.version('meshoptimizer')} installed; "
+        f"exporter/simplify/meshopt.py declares the C signatures of {WHEEL_VERSION} "
+        f"(pip install meshoptimizer=={WHEEL_VERSION}, or check the new header and update it)"
+    )
 _lib = ctypes.CDLL(_binding.lib_path)
 _F32 = ndpointer(np.float32, flags="C_CONTIGUOUS")
 _U32 = ndpointer(np.uint32, flags="C_CONTIGUOUS")
