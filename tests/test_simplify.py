@@ -330,3 +330,33 @@ def test_bad_buildings_go_through_within_their_budget(engine):
     # The flat polygon is lossless down to two triangles whatever the engine.
     flat = build_mesh_chain(_bad_inputs()[3][1], default_lods(), options)
     assert count(flat[1].parts) == 2 and flat[1].exact
+
+
+def test_planar_stage_not_rerun_below_a_surface_exact_level_changes_nothing():
+    # A level whose level above kept LOD0's surface skips the planar stage (the level above is its
+    # output): the same level as rerunning it, bit for bit.
+    from exporter.samplegen import generate_buildings
+    from exporter.simplify import _join, _simplify_level, build_mesh_chain, screen_tolerance
+    from exporter.simplify.guard import Reference
+
+    lods, options = default_lods(), SimplifyOptions()
+    checked = 0
+    for building in generate_buildings(12, seed=23, atlas_size=16):
+        chain = build_mesh_chain(building.parts, lods, options)
+        if not chain[1].surface_exact:
+            continue
+        reference = Reference(*_join(chain[0].parts, 0.0)[:2])
+        size = float(np.ptp(reference.positions, axis=0).max())
+        rerun, _, _ = _simplify_level(
+            chain[1].parts,
+            round(sum(p.triangle_count for p in building.parts) * lods[2].mesh),
+            options,
+            reference,
+            tolerance=screen_tolerance(size, lods[1].transition, options),
+        )
+        for mine, theirs in zip(chain[2].parts, rerun):
+            assert np.array_equal(mine.triangles, theirs.triangles)
+            assert np.array_equal(mine.positions, theirs.positions)
+            assert np.array_equal(mine.uvs, theirs.uvs)
+        checked += 1
+    assert checked >= 5
