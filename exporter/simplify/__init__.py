@@ -6,9 +6,10 @@ Entry point: :func:`build_mesh_chain` (levels with their ``exact`` and ``surface
 per-vertex UVs (n, 2) in glTF convention, optional normals).
 
 Sources: Garland & Heckbert, "Surface Simplification Using Quadric Error Metrics" (1997) and
-Hoppe, "New Quadric Metric for Simplifying Meshes with Appearance Attributes" (1999), via pymeshlab;
-the geometric filter and Table II options of "A Method for Constructing and Managing Level of
-Detail for Non-Closed Boundary Models of Buildings" (VWorld). See ``docs/simplification.md``.
+Hoppe, "New Quadric Metric for Simplifying Meshes with Appearance Attributes" (1999), via
+meshoptimizer (zeux, ``meshopt_simplifyWithAttributes``; default) or pymeshlab; the geometric filter
+and Table II options of "A Method for Constructing and Managing Level of Detail for Non-Closed
+Boundary Models of Buildings" (VWorld). See ``docs/simplification.md``.
 
 Pipeline per level (each level is built from the level above; measured, see the docs):
 
@@ -17,8 +18,10 @@ Pipeline per level (each level is built from the level above; measured, see the 
 3. lock: vertices shared by two parts (no cracks), non-manifold edges, the open border;
 4. protect: the largest ``protect_largest`` share of faces by area (the paper's filter) and, with
    ``protect_walls``, the walls standing on the footprint, are kept out of the collapse;
-5. collapse towards ``round(source triangles x lods[k].mesh)`` faces, refusing seam crossings and
-   UV foldovers, within ``max_error`` of LOD0 (the error guard raises the target otherwise);
+5. collapse as far as the level's screen error budget (:func:`screen_tolerance`, metres) allows,
+   never above ``round(source triangles x lods[k].mesh)`` faces when the budget lets the level
+   get there, refusing seam crossings and UV foldovers (``simplify.engine``: meshoptimizer searched
+   on its error target, pymeshlab on the count); the error guard certifies every candidate;
 6. split back into parts with per-vertex UVs and normals.
 """
 
