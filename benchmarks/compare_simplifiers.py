@@ -16,9 +16,21 @@ Prints one table of the quality metrics (:func:`exporter.quality.measure_lod`) p
 level, the Table III row of this method (mean triangles per level and ratio to LOD0), and times
 as ratios against pymeshlab QEC measured in the same run.
 
+``--equal-error`` compares at equal certified error instead: per building and level, the budget is
+this project's (``simplify.max_screen_error_px`` converted to metres, ``MeshLevel.tolerance``);
+``this project (meshoptimizer)`` and ``this project (pymeshlab)`` are ``build_mesh_chain`` with
+either engine; ``meshopt_simplify`` (vertices split by UV so seams are kept, border locked) and
+``fast-simplification`` get their error parameter (meshopt's absolute ``target_error``, FQMS's
+``target_reduction``) searched by bisection (10 steps) for the smallest result the guard
+(``exporter.simplify.guard.exceeds``) accepts. Printed: triangles as a share of LOD0, the ratio to
+meshopt_simplify, the share within budget, IoU / wall coverage minima, boundary change, new holes,
+for the default configuration and ``protect_largest: 0%``. Peers' times include their search.
+
 Usage::
 
     python benchmarks/compare_simplifiers.py --buildings 300 --seed 0
+    python benchmarks/compare_simplifiers.py --equal-error --buildings 300 --seed 5
+    python benchmarks/compare_simplifiers.py --equal-error --folder ../shared/data/real --crs EPSG:7415
     python benchmarks/compare_simplifiers.py --gltfpack ~/.cache/vworld-lod/npm/node_modules/.bin/gltfpack
     python benchmarks/compare_simplifiers.py --folder ../shared/data/real --crs EPSG:7415
 
@@ -45,7 +57,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from exporter.config import SimplifyOptions, default_lods
 from exporter.model import Part
 from exporter.quality import joined, measure_lod
-from exporter.simplify import build_mesh_lods
+from exporter.simplify import _join, build_mesh_chain, build_mesh_lods, meshopt
+from exporter.simplify.guard import Reference, diagonal, exceeds
 
 METRICS = (
     "triangle_ratio",
@@ -231,6 +244,137 @@ def run(
         )
 
 
+# --------------------------------------------------------------------------- equal error
+
+SEARCH_STEPS = 10
+
+
+def searched(run, low: float, high: float, reference, tolerance: float):
+    """The smallest result of ``run(parameter) -> (positions, faces)`` that the guard accepts
+    within ``tolerance`` metres of ``reference``: bisection on the parameter (larger = more
+    aggressive) between ``low`` (assumed to pass; checked) and ``high``, ``SEARCH_STEPS`` steps;
+    the source itself when nothing passes."""
+    best = None
+    for parameter in (low, high):
+        positions, faces = run(parameter)
+        if len(faces) and not exceeds(reference, positions, faces, tolerance):
+            if best is None or len(faces) < len(best[1]):
+                best = positions, faces
+            if parameter == high:
+                return best
+    for _ in range(SEARCH_STEPS):
+        middle = 0.5 * (low + high)
+        positions, faces = run(middle)
+        if len(faces) and not exceeds(reference, positions, faces, tolerance):
+            low = middle
+            if best is None or len(faces) < len(best[1]):
+                best = positions, faces
+        else:
+            high = middle
+    return best if best is not None else (reference.positions, reference.faces)
+
+
+def plain_meshopt(source: list[Part], reference, tolerance: float):
+    """``meshopt_simplify`` on the building (vertices split by UV: seams kept as meshopt does),
+    border locked, its absolute error target searched until the guard accepts the result."""
+    positions, faces, face_part, corner_uvs, _, _ = _join(source, 0.0)
+    vertex_of, _, wedge_faces = meshopt._wedges(faces, corner_uvs, face_part, True)
+    wedge_positions = (positions[vertex_of] - positions.min(axis=0)).astype(np.float32)
+
+    def run(error):
+        kept, _ = meshopt.simplify(wedge_faces.reshape(-1), wedge_positions, 0, error)
+        return positions, vertex_of[kept.reshape(-1, 3).astype(np.int64)]
+
+    return searched(run, 0.0, 4.0 * tolerance, reference, tolerance)
+
+
+def fast_simplification_searched(source: list[Part], reference, tolerance: float):
+    """fast-simplification (Fast-Quadric-Mesh-Simplification, positions only), its
+    ``target_reduction`` searched until the guard accepts the result."""
+    import fast_simplification as fs
+
+    positions, faces = joined(source)
+
+    def run(reduction):
+        if reduction <= 0:
+            return positions, faces
+        points, triangles = fs.simplify(
+            positions.astype(np.float32), faces.astype(np.int32), target_reduction=reduction
+        )
+        return np.asarray(points, np.float64), np.asarray(triangles, np.int64)
+
+    return searched(run, 0.0, 0.99, reference, tolerance)
+
+
+def equal_error(buildings: list, where: str) -> None:
+    """Per method, level and configuration: the triangles (share of LOD0) each method needs to stay
+    within this project's certified budget per level (the guard is the judge for every method),
+    with the quality metrics of the result."""
+    lods = default_lods()
+    configs = {
+        "default": SimplifyOptions(),
+        "protect_largest 0%": SimplifyOptions(protect_largest=0.0),
+    }
+    for label, options in configs.items():
+        methods = [
+            "this project (meshoptimizer)",
+            "this project (pymeshlab)",
+            "meshopt_simplify",
+            "fast-simplification",
+        ]
+        rows = {(m, k): [] for m in methods for k in range(1, len(lods))}
+        seconds = dict.fromkeys(methods, 0.0)
+        for building in buildings:
+            start = time.perf_counter()
+            chain = build_mesh_chain(building.parts, lods, options)
+            seconds[methods[0]] += time.perf_counter() - start
+            start = time.perf_counter()
+            other = build_mesh_chain(
+                building.parts, lods, dataclasses.replace(options, engine="pymeshlab")
+            )
+            seconds[methods[1]] += time.perf_counter() - start
+            source = chain[0].parts
+            reference = Reference(*_join(source, 0.0)[:2])
+            for k in range(1, len(lods)):
+                tolerance = chain[k].tolerance
+                outputs = {methods[0]: chain[k].parts, methods[1]: other[k].parts}
+                for name, peer in (
+                    (methods[2], plain_meshopt),
+                    (methods[3], fast_simplification_searched),
+                ):
+                    start = time.perf_counter()
+                    positions, faces = peer(source, reference, tolerance)
+                    seconds[name] += time.perf_counter() - start
+                    outputs[name] = [Part(positions, faces)]
+                for name, parts in outputs.items():
+                    metrics = measure_lod(source, parts)
+                    metrics["within"] = float(not exceeds(reference, *joined(parts), tolerance))
+                    # Independent of the guard: measure_lod's own sampled distance over the budget.
+                    metrics["over"] = (
+                        metrics["hausdorff_rel"] * diagonal(reference.positions) / tolerance
+                    )
+                    rows[(name, k)].append(metrics)
+        print(f"\n## equal certified error, {label}: {where}")
+        print("budget per level: simplify.max_screen_error_px at the transition of the level above")
+        print(
+            "| method | level | triangles (share of LOD0) | ratio to meshopt_simplify | within budget | measured / budget max | IoU min | coverage min | max abs boundary change | new holes | time (x meshopt_simplify) |"
+        )
+        print("|---|---|---|---|---|---|---|---|---|---|---|")
+        for name in methods:
+            for k in range(1, len(lods)):
+                column = lambda key, r=rows[(name, k)]: np.array([m[key] for m in r], float)
+                peer = np.array([m["triangle_ratio"] for m in rows[("meshopt_simplify", k)]])
+                ratio = column("triangle_ratio").mean()
+                print(
+                    f"| {name} | LOD{k} | {ratio * 100:.1f} % | {ratio / peer.mean():.2f}x | {column('within').mean() * 100:.0f} % | {column('over').max():.2f} "
+                    f"| {column('silhouette_iou').min():.3f} | {column('wall_coverage').min():.3f} "
+                    f"| {np.abs(column('boundary_length_change')).max():.4f} | {int(column('new_holes').sum())} "
+                    f"| {seconds[name] / max(seconds['meshopt_simplify'], 1e-9):.1f}x |"
+                )
+        ours = [np.mean([m["triangle_ratio"] for m in rows[(methods[0], k)]]) for k in (1, 2)]
+        print(f"LOD2 / LOD1 mean triangle ratio ({methods[0]}): {ours[1] / ours[0]:.3f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument(
@@ -251,7 +395,23 @@ def main() -> None:
         default=None,
         help="CRS for input files that declare none (with --folder), e.g. EPSG:7415",
     )
+    parser.add_argument(
+        "--equal-error",
+        action="store_true",
+        help="compare the triangles each method needs within the same certified error budget",
+    )
     args = parser.parse_args()
+    if args.equal_error:
+        if args.folder:
+            buildings = load_folder(args.folder, args.crs)[: args.buildings]
+            where = f"{len(buildings)} buildings from {args.folder}"
+        else:
+            from exporter.samplegen import generate_buildings
+
+            buildings = generate_buildings(args.buildings, seed=args.seed, atlas_size=16)
+            where = f"{args.buildings} sample-generator buildings, seed {args.seed}"
+        equal_error(buildings, where)
+        return
     run(args.buildings, args.seed, args.gltfpack, args.folder, args.crs)
 
 

@@ -134,7 +134,10 @@ class LodSpec:
     )
     mesh: float = field(
         default=1.0,
-        metadata=meta(parse_ratio, "target share of LOD0's triangles (1.0 = unchanged)"),
+        metadata=meta(
+            parse_ratio,
+            "largest share of LOD0's triangles the level may keep (a cap: the level goes further while its screen error budget allows; the budget wins when the cap cannot be reached within it)",
+        ),
     )
     texture: float = field(
         default=1.0,
@@ -200,11 +203,25 @@ class SimplifyOptions:
     max_iterations: int = field(
         default=100, metadata=meta(_integer(1, 100000), "maximum simplification passes per level")
     )
-    max_error: float = field(
-        default=0.005,
+    max_screen_error_px: float = field(
+        default=2.0,
         metadata=meta(
-            _number(0.0, maximum=1.0),
-            "largest allowed deviation of a level from LOD0 (symmetric Hausdorff distance, certified from above) as a share of the building's bounding-box diagonal; a level that would exceed it keeps more triangles (0 = no limit)",
+            _number(0.0),
+            "largest allowed deviation of a level from LOD0 in pixels, when the level is shown at the largest size the LODGroup shows it (lods[k-1].transition x reference_screen_height_px for level k); converted per building to metres with LODGroup.size = the largest side of the bounds (certified by the error guard; 0 = no limit: every level goes to its mesh cap)",
+        ),
+    )
+    reference_screen_height_px: int = field(
+        default=1080,
+        metadata=meta(
+            _integer(1),
+            "screen height in pixels that max_screen_error_px refers to (1080 = Full HD)",
+        ),
+    )
+    engine: str = field(
+        default="meshoptimizer",
+        metadata=meta(
+            _choice("meshoptimizer", "pymeshlab"),
+            "edge-collapse engine: meshoptimizer (meshopt_simplifyWithAttributes, searched on its error target) or pymeshlab (quadric edge collapse, searched on the triangle count)",
         ),
     )
     protect_walls: bool = field(
@@ -515,7 +532,7 @@ def default_config_yaml(config: Config | None = None) -> str:
         "",
         f"# Levels of detail, LOD0 first (1 to {MAX_LODS}). transition: screen-relative height where the",
         "# level hands over to the next (strictly decreasing); below the last one the building is culled.",
-        "# mesh: target share of LOD0's triangles; texture: atlas scale per side (0.5 = a quarter of the pixels).",
+        "# mesh: largest share of LOD0's triangles (a cap, the error budget may stop earlier); texture: atlas scale per side (0.5 = a quarter of the pixels).",
         "lods:",
     ]
     for spec in config.lods:

@@ -62,7 +62,8 @@ def _mean(values: list[float]) -> float:
 
 def summarize_levels(buildings: list[dict], level_count: int) -> list[dict]:
     """Per LoD: mean triangles, ratio of the mean to LOD0's mean (the paper's Table III), texture
-    pixels, and mean/min/max of every numeric quality metric."""
+    pixels, how many buildings' level is no smaller than their level above (levels >= 1), and
+    mean/min/max of every numeric quality metric."""
     levels = []
     lod0_mean = None
     for level in range(level_count):
@@ -80,6 +81,9 @@ def summarize_levels(buildings: list[dict], level_count: int) -> list[dict]:
                 _mean([lod["texture_size"][0] * lod["texture_size"][1] for lod in lods]), 2
             ),
         }
+        if level:
+            # Levels whose mesh is no smaller than the level above (the budget allowed no collapse).
+            entry["no_smaller_count"] = sum(bool(lod.get("no_smaller_than_above")) for lod in lods)
         metrics: dict[str, list[float]] = {}
         for lod in lods:
             for key, value in (lod.get("quality") or {}).items():

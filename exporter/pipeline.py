@@ -20,6 +20,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import math
 import os
 import shutil
 import time
@@ -202,6 +203,19 @@ def lod_record(level: int, parts: list[Part], file_name: str, data: bytes, quali
     }
 
 
+def level_fields(level, above: dict) -> dict:
+    """A level's error budget (metres, when it has one) and whether its mesh is no smaller than
+    the level above's record ``above``."""
+    fields = {"no_smaller_than_above": level_triangles(level) >= above["triangles"]}
+    if math.isfinite(level.tolerance):
+        fields["error_budget_m"] = round(level.tolerance, 6)
+    return fields
+
+
+def level_triangles(level) -> int:
+    return sum(p.triangle_count for p in level.parts)
+
+
 @dataclass
 class EntryResult:
     """What a worker returns for one entry: a manifest record or a skip, plus stage times (s)."""
@@ -287,6 +301,8 @@ def process_entry(
             file_name = f"{folder}/lod{level}.glb"
             write_bytes_atomic(building_dir / f"lod{level}.glb", data)
             lods.append(lod_record(level, parts, file_name, data, qualities[level]))
+            if level:
+                lods[-1].update(level_fields(chain[level], lods[-2]))
         written = {f"lod{level}.glb" for level in range(len(lods))}
         for stale in building_dir.glob(
             "lod*.glb"

@@ -411,3 +411,32 @@ def test_manifest_is_made_from_the_record_files_and_a_vanished_one_is_reported(
     )
     assert len(rewritten["skipped"]) == 1 and "vanished" in rewritten["skipped"][0]["reason"]
     assert (tile_dir / folders[0] / "lod0.glb").is_file()  # its files are left alone
+
+
+def test_levels_report_their_error_budget_and_whether_they_shrank(tmp_path, small_tile):
+    # Transitions 50/49/48 %: level 2's budget is barely above level 1's, so level 2 mostly finds
+    # nothing more to collapse and says so, while level 1 shrinks (mesh caps at 1.0: the budget
+    # alone decides).
+    config = tmp_path / "lod.yaml"
+    config.write_text(
+        "lods:\n  - {transition: 50%, mesh: 1.0}\n  - {transition: 49%, mesh: 1.0}\n"
+        "  - {transition: 48%, mesh: 1.0}\nsimplify: {max_screen_error_px: 0.5}\n"
+    )
+    out = tmp_path / "out"
+    assert export([str(small_tile), "--out", str(out), "--config", str(config)]) == 0
+    manifest = manifest_of(out)
+    validate_manifest(manifest)
+    flags = []
+    for building in manifest["buildings"]:
+        lods = building["lods"]
+        assert "error_budget_m" not in lods[0] and "no_smaller_than_above" not in lods[0]
+        ratios = [lods[1]["error_budget_m"] / lods[2]["error_budget_m"]]
+        assert ratios[0] == pytest.approx(0.49 / 0.50, rel=1e-3)  # budget ~ 1 / transition above
+        for above, level in zip(lods, lods[1:]):
+            assert level["no_smaller_than_above"] == (level["triangles"] >= above["triangles"])
+            flags.append(level["no_smaller_than_above"])
+    assert True in flags and False in flags
+    summary = manifest["summary"]["levels"]
+    assert summary[2]["no_smaller_count"] == sum(
+        b["lods"][2]["no_smaller_than_above"] for b in manifest["buildings"]
+    )

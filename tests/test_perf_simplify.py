@@ -301,7 +301,7 @@ def test_not_exact_when_the_collapse_removed_faces():
     add_dome(builder, atlas, 0.0, 0.0, 0.0, 10.0, 8, 24)  # curved: the planar pass cannot help
     dome = [builder.part()]
     lod0, lod1 = chain(
-        dome, 0.5, max_error=0.0, protect_largest=0.0, preserve_uv_foldover_edges=False
+        dome, 0.5, max_screen_error_px=0.0, protect_largest=0.0, preserve_uv_foldover_edges=False
     )
     assert count(lod1.parts) < count(lod0.parts)
     assert not lod1.exact and not lod1.surface_exact
@@ -311,7 +311,10 @@ def test_not_exact_when_the_collapse_removed_faces():
         dome,
         [LodSpec(0.5), LodSpec(0.2, mesh=0.5), LodSpec(0.1, mesh=0.5)],
         dataclasses.replace(
-            SimplifyOptions(), max_error=0.0, protect_largest=0.0, preserve_uv_foldover_edges=False
+            SimplifyOptions(),
+            max_screen_error_px=0.0,
+            protect_largest=0.0,
+            preserve_uv_foldover_edges=False,
         ),
     )
     assert [level.exact for level in levels] == [True, False, False]
@@ -481,7 +484,8 @@ def test_exact_levels_measure_as_identity_and_slit_closing_is_not_exact(tmp_path
             elif metrics["hausdorff_rel"] <= 5e-4 and metrics["boundary_length_change"] < -1e-3:
                 assert level.surface_exact or not above.surface_exact
                 slit_closed += 1
-    assert exact > 10 and slit_closed > 0, (exact, slit_closed)
+    # Levels go as far as their error budget allows, so only some stay exact.
+    assert exact > 5 and slit_closed > 0, (exact, slit_closed)
 
 
 # --------------------------------------------------------------------------- error guard
@@ -504,7 +508,7 @@ def test_guard_exceeds_agrees_with_the_certified_bounds():
         positions, faces, _, _ = welded_mesh(parts)
         reference = Reference(positions, faces)
         options = SimplifyOptions(
-            max_error=0.0,
+            max_screen_error_px=0.0,
             protect_largest=0.0,
             preserve_uv_foldover_edges=False,
             preserve_uv_seam_edges=False,

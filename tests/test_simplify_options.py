@@ -19,7 +19,7 @@ from exporter.quality import boundary_loops, joined, measure_lod
 from exporter.simplify import build_mesh_lods, clean_part
 from exporter.simplify.protect import face_areas, largest_faces
 
-BASE = SimplifyOptions(planar_retriangulation=False, max_error=0.0, protect_largest=0.0)
+BASE = SimplifyOptions(planar_retriangulation=False, max_screen_error_px=0.0, protect_largest=0.0)
 
 
 def lod(parts, ratio, **changes):
@@ -64,7 +64,7 @@ def uv_stretch(parts):
 
 
 def test_protect_largest_keeps_exactly_the_largest_faces(dome):
-    part = dome[0]
+    part = clean_part(dome[0])  # the simplifier ranks the faces it gets (zero-area ones dropped)
     areas = face_areas(part.positions, part.triangles)
     protected = largest_faces(areas, 0.3)
     assert protected.sum() == round(0.3 * len(areas))
@@ -106,28 +106,57 @@ def test_preserve_uv_seam_edges_keeps_the_texture_unstretched(two_chart_plane):
     low_free, high_free = uv_stretch(free)
     assert high_kept / low_kept == pytest.approx(1.0, abs=1e-4)
     assert high_free / low_free > 1.05
-    assert count(free) < count(kept)
+
+    # The seam is the line x = 5 m: kept, no face reaches across it.
+    def straddling(parts):
+        x = parts[0].positions[parts[0].triangles][:, :, 0]
+        return int(((x.min(axis=1) < 5 - 1e-9) & (x.max(axis=1) > 5 + 1e-9)).sum())
+
+    assert straddling(kept) == 0 and straddling(lod(two_chart_plane, 0.1)) == 0
+    assert straddling(lod(two_chart_plane, 0.1, preserve_uv_seam_edges=False)) > 0
 
 
-def test_preserve_uv_foldover_edges_refuses_flipped_uvs(dome):
-    def flipped(parts):
-        p = parts[0]
-        u = p.uvs[p.triangles].astype(float)
-        d1, d2 = u[:, 1] - u[:, 0], u[:, 2] - u[:, 0]
-        return int(((d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]) < -1e-12).sum())
+def flipped(parts):
+    """Faces whose UV triangle is oriented against the source's (all counter-clockwise)."""
+    p = parts[0]
+    u = p.uvs[p.triangles].astype(float)
+    d1, d2 = u[:, 1] - u[:, 0], u[:, 2] - u[:, 0]
+    return int(((d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]) < -1e-12).sum())
 
-    # The source's UV triangles all have one orientation (the pole row's zero-area faces aside).
-    assert flipped([clean_part(dome[0])]) == 0
-    assert flipped(lod(dome, 0.3)) == 0
-    assert flipped(lod(dome, 0.3, preserve_uv_foldover_edges=False)) > 0
+
+@pytest.fixture(scope="module")
+def swirl():
+    """A flat 10 x 10 m wall cut 16 x 16 whose UVs are a swirl (one-to-one, not affine): the
+    geometry allows any collapse, the texture mapping folds under some."""
+    g = np.linspace(0.0, 10.0, 17)
+    x, y = np.meshgrid(g, g)
+    positions = np.column_stack([x.ravel(), y.ravel(), np.zeros(x.size)])
+    c = positions[:, :2] - 5.0
+    turn = 0.9 * np.pi * (1.0 - np.linalg.norm(c, axis=1) / 7.1) ** 2
+    cos, sin = np.cos(turn), np.sin(turn)
+    uvs = np.column_stack([c[:, 0] * cos - c[:, 1] * sin, c[:, 0] * sin + c[:, 1] * cos]) / 14 + 0.5
+    i = (np.arange(16)[:, None] * 17 + np.arange(16)[None, :]).ravel()
+    triangles = np.concatenate(
+        [np.column_stack([i, i + 1, i + 18]), np.column_stack([i, i + 18, i + 17])]
+    )
+    return [Part(positions, triangles, uvs=uvs.astype(np.float32))]
+
+
+def test_preserve_uv_foldover_edges_refuses_flipped_uvs(swirl):
+    assert flipped(swirl) == 0
+    assert flipped(lod(swirl, 0.3)) == 0
+    assert flipped(lod(swirl, 0.3, preserve_uv_foldover_edges=False)) > 0
 
 
 def test_preserve_surface_curvature_changes_the_collapse(dome):
-    # pymeshlab's normal check refuses collapses that tilt a face by more than 45 degrees; on the
-    # dome that leaves collapses the UV foldover check accepts, so the level gets further.
+    # Vertex normals join the collapse cost: other collapses are chosen, the shape no worse.
     plain = lod(dome, 0.3)
     curved = lod(dome, 0.3, preserve_surface_curvature=True)
-    assert count(curved) != count(plain)
+    faces = lambda ps: {
+        tuple(sorted(map(tuple, np.round(ps[0].positions[t], 9)))) for t in ps[0].triangles
+    }
+    assert faces(curved) != faces(plain)
+    assert measure_lod(dome, curved)["hausdorff_rel"] <= measure_lod(dome, plain)["hausdorff_rel"]
 
 
 def test_vertex_link_distance_closes_a_crack():
@@ -143,20 +172,25 @@ def test_vertex_link_distance_closes_a_crack():
     assert loops(welded) == 1
 
 
-def test_max_iterations_bounds_the_retries(two_chart_plane):
-    # The first pass crosses the seam, so one pass is not enough: the level stays unchanged.
-    assert count(lod(two_chart_plane, 0.2, max_iterations=1)) == count(two_chart_plane)
-    assert count(lod(two_chart_plane, 0.2, max_iterations=100)) < count(two_chart_plane)
+def test_max_iterations_bounds_the_retries(swirl):
+    # The first pass folds the texture, so one pass is not enough: the level stays unchanged.
+    assert count(lod(swirl, 0.3, max_iterations=1)) == count(swirl)
+    assert count(lod(swirl, 0.3, max_iterations=100)) < count(swirl)
 
 
-def test_max_error_bounds_the_deviation(dome):
-    free = lod(dome, 0.3, preserve_uv_foldover_edges=False)
-    bounded = lod(dome, 0.3, preserve_uv_foldover_edges=False, max_error=0.002)
-    assert measure_lod(dome, free)["hausdorff_rel"] > 0.01
-    assert (
-        measure_lod(dome, bounded)["hausdorff_rel"] <= 0.0025
-    )  # guard samples; metric samples more
+def test_max_screen_error_px_bounds_the_deviation(dome):
+    free = lod(dome, 0.3)
+    size = float(np.ptp(dome[0].positions, axis=0).max())
+    # Level 1 is shown up to lods[0].transition = 50 % of a 1080-pixel screen.
+    bounded = lod(dome, 0.3, max_screen_error_px=2.0)
+    budget = 2.0 * size / (0.5 * 1080)
+    diagonal = float(np.linalg.norm(np.ptp(dome[0].positions, axis=0)))
+    assert measure_lod(dome, free)["hausdorff_rel"] * diagonal > 2 * budget
+    assert measure_lod(dome, bounded)["hausdorff_rel"] * diagonal <= budget
     assert count(bounded) > count(free)
+    # Error-driven: without the cap's help (mesh 1.0) the budget alone shrinks the level.
+    uncapped = lod(dome, 1.0, max_screen_error_px=2.0)
+    assert count(uncapped) < count([clean_part(dome[0])])
 
 
 def test_protect_walls_keeps_the_footprint_walls(grid_box):

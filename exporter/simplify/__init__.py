@@ -6,9 +6,10 @@ Entry point: :func:`build_mesh_chain` (levels with their ``exact`` and ``surface
 per-vertex UVs (n, 2) in glTF convention, optional normals).
 
 Sources: Garland & Heckbert, "Surface Simplification Using Quadric Error Metrics" (1997) and
-Hoppe, "New Quadric Metric for Simplifying Meshes with Appearance Attributes" (1999), via pymeshlab;
-the geometric filter and Table II options of "A Method for Constructing and Managing Level of
-Detail for Non-Closed Boundary Models of Buildings" (VWorld). See ``docs/simplification.md``.
+Hoppe, "New Quadric Metric for Simplifying Meshes with Appearance Attributes" (1999), via
+meshoptimizer (zeux, ``meshopt_simplifyWithAttributes``; default) or pymeshlab; the geometric filter
+and Table II options of "A Method for Constructing and Managing Level of Detail for Non-Closed
+Boundary Models of Buildings" (VWorld). See ``docs/simplification.md``.
 
 Pipeline per level (each level is built from the level above; measured, see the docs):
 
@@ -17,8 +18,10 @@ Pipeline per level (each level is built from the level above; measured, see the 
 3. lock: vertices shared by two parts (no cracks), non-manifold edges, the open border;
 4. protect: the largest ``protect_largest`` share of faces by area (the paper's filter) and, with
    ``protect_walls``, the walls standing on the footprint, are kept out of the collapse;
-5. collapse towards ``round(source triangles x lods[k].mesh)`` faces, refusing seam crossings and
-   UV foldovers, within ``max_error`` of LOD0 (the error guard raises the target otherwise);
+5. collapse as far as the level's screen error budget (:func:`screen_tolerance`, metres) allows,
+   never above ``round(source triangles x lods[k].mesh)`` faces when the budget lets the level
+   get there, refusing seam crossings and UV foldovers (``simplify.engine``: meshoptimizer searched
+   on its error target, pymeshlab on the count); the error guard certifies every candidate;
 6. split back into parts with per-vertex UVs and normals.
 """
 
@@ -33,7 +36,8 @@ from ..config import LodSpec, SimplifyOptions
 from ..errors import ProcessError
 from ..geometry import unique_float_rows
 from ..model import Part
-from .guard import Reference, diagonal, exceeds
+from . import meshopt
+from .guard import Reference, exceeds
 from .planar import retriangulate_planar_checked
 from .protect import (
     border_vertices,
@@ -211,8 +215,11 @@ def _unchanged(positions, faces, corner_uvs) -> Collapsed:
     return Collapsed(positions, faces, corner_uvs, np.arange(len(positions)), np.arange(len(faces)))
 
 
-# Bisection steps of the error guard (the target is raised at most this many times).
+# Bisection steps of the error guard on the pymeshlab engine (the target is raised at most this
+# many times); halvings of meshopt's error target on the meshoptimizer engine.
 GUARD_STEPS = 5
+# meshopt's error target when a level has no error limit (metres; float32-representable).
+NO_LIMIT_M = 1e30
 
 
 def simplify_parts(
@@ -220,14 +227,16 @@ def simplify_parts(
     target: int,
     options: SimplifyOptions,
     reference: tuple[np.ndarray, np.ndarray] | Reference | None = None,
+    tolerance: float = float("inf"),
 ) -> list[Part]:
-    """One level: the parts jointly simplified towards ``target`` triangles (never more than given).
+    """One level: the parts jointly simplified towards ``target`` triangles (never more than given)
+    while staying within ``tolerance`` metres of ``reference`` (the error guard).
 
     ``reference``: the LOD0 mesh ``(positions (k, 3) metres, faces (m, 3))`` the error guard
     measures against, or that mesh prepared as a :class:`~.guard.Reference` (default: ``parts``
     themselves).
     """
-    return _simplify_level(parts, target, options, reference)[0]
+    return _simplify_level(parts, target, options, reference, tolerance=tolerance)[0]
 
 
 def _simplify_level(
@@ -236,13 +245,17 @@ def _simplify_level(
     options: SimplifyOptions,
     reference: tuple[np.ndarray, np.ndarray] | Reference | None = None,
     joined: tuple | None = None,
+    tolerance: float = float("inf"),
+    planar_done: bool = False,
 ) -> tuple[list[Part], bool, bool]:
     """:func:`simplify_parts`, whether the step kept the surface (only noise welding and the
     planar re-triangulation: no collapse, no link-distance welding) and whether it also kept the
     open boundary's length (lossless). ``joined``: ``_join(parts, link distance)`` when the caller
-    has it already (level 1 shares LOD0's with the guard's reference)."""
+    has it already (level 1 shares LOD0's with the guard's reference). ``planar_done``: the parts
+    are the planar stage's own output (the level above kept LOD0's surface), so it is not rerun."""
     total = sum(p.triangle_count for p in parts)
-    if total <= target or total == 0:
+    capped = options.engine == "pymeshlab" or not np.isfinite(tolerance)
+    if total == 0 or (total <= target and capped):
         return parts, True, True
     positions, faces, face_part, corner_uvs, face_chart, welded = joined or _join(
         parts, options.vertex_link_distance
@@ -252,14 +265,16 @@ def _simplify_level(
     if not isinstance(reference, Reference):
         reference = Reference(*reference)
     # Lossless first: flat polygons re-triangulated from their outlines.
-    if options.planar_retriangulation:
+    if options.planar_retriangulation and not planar_done:
         # Lossless, so only non-manifold vertices are held: straight vertices on the open border or
         # between two parts are dropped from both sides at once (no T-junction, no crack).
         faces, corner_uvs, source, boundary_kept = retriangulate_planar_checked(
             positions, faces, corner_uvs, face_chart, nonmanifold_vertices(faces, len(positions))
         )
         face_part, face_chart = face_part[source], face_chart[source]
-    if len(faces) <= target:
+    # Without an error budget (or on pymeshlab, whose search runs on the count) a level ends at its
+    # cap; with one, meshoptimizer goes on as far as the budget allows.
+    if len(faces) <= target and capped:
         # The planar pass met the target: no collapse, nothing to lock or protect.
         if len(faces) >= total:
             return parts, True, True
@@ -271,6 +286,86 @@ def _simplify_level(
         )
     locked = _locks(positions, faces, face_part, options)
     movable = ~_protected(positions, faces, options)
+    flat = _unchanged(positions, faces, corner_uvs)
+    # Nothing may move: the collapse would return the flat mesh unchanged and every search step
+    # the same, so there is nothing to run or measure.
+    if not movable.any():
+        result = flat
+    elif options.engine == "meshoptimizer":
+        result = _search_meshopt(
+            positions, faces, corner_uvs, face_chart, face_part, movable, locked,
+            target, options, reference, tolerance,
+        )  # fmt: skip
+    else:
+        result = _search_pymeshlab(
+            positions, faces, corner_uvs, face_chart, movable, locked,
+            target, options, reference, tolerance if np.isfinite(tolerance) else 0.0,
+        )  # fmt: skip
+    if len(result.faces) >= total:
+        return parts, True, True
+    # The surface stays only if the collapse changed nothing: no face removed, every vertex where it was.
+    surface_kept = (
+        not welded
+        and len(result.faces) == len(faces)
+        and np.array_equal(result.positions, positions[result.vertex_ids])
+    )
+    return _split(parts, result, face_part), surface_kept, surface_kept and boundary_kept
+
+
+def _search_meshopt(
+    positions, faces, corner_uvs, face_chart, face_part, movable, locked,
+    target, options, reference, tolerance,
+) -> Collapsed:  # fmt: skip
+    """The meshoptimizer level: as far as the error budget ``tolerance`` (metres) allows, never
+    above ``target`` faces when the budget lets the level get there.
+
+    meshopt runs with no face target and ``tolerance`` as its error target; its error is an
+    estimate, so the guard checks the result and the error target is halved (``GUARD_STEPS``
+    times) while the guard finds the level above ``tolerance``; the uncollapsed mesh when no step
+    passes. A result above ``target`` faces (meshopt's estimate stopped it) is replaced by the
+    collapse to ``target`` faces if the guard accepts that one. Without a budget: to ``target``."""
+
+    def attempt(goal: int, error: float) -> Collapsed:
+        return meshopt.collapse(
+            positions,
+            faces,
+            corner_uvs,
+            face_chart,
+            face_part,
+            movable,
+            locked,
+            goal,
+            error,
+            preserve_curvature=options.preserve_surface_curvature,
+            keep_seams=options.preserve_uv_seam_edges,
+            refuse_foldovers=options.preserve_uv_foldover_edges,
+            max_iterations=options.max_iterations,
+        )
+
+    flat = _unchanged(positions, faces, corner_uvs)
+    if not np.isfinite(tolerance):
+        return attempt(target, NO_LIMIT_M)
+    error = tolerance
+    for _ in range(GUARD_STEPS):
+        trial = attempt(0, error)
+        if len(trial.faces) >= len(faces):
+            break  # nothing collapses at this error target: a smaller one collapses nothing either
+        if not exceeds(reference, trial.positions, trial.faces, tolerance):
+            if len(trial.faces) > target:
+                capped = attempt(target, NO_LIMIT_M)
+                if not exceeds(reference, capped.positions, capped.faces, tolerance):
+                    return capped
+            return trial
+        error *= 0.5
+    return flat
+
+
+def _search_pymeshlab(
+    positions, faces, corner_uvs, face_chart, movable, locked,
+    target, options, reference, tolerance,
+) -> Collapsed:  # fmt: skip
+    """The pymeshlab level: collapse to ``target`` faces; when the guard finds it above
+    ``tolerance`` metres (0 = no limit), the target raised by bisection (``GUARD_STEPS``)."""
 
     def attempt(goal: int) -> Collapsed:
         return collapse(
@@ -287,17 +382,9 @@ def _simplify_level(
             max_iterations=options.max_iterations,
         )
 
-    tolerance = options.max_error * diagonal(reference.positions)
     flat = _unchanged(positions, faces, corner_uvs)
-    # Nothing may move: the collapse would return the flat mesh unchanged and every bisection step
-    # the same, so there is nothing to run or measure.
-    settled = not movable.any()
-    result = flat if settled else attempt(target)
-    if (
-        options.max_error > 0
-        and not settled
-        and exceeds(reference, result.positions, result.faces, tolerance)
-    ):
+    result = attempt(target)
+    if tolerance > 0 and exceeds(reference, result.positions, result.faces, tolerance):
         # Raise the target until the level stays within the tolerance (bisection on the count).
         best, low, high = flat, target, len(faces)
         for _ in range(GUARD_STEPS):
@@ -310,15 +397,18 @@ def _simplify_level(
             else:
                 low = middle
         result = best
-    if len(result.faces) >= total:
-        return parts, True, True
-    # The surface stays only if the collapse changed nothing: no face removed, every vertex where it was.
-    surface_kept = (
-        not welded
-        and len(result.faces) == len(faces)
-        and np.array_equal(result.positions, positions[result.vertex_ids])
-    )
-    return _split(parts, result, face_part), surface_kept, surface_kept and boundary_kept
+    return result
+
+
+def screen_tolerance(size: float, shown_up_to: float, options: SimplifyOptions) -> float:
+    """Metres a level may deviate from LOD0 (inf = no limit): ``max_screen_error_px`` pixels when
+    the building is drawn ``shown_up_to`` of the screen high (the transition of the level above)
+    on a ``reference_screen_height_px`` screen. ``size``: the LODGroup size, the largest side of
+    the building's bounds (metres); Unity's screen-relative height is size / (2 d tan(fov / 2)),
+    so one metre then covers ``shown_up_to x reference_screen_height_px / size`` pixels."""
+    if options.max_screen_error_px <= 0 or size <= 0:
+        return float("inf")
+    return options.max_screen_error_px * size / (shown_up_to * options.reference_screen_height_px)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -337,6 +427,8 @@ class MeshLevel:
     parts: list[Part]
     exact: bool
     surface_exact: bool
+    # Metres the level may deviate from LOD0 (its screen error budget; inf = no limit, 0 for LOD0).
+    tolerance: float = 0.0
 
 
 def build_mesh_chain(
@@ -345,10 +437,11 @@ def build_mesh_chain(
     """Mesh LoD chain: one :class:`MeshLevel` per level, LOD0 first.
 
     ``parts``: the building's source parts (local East/Up/North metres). Level 0 is the source
-    with zero-area faces removed (nothing else changes). Level k aims at
-    ``round(source triangles x lods[k].mesh)`` triangles in total and is built from level k-1;
-    a level that cannot reach its target keeps what it reached and is never larger than the
-    level above. Parts keep their ``texture``, ``color`` and ``name``. Raises
+    with zero-area faces removed (nothing else changes). Level k is built from level k-1 and
+    goes as far as its screen error budget (:func:`screen_tolerance`, certified against LOD0 by
+    the guard) allows; ``round(source triangles x lods[k].mesh)`` is a cap on its triangles that
+    holds whenever the budget lets the level reach it (the budget wins otherwise). A level is
+    never larger than the level above. Parts keep their ``texture``, ``color`` and ``name``. Raises
     :class:`~exporter.errors.ProcessError` on unusable parts (NaN positions, bad indices).
     """
     for i, part in enumerate(parts):
@@ -357,21 +450,33 @@ def build_mesh_chain(
     chain = [MeshLevel([clean_part(p) for p in parts], True, True)]
     joined = _join(chain[0].parts, 0.0)
     reference = Reference(*joined[:2])  # the guard's reference: LOD0, welded
+    size = largest_side(joined[0])
     for k, spec in enumerate(lods[1:], start=1):
         target = int(round(source_triangles * spec.mesh))
-        # Same error on screen at every level: level k is seen at most lods[k-1].transition of
-        # the screen high, so its allowed deviation grows as lods[0].transition / that.
-        scale = lods[0].transition / lods[k - 1].transition
-        level_options = dataclasses.replace(options, max_error=options.max_error * scale)
+        # Level k is shown at most lods[k-1].transition of the screen high.
+        tolerance = screen_tolerance(size, lods[k - 1].transition, options)
         # Level 1 starts from LOD0 welded the same way as the reference: joined once.
         shared = joined if k == 1 and options.vertex_link_distance <= NOISE_M else None
+        # A level above that kept LOD0's surface is the planar stage's output: not redone.
+        planar_done = k > 1 and chain[-1].surface_exact
         level, surface_kept, lossless = _simplify_level(
-            chain[-1].parts, target, level_options, reference, shared
+            chain[-1].parts, target, options, reference, shared, tolerance, planar_done
         )
         chain.append(
-            MeshLevel(level, chain[-1].exact and lossless, chain[-1].surface_exact and surface_kept)
+            MeshLevel(
+                level,
+                chain[-1].exact and lossless,
+                chain[-1].surface_exact and surface_kept,
+                tolerance,
+            )
         )
     return chain
+
+
+def largest_side(positions: np.ndarray) -> float:
+    """The largest side of the axis-aligned bounds (metres): Unity's ``LODGroup.size`` of the
+    building after ``RecalculateBounds`` (0 for no positions)."""
+    return float(np.ptp(positions, axis=0).max()) if len(positions) else 0.0
 
 
 def build_mesh_lods(

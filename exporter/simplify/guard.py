@@ -5,8 +5,9 @@ Data form: meshes as ``(positions (k, 3) float64 metres, faces (m, 3) int64)`` i
 building-local East/Up/North frame.
 
 Quadric collapse ranks collapses by error but has no error bound; the guard adds one: a level is
-accepted only when its symmetric Hausdorff distance to LOD0 stays below ``max_error`` x the
-source's bounding-box diagonal, otherwise the level's target is raised. The distance is
+accepted only when its symmetric Hausdorff distance to LOD0 stays below the level's budget in
+metres (``simplify.max_screen_error_px`` converted per building and level), otherwise the level
+keeps more triangles. The distance is
 certified (:mod:`exporter.hausdorff`): :func:`exceeds` never accepts a level whose true distance
 is above the tolerance (it may refuse one whose bound it cannot bring below the tolerance), and
 :func:`deviation` is an upper bound of the true distance, within ``hausdorff.RTOL`` of it (plus

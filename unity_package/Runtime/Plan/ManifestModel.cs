@@ -127,6 +127,10 @@ namespace VWorldLod
         public int[] texture_size;
         public long texture_bytes;
         public long file_bytes;
+        /// <summary>Metres the level may deviate from LOD0 (its screen error budget); 0 when absent (LOD0, no budget).</summary>
+        public double error_budget_m;
+        /// <summary>True when the level has no fewer triangles than the level above (its budget allowed no collapse).</summary>
+        public bool no_smaller_than_above;
         public LodQuality quality;
     }
 
