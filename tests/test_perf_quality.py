@@ -253,9 +253,12 @@ def test_measure_lod_hausdorff_bounds_the_sampled_two_way_maximum(seed):
         lower, upper = hausdorff_bounds(
             (source_pos, source_faces), (lod_pos, lod_faces), rtol=0.02, atol=1e-5 * diagonal
         )
-        reported = measure_lod(chain[0], level)["hausdorff_rel"]
-        assert reported == upper / diagonal and lower <= upper <= lower * 1.02 + 1e-5 * diagonal
-        assert expected <= upper * (1 + 1e-12)
+        reported = measure_lod(chain[0], level)["hausdorff_rel"] * diagonal
+        # Both are certified upper bounds (measure_lod's own refinement order may end at another
+        # one): each above every lower bound and within the requested gap of the lower bound.
+        for bound in (upper, reported):
+            assert lower <= bound <= lower * 1.02 + 1e-5 * diagonal
+            assert expected <= bound * (1 + 1e-12)
 
 
 def measure_points(positions, faces, seed):
