@@ -105,7 +105,7 @@ def test_preserve_uv_seam_edges_keeps_the_texture_unstretched(two_chart_plane):
     low_kept, high_kept = uv_stretch(kept)
     low_free, high_free = uv_stretch(free)
     assert high_kept / low_kept == pytest.approx(1.0, abs=1e-4)
-    assert high_free / low_free > 1.05
+    assert high_free > 1.05 * low_free  # stretched (low_free may be 0: a chart squashed flat)
 
     # The seam is the line x = 5 m: kept, no face reaches across it.
     def straddling(parts):
