@@ -41,11 +41,10 @@ def safe_folder_name(building_id: str) -> str:
     return name
 
 
-def load_schema() -> dict:
+def load_schema(name: str = "lod_manifest.schema.json") -> dict:
+    """A JSON schema shipped in ``exporter/schema/`` (the manifest's by default)."""
     return json.loads(
-        resources.files("exporter")
-        .joinpath("schema/lod_manifest.schema.json")
-        .read_text(encoding="utf-8")
+        resources.files("exporter").joinpath(f"schema/{name}").read_text(encoding="utf-8")
     )
 
 

@@ -29,9 +29,9 @@ import json
 import math
 import os
 from collections.abc import Iterable
-from importlib import resources
 from pathlib import Path
 
+from . import manifest
 from .atomic import write_text_atomic
 from .manifest import MANIFEST_NAME
 from .model import TileId
@@ -124,18 +124,18 @@ def build_index(out_dir: str | Path, fresh: dict[str, tuple[int, dict]] | None =
         names = sorted(f.name for f in folders if f.is_dir())
     for name in names:
         tile = tile_from_name(name)
-        manifest = out_dir / name / MANIFEST_NAME
+        manifest_path = out_dir / name / MANIFEST_NAME
         if tile is None:
             continue
         try:
-            manifest_stamp = manifest.stat().st_mtime_ns
+            manifest_stamp = manifest_path.stat().st_mtime_ns
         except OSError:
             continue  # a tile folder without a complete manifest (or no tile at all)
         facts = fresh.get(name)
         if facts is None and name in previous and manifest_stamp < index_stamp:
             facts = _facts(previous[name].get("buildings"), previous[name].get("globe"))
         if facts is None:
-            facts = _manifest_facts(manifest)
+            facts = _manifest_facts(manifest_path)
         if facts is None:
             continue
         entries.append((tile, tile_entry(tile, *facts)))
@@ -162,11 +162,7 @@ def write_tile_index(out_dir: str | Path, tiles: Iterable = (), globe=None) -> P
 
 
 def load_schema() -> dict:
-    return json.loads(
-        resources.files("exporter")
-        .joinpath("schema/tile_index.schema.json")
-        .read_text(encoding="utf-8")
-    )
+    return manifest.load_schema("tile_index.schema.json")
 
 
 def validate_index(index: dict) -> None:

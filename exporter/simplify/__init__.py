@@ -210,11 +210,6 @@ def _split(parts: list[Part], result, face_part_in) -> list[Part]:
     return out
 
 
-def _unchanged(positions, faces, corner_uvs) -> Collapsed:
-    """The mesh as a :class:`Collapsed` result that collapsed nothing."""
-    return Collapsed(positions, faces, corner_uvs, np.arange(len(positions)), np.arange(len(faces)))
-
-
 # Bisection steps of the error guard on the pymeshlab engine (the target is raised at most this
 # many times); halvings of meshopt's error target on the meshoptimizer engine.
 GUARD_STEPS = 5
@@ -280,13 +275,13 @@ def _simplify_level(
             return parts, True, True
         # Closing a slit of the source keeps the surface but not its open boundary.
         return (
-            _split(parts, _unchanged(positions, faces, corner_uvs), face_part),
+            _split(parts, Collapsed.unchanged(positions, faces, corner_uvs), face_part),
             not welded,
             not welded and boundary_kept,
         )
     locked = _locks(positions, faces, face_part, options)
     movable = ~_protected(positions, faces, options)
-    flat = _unchanged(positions, faces, corner_uvs)
+    flat = Collapsed.unchanged(positions, faces, corner_uvs)
     # Nothing may move: the collapse would return the flat mesh unchanged and every search step
     # the same, so there is nothing to run or measure.
     if not movable.any():
@@ -342,7 +337,7 @@ def _search_meshopt(
             max_iterations=options.max_iterations,
         )
 
-    flat = _unchanged(positions, faces, corner_uvs)
+    flat = Collapsed.unchanged(positions, faces, corner_uvs)
     if not np.isfinite(tolerance):
         return attempt(target, NO_LIMIT_M)
     error = tolerance
@@ -382,7 +377,7 @@ def _search_pymeshlab(
             max_iterations=options.max_iterations,
         )
 
-    flat = _unchanged(positions, faces, corner_uvs)
+    flat = Collapsed.unchanged(positions, faces, corner_uvs)
     result = attempt(target)
     if tolerance > 0 and exceeds(reference, result.positions, result.faces, tolerance):
         # Raise the target until the level stays within the tolerance (bisection on the count).

@@ -252,9 +252,7 @@ def collapse(
 ) -> Collapsed:
     """Collapse towards ``target`` faces or until meshopt's error estimate reaches
     ``target_error`` metres, whichever comes first (see the module doc for the steps)."""
-    unchanged = Collapsed(
-        positions, faces, corner_uvs, np.arange(len(positions)), np.arange(len(faces))
-    )
+    unchanged = Collapsed.unchanged(positions, faces, corner_uvs)
     if len(faces) <= target or not movable.any():
         return unchanged
     vertex_of, wedge_uvs, wedge_faces = _wedges(faces, corner_uvs, face_part, keep_seams)

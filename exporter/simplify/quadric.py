@@ -57,6 +57,13 @@ class Collapsed:
     vertex_ids: np.ndarray
     face_ids: np.ndarray
 
+    @classmethod
+    def unchanged(
+        cls, positions: np.ndarray, faces: np.ndarray, corner_uvs: np.ndarray | None
+    ) -> Collapsed:
+        """The mesh as a result that collapsed nothing (identity maps)."""
+        return cls(positions, faces, corner_uvs, np.arange(len(positions)), np.arange(len(faces)))
+
 
 # --------------------------------------------------------------------------- the pymeshlab pass
 
@@ -245,9 +252,7 @@ def collapse(
     """
     locked = np.asarray(locked, dtype=bool).copy()
     source_signs = uv_signs(corner_uvs) if corner_uvs is not None else None
-    unchanged = Collapsed(
-        positions, faces, corner_uvs, np.arange(len(positions)), np.arange(len(faces))
-    )
+    unchanged = Collapsed.unchanged(positions, faces, corner_uvs)
     if len(faces) <= target or not movable.any():
         return unchanged
     for _ in range(max_iterations):
