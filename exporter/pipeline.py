@@ -281,12 +281,11 @@ def process_entry(
         lap("textures")
         qualities = [{"triangle_ratio": 1.0}]
         for level in range(1, len(parts_by_level)):
-            if chain[level].exact:  # a lossless re-triangulation: nothing to measure
+            if level > 1 and same_geometry(parts_by_level[level], parts_by_level[level - 1]):
+                # The level above's mesh (no_smaller_than_above): its metrics, certified once.
+                qualities.append(dict(qualities[-1]))
+            elif chain[level].exact:  # a lossless re-triangulation: only the bound to certify
                 qualities.append(exact_quality(parts_by_level[0], parts_by_level[level]))
-            elif level > 1 and same_geometry(parts_by_level[level], parts_by_level[level - 1]):
-                qualities.append(
-                    dict(qualities[-1])
-                )  # e.g. the level above already met this target
             elif chain[level].surface_exact:  # same surface, outline changed (a closed slit)
                 qualities.append(boundary_quality(parts_by_level[0], parts_by_level[level]))
             else:

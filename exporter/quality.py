@@ -591,7 +591,6 @@ def measure_lod(source_parts: list[Part], lod_parts: list[Part]) -> dict:
 
 
 _SURFACES: OrderedDict[bytes, tuple] = OrderedDict()
-_BOUNDS: OrderedDict[bytes, float] = OrderedDict()  # (source, level) geometry -> bound / diagonal
 
 
 def _source_surface(parts: list[Part]):
@@ -614,17 +613,11 @@ def certified_hausdorff_rel(source_parts: list[Part], lod_parts: list[Part]) -> 
     0 for an empty source and level."""
     if not any(p.triangle_count for p in source_parts):
         return 0.0 if not any(p.triangle_count for p in lod_parts) else float("inf")
-    # A level whose mesh is the one above's (no_smaller_than_above) has that level's bound: the
-    # certification is by far the dearest metric, so it is done once per distinct geometry.
-    key = _source_key(source_parts) + _source_key(lod_parts)
-    if key in _BOUNDS:
-        _BOUNDS.move_to_end(key)
-        return _BOUNDS[key]
     surface, diagonal = _source_surface(source_parts)
     upper = hausdorff.hausdorff_bounds(
         surface, joined(lod_parts), rtol=HAUSDORFF_RTOL, atol=HAUSDORFF_ATOL * diagonal
     )[1]
-    return _remember(_BOUNDS, key, upper / diagonal)
+    return upper / diagonal
 
 
 def boundary_quality(source_parts: list[Part], lod_parts: list[Part]) -> dict:

@@ -353,25 +353,3 @@ def test_boundary_quality_of_empty_sides():
     assert boundary_quality(empty, empty) == measure_lod(empty, empty)
     with pytest.raises(ValueError, match="empty level"):
         boundary_quality(source, empty)
-
-
-def test_certified_bound_is_computed_once_per_geometry(monkeypatch):
-    # A level whose mesh equals the one above's gets that level's bound from the memo, the same
-    # number as a fresh certification; another geometry is certified anew.
-    from exporter import hausdorff, quality
-    from exporter.config import Config
-    from exporter.simplify import build_mesh_lods
-
-    config = Config()
-    chain = build_mesh_lods(crafted_building(5), config.lods, config.simplify)
-    quality._BOUNDS.clear()
-    fresh = quality.certified_hausdorff_rel(chain[0], chain[1])
-    calls = []
-    real = hausdorff.hausdorff_bounds
-    monkeypatch.setattr(
-        hausdorff, "hausdorff_bounds", lambda *a, **k: calls.append(1) or real(*a, **k)
-    )
-    copy = [dataclasses.replace(p, positions=p.positions.copy()) for p in chain[1]]
-    assert quality.certified_hausdorff_rel(chain[0], copy) == fresh and calls == []
-    moved = [dataclasses.replace(p, positions=p.positions + [0.0, 0.5, 0.0]) for p in chain[1]]
-    assert quality.certified_hausdorff_rel(chain[0], moved) > fresh and calls == [1]
