@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import coverage
 from . import quality as _quality
 from .geometry import cross_rows, unique_float_rows
 
@@ -904,11 +905,17 @@ def hausdorff_bounds(
     if atol is None:
         both = np.concatenate([a.tri.reshape(-1, 3), b.tri.reshape(-1, 3)])
         atol = ATOL * float(np.linalg.norm(both.max(axis=0) - both.min(axis=0)))
-    low_ab, up_ab = directed_bounds(a.tri, b, rtol=rtol, atol=atol, max_depth=max_depth)
-    low_ba, up_ba = directed_bounds(
-        b.tri, a, rtol=rtol, atol=atol, floor=low_ab, max_depth=max_depth
+    # Step 0: re-triangulated flat regions settled by counting, within atol (so the gap holds).
+    settled = coverage.region_certificate(
+        (b.positions, b.faces), (a.positions, a.faces), max_bound=atol
     )
-    return max(low_ab, low_ba), max(up_ab, up_ba)
+    low_ab, up_ab = directed_bounds(
+        a.tri[settled.open_source], b, rtol=rtol, atol=atol, max_depth=max_depth
+    )
+    low_ba, up_ba = directed_bounds(
+        b.tri[settled.open_level], a, rtol=rtol, atol=atol, floor=low_ab, max_depth=max_depth
+    )
+    return max(low_ab, low_ba), max(up_ab, up_ba, settled.bound)
 
 
 def exceeds(a, b, tolerance: float, max_depth: int = MAX_DEPTH) -> bool:
@@ -919,8 +926,13 @@ def exceeds(a, b, tolerance: float, max_depth: int = MAX_DEPTH) -> bool:
     a, b = _prepare(a), _prepare(b)
     if a.empty or b.empty:
         return not (a.empty and b.empty)
-    for source, target in ((b, a), (a, b)):
-        low, up = directed_bounds(source.tri, target, tolerance=tolerance, max_depth=max_depth)
+    settled = coverage.region_certificate(
+        (b.positions, b.faces), (a.positions, a.faces), max_bound=tolerance
+    )
+    for source, open_, target in ((b, settled.open_level, a), (a, settled.open_source, b)):
+        low, up = directed_bounds(
+            source.tri[open_], target, tolerance=tolerance, max_depth=max_depth
+        )
         if up > tolerance or low > tolerance:
             return True
     return False
