@@ -66,7 +66,7 @@ LOOSE = (3e-7, 3e-6, 1e-5)
 TRUSTED = 1e-6  # faces flatter than this (altitude / longest edge) give no single-face bound
 T_JUNCTION = 1e-6  # a vertex this close to an edge (share of its length) splits it
 
-__all__ = ["Surface", "hausdorff_bounds", "directed_bounds", "exceeds", "split4"]
+__all__ = ["Surface", "bounds_within", "hausdorff_bounds", "directed_bounds", "exceeds", "split4"]
 
 
 class Surface:
@@ -755,6 +755,7 @@ def directed_bounds(
     atol: float = 0.0,
     floor: float = 0.0,
     max_depth: int = MAX_DEPTH,
+    give_up: float = np.inf,
 ) -> tuple[float, float]:
     """Bounds ``(lower, upper)`` metres of ``max_{p in tri} d(p, target)``, ``tri`` (n, 3, 3) metres.
 
@@ -762,7 +763,9 @@ def directed_bounds(
     tolerance`` or every triangle's bound is <= tolerance (then ``upper <= tolerance``; the
     returned lower bound is what was met on the way). Without it the triangles are refined until
     ``upper <= max(lower, floor) * (1 + rtol) + atol`` or ``max_depth``. ``floor`` (metres): a
-    value the caller already has (the other direction), below which nothing is refined."""
+    value the caller already has (the other direction), below which nothing is refined.
+    ``give_up`` (metres): refining stops as soon as the lower bound is above it (the upper bound
+    returned is then inf)."""
     if len(tri) == 0:
         return 0.0, 0.0
     if target.empty:
@@ -799,6 +802,8 @@ def directed_bounds(
             lower = max(lower, float(index.refine(corners[far], upper[far]).max()))
         if tolerance is not None and lower > tolerance:
             return lower, float(bound.max())
+        if lower > give_up:
+            return lower, float("inf")
         if bound.max() <= goal():
             continue
         deep = depth >= max_depth
@@ -916,6 +921,37 @@ def hausdorff_bounds(
         b.tri[settled.open_level], a, rtol=rtol, atol=atol, floor=low_ab, max_depth=max_depth
     )
     return max(low_ab, low_ba), max(up_ab, up_ba, settled.bound)
+
+
+def bounds_within(
+    a, b, tolerance: float, rtol: float = RTOL, atol: float | None = None
+) -> tuple[float, float] | None:
+    """:func:`hausdorff_bounds` of ``a`` and ``b`` when its upper bound is at most ``tolerance``
+    (metres), else None; stops early once a lower bound is above ``tolerance``. What the error
+    guard runs on a candidate level: the bounds it keeps are the manifest's, computed once."""
+    a, b = _prepare(a), _prepare(b)
+    if a.empty and b.empty:
+        return 0.0, 0.0
+    if a.empty or b.empty:
+        return None
+    if atol is None:
+        both = np.concatenate([a.tri.reshape(-1, 3), b.tri.reshape(-1, 3)])
+        atol = ATOL * float(np.linalg.norm(both.max(axis=0) - both.min(axis=0)))
+    settled = coverage.region_certificate(
+        (b.positions, b.faces), (a.positions, a.faces), max_bound=min(atol, tolerance)
+    )
+    if settled.bound > tolerance:
+        return None
+    low_ab, up_ab = directed_bounds(
+        a.tri[settled.open_source], b, rtol=rtol, atol=atol, give_up=tolerance
+    )
+    if up_ab > tolerance:
+        return None
+    low_ba, up_ba = directed_bounds(
+        b.tri[settled.open_level], a, rtol=rtol, atol=atol, floor=low_ab, give_up=tolerance
+    )
+    upper = max(up_ab, up_ba, settled.bound)
+    return (max(low_ab, low_ba), upper) if upper <= tolerance else None
 
 
 def exceeds(a, b, tolerance: float, max_depth: int = MAX_DEPTH) -> bool:

@@ -289,7 +289,10 @@ def process_entry(
             elif chain[level].surface_exact:  # same surface, outline changed (a closed slit)
                 qualities.append(boundary_quality(parts_by_level[0], parts_by_level[level]))
             else:
-                qualities.append(measure_lod(parts_by_level[0], parts_by_level[level]))
+                # The guard's certified bound when it measured this level: not certified again.
+                qualities.append(
+                    measure_lod(parts_by_level[0], parts_by_level[level], chain[level].deviation)
+                )
         lap("quality")
         # The entry's id, not the reader's: the run made entry ids unique across folders and files.
         folder = safe_folder_name(entry.id)

@@ -544,13 +544,17 @@ def _boundary_keys(src, lod_parts: list[Part], lod_pos: np.ndarray, lod_faces: n
     }
 
 
-def measure_lod(source_parts: list[Part], lod_parts: list[Part]) -> dict:
+def measure_lod(
+    source_parts: list[Part], lod_parts: list[Part], hausdorff_m: float | None = None
+) -> dict:
     """Quality of ``lod_parts`` against ``source_parts`` (both local East/Up/North metres).
 
     Returns ``{"triangle_ratio", "hausdorff_rel", "silhouette_iou", "wall_coverage",
     "boundary_length_change", "new_holes"}`` (floats, ``new_holes`` an int); see the module doc.
     Deterministic: the samples come from a fixed seed. The source side is computed once and
     cached (keyed by its bytes), so measuring every level of a building costs one source pass.
+    ``hausdorff_m``: a certified upper bound (metres) of the level's Hausdorff distance to the
+    source that the caller has already (the error guard's), used instead of certifying again.
     """
     if sum(p.triangle_count for p in source_parts) == 0:
         return {
@@ -570,7 +574,11 @@ def measure_lod(source_parts: list[Part], lod_parts: list[Part]) -> dict:
     lod_index = SurfaceIndex(lod_pos, lod_faces)
     if len(lod_faces):
         sample_surface(lod_pos, lod_faces, SAMPLES, rng)  # the stream as before: same wall samples
-    hausdorff = certified_hausdorff_rel(source_parts, lod_parts) * src.diagonal
+    hausdorff = (
+        hausdorff_m
+        if hausdorff_m is not None
+        else certified_hausdorff_rel(source_parts, lod_parts) * src.diagonal
+    )
     covered = lod_index.within(src.wall_points, COVER_TOLERANCE * src.diagonal)
     wall_coverage = float(covered.mean()) if len(covered) else 1.0
 

@@ -322,6 +322,10 @@ def test_exact_levels_carry_identity_metrics_and_changed_levels_are_measured(tmp
                         assert (outline["boundary_length_change"], outline["new_holes"]) == (0.0, 0)
                 else:
                     seen["changed"] += 1
+                    # hausdorff_rel is the guard's certified bound (against LOD0 welded, plus the
+                    # welding): within the bounds' gap of measure_lod's own certification.
+                    reported, own = quality.pop("hausdorff_rel"), measured.pop("hausdorff_rel")
+                    assert abs(reported - own) <= 0.02 * max(reported, own) + 1e-5
                     assert quality == pytest.approx(measured)
     assert all(seen.values()), seen  # every path ran
 

@@ -347,7 +347,7 @@ def test_planar_stage_not_rerun_below_a_surface_exact_level_changes_nothing():
             continue
         reference = Reference(*_join(chain[0].parts, 0.0)[:2])
         size = float(np.ptp(reference.positions, axis=0).max())
-        rerun, _, _ = _simplify_level(
+        rerun, _, _, _ = _simplify_level(
             chain[1].parts,
             round(sum(p.triangle_count for p in building.parts) * lods[2].mesh),
             options,

@@ -37,7 +37,7 @@ from ..errors import ProcessError
 from ..geometry import unique_float_rows
 from ..model import Part
 from . import meshopt
-from .guard import Reference, exceeds
+from .guard import Reference, certify, exceeds
 from .planar import retriangulate_planar_checked
 from .protect import (
     border_vertices,
@@ -242,16 +242,18 @@ def _simplify_level(
     joined: tuple | None = None,
     tolerance: float = float("inf"),
     planar_done: bool = False,
-) -> tuple[list[Part], bool, bool]:
+) -> tuple[list[Part], bool, bool, tuple[float, float] | None]:
     """:func:`simplify_parts`, whether the step kept the surface (only noise welding and the
     planar re-triangulation: no collapse, no link-distance welding) and whether it also kept the
     open boundary's length (lossless). ``joined``: ``_join(parts, link distance)`` when the caller
     has it already (level 1 shares LOD0's with the guard's reference). ``planar_done``: the parts
-    are the planar stage's own output (the level above kept LOD0's surface), so it is not rerun."""
+    are the planar stage's own output (the level above kept LOD0's surface), so it is not rerun.
+    Last: the guard's certified ``(lower, upper)`` metres to ``reference`` for the level it
+    accepted (None when the guard did not run on the result)."""
     total = sum(p.triangle_count for p in parts)
     capped = options.engine == "pymeshlab" or not np.isfinite(tolerance)
     if total == 0 or (total <= target and capped):
-        return parts, True, True
+        return parts, True, True, None
     positions, faces, face_part, corner_uvs, face_chart, welded = joined or _join(
         parts, options.vertex_link_distance
     )
@@ -272,22 +274,24 @@ def _simplify_level(
     if len(faces) <= target and capped:
         # The planar pass met the target: no collapse, nothing to lock or protect.
         if len(faces) >= total:
-            return parts, True, True
+            return parts, True, True, None
         # Closing a slit of the source keeps the surface but not its open boundary.
         return (
             _split(parts, Collapsed.unchanged(positions, faces, corner_uvs), face_part),
             not welded,
             not welded and boundary_kept,
+            None,
         )
     locked = _locks(positions, faces, face_part, options)
     movable = ~_protected(positions, faces, options)
     flat = Collapsed.unchanged(positions, faces, corner_uvs)
     # Nothing may move: the collapse would return the flat mesh unchanged and every search step
     # the same, so there is nothing to run or measure.
+    bounds = None
     if not movable.any():
         result = flat
     elif options.engine == "meshoptimizer":
-        result = _search_meshopt(
+        result, bounds = _search_meshopt(
             positions, faces, corner_uvs, face_chart, face_part, movable, locked,
             target, options, reference, tolerance,
         )  # fmt: skip
@@ -297,21 +301,21 @@ def _simplify_level(
             target, options, reference, tolerance if np.isfinite(tolerance) else 0.0,
         )  # fmt: skip
     if len(result.faces) >= total:
-        return parts, True, True
+        return parts, True, True, None
     # The surface stays only if the collapse changed nothing: no face removed, every vertex where it was.
     surface_kept = (
         not welded
         and len(result.faces) == len(faces)
         and np.array_equal(result.positions, positions[result.vertex_ids])
     )
-    return _split(parts, result, face_part), surface_kept, surface_kept and boundary_kept
+    return _split(parts, result, face_part), surface_kept, surface_kept and boundary_kept, bounds
 
 
 def _search_meshopt(
     positions, faces, corner_uvs, face_chart, face_part, movable, locked,
     target, options, reference, tolerance,
-) -> Collapsed:  # fmt: skip
-    """The meshoptimizer level: as far as the error budget ``tolerance`` (metres) allows, never
+) -> tuple[Collapsed, tuple[float, float] | None]:  # fmt: skip
+    """The meshoptimizer level (and the guard's certified bounds of it, metres, or None): as far as the error budget ``tolerance`` (metres) allows, never
     above ``target`` faces when the budget lets the level get there.
 
     meshopt runs with no face target and ``tolerance`` as its error target; its error is an
@@ -339,20 +343,23 @@ def _search_meshopt(
 
     flat = Collapsed.unchanged(positions, faces, corner_uvs)
     if not np.isfinite(tolerance):
-        return attempt(target, NO_LIMIT_M)
+        return attempt(target, NO_LIMIT_M), None
     error = tolerance
     for _ in range(GUARD_STEPS):
         trial = attempt(0, error)
         if len(trial.faces) >= len(faces):
             break  # nothing collapses at this error target: a smaller one collapses nothing either
-        if not exceeds(reference, trial.positions, trial.faces, tolerance):
+        # Certified with the manifest's tightness at once: the accepted level is not measured again.
+        bounds = certify(reference, trial.positions, trial.faces, tolerance)
+        if bounds is not None:
             if len(trial.faces) > target:
                 capped = attempt(target, NO_LIMIT_M)
-                if not exceeds(reference, capped.positions, capped.faces, tolerance):
-                    return capped
-            return trial
+                capped_bounds = certify(reference, capped.positions, capped.faces, tolerance)
+                if capped_bounds is not None:
+                    return capped, capped_bounds
+            return trial, bounds
         error *= 0.5
-    return flat
+    return flat, None
 
 
 def _search_pymeshlab(
@@ -424,6 +431,9 @@ class MeshLevel:
     surface_exact: bool
     # Metres the level may deviate from LOD0 (its screen error budget; inf = no limit, 0 for LOD0).
     tolerance: float = 0.0
+    # Certified upper bound (metres) of the level's symmetric Hausdorff distance to LOD0's parts
+    # as given (the guard's, plus LOD0's noise welding), when the guard measured it; else None.
+    deviation: float | None = None
 
 
 def build_mesh_chain(
@@ -446,6 +456,7 @@ def build_mesh_chain(
     joined = _join(chain[0].parts, 0.0)
     reference = Reference(*joined[:2])  # the guard's reference: LOD0, welded
     size = largest_side(joined[0])
+    offset = None  # LOD0's noise welding, metres (weld_offset), when a bound needs it
     for k, spec in enumerate(lods[1:], start=1):
         target = int(round(source_triangles * spec.mesh))
         # Level k is shown at most lods[k-1].transition of the screen high.
@@ -454,18 +465,41 @@ def build_mesh_chain(
         shared = joined if k == 1 and options.vertex_link_distance <= NOISE_M else None
         # A level above that kept LOD0's surface is the planar stage's output: not redone.
         planar_done = k > 1 and chain[-1].surface_exact
-        level, surface_kept, lossless = _simplify_level(
+        level, surface_kept, lossless, bounds = _simplify_level(
             chain[-1].parts, target, options, reference, shared, tolerance, planar_done
         )
+        if bounds is not None:
+            if offset is None:
+                offset = weld_offset(chain[0].parts, joined[0])
+            deviation: float | None = bounds[1] + offset
+        elif level is chain[-1].parts:
+            deviation = chain[-1].deviation  # the level above, unchanged
+        else:
+            deviation = None
         chain.append(
             MeshLevel(
                 level,
                 chain[-1].exact and lossless,
                 chain[-1].surface_exact and surface_kept,
                 tolerance,
+                deviation,
             )
         )
     return chain
+
+
+def weld_offset(parts: list[Part], welded_positions: np.ndarray) -> float:
+    """Metres: the largest distance from a vertex of ``parts`` to its position after ``_join``'s
+    noise welding (``welded_positions``), so a bound measured against the welded mesh plus this
+    holds against the parts as given (moving every vertex by at most d moves no point of a face
+    by more than d)."""
+    positions = np.concatenate([p.positions for p in parts]) if parts else np.zeros((0, 3))
+    if len(positions) == 0:
+        return 0.0
+    welded, points = weld_positions(positions, NOISE_M)
+    if len(points) != len(welded_positions) or not np.array_equal(points, welded_positions):
+        raise AssertionError("weld_offset: not the welding _join made")
+    return float(np.sqrt(((positions - points[welded]) ** 2).sum(1)).max())
 
 
 def largest_side(positions: np.ndarray) -> float:
