@@ -441,12 +441,10 @@ class _Source:
     low: np.ndarray
     high: np.ndarray
     diagonal: float
-    points: np.ndarray  # vertices + samples, (p, 3) metres
     wall_points: np.ndarray  # samples on walls, (w, 3) metres
     silhouettes: list
     border_length: float
     loops: int
-    index: SurfaceIndex
 
 
 _CACHE: OrderedDict[bytes, _Source] = OrderedDict()
@@ -508,6 +506,11 @@ def _source_side(parts: list[Part]) -> _Source:
     lengths = row_lengths(normals)
     walls = (np.abs(normals[:, 1]) < WALL_MAX_UP * lengths) & (lengths > 0)
     border_length, loops = open_boundary(positions, faces)
+    if lengths.sum() > 0:
+        # The SAMPLES surface samples the stream gave the old sampled Hausdorff distance first:
+        # sample_surface draws 3 doubles per sample (rng.choice's uniforms, then r1, r2), so the
+        # wall samples stay the ones measured since af57811.
+        rng.random(3 * SAMPLES)
     source = _Source(
         positions,
         faces,
@@ -515,14 +518,12 @@ def _source_side(parts: list[Part]) -> _Source:
         low,
         high,
         max(float(np.linalg.norm(high - low)), 1e-9),
-        np.vstack([positions, sample_surface(positions, faces, SAMPLES, rng)]),
         sample_surface(positions, faces[walls], WALL_SAMPLES, rng)
         if walls.any()
         else np.zeros((0, 3)),
         silhouettes(positions, faces, low, high),
         border_length,
         loops,
-        SurfaceIndex(positions, faces),
     )
     return _remember(_CACHE, key, source)
 
@@ -542,6 +543,22 @@ def _boundary_keys(src, lod_parts: list[Part], lod_pos: np.ndarray, lod_faces: n
         "boundary_length_change": float(change),
         "new_holes": int(max(0, lod_loops - src.loops)),
     }
+
+
+def _wall_coverage(src: _Source, lod_pos: np.ndarray, lod_faces: np.ndarray, hausdorff: float):
+    """Share of the source's wall samples within ``COVER_TOLERANCE`` x diagonal of the welded
+    level (positions metres, local East/Up/North), given a certified upper bound of the
+    Hausdorff distance (metres).
+
+    No source point is farther from the level than the bound: when the bound (plus the rounding
+    margin of a computed distance) is within the tolerance, every sample is covered and the
+    exact distances (:meth:`SurfaceIndex.within`) would only confirm it.
+    """
+    tolerance = COVER_TOLERANCE * src.diagonal
+    if len(src.wall_points) == 0 or hausdorff + PROBE_MARGIN_M * (1.0 + hausdorff) <= tolerance:
+        return 1.0
+    covered = SurfaceIndex(lod_pos, lod_faces).within(src.wall_points, tolerance)
+    return float(covered.mean())
 
 
 def measure_lod(
@@ -567,20 +584,14 @@ def measure_lod(
         }
     src = _source_side(source_parts)
     lod_pos, lod_faces = joined(lod_parts)
-    rng = np.random.default_rng(SEED + 1)
 
-    # The Hausdorff distance certified from above (exporter.hausdorff); walls exact beyond the
-    # tolerance.
-    lod_index = SurfaceIndex(lod_pos, lod_faces)
-    if len(lod_faces):
-        sample_surface(lod_pos, lod_faces, SAMPLES, rng)  # the stream as before: same wall samples
+    # The Hausdorff distance certified from above (exporter.hausdorff, or the guard's), metres.
     hausdorff = (
         hausdorff_m
         if hausdorff_m is not None
         else certified_hausdorff_rel(source_parts, lod_parts) * src.diagonal
     )
-    covered = lod_index.within(src.wall_points, COVER_TOLERANCE * src.diagonal)
-    wall_coverage = float(covered.mean()) if len(covered) else 1.0
+    wall_coverage = _wall_coverage(src, lod_pos, lod_faces, hausdorff)
 
     ious = []
     for a, b in zip(src.silhouettes, silhouettes(lod_pos, lod_faces, src.low, src.high)):
