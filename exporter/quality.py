@@ -57,7 +57,7 @@ their probes are far but their distance is 0); measuring the level-to-source dir
 every probe); cKDTree without balancing and a hand-written ``rng.choice`` (< 2 % each).
 
 Round 3 (issue 13, the Hausdorff bound excluded; against a9d60e1 alternated in one run, best
-of 3, 100 generated buildings of seed 3, every level k >= 1): measure_lod 0.38x (0.41x on the
+of 3, 100 generated buildings of seed 3, every level k >= 1): measure_lod 0.38-0.42x (0.39-0.45x on the
 20 levels that are not exact), values identical (also with the bound replaced by inf, which
 forces the exact wall distances). Dead work gone: the level's SAMPLES samples (they fed
 nothing since the sampled Hausdorff distance left) and the source's SurfaceIndex and sample
