@@ -425,3 +425,41 @@ def test_boundary_quality_keys_are_measure_lods_bit_for_bit(boundary_first):
                 assert bounded[key] == measured[key] == value and type(bounded[key]) is type(value)
             checked += keep < 1.0 and expected["boundary_length_change"] != 0.0
     assert checked >= 6  # the subsets did change the boundary
+
+
+def reference_wall_points(parts):
+    """The source's wall samples as af57811 drew them: after SAMPLES samples of the whole
+    surface (for the sampled Hausdorff distance) from the same stream."""
+    from exporter.quality import SAMPLES, SEED, WALL_MAX_UP, WALL_SAMPLES, sample_surface
+
+    positions, faces = joined(parts)
+    rng = np.random.default_rng(SEED)
+    normals = face_normals(positions, faces)
+    lengths = row_lengths(normals)
+    walls = (np.abs(normals[:, 1]) < WALL_MAX_UP * lengths) & (lengths > 0)
+    sample_surface(positions, faces, SAMPLES, rng)
+    return sample_surface(positions, faces[walls], WALL_SAMPLES, rng)
+
+
+def test_wall_coverage_is_the_exact_share_whichever_path_gives_it():
+    """Wall samples are af57811's; wall_coverage is the share of them within the tolerance by
+    exact distances, also where the certified Hausdorff bound (below the tolerance) stands in."""
+    config = Config()
+    shortcut = 0
+    for seed in (1, 3, 6):
+        source = crafted_building(seed)
+        quality._CACHE.clear()
+        side = quality._source_side(source)
+        assert np.array_equal(side.wall_points, reference_wall_points(source))
+        tolerance = quality.COVER_TOLERANCE * side.diagonal
+        box = box_building(5, 3, 20.0, (2, 4), 2)
+        levels = build_mesh_lods(source, config.lods, config.simplify)[1:]
+        levels.append([dataclasses.replace(source[0], triangles=source[0].triangles[::2])])
+        levels.append([dataclasses.replace(box[0], positions=box[0].positions * 0.9)])
+        for level in levels:
+            lod_pos, lod_faces = joined(level)
+            inside = reference_within(SurfaceIndex(lod_pos, lod_faces), side.wall_points, tolerance)
+            measured = measure_lod(source, level)
+            assert measured["wall_coverage"] == float(inside.mean())
+            shortcut += measured["hausdorff_rel"] < quality.COVER_TOLERANCE
+    assert 0 < shortcut < 12  # both paths were taken
