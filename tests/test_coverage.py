@@ -138,3 +138,43 @@ def test_random_re_triangulations_are_never_under_bounded(seed):
     cert = region_certificate((positions, level), (positions, faces))
     to_source, to_level = _settled_distances((positions, level), (positions, faces), cert, 12)
     assert max(to_source, to_level) <= cert.bound * (1 + 1e-9) + 1e-12
+
+
+def _t_junction(lift: float = 0.0):
+    """A 2 x 1 m flat quad (z = 0) with a vertex m = (1, 1) on its top edge: the source fans it
+    from its centre; the level fans its lower part to m and keeps the collinear sliver (3, m, 2)
+    that a collapse onto the top edge leaves. ``lift`` (metres) moves m up off the edge within the
+    plane (the sliver then has that altitude and the quad a dent of it)."""
+    positions = np.array(
+        [[0, 0, 0], [2, 0, 0], [2, 1, 0], [0, 1, 0], [1, 1 + lift, 0], [1, 0.5, 0]], np.float64
+    )
+    source = np.array([[0, 1, 5], [1, 2, 5], [2, 4, 5], [4, 3, 5], [3, 0, 5]])
+    level = np.array([[0, 1, 4], [1, 2, 4], [0, 4, 3], [3, 4, 2]])
+    return positions, source, level
+
+
+def test_a_collinear_sliver_along_settled_edges_is_settled():
+    positions, source, level = _t_junction()
+    cert = region_certificate((positions, level), (positions, source))
+    assert not cert.open_level.any() and not cert.open_source.any()
+    assert cert.bound < 1e-9
+
+
+def test_a_slightly_bent_sliver_adds_its_width_and_stays_sound():
+    positions, source, level = _t_junction(lift=1e-7)
+    cert = region_certificate((positions, level), (positions, source))
+    # The sliver (3, 4, 2) sticks 1e-7 m out of the source: settled with at least that.
+    assert not cert.open_level.any()
+    to_source, to_level = _settled_distances((positions, level), (positions, source), cert, 12)
+    assert max(to_source, to_level) <= cert.bound * (1 + 1e-9) + 1e-12
+    assert cert.bound >= 1e-7
+
+
+def test_a_sliver_off_every_settled_edge_stays_open():
+    positions, source, level = _t_junction()
+    # A thin triangle floating 1 m above the quad, sharing no edge with it: nothing vouches for it.
+    far = np.array([[0.0, 0.5, 1.0], [1.0, 0.5, 1.0], [2.0, 0.5 + 1e-9, 1.0]])
+    positions = np.vstack([positions, far])
+    level = np.vstack([level, [[6, 7, 8]]])
+    cert = region_certificate((positions, level), (positions, source))
+    assert cert.open_level[-1]
