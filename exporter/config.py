@@ -231,6 +231,13 @@ class SimplifyOptions:
             "also keep near-vertical faces standing on the open bottom border (the walls on the footprint outline) out of the quadric collapse",
         ),
     )
+    min_silhouette_iou: float = field(
+        default=0.97,
+        metadata=meta(
+            parse_ratio_or_zero,
+            "a level whose silhouette (top, front and side, IoU against LOD0 on a 128 x 128 raster of LOD0's box) keeps less than this is refused like one above its error budget, so thin parts (towers, spires) keep their outline (0 = off)",
+        ),
+    )
     planar_retriangulation: bool = field(
         default=True,
         metadata=meta(

@@ -15,6 +15,7 @@ def test_defaults_are_the_papers():
     assert config.lods[1].mesh <= 0.6746 and config.lods[2].mesh <= 0.4807
     assert config.simplify.protect_largest == 0.30
     assert config.simplify.preserve_border_edges is True
+    assert config.simplify.min_silhouette_iou == 0.97
     assert config.terrain_levels() == [15, 14, 13]
 
 
@@ -58,6 +59,7 @@ def test_partial_sections_keep_other_defaults():
         ),
         ({"lods": [{"transition": 0.5, "mesh": 1.5}]}, "lods[0].mesh", "(0, 1]"),
         ({"lods": [{"transition": 0.5, "mesh": 0}]}, "lods[0].mesh", "(0, 1]"),
+        ({"simplify": {"min_silhouette_iou": 1.5}}, "simplify.min_silhouette_iou", "[0, 1]"),
         ({"lods": [{"transition": "fifty"}]}, "lods[0].transition", "(0, 1]"),
         ({"lods": [{"transition": 0.9 - i * 0.1} for i in range(9)]}, "lods", "1 to 8"),
         ({"lods": []}, "lods", "1 to 8"),

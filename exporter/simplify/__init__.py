@@ -37,7 +37,7 @@ from ..errors import ProcessError
 from ..geometry import unique_float_rows
 from ..model import Part
 from . import meshopt
-from .guard import Reference, certify, exceeds
+from .guard import Reference, certify, exceeds, silhouette_iou
 from .planar import retriangulate_planar_checked
 from .protect import (
     border_vertices,
@@ -351,11 +351,11 @@ def _search_meshopt(
             break  # nothing collapses at this error target: a smaller one collapses nothing either
         # Certified with the manifest's tightness at once: the accepted level is not measured again.
         bounds = certify(reference, trial.positions, trial.faces, tolerance)
-        if bounds is not None:
+        if bounds is not None and _keeps_silhouette(reference, trial, options):
             if len(trial.faces) > target:
                 capped = attempt(target, NO_LIMIT_M)
                 capped_bounds = certify(reference, capped.positions, capped.faces, tolerance)
-                if capped_bounds is not None:
+                if capped_bounds is not None and _keeps_silhouette(reference, capped, options):
                     return capped, capped_bounds
             return trial, bounds
         error *= 0.5
@@ -384,9 +384,16 @@ def _search_pymeshlab(
             max_iterations=options.max_iterations,
         )
 
+    def refused(trial: Collapsed) -> bool:
+        # Without a budget (0) the level goes to its cap: no guard, no silhouette floor.
+        return tolerance > 0 and (
+            exceeds(reference, trial.positions, trial.faces, tolerance)
+            or not _keeps_silhouette(reference, trial, options)
+        )
+
     flat = Collapsed.unchanged(positions, faces, corner_uvs)
     result = attempt(target)
-    if tolerance > 0 and exceeds(reference, result.positions, result.faces, tolerance):
+    if refused(result):
         # Raise the target until the level stays within the tolerance (bisection on the count).
         best, low, high = flat, target, len(faces)
         for _ in range(GUARD_STEPS):
@@ -394,12 +401,21 @@ def _search_pymeshlab(
             if middle <= low or middle >= high:
                 break
             trial = attempt(middle)
-            if not exceeds(reference, trial.positions, trial.faces, tolerance):
+            if not refused(trial):
                 best, high = trial, middle
             else:
                 low = middle
         result = best
     return result
+
+
+def _keeps_silhouette(reference: Reference, trial: Collapsed, options: SimplifyOptions) -> bool:
+    """Whether the candidate keeps at least ``min_silhouette_iou`` of LOD0's silhouettes (always
+    when the option is 0). The Hausdorff budget scales with the building's size, so a thin part
+    (a tower on a wide base) may move by a large share of its own width within it."""
+    if options.min_silhouette_iou <= 0:
+        return True
+    return silhouette_iou(reference, trial.positions, trial.faces) >= options.min_silhouette_iou
 
 
 def screen_tolerance(size: float, shown_up_to: float, options: SimplifyOptions) -> float:

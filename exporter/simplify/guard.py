@@ -31,6 +31,7 @@ class Reference:
     def __init__(self, positions: np.ndarray, faces: np.ndarray) -> None:
         self.positions, self.faces = positions, faces
         self._surface: hausdorff.Surface | None = None
+        self._silhouettes: np.ndarray | None = None
 
     @property
     def surface(self) -> hausdorff.Surface:
@@ -42,6 +43,15 @@ class Reference:
     def index(self):
         """The reference's exact point-distance index (:class:`~exporter.quality.SurfaceIndex`)."""
         return self.surface.index
+
+    @property
+    def silhouettes(self) -> np.ndarray:
+        """(3, RESOLUTION, RESOLUTION) bool: the reference's top, front and side silhouettes on
+        its own box (:func:`exporter.quality.silhouettes`)."""
+        if self._silhouettes is None:
+            low, high = self.positions.min(axis=0), self.positions.max(axis=0)
+            self._silhouettes = quality.silhouettes(self.positions, self.faces, low, high)
+        return self._silhouettes
 
 
 def _reference(reference) -> Reference:
@@ -100,3 +110,17 @@ def diagonal(positions: np.ndarray) -> float:
         if len(positions)
         else 0.0
     )
+
+
+def silhouette_iou(reference: Reference, positions: np.ndarray, faces: np.ndarray) -> float:
+    """The smallest IoU of the level's top, front and side silhouettes with the reference's, on
+    a raster of the reference's box (``quality.RESOLUTION`` pixels a side; what the manifest's
+    ``silhouette_iou`` measures, there on LOD0 as given rather than welded)."""
+    if len(reference.faces) == 0:
+        return 1.0
+    low, high = reference.positions.min(axis=0), reference.positions.max(axis=0)
+    source = reference.silhouettes
+    level = quality.silhouettes(positions, faces, low, high)
+    unions = (source | level).sum(axis=(1, 2))
+    overlaps = (source & level).sum(axis=(1, 2))
+    return min(float(o / u) if u else 1.0 for o, u in zip(overlaps.tolist(), unions.tolist()))
