@@ -25,6 +25,7 @@ one-region reference :func:`_retriangulate` bit for bit (``tests/test_perf_simpl
 from __future__ import annotations
 
 import itertools
+from typing import NamedTuple
 
 import mapbox_earcut
 import numpy as np
@@ -205,7 +206,7 @@ def _member(values: np.ndarray, ordered: np.ndarray) -> np.ndarray:
 
 
 def _region_loops(
-    half: np.ndarray, half_region: np.ndarray, region_count: int, k: int, droppable: list
+    half: np.ndarray, half_region: np.ndarray, region_count: int, k: int, droppable
 ) -> list:
     """:func:`_loops` of many regions at once, droppable vertices already removed: per region a
     list of loops (vertex lists) or None (pinched, open chain, no outline, or a loop under 3).
@@ -232,42 +233,51 @@ def _region_loops(
     bad[owner[sources[at] != target]] = True
     following = by_source[at]
     loops: list = [None if b else [] for b in bad.tolist()]
-    following, starts, owners = following.tolist(), edges[:, 0].tolist(), owner.tolist()
-    seen = bytearray(len(starts))
-    for first, region in enumerate(owners):
-        if seen[first] or loops[region] is None:
-            continue
+    # Each outline vertex, or -1 where it is dropped.
+    kept = np.where(np.asarray(droppable, dtype=bool)[edges[:, 0]], -1, edges[:, 0]).tolist()
+    following, owners = following.tolist(), owner.tolist()
+    # Walks start at every half-edge not yet seen, in face order (bytearray.find skips the seen
+    # ones at C speed); bad regions' half-edges are never walked (their successors may be wrong).
+    seen = bytearray(bad[owner].tobytes())
+    first = seen.find(0)
+    while first >= 0:
         loop, e = [], first
         while not seen[e]:
             seen[e] = 1
-            if not droppable[starts[e]]:
-                loop.append(starts[e])
+            if kept[e] >= 0:
+                loop.append(kept[e])
             e = following[e]
-        if len(loop) < 3:
-            loops[region] = None
-        else:
-            loops[region].append(loop)
+        # A good region's walk stays in it; one of its loops under 3 vertices voids the region.
+        region = loops[owners[first]]
+        if region is not None:
+            if len(loop) < 3:
+                loops[owners[first]] = None
+            else:
+                region.append(loop)
+        first = seen.find(0, first + 1)
     return loops
 
 
-def _retriangulate_many(positions, faces, corner_uvs, members: list, droppable: np.ndarray) -> list:
-    """``[_retriangulate(positions, faces[m], corner_uvs[m], droppable) for m in members]``, bit for
-    bit, with the per-region work batched: loops, UV checks, cross products, the outline check and
-    the UV lookup run once over all regions; per region only the float reductions whose summation
-    order numpy fixes per call (normal sum, projection, area sum, orientation) and earcut remain.
-    """
+class RegionSetup(NamedTuple):
+    """What :func:`_retriangulate_many` needs of regions that does not depend on the droppable
+    vertices, for regions ``0..count-1`` (the ``members`` it was made from): computed once per
+    :func:`retriangulate_planar_checked` call, shared by every batch of both passes."""
+
+    loops: list  # per region its outline loops (vertex lists, nothing dropped) or None (pinched)
+    ok: np.ndarray  # (count,) bool: loops closed, one UV per vertex, area > 0
+    normal: np.ndarray  # (count, 3) unit normal (outward sum of the faces' cross products)
+    area: np.ndarray  # (count,) m²
+    basis: np.ndarray  # (count, 3, 2) the plane's (u, v) axes as columns
+    uv_keys: np.ndarray | None  # (c,) ascending region * k + vertex
+    uv_values: np.ndarray | None  # (c, 2) float32: that vertex's UV in that region
+
+
+def region_setup(positions, faces, corner_uvs, members: list) -> RegionSetup | None:
+    """:class:`RegionSetup` of the regions ``members`` (list of (f_r,) face indices), or None
+    when its int64 keys could overflow (then batches go one region at a time)."""
     count, k = len(members), len(positions)
-    if count == 0:
-        return []
-    # One or two regions: the batch's fixed cost (measured ~2 regions' worth) is not worth it; keys
-    # that would overflow int64: one region at a time as well.
-    if count <= SMALL_BATCH or count * k * k >= 2**62:
-        return [
-            _retriangulate(
-                positions, faces[m], None if corner_uvs is None else corner_uvs[m], droppable
-            )
-            for m in members
-        ]
+    if count * k * k >= 2**62:
+        return None
     sizes = np.array([len(m) for m in members])
     region_faces = faces[np.concatenate(members)]
     face_region = np.repeat(np.arange(count), sizes)
@@ -277,9 +287,10 @@ def _retriangulate_many(positions, faces, corner_uvs, members: list, droppable: 
         np.repeat(face_region, 3),
         count,
         k,
-        droppable.tolist(),
+        np.zeros(k, dtype=bool),
     )
     ok = np.array([loop is not None for loop in loops])
+    uv_keys = uv_values = None
     if corner_uvs is not None:
         # One UV per vertex in each region (the first corner's in face order, compared exactly).
         corner_key = np.repeat(face_region, 3) * k + region_faces.reshape(-1)
@@ -311,22 +322,73 @@ def _retriangulate_many(positions, faces, corner_uvs, members: list, droppable: 
     basis = np.stack(
         [u, v], axis=2
     )  # (regions, 3, 2): each [r] C-contiguous like np.stack([u, v], axis=1)
+    return RegionSetup(loops, ok, normal, area, basis, uv_keys, uv_values)
+
+
+def _retriangulate_many(
+    positions,
+    faces,
+    corner_uvs,
+    members: list,
+    droppable: np.ndarray,
+    setup: RegionSetup | None = None,
+    ids: list | None = None,
+) -> list:
+    """``[_retriangulate(positions, faces[m], corner_uvs[m], droppable) for m in members]``, bit for
+    bit, with the per-region work batched: loops, UV checks, cross products, the outline check and
+    the UV lookup run once over all regions; per region only the float reductions whose summation
+    order numpy fixes per call (normal sum, projection, area sum, orientation) and earcut remain.
+
+    ``setup``: :func:`region_setup` of a list of regions of which ``members`` are those at ``ids``
+    (made here when not given).
+    """
+    count, k = len(members), len(positions)
+    if count == 0:
+        return []
+    if setup is None:
+        # One or two regions: the setup's fixed cost (measured ~2 regions' worth) is not worth it.
+        setup = (
+            None if count <= SMALL_BATCH else region_setup(positions, faces, corner_uvs, members)
+        )
+        ids = list(range(count))
+    if setup is None or count * k * k >= 2**62:
+        return [
+            _retriangulate(
+                positions, faces[m], None if corner_uvs is None else corner_uvs[m], droppable
+            )
+            for m in members
+        ]
+    assert ids is not None
+    # The loops with the droppable vertices removed (None when one falls under 3 vertices).
+    drop = droppable.tolist()
+    loops: list = []
+    for i in ids:
+        rings = setup.loops[i]
+        if rings is not None:
+            rings = [[v for v in ring if not drop[v]] for ring in rings]
+            if any(len(ring) < 3 for ring in rings):
+                rings = None
+        loops.append(rings)
+    ok = setup.ok[ids] & np.array([rings is not None for rings in loops])
+    normal, area = setup.normal[ids], setup.area[ids]
     todo = np.flatnonzero(ok).tolist()
     if not todo:
         return [None] * count
     rings_of = [loops[r] for r in todo]
+    ring_sizes = [len(ring) for rings in rings_of for ring in rings]
     ring_vertices = np.array(
         [v for rings in rings_of for ring in rings for v in ring], dtype=np.int64
     )
     projected_from = positions[ring_vertices]
-    tris, done, at = [], [], 0
-    expected: list[tuple] = []
-
-    for r, rings in zip(todo, rings_of):
-        size = sum(len(ring) for ring in rings)
-        vertices = ring_vertices[at : at + size]
-        points = projected_from[at : at + size] @ basis[r]
-        at += size
+    # Every ring vertex's predecessor in its ring (the outline edges, keyed below).
+    ring_ends = np.cumsum(ring_sizes)
+    previous = np.arange(-1, len(ring_vertices) - 1)
+    previous[ring_ends - ring_sizes] = ring_ends - 1
+    region_sizes = [sum(len(ring) for ring in rings) for rings in rings_of]
+    tris, offsets, done, at = [], [], [], 0
+    for r, rings, size in zip(todo, rings_of, region_sizes):
+        points = projected_from[at : at + size] @ setup.basis[ids[r]]
+        local = None
         if len(rings) > 1:
             # Outer ring first (largest area), then the holes.
             ends = np.cumsum([0] + [len(ring) for ring in rings])
@@ -337,28 +399,39 @@ def _retriangulate_many(positions, faces, corner_uvs, members: list, droppable: 
             ]
             order = np.argsort(-np.abs(signed))
             rings = [rings[i] for i in order]
-            vertices = np.concatenate(rings)
+            local = np.concatenate([np.arange(ends[i], ends[i + 1]) for i in order])
             points = np.concatenate([flat[i] for i in order])
         ends = np.array(list(itertools.accumulate(len(ring) for ring in rings)), dtype=np.uint32)
         tri = mapbox_earcut.triangulate_float64(points, ends)
         if len(tri) != 3 * (size - 2 + 2 * (len(rings) - 1)):
+            at += size
             continue
-        tris.append(vertices[tri.reshape(-1, 3)])
+        # Earcut's indices into this region's slice of ring_vertices (in the original ring order).
+        tris.append(tri if local is None else local[tri])
+        offsets.append(at)
         done.append(r)
-        expected.extend((r, ring[i], ring[i - 1]) for ring in rings for i in range(len(ring)))
+        at += size
     results: list = [None] * count
     if not done:
         return results
-    new_faces = np.concatenate(tris)
-    face_bounds = [0] + list(itertools.accumulate(len(t) for t in tris))
-    new_region = np.repeat(done, np.diff(face_bounds))
+    face_counts = [len(t) // 3 for t in tris]
+    new_faces = ring_vertices[
+        np.concatenate(tris).astype(np.int64) + np.repeat(offsets, 3 * np.array(face_counts))
+    ].reshape(-1, 3)
+    face_bounds = [0, *itertools.accumulate(face_counts)]
+    new_region = np.repeat(done, face_counts)
     # The new triangles' outline must be exactly the (dropped) loops: no edge across a hole.
     pairs = np.sort(new_faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
     edge_key = (np.repeat(new_region, 3) * k + pairs[:, 0]) * k + pairs[:, 1]
     edges, uses = np.unique(edge_key, return_counts=True)
-    loop_edges = np.array(expected, dtype=np.int64)
-    loop_key = (loop_edges[:, 0] * k + loop_edges[:, 1:].min(axis=1)) * k + loop_edges[:, 1:].max(
-        axis=1
+    # The loops' edges of the regions earcut did (ring vertex and predecessor; order is free).
+    vertex_region = np.repeat(todo, region_sizes)
+    did = np.zeros(count, dtype=bool)
+    did[done] = True
+    in_done = did[vertex_region]
+    ends_a, ends_b = ring_vertices[in_done], ring_vertices[previous[in_done]]
+    loop_key = (vertex_region[in_done] * k + np.minimum(ends_a, ends_b)) * k + np.maximum(
+        ends_a, ends_b
     )
     single = edges[uses == 1]
     if not np.array_equal(single, np.sort(loop_key)):  # the usual case: every region's sets agree
@@ -369,25 +442,37 @@ def _retriangulate_many(positions, faces, corner_uvs, members: list, droppable: 
         positions[new_faces[:, 2]] - positions[new_faces[:, 0]],
     )
     areas = 0.5 * np.linalg.norm(n, axis=1)  # reversing a face keeps its area
-    smallest = np.minimum.reduceat(areas, face_bounds[:-1]).tolist()
-    flip = np.zeros(len(new_faces), dtype=bool)
-    for i, r in enumerate(done):
+    starts = face_bounds[:-1]
+    smallest = np.minimum.reduceat(areas, starts)
+    # Earcut may emit zero-area slivers along collinear outline vertices: not exact, refuse. The
+    # per-region sums in one reduceat (its summation order may differ from the one-region
+    # reference's ``areas.sum()`` in the last bits: recomputed that way where it could matter).
+    total = area[done]
+    scale = np.maximum(total, 1.0)
+    off = np.abs(np.add.reduceat(areas, starts) - total) - 1e-6 * scale
+    for i in np.flatnonzero(np.abs(off) <= 1e-9 * scale).tolist():
         lo, hi = face_bounds[i], face_bounds[i + 1]
-        total = float(area[r])
-        # Earcut may emit zero-area slivers along collinear outline vertices: not exact, refuse.
-        if abs(areas[lo:hi].sum() - total) > 1e-6 * max(total, 1.0) or smallest[i] < 1e-9 * max(
-            total, 1.0
-        ):
-            ok[r] = False
-        flip[lo:hi] = (n[lo:hi] @ normal[r]) < 0
+        off[i] = abs(areas[lo:hi].sum() - total[i]) - 1e-6 * scale[i]
+    ok[np.array(done)[(off > 0) | (smallest < 1e-9 * scale)]] = False
+    # Orientation: the sign of each face's normal . region normal. The row sums differ from the
+    # reference's per-region matmul by a few ulps of |n| at most, so only faces almost edge-on
+    # to the plane are recomputed the reference's way.
+    dots = (n * normal[new_region]).sum(axis=1)
+    flip = dots < 0
+    for i in np.unique(
+        np.searchsorted(face_bounds, np.flatnonzero(np.abs(dots) <= 1e-12 * areas), "right") - 1
+    ).tolist():
+        lo, hi = face_bounds[i], face_bounds[i + 1]
+        flip[lo:hi] = (n[lo:hi] @ normal[done[i]]) < 0
     new_faces = np.where(flip[:, None], new_faces[:, ::-1], new_faces)
     new_uvs = None
-    if corner_uvs is not None:
-        new_uvs = uv_values[np.searchsorted(uv_keys, new_region[:, None] * k + new_faces)].astype(
-            np.float32
-        )
+    if setup.uv_keys is not None and setup.uv_values is not None:
+        new_uvs = setup.uv_values[
+            np.searchsorted(setup.uv_keys, np.array(ids)[new_region][:, None] * k + new_faces)
+        ].astype(np.float32)
+    kept = ok.tolist()
     for i, r in enumerate(done):
-        if ok[r]:
+        if kept[r]:
             lo, hi = face_bounds[i], face_bounds[i + 1]
             results[r] = (new_faces[lo:hi], None if new_uvs is None else new_uvs[lo:hi])
     return results
@@ -443,6 +528,12 @@ def retriangulate_planar_checked(
     by_region = np.argsort(regions, kind="stable")
     region_start = np.searchsorted(regions[by_region], np.arange(regions.max() + 2))
     done: dict = {}  # both passes share the regions their different border choice does not touch
+    setup = region_setup(
+        positions,
+        faces,
+        corner_uvs,
+        [by_region[region_start[r] : region_start[r + 1]] for r in range(len(region_start) - 1)],
+    )
     result = _retriangulate_regions(
         positions,
         faces,
@@ -452,6 +543,7 @@ def retriangulate_planar_checked(
         done,
         by_region,
         region_start,
+        setup,
     )
     length, _ = _boundary(positions, result[0])
     if abs(length - before[0]) > 1e-9 * max(before[0], 1.0):
@@ -465,18 +557,20 @@ def retriangulate_planar_checked(
             done,
             by_region,
             region_start,
+            setup,
         )
         length, _ = _boundary(positions, result[0])
     return (*result, abs(length - before[0]) <= 1e-9 * max(before[0], 1.0))
 
 
 def _retriangulate_regions(
-    positions, faces, corner_uvs, regions, droppable, done: dict, by_region, region_start
+    positions, faces, corner_uvs, regions, droppable, done: dict, by_region, region_start, setup
 ):
     """One pass of :func:`retriangulate_planar` with the vertices ``droppable`` (k,) bool (changed
     in place where a region fails). ``done``: region -> (droppable bits of its corners, result),
     reused when the bits are the same; ``by_region`` / ``region_start``: faces of region r are
-    ``by_region[region_start[r]:region_start[r + 1]]``."""
+    ``by_region[region_start[r]:region_start[r + 1]]``; ``setup``: :func:`region_setup` of all
+    regions (or None: one region at a time)."""
     m = len(faces)
     # Every region holding a droppable vertex is redone; a region that cannot be done exactly
     # keeps its vertices, so its neighbours must keep them too: repeat until consistent.
@@ -503,6 +597,8 @@ def _retriangulate_regions(
                 for i in todo
             ],
             droppable,
+            setup,
+            [candidates[i] for i in todo],
         )
         for i, result in zip(todo, batch):
             done[candidates[i]] = (keys[i], result)
@@ -523,7 +619,13 @@ def _retriangulate_regions(
                     i for i, r in enumerate(later) if not (r in done and done[r][0] == bits_of[i])
                 ]
                 redone = _retriangulate_many(
-                    positions, faces, corner_uvs, [members_of[i] for i in stale], droppable
+                    positions,
+                    faces,
+                    corner_uvs,
+                    [members_of[i] for i in stale],
+                    droppable,
+                    setup,
+                    [later[i] for i in stale],
                 )
                 for i, result in zip(stale, redone):
                     done[later[i]] = (bits_of[i], result)
