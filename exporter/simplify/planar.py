@@ -31,7 +31,7 @@ import mapbox_earcut
 import numpy as np
 
 from ..geometry import cross3, cross_rows
-from .protect import border_vertices, edge_use, planar_regions, unique_rows
+from .protect import border_vertices, edge_use, planar_regions, sorted_edge_keys
 
 
 def _loops(region_faces: np.ndarray) -> list[list[int]] | None:
@@ -77,19 +77,24 @@ def straight_vertices(
     locked: np.ndarray,
     tolerance: float = 1e-6,
     on_border: bool = True,
+    edge_keys: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
     """(k,) bool: unlocked vertices on exactly two outline edges (edges on the open border or
     between two regions) that run straight through them (collinear within ``tolerance``
-    metres): dropping such a vertex from every region that has it changes no outline."""
+    metres): dropping such a vertex from every region that has it changes no outline.
+    ``edge_keys``: :func:`protect.sorted_edge_keys` of ``faces`` and k when the caller has them."""
     k = len(positions)
-    edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    owner = np.repeat(regions, 3)
-    order = np.lexsort((owner, edges[:, 1], edges[:, 0]))
-    edges, owner = edges[order], owner[order]
-    unique, start, counts = unique_rows(edges, return_index=True, return_counts=True)
-    first_region = owner[start]
-    last_region = owner[start + counts - 1]
-    outline = (counts == 1) | (first_region != last_region)
+    keys, order = edge_keys if edge_keys is not None else sorted_edge_keys(faces, k)
+    # Unique edges (ascending keys), how many sides use each and the lowest / highest region
+    # among them.
+    start = np.flatnonzero(np.concatenate([[True], keys[1:] != keys[:-1]]))
+    counts = np.diff(np.append(start, len(keys)))
+    owner = regions[order // 3]
+    existing = keys[start]
+    unique = np.column_stack(np.divmod(existing, k))
+    outline = (counts == 1) | (
+        np.minimum.reduceat(owner, start) != np.maximum.reduceat(owner, start)
+    )
     ends = unique[outline]
     degree = np.bincount(ends.reshape(-1), minlength=k)
     # The two outline neighbours of every degree-2 vertex.
@@ -112,7 +117,6 @@ def straight_vertices(
         # Not where the two neighbours already share an edge (a slit / T-junction of the source):
         # dropping would close it and change the open boundary.
         pair = np.sort(np.stack([half[first, 1], half[first + 1, 1]], axis=1), axis=1)
-        existing = unique[:, 0] * k + unique[:, 1]  # ascending: unique rows are sorted
         closes = _member(pair[:, 0] * k + pair[:, 1], existing)
         straight[two] = (off_line < tolerance) & (between > 0) & (between < 1) & ~closes
     return straight & ~locked
@@ -509,10 +513,12 @@ def retriangulate_planar_checked(
     (same surface, but edges that were open are shared now), so the result is not LOD0's mesh
     in every metric."""
     before = _boundary(positions, faces)
-    regions = planar_regions(positions, faces, face_chart)
     m, k = len(faces), len(positions)
     if m == 0:
         return faces, corner_uvs, np.arange(m), True
+    # One sort of the faces' edges for the regions and the straight vertices.
+    edge_keys = sorted_edge_keys(faces, k)
+    regions = planar_regions(positions, faces, face_chart, edge_keys)
     # Vertices inside one region (off the open border) go; so do straight outline vertices.
     corner_region = np.repeat(regions, 3)
     low = np.full(k, np.iinfo(np.int64).max)
@@ -523,7 +529,9 @@ def retriangulate_planar_checked(
     interior = (low == high) & ~border & ~locked
     used = np.zeros(k, dtype=bool)
     used[faces.reshape(-1)] = True
-    straight = straight_vertices(positions, faces, regions, locked, on_border=True)
+    straight = straight_vertices(
+        positions, faces, regions, locked, on_border=True, edge_keys=edge_keys
+    )
     # Faces of every region, ascending (one stable sort instead of a scan per region).
     by_region = np.argsort(regions, kind="stable")
     region_start = np.searchsorted(regions[by_region], np.arange(regions.max() + 2))

@@ -113,23 +113,36 @@ def footprint_wall_faces(
     return (up <= max_normal_up) & on_ground & (length > 0)
 
 
+def sorted_edge_keys(faces: np.ndarray, vertex_count: int) -> tuple[np.ndarray, np.ndarray]:
+    """Every face side's undirected edge as one key ``low * vertex_count + high``, ascending
+    (3m,) int64, and the stable permutation of the sides (side ``3 f + i`` runs from corner i of
+    face f to the next) that sorts them: ``np.lexsort`` of the (low, high) pairs, with one key."""
+    sides = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    low, high = sides.min(axis=1), sides.max(axis=1)
+    keys = low * vertex_count + high
+    order = np.argsort(keys, kind="stable")
+    return keys[order], order
+
+
 def planar_regions(
-    positions: np.ndarray, faces: np.ndarray, groups: np.ndarray | None = None
+    positions: np.ndarray,
+    faces: np.ndarray,
+    groups: np.ndarray | None = None,
+    edge_keys: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
     """(m,) int64 region of every face: edge-connected faces on one plane (the polygons of the
     building's polygonal model, whatever their triangulation); with ``groups`` (m,) int64 only
-    faces of one group (e.g. one UV chart) join."""
+    faces of one group (e.g. one UV chart) join. ``edge_keys``: :func:`sorted_edge_keys` of
+    ``faces`` and ``len(positions)`` when the caller has them."""
     m = len(faces)
     if m == 0:
         return np.zeros(0, np.int64)
     a, b, c = (positions[faces[:, i]] for i in range(3))
     normal = cross_rows(b - a, c - a)
     normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-30)
-    edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    owner = np.repeat(np.arange(m), 3)
-    order = np.lexsort((edges[:, 1], edges[:, 0]))
-    edges, owner = edges[order], owner[order]
-    same = (edges[1:] == edges[:-1]).all(axis=1)
+    keys, order = edge_keys if edge_keys is not None else sorted_edge_keys(faces, len(positions))
+    owner = order // 3
+    same = keys[1:] == keys[:-1]
     f, g = owner[:-1][same], owner[1:][same]
     if groups is not None:
         keep = groups[f] == groups[g]
