@@ -204,6 +204,20 @@ def _row_dots(rows: np.ndarray) -> np.ndarray:
     return np.matmul(rows[:, None, :], rows[:, :, None])[:, 0, 0]
 
 
+def _region_sums(rows: np.ndarray, sizes: np.ndarray, row_region: np.ndarray, bounds: list):
+    """(count, 3) ``rows[bounds[r]:bounds[r + 1]].sum(axis=0)`` of (n, 3) C-contiguous rows, bit
+    for bit: that sum adds the rows one after the other onto 0.0, so does ``np.add.accumulate``
+    over every region's rows after a 0.0 and before -0.0 padding (x + -0.0 is x, signed zeros
+    included), in one call instead of one per region (unless the padding would be large)."""
+    count, longest = len(sizes), int(sizes.max())
+    if count * longest > 4 * len(rows) + 256:
+        return np.stack([rows[bounds[r] : bounds[r + 1]].sum(axis=0) for r in range(count)])
+    padded = np.full((count, longest + 1, 3), -0.0)
+    padded[:, 0] = 0.0
+    padded[row_region, np.arange(1, len(rows) + 1) - np.repeat(bounds[:-1], sizes)] = rows
+    return np.add.accumulate(padded, axis=1)[:, -1]
+
+
 def _member(values: np.ndarray, ordered: np.ndarray) -> np.ndarray:
     """``np.isin(values, ordered)`` for an ascending non-empty ``ordered`` (one binary search)."""
     return ordered[np.minimum(np.searchsorted(ordered, values), len(ordered) - 1)] == values
@@ -308,7 +322,7 @@ def region_setup(positions, faces, corner_uvs, members: list) -> RegionSetup | N
         uv_keys, uv_values = ordered[first], corner_uv[first]
     a, b, c = (positions[region_faces[:, i]] for i in range(3))
     cross = cross_rows(b - a, c - a)
-    normal = np.stack([cross[bounds[r] : bounds[r + 1]].sum(axis=0) for r in range(count)])
+    normal = _region_sums(cross, sizes, face_region, bounds)
     area = 0.5 * np.sqrt(_row_dots(normal))
     ok &= area > 0
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -425,9 +439,17 @@ def _retriangulate_many(
     face_bounds = [0, *itertools.accumulate(face_counts)]
     new_region = np.repeat(done, face_counts)
     # The new triangles' outline must be exactly the (dropped) loops: no edge across a hole.
-    pairs = np.sort(new_faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    edge_key = (np.repeat(new_region, 3) * k + pairs[:, 0]) * k + pairs[:, 1]
-    edges, uses = np.unique(edge_key, return_counts=True)
+    ahead = new_faces[:, [1, 2, 0]]
+    edge_key = np.sort(
+        (
+            (new_region[:, None] * k + np.minimum(new_faces, ahead)) * k
+            + np.maximum(new_faces, ahead)
+        ).reshape(-1)
+    )
+    # Edges used once (equal to neither sorted neighbour) and more than twice.
+    repeated = edge_key[1:] == edge_key[:-1]
+    single = edge_key[~(np.append(repeated, False) | np.insert(repeated, 0, False))]
+    overused = edge_key[2:][edge_key[2:] == edge_key[:-2]]
     # The loops' edges of the regions earcut did (ring vertex and predecessor; order is free).
     vertex_region = np.repeat(todo, region_sizes)
     did = np.zeros(count, dtype=bool)
@@ -437,14 +459,11 @@ def _retriangulate_many(
     loop_key = (vertex_region[in_done] * k + np.minimum(ends_a, ends_b)) * k + np.maximum(
         ends_a, ends_b
     )
-    single = edges[uses == 1]
     if not np.array_equal(single, np.sort(loop_key)):  # the usual case: every region's sets agree
         ok[np.setxor1d(single, loop_key) // (k * k)] = False
-    ok[edges[uses > 2] // (k * k)] = False
-    n = cross_rows(
-        positions[new_faces[:, 1]] - positions[new_faces[:, 0]],
-        positions[new_faces[:, 2]] - positions[new_faces[:, 0]],
-    )
+    ok[overused // (k * k)] = False
+    corners = positions[new_faces]
+    n = cross_rows(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     areas = 0.5 * np.linalg.norm(n, axis=1)  # reversing a face keeps its area
     starts = face_bounds[:-1]
     smallest = np.minimum.reduceat(areas, starts)
@@ -463,11 +482,13 @@ def _retriangulate_many(
     # to the plane are recomputed the reference's way.
     dots = (n * normal[new_region]).sum(axis=1)
     flip = dots < 0
-    for i in np.unique(
-        np.searchsorted(face_bounds, np.flatnonzero(np.abs(dots) <= 1e-12 * areas), "right") - 1
-    ).tolist():
-        lo, hi = face_bounds[i], face_bounds[i + 1]
-        flip[lo:hi] = (n[lo:hi] @ normal[done[i]]) < 0
+    edge_on = np.abs(dots) <= 1e-12 * areas
+    if edge_on.any():
+        for i in np.unique(
+            np.searchsorted(face_bounds, np.flatnonzero(edge_on), "right") - 1
+        ).tolist():
+            lo, hi = face_bounds[i], face_bounds[i + 1]
+            flip[lo:hi] = (n[lo:hi] @ normal[done[i]]) < 0
     new_faces = np.where(flip[:, None], new_faces[:, ::-1], new_faces)
     new_uvs = None
     if setup.uv_keys is not None and setup.uv_values is not None:
