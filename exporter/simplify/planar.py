@@ -601,15 +601,20 @@ def _retriangulate_regions(
     ``by_region[region_start[r]:region_start[r + 1]]``; ``setup``: :func:`region_setup` of all
     regions (or None: one region at a time)."""
     m = len(faces)
+    faces_by_region = faces[by_region]
+    bounds = region_start.tolist()
+
+    def drop_state() -> tuple[np.ndarray, list]:
+        """The droppable bits (m, 3) of the faces in region order and the regions holding one."""
+        bits = droppable[faces_by_region]
+        held = np.logical_or.reduceat(bits.any(axis=1), region_start[:-1])
+        return bits, np.flatnonzero(held).tolist()
+
     # Every region holding a droppable vertex is redone; a region that cannot be done exactly
     # keeps its vertices, so its neighbours must keep them too: repeat until consistent.
     for _ in range(8):
-        corner_drop = droppable[faces].any(axis=1)
-        candidates = np.unique(regions[corner_drop]).tolist()
-        bits = droppable[faces[by_region]]
-        keys = [
-            bits[region_start[region] : region_start[region + 1]].tobytes() for region in candidates
-        ]
+        bits, candidates = drop_state()
+        keys = [bits[bounds[region] : bounds[region + 1]].tobytes() for region in candidates]
         # All regions not cached are done in one batch with this round's droppable bits; regions
         # whose bits a failure earlier in the round changed are redone below, in one batch too.
         todo = [
@@ -617,33 +622,29 @@ def _retriangulate_regions(
             for i, region in enumerate(candidates)
             if not (region in done and done[region][0] == keys[i])
         ]
-        batch = _retriangulate_many(
-            positions,
-            faces,
-            corner_uvs,
-            [
-                by_region[region_start[candidates[i]] : region_start[candidates[i] + 1]]
-                for i in todo
-            ],
-            droppable,
-            setup,
-            [candidates[i] for i in todo],
-        )
-        for i, result in zip(todo, batch):
-            done[candidates[i]] = (keys[i], result)
-        results, failed = {}, False
-        for region, key in zip(candidates, keys):
-            members = by_region[region_start[region] : region_start[region + 1]]
+        if todo:
+            batch = _retriangulate_many(
+                positions,
+                faces,
+                corner_uvs,
+                [by_region[bounds[candidates[i]] : bounds[candidates[i] + 1]] for i in todo],
+                droppable,
+                setup,
+                [candidates[i] for i in todo],
+            )
+            for i, result in zip(todo, batch):
+                done[candidates[i]] = (keys[i], result)
+        results: dict = {}
+        failed = False
+        for index, (region, key) in enumerate(zip(candidates, keys)):
             if failed:
-                key = droppable[faces[members]].tobytes()
+                key = bits[bounds[region] : bounds[region + 1]].tobytes()
             if not (region in done and done[region][0] == key):
                 # A failure earlier in this pass changed this region's bits: redo it together with
                 # every later region and every next-round candidate whose bits changed too (results
                 # depend on the bits only, so whatever is computed ahead is reused or ignored).
-                ahead = np.unique(regions[droppable[faces].any(axis=1)]).tolist()
-                later = sorted(set(candidates[candidates.index(region) :]) | set(ahead))
-                members_of = [by_region[region_start[r] : region_start[r + 1]] for r in later]
-                bits_of = [droppable[faces[m]].tobytes() for m in members_of]
+                later = sorted(set(candidates[index:]) | set(drop_state()[1]))
+                bits_of = [bits[bounds[r] : bounds[r + 1]].tobytes() for r in later]
                 stale = [
                     i for i, r in enumerate(later) if not (r in done and done[r][0] == bits_of[i])
                 ]
@@ -651,7 +652,7 @@ def _retriangulate_regions(
                     positions,
                     faces,
                     corner_uvs,
-                    [members_of[i] for i in stale],
+                    [by_region[bounds[later[i]] : bounds[later[i] + 1]] for i in stale],
                     droppable,
                     setup,
                     [later[i] for i in stale],
@@ -660,24 +661,26 @@ def _retriangulate_regions(
                     done[later[i]] = (bits_of[i], result)
             result = done[region][1]
             if result is None:
-                droppable[faces[members].reshape(-1)] = False
+                droppable[faces_by_region[bounds[region] : bounds[region + 1]].reshape(-1)] = False
+                bits = droppable[faces_by_region]
                 failed = True
             else:
-                results[region] = (members, result)
+                results[region] = result
         if not failed:
             break
     else:
         results = {}
-    keep = np.ones(m, dtype=bool)
-    new_faces, new_uvs, new_source = [], [], []
-    for members, (tri, uvs) in results.values():
-        keep[members] = False
-        new_faces.append(tri)
-        if corner_uvs is not None:
-            new_uvs.append(uvs)
-        new_source.append(np.full(len(tri), members[0]))
-    if not new_faces:
+    if not results:
         return faces, corner_uvs, np.arange(m)
-    out_faces = np.concatenate([faces[keep]] + new_faces)
-    out_uvs = np.concatenate([corner_uvs[keep]] + new_uvs) if corner_uvs is not None else None
-    return out_faces, out_uvs, np.concatenate([np.flatnonzero(keep)] + new_source)
+    redone_regions = list(results)
+    kept = np.ones(len(bounds) - 1, dtype=bool)
+    kept[redone_regions] = False
+    keep = kept[regions]
+    tris = [results[r][0] for r in redone_regions]
+    out_faces = np.concatenate([faces[keep]] + tris)
+    out_uvs = None
+    if corner_uvs is not None:
+        out_uvs = np.concatenate([corner_uvs[keep]] + [results[r][1] for r in redone_regions])
+    # Every new face's source: its region's first face.
+    source = np.repeat(by_region[region_start[redone_regions]], [len(t) for t in tris])
+    return out_faces, out_uvs, np.concatenate([np.flatnonzero(keep), source])
