@@ -22,6 +22,7 @@ from exporter.simplify.protect import (
     border_vertices,
     edge_use,
     nonmanifold_vertices,
+    row_norms,
     unique_rows,
 )
 from exporter.simplify.weld import lowest_member
@@ -186,3 +187,10 @@ def test_region_sums_equal_the_per_region_sums():
             [rows[bounds[r] : bounds[r + 1]].sum(axis=0) for r in range(len(sizes))]
         )
         assert same(_region_sums(rows, sizes, region, bounds), expected)
+
+
+def test_row_norms_equal_numpy_norms():
+    rng = np.random.default_rng(23)
+    rows = rng.normal(size=(5000, 3)) * rng.choice([1e-200, 1e-3, 1.0, 1e150], (5000, 1))
+    rows[rng.random(rows.shape) < 0.1] = -0.0
+    assert same(row_norms(rows), np.linalg.norm(rows, axis=1))

@@ -31,7 +31,7 @@ import mapbox_earcut
 import numpy as np
 
 from ..geometry import cross3, cross_rows
-from .protect import border_vertices, edge_use, planar_regions, sorted_edge_keys
+from .protect import border_vertices, edge_use, planar_regions, row_norms, sorted_edge_keys
 
 
 def _loops(region_faces: np.ndarray) -> list[list[int]] | None:
@@ -111,13 +111,13 @@ def straight_vertices(
         a, b = positions[half[first, 1]], positions[half[first + 1, 1]]
         p = positions[two]
         direction = b - a
-        length = np.linalg.norm(direction, axis=1)
-        off_line = np.linalg.norm(cross_rows(direction, p - a), axis=1) / np.maximum(length, 1e-30)
+        length = row_norms(direction)
+        off_line = row_norms(cross_rows(direction, p - a)) / np.maximum(length, 1e-30)
         between = ((p - a) * direction).sum(1) / np.maximum(length**2, 1e-30)
         # Not where the two neighbours already share an edge (a slit / T-junction of the source):
         # dropping would close it and change the open boundary.
-        pair = np.sort(np.stack([half[first, 1], half[first + 1, 1]], axis=1), axis=1)
-        closes = _member(pair[:, 0] * k + pair[:, 1], existing)
+        left, right = half[first, 1], half[first + 1, 1]
+        closes = _member(np.minimum(left, right) * k + np.maximum(left, right), existing)
         straight[two] = (off_line < tolerance) & (between > 0) & (between < 1) & ~closes
     return straight & ~locked
 
@@ -464,7 +464,7 @@ def _retriangulate_many(
     ok[overused // (k * k)] = False
     corners = positions[new_faces]
     n = cross_rows(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    areas = 0.5 * np.linalg.norm(n, axis=1)  # reversing a face keeps its area
+    areas = 0.5 * row_norms(n)  # reversing a face keeps its area
     starts = face_bounds[:-1]
     smallest = np.minimum.reduceat(areas, starts)
     # Earcut may emit zero-area slivers along collinear outline vertices: not exact, refuse. The

@@ -113,6 +113,12 @@ def footprint_wall_faces(
     return (up <= max_normal_up) & on_ground & (length > 0)
 
 
+def row_norms(rows: np.ndarray) -> np.ndarray:
+    """(n,) Euclidean norms of real (n, d) rows: ``np.linalg.norm(rows, axis=1)``'s own arithmetic
+    (the square root of ``add.reduce`` of the squares) without its per-call dispatch."""
+    return np.sqrt(np.add.reduce(rows * rows, axis=1))
+
+
 def sorted_edge_keys(faces: np.ndarray, vertex_count: int) -> tuple[np.ndarray, np.ndarray]:
     """Every face side's undirected edge as one key ``low * vertex_count + high``, ascending
     (3m,) int64, and the stable permutation of the sides (side ``3 f + i`` runs from corner i of
@@ -139,7 +145,7 @@ def planar_regions(
         return np.zeros(0, np.int64)
     a, b, c = (positions[faces[:, i]] for i in range(3))
     normal = cross_rows(b - a, c - a)
-    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-30)
+    normal /= np.maximum(row_norms(normal)[:, None], 1e-30)
     keys, order = edge_keys if edge_keys is not None else sorted_edge_keys(faces, len(positions))
     owner = order // 3
     same = keys[1:] == keys[:-1]
