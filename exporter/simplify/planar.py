@@ -399,12 +399,14 @@ def _retriangulate_many(
     )
     projected_from = positions[ring_vertices]
     # Every ring vertex's predecessor in its ring (the outline edges, keyed below).
-    ring_ends = np.cumsum(ring_sizes)
+    ring_ends = np.array(list(itertools.accumulate(ring_sizes)))
     previous = np.arange(-1, len(ring_vertices) - 1)
-    previous[ring_ends - ring_sizes] = ring_ends - 1
+    previous[ring_ends - np.array(ring_sizes)] = ring_ends - 1
     region_sizes = [sum(len(ring) for ring in rings) for rings in rings_of]
+    # Earcut's ring ends of a one-ring region: a view of this array.
+    one_ring_ends = np.array(region_sizes, dtype=np.uint32)
     tris, offsets, done, at = [], [], [], 0
-    for r, rings, size in zip(todo, rings_of, region_sizes):
+    for j, (r, rings, size) in enumerate(zip(todo, rings_of, region_sizes)):
         points = projected_from[at : at + size] @ setup.basis[ids[r]]
         local = None
         if len(rings) > 1:
@@ -419,7 +421,9 @@ def _retriangulate_many(
             rings = [rings[i] for i in order]
             local = np.concatenate([np.arange(ends[i], ends[i + 1]) for i in order])
             points = np.concatenate([flat[i] for i in order])
-        ends = np.array(list(itertools.accumulate(len(ring) for ring in rings)), dtype=np.uint32)
+            ends = np.array(list(itertools.accumulate(len(ring) for ring in rings)), np.uint32)
+        else:
+            ends = one_ring_ends[j : j + 1]
         tri = mapbox_earcut.triangulate_float64(points, ends)
         if len(tri) != 3 * (size - 2 + 2 * (len(rings) - 1)):
             at += size
@@ -447,8 +451,8 @@ def _retriangulate_many(
         ).reshape(-1)
     )
     # Edges used once (equal to neither sorted neighbour) and more than twice.
-    repeated = edge_key[1:] == edge_key[:-1]
-    single = edge_key[~(np.append(repeated, False) | np.insert(repeated, 0, False))]
+    differs = np.concatenate([[True], edge_key[1:] != edge_key[:-1], [True]])
+    single = edge_key[differs[:-1] & differs[1:]]
     overused = edge_key[2:][edge_key[2:] == edge_key[:-2]]
     # The loops' edges of the regions earcut did (ring vertex and predecessor; order is free).
     vertex_region = np.repeat(todo, region_sizes)
