@@ -15,7 +15,12 @@ from test_simplify_shapes import crafted_building
 
 from exporter.geometry import cross_rows
 from exporter.samplegen import generate_buildings
-from exporter.simplify.planar import _region_sums, _retriangulate, retriangulate_planar_checked
+from exporter.simplify.planar import (
+    _region_sums,
+    _retriangulate,
+    retriangulate_planar_checked,
+    straight_vertices,
+)
 from exporter.simplify.protect import (
     COPLANAR_COS,
     PLANE_M,
@@ -49,7 +54,7 @@ def reference_planar_regions(positions, faces, groups):
     return (np.cumsum(root) - 1)[lowest]
 
 
-def reference_straight_vertices(positions, faces, regions, locked, tolerance=1e-6):
+def reference_straight_vertices(positions, faces, regions, locked, tolerance=1e-6, on_border=True):
     k = len(positions)
     edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
     owner = np.repeat(regions, 3)
@@ -63,6 +68,10 @@ def reference_straight_vertices(positions, faces, regions, locked, tolerance=1e-
     half = half[np.argsort(half[:, 0], kind="stable")]
     straight = np.zeros(k, dtype=bool)
     two = np.flatnonzero(degree == 2)
+    if not on_border:
+        border = np.zeros(k, dtype=bool)
+        border[unique[counts == 1].reshape(-1)] = True
+        two = two[~border[two]]
     if len(two):
         first = np.searchsorted(half[:, 0], two)
         a, b = positions[half[first, 1]], positions[half[first + 1, 1]]
@@ -194,3 +203,19 @@ def test_row_norms_equal_numpy_norms():
     rows = rng.normal(size=(5000, 3)) * rng.choice([1e-200, 1e-3, 1.0, 1e150], (5000, 1))
     rows[rng.random(rows.shape) < 0.1] = -0.0
     assert same(row_norms(rows), np.linalg.norm(rows, axis=1))
+
+
+@pytest.mark.parametrize("on_border", [True, False])
+def test_straight_vertices_equal_the_reference(on_border):
+    rng = np.random.default_rng(29)
+    found = 0
+    for positions, faces, _, charts in meshes():
+        regions = reference_planar_regions(positions, faces, charts)
+        locked = rng.random(len(positions)) < 0.1
+        fast = straight_vertices(positions, faces, regions, locked, on_border=on_border)
+        assert same(
+            fast,
+            reference_straight_vertices(positions, faces, regions, locked, on_border=on_border),
+        )
+        found += int(fast.sum())
+    assert found > 50

@@ -88,27 +88,31 @@ def straight_vertices(
     # Unique edges (ascending keys), how many sides use each and the lowest / highest region
     # among them.
     start = np.flatnonzero(np.concatenate([[True], keys[1:] != keys[:-1]]))
-    counts = np.diff(np.append(start, len(keys)))
+    counts = np.concatenate([start[1:], [len(keys)]]) - start
     owner = regions[order // 3]
     existing = keys[start]
-    unique = np.column_stack(np.divmod(existing, k))
+    low, high = np.divmod(existing, k)
     outline = (counts == 1) | (
         np.minimum.reduceat(owner, start) != np.maximum.reduceat(owner, start)
     )
-    ends = unique[outline]
-    degree = np.bincount(ends.reshape(-1), minlength=k)
-    # The two outline neighbours of every degree-2 vertex.
-    half = np.concatenate([ends, ends[:, ::-1]])
-    half = half[np.argsort(half[:, 0], kind="stable")]
+    ends = np.concatenate([low[outline], high[outline]])
+    degree = np.bincount(ends, minlength=k)
+    # The two outline neighbours of every degree-2 vertex: outline half-edges (both directions)
+    # by source, stable.
+    half = np.argsort(ends, kind="stable")
+    source = ends[half]
+    target = np.concatenate([high[outline], low[outline]])[half]
     straight = np.zeros(k, dtype=bool)
     two = np.flatnonzero(degree == 2)
     if not on_border:
         border = np.zeros(k, dtype=bool)
-        border[unique[counts == 1].reshape(-1)] = True
+        border[low[counts == 1]] = True
+        border[high[counts == 1]] = True
         two = two[~border[two]]
     if len(two):
-        first = np.searchsorted(half[:, 0], two)
-        a, b = positions[half[first, 1]], positions[half[first + 1, 1]]
+        first = np.searchsorted(source, two)
+        left, right = target[first], target[first + 1]
+        a, b = positions[left], positions[right]
         p = positions[two]
         direction = b - a
         length = row_norms(direction)
@@ -116,7 +120,6 @@ def straight_vertices(
         between = ((p - a) * direction).sum(1) / np.maximum(length**2, 1e-30)
         # Not where the two neighbours already share an edge (a slit / T-junction of the source):
         # dropping would close it and change the open boundary.
-        left, right = half[first, 1], half[first + 1, 1]
         closes = _member(np.minimum(left, right) * k + np.maximum(left, right), existing)
         straight[two] = (off_line < tolerance) & (between > 0) & (between < 1) & ~closes
     return straight & ~locked
@@ -297,9 +300,10 @@ def region_setup(positions, faces, corner_uvs, members: list) -> RegionSetup | N
     if count * k * k >= 2**62:
         return None
     sizes = np.array([len(m) for m in members])
-    region_faces = faces[np.concatenate(members)]
+    member_faces = np.concatenate(members)
+    region_faces = faces[member_faces]
     face_region = np.repeat(np.arange(count), sizes)
-    bounds = np.concatenate([[0], np.cumsum(sizes)]).tolist()
+    bounds = [0, *itertools.accumulate(len(m) for m in members)]
     loops = _region_loops(
         region_faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2),
         np.repeat(face_region, 3),
@@ -316,9 +320,11 @@ def region_setup(positions, faces, corner_uvs, members: list) -> RegionSetup | N
         ordered = corner_key[order]
         first = np.ones(len(order), dtype=bool)
         first[1:] = ordered[1:] != ordered[:-1]
-        corner_uv = corner_uvs[np.concatenate(members)].reshape(-1, 2)[order]
-        owner_uv = corner_uv[np.maximum.accumulate(np.where(first, np.arange(len(order)), 0))]
-        ok[(ordered // k)[~((corner_uv == owner_uv).all(axis=1) | first)]] = False
+        corner_uv = corner_uvs[member_faces].reshape(-1, 2)[order]
+        # All corners equal to the first of their vertex exactly when each equals the one before
+        # (== is transitive; a NaN differs from its neighbour as from the first).
+        differs = ~first[1:] & (corner_uv[1:] != corner_uv[:-1]).any(axis=1)
+        ok[ordered[1:][differs] // k] = False
         uv_keys, uv_values = ordered[first], corner_uv[first]
     a, b, c = (positions[region_faces[:, i]] for i in range(3))
     cross = cross_rows(b - a, c - a)
@@ -463,7 +469,8 @@ def _retriangulate_many(
     loop_key = (vertex_region[in_done] * k + np.minimum(ends_a, ends_b)) * k + np.maximum(
         ends_a, ends_b
     )
-    if not np.array_equal(single, np.sort(loop_key)):  # the usual case: every region's sets agree
+    loop_key.sort()
+    if len(single) != len(loop_key) or (single != loop_key).any():  # usually every region's agree
         ok[np.setxor1d(single, loop_key) // (k * k)] = False
     ok[overused // (k * k)] = False
     corners = positions[new_faces]
