@@ -568,22 +568,25 @@ def retriangulate_planar_checked(
     by_region = np.argsort(regions, kind="stable")
     region_start = np.searchsorted(regions[by_region], np.arange(regions.max() + 2))
     done: dict = {}  # both passes share the regions their different border choice does not touch
-    setup = region_setup(
-        positions,
-        faces,
-        corner_uvs,
-        [by_region[region_start[r] : region_start[r + 1]] for r in range(len(region_start) - 1)],
-    )
+    droppable = (interior | straight) & used
+    # Droppable vertices only ever become fewer (failures keep theirs; the second pass drops a
+    # subset), so only regions holding one now are ever redone: the setup is theirs only.
+    held = np.logical_or.reduceat(droppable[faces[by_region]].any(axis=1), region_start[:-1])
+    candidates = np.flatnonzero(held).tolist()
+    members = [by_region[region_start[r] : region_start[r + 1]] for r in candidates]
+    setup = region_setup(positions, faces, corner_uvs, members) if members else None
+    slot = {region: i for i, region in enumerate(candidates)}
     result = _retriangulate_regions(
         positions,
         faces,
         corner_uvs,
         regions,
-        (interior | straight) & used,
+        droppable,
         done,
         by_region,
         region_start,
         setup,
+        slot,
     )
     length, _ = _boundary(positions, result[0])
     if abs(length - before[0]) > 1e-9 * max(before[0], 1.0):
@@ -598,19 +601,29 @@ def retriangulate_planar_checked(
             by_region,
             region_start,
             setup,
+            slot,
         )
         length, _ = _boundary(positions, result[0])
     return (*result, abs(length - before[0]) <= 1e-9 * max(before[0], 1.0))
 
 
 def _retriangulate_regions(
-    positions, faces, corner_uvs, regions, droppable, done: dict, by_region, region_start, setup
+    positions,
+    faces,
+    corner_uvs,
+    regions,
+    droppable,
+    done: dict,
+    by_region,
+    region_start,
+    setup,
+    slot: dict,
 ):
     """One pass of :func:`retriangulate_planar` with the vertices ``droppable`` (k,) bool (changed
     in place where a region fails). ``done``: region -> (droppable bits of its corners, result),
     reused when the bits are the same; ``by_region`` / ``region_start``: faces of region r are
-    ``by_region[region_start[r]:region_start[r + 1]]``; ``setup``: :func:`region_setup` of all
-    regions (or None: one region at a time)."""
+    ``by_region[region_start[r]:region_start[r + 1]]``; ``setup``: :func:`region_setup` of the
+    regions that can be redone (or None: one region at a time), region r at ``slot[r]``."""
     m = len(faces)
     faces_by_region = faces[by_region]
     bounds = region_start.tolist()
@@ -641,7 +654,7 @@ def _retriangulate_regions(
                 [by_region[bounds[candidates[i]] : bounds[candidates[i] + 1]] for i in todo],
                 droppable,
                 setup,
-                [candidates[i] for i in todo],
+                [slot[candidates[i]] for i in todo],
             )
             for i, result in zip(todo, batch):
                 done[candidates[i]] = (keys[i], result)
@@ -666,7 +679,7 @@ def _retriangulate_regions(
                     [by_region[bounds[later[i]] : bounds[later[i] + 1]] for i in stale],
                     droppable,
                     setup,
-                    [later[i] for i in stale],
+                    [slot[later[i]] for i in stale],
                 )
                 for i, result in zip(stale, redone):
                     done[later[i]] = (bits_of[i], result)
