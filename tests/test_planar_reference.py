@@ -219,3 +219,14 @@ def test_straight_vertices_equal_the_reference(on_border):
         )
         found += int(fast.sum())
     assert found > 50
+
+
+def test_edge_use_equals_numpy_unique_of_sorted_pairs():
+    rng = np.random.default_rng(31)
+    for size in (0, 1, 5, 40, 300):
+        for dtype in (np.int64, np.int32):
+            faces = rng.integers(0, max(3, size // 2), (size, 3)).astype(dtype)
+            unique, counts = edge_use(faces)
+            pairs = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2).astype(np.int64), axis=1)
+            expected, expected_counts = np.unique(pairs, axis=0, return_counts=True)
+            assert same(unique, expected.reshape(-1, 2)) and same(counts, expected_counts)
