@@ -19,18 +19,24 @@ UVs in the region, or earcut's triangles not covering the region's area.
 
 Regions are done in batches (:func:`_retriangulate_many`, ~19 regions per building): everything
 but earcut and the per-region float reductions runs once per batch, with the results of the
-one-region reference :func:`_retriangulate` bit for bit (``tests/test_perf_simplify.py``).
+one-region reference :func:`_retriangulate` bit for bit (``tests/test_perf_simplify.py``). What
+does not depend on the droppable vertices (outline loops, UV check, normals, plane bases) is
+computed once per call (:func:`region_setup`) for every batch of both passes, and one sort of the
+faces' edges serves the regions and the straight vertices. Measured (issue 14, perf tile of 100
+buildings, ``benchmarks/bench_planar.py``, per call best of 20, same run): 0.65x of the stage
+before, outputs identical (``tests/test_planar_reference.py`` holds that stage as the reference).
 """
 
 from __future__ import annotations
 
 import itertools
+from typing import NamedTuple
 
 import mapbox_earcut
 import numpy as np
 
 from ..geometry import cross3, cross_rows
-from .protect import border_vertices, edge_use, planar_regions, unique_rows
+from .protect import border_vertices, edge_use, planar_regions, row_norms, sorted_edge_keys
 
 
 def _loops(region_faces: np.ndarray) -> list[list[int]] | None:
@@ -76,43 +82,50 @@ def straight_vertices(
     locked: np.ndarray,
     tolerance: float = 1e-6,
     on_border: bool = True,
+    edge_keys: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
     """(k,) bool: unlocked vertices on exactly two outline edges (edges on the open border or
     between two regions) that run straight through them (collinear within ``tolerance``
-    metres): dropping such a vertex from every region that has it changes no outline."""
+    metres): dropping such a vertex from every region that has it changes no outline.
+    ``edge_keys``: :func:`protect.sorted_edge_keys` of ``faces`` and k when the caller has them."""
     k = len(positions)
-    edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    owner = np.repeat(regions, 3)
-    order = np.lexsort((owner, edges[:, 1], edges[:, 0]))
-    edges, owner = edges[order], owner[order]
-    unique, start, counts = unique_rows(edges, return_index=True, return_counts=True)
-    first_region = owner[start]
-    last_region = owner[start + counts - 1]
-    outline = (counts == 1) | (first_region != last_region)
-    ends = unique[outline]
-    degree = np.bincount(ends.reshape(-1), minlength=k)
-    # The two outline neighbours of every degree-2 vertex.
-    half = np.concatenate([ends, ends[:, ::-1]])
-    half = half[np.argsort(half[:, 0], kind="stable")]
+    keys, order = edge_keys if edge_keys is not None else sorted_edge_keys(faces, k)
+    # Unique edges (ascending keys), how many sides use each and the lowest / highest region
+    # among them.
+    start = np.flatnonzero(np.concatenate([[True], keys[1:] != keys[:-1]]))
+    counts = np.concatenate([start[1:], [len(keys)]]) - start
+    owner = regions[order // 3]
+    existing = keys[start]
+    low, high = np.divmod(existing, k)
+    outline = (counts == 1) | (
+        np.minimum.reduceat(owner, start) != np.maximum.reduceat(owner, start)
+    )
+    ends = np.concatenate([low[outline], high[outline]])
+    degree = np.bincount(ends, minlength=k)
+    # The two outline neighbours of every degree-2 vertex: outline half-edges (both directions)
+    # by source, stable.
+    half = np.argsort(ends, kind="stable")
+    source = ends[half]
+    target = np.concatenate([high[outline], low[outline]])[half]
     straight = np.zeros(k, dtype=bool)
     two = np.flatnonzero(degree == 2)
     if not on_border:
         border = np.zeros(k, dtype=bool)
-        border[unique[counts == 1].reshape(-1)] = True
+        border[low[counts == 1]] = True
+        border[high[counts == 1]] = True
         two = two[~border[two]]
     if len(two):
-        first = np.searchsorted(half[:, 0], two)
-        a, b = positions[half[first, 1]], positions[half[first + 1, 1]]
+        first = np.searchsorted(source, two)
+        left, right = target[first], target[first + 1]
+        a, b = positions[left], positions[right]
         p = positions[two]
         direction = b - a
-        length = np.linalg.norm(direction, axis=1)
-        off_line = np.linalg.norm(cross_rows(direction, p - a), axis=1) / np.maximum(length, 1e-30)
+        length = row_norms(direction)
+        off_line = row_norms(cross_rows(direction, p - a)) / np.maximum(length, 1e-30)
         between = ((p - a) * direction).sum(1) / np.maximum(length**2, 1e-30)
         # Not where the two neighbours already share an edge (a slit / T-junction of the source):
         # dropping would close it and change the open boundary.
-        pair = np.sort(np.stack([half[first, 1], half[first + 1, 1]], axis=1), axis=1)
-        existing = unique[:, 0] * k + unique[:, 1]  # ascending: unique rows are sorted
-        closes = _member(pair[:, 0] * k + pair[:, 1], existing)
+        closes = _member(np.minimum(left, right) * k + np.maximum(left, right), existing)
         straight[two] = (off_line < tolerance) & (between > 0) & (between < 1) & ~closes
     return straight & ~locked
 
@@ -199,13 +212,27 @@ def _row_dots(rows: np.ndarray) -> np.ndarray:
     return np.matmul(rows[:, None, :], rows[:, :, None])[:, 0, 0]
 
 
+def _region_sums(rows: np.ndarray, sizes: np.ndarray, row_region: np.ndarray, bounds: list):
+    """(count, 3) ``rows[bounds[r]:bounds[r + 1]].sum(axis=0)`` of (n, 3) C-contiguous rows, bit
+    for bit: that sum adds the rows one after the other onto 0.0, so does ``np.add.accumulate``
+    over every region's rows after a 0.0 and before -0.0 padding (x + -0.0 is x, signed zeros
+    included), in one call instead of one per region (unless the padding would be large)."""
+    count, longest = len(sizes), int(sizes.max())
+    if count * longest > 4 * len(rows) + 256:
+        return np.stack([rows[bounds[r] : bounds[r + 1]].sum(axis=0) for r in range(count)])
+    padded = np.full((count, longest + 1, 3), -0.0)
+    padded[:, 0] = 0.0
+    padded[row_region, np.arange(1, len(rows) + 1) - np.repeat(bounds[:-1], sizes)] = rows
+    return np.add.accumulate(padded, axis=1)[:, -1]
+
+
 def _member(values: np.ndarray, ordered: np.ndarray) -> np.ndarray:
     """``np.isin(values, ordered)`` for an ascending non-empty ``ordered`` (one binary search)."""
     return ordered[np.minimum(np.searchsorted(ordered, values), len(ordered) - 1)] == values
 
 
 def _region_loops(
-    half: np.ndarray, half_region: np.ndarray, region_count: int, k: int, droppable: list
+    half: np.ndarray, half_region: np.ndarray, region_count: int, k: int, droppable
 ) -> list:
     """:func:`_loops` of many regions at once, droppable vertices already removed: per region a
     list of loops (vertex lists) or None (pinched, open chain, no outline, or a loop under 3).
@@ -232,54 +259,65 @@ def _region_loops(
     bad[owner[sources[at] != target]] = True
     following = by_source[at]
     loops: list = [None if b else [] for b in bad.tolist()]
-    following, starts, owners = following.tolist(), edges[:, 0].tolist(), owner.tolist()
-    seen = bytearray(len(starts))
-    for first, region in enumerate(owners):
-        if seen[first] or loops[region] is None:
-            continue
+    # Each outline vertex, or -1 where it is dropped.
+    kept = np.where(np.asarray(droppable, dtype=bool)[edges[:, 0]], -1, edges[:, 0]).tolist()
+    following, owners = following.tolist(), owner.tolist()
+    # Walks start at every half-edge not yet seen, in face order (bytearray.find skips the seen
+    # ones at C speed); bad regions' half-edges are never walked (their successors may be wrong).
+    seen = bytearray(bad[owner].tobytes())
+    first = seen.find(0)
+    while first >= 0:
         loop, e = [], first
         while not seen[e]:
             seen[e] = 1
-            if not droppable[starts[e]]:
-                loop.append(starts[e])
+            if kept[e] >= 0:
+                loop.append(kept[e])
             e = following[e]
-        if len(loop) < 3:
-            loops[region] = None
-        else:
-            loops[region].append(loop)
+        # A good region's walk stays in it; one of its loops under 3 vertices voids the region.
+        region = loops[owners[first]]
+        if region is not None:
+            if len(loop) < 3:
+                loops[owners[first]] = None
+            else:
+                region.append(loop)
+        first = seen.find(0, first + 1)
     return loops
 
 
-def _retriangulate_many(positions, faces, corner_uvs, members: list, droppable: np.ndarray) -> list:
-    """``[_retriangulate(positions, faces[m], corner_uvs[m], droppable) for m in members]``, bit for
-    bit, with the per-region work batched: loops, UV checks, cross products, the outline check and
-    the UV lookup run once over all regions; per region only the float reductions whose summation
-    order numpy fixes per call (normal sum, projection, area sum, orientation) and earcut remain.
-    """
+class RegionSetup(NamedTuple):
+    """What :func:`_retriangulate_many` needs of regions that does not depend on the droppable
+    vertices, for regions ``0..count-1`` (the ``members`` it was made from): computed once per
+    :func:`retriangulate_planar_checked` call, shared by every batch of both passes."""
+
+    loops: list  # per region its outline loops (vertex lists, nothing dropped) or None (pinched)
+    ok: np.ndarray  # (count,) bool: loops closed, one UV per vertex, area > 0
+    normal: np.ndarray  # (count, 3) unit normal (outward sum of the faces' cross products)
+    area: np.ndarray  # (count,) m²
+    basis: np.ndarray  # (count, 3, 2) the plane's (u, v) axes as columns
+    uv_keys: np.ndarray | None  # (c,) ascending region * k + vertex
+    uv_values: np.ndarray | None  # (c, 2) float32: that vertex's UV in that region
+
+
+def region_setup(positions, faces, corner_uvs, members: list) -> RegionSetup | None:
+    """:class:`RegionSetup` of the regions ``members`` (list of (f_r,) face indices), or None
+    when its int64 keys could overflow (then batches go one region at a time)."""
     count, k = len(members), len(positions)
-    if count == 0:
-        return []
-    # One or two regions: the batch's fixed cost (measured ~2 regions' worth) is not worth it; keys
-    # that would overflow int64: one region at a time as well.
-    if count <= SMALL_BATCH or count * k * k >= 2**62:
-        return [
-            _retriangulate(
-                positions, faces[m], None if corner_uvs is None else corner_uvs[m], droppable
-            )
-            for m in members
-        ]
+    if count * k * k >= 2**62:
+        return None
     sizes = np.array([len(m) for m in members])
-    region_faces = faces[np.concatenate(members)]
+    member_faces = np.concatenate(members)
+    region_faces = faces[member_faces]
     face_region = np.repeat(np.arange(count), sizes)
-    bounds = np.concatenate([[0], np.cumsum(sizes)]).tolist()
+    bounds = [0, *itertools.accumulate(len(m) for m in members)]
     loops = _region_loops(
         region_faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2),
         np.repeat(face_region, 3),
         count,
         k,
-        droppable.tolist(),
+        np.zeros(k, dtype=bool),
     )
     ok = np.array([loop is not None for loop in loops])
+    uv_keys = uv_values = None
     if corner_uvs is not None:
         # One UV per vertex in each region (the first corner's in face order, compared exactly).
         corner_key = np.repeat(face_region, 3) * k + region_faces.reshape(-1)
@@ -287,13 +325,15 @@ def _retriangulate_many(positions, faces, corner_uvs, members: list, droppable: 
         ordered = corner_key[order]
         first = np.ones(len(order), dtype=bool)
         first[1:] = ordered[1:] != ordered[:-1]
-        corner_uv = corner_uvs[np.concatenate(members)].reshape(-1, 2)[order]
-        owner_uv = corner_uv[np.maximum.accumulate(np.where(first, np.arange(len(order)), 0))]
-        ok[(ordered // k)[~((corner_uv == owner_uv).all(axis=1) | first)]] = False
+        corner_uv = corner_uvs[member_faces].reshape(-1, 2)[order]
+        # All corners equal to the first of their vertex exactly when each equals the one before
+        # (== is transitive; a NaN differs from its neighbour as from the first).
+        differs = ~first[1:] & (corner_uv[1:] != corner_uv[:-1]).any(axis=1)
+        ok[ordered[1:][differs] // k] = False
         uv_keys, uv_values = ordered[first], corner_uv[first]
     a, b, c = (positions[region_faces[:, i]] for i in range(3))
     cross = cross_rows(b - a, c - a)
-    normal = np.stack([cross[bounds[r] : bounds[r + 1]].sum(axis=0) for r in range(count)])
+    normal = _region_sums(cross, sizes, face_region, bounds)
     area = 0.5 * np.sqrt(_row_dots(normal))
     ok &= area > 0
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -311,22 +351,75 @@ def _retriangulate_many(positions, faces, corner_uvs, members: list, droppable: 
     basis = np.stack(
         [u, v], axis=2
     )  # (regions, 3, 2): each [r] C-contiguous like np.stack([u, v], axis=1)
+    return RegionSetup(loops, ok, normal, area, basis, uv_keys, uv_values)
+
+
+def _retriangulate_many(
+    positions,
+    faces,
+    corner_uvs,
+    members: list,
+    droppable: np.ndarray,
+    setup: RegionSetup | None = None,
+    ids: list | None = None,
+) -> list:
+    """``[_retriangulate(positions, faces[m], corner_uvs[m], droppable) for m in members]``, bit for
+    bit, with the per-region work batched: loops, UV checks, cross products, the outline check and
+    the UV lookup run once over all regions; per region only the float reductions whose summation
+    order numpy fixes per call (normal sum, projection, area sum, orientation) and earcut remain.
+
+    ``setup``: :func:`region_setup` of a list of regions of which ``members`` are those at ``ids``
+    (made here when not given).
+    """
+    count, k = len(members), len(positions)
+    if count == 0:
+        return []
+    if setup is None:
+        # One or two regions: the setup's fixed cost (measured ~2 regions' worth) is not worth it.
+        setup = (
+            None if count <= SMALL_BATCH else region_setup(positions, faces, corner_uvs, members)
+        )
+        ids = list(range(count))
+    if setup is None or count * k * k >= 2**62:
+        return [
+            _retriangulate(
+                positions, faces[m], None if corner_uvs is None else corner_uvs[m], droppable
+            )
+            for m in members
+        ]
+    assert ids is not None
+    # The loops with the droppable vertices removed (None when one falls under 3 vertices).
+    drop = droppable.tolist()
+    loops: list = []
+    for i in ids:
+        rings = setup.loops[i]
+        if rings is not None:
+            rings = [[v for v in ring if not drop[v]] for ring in rings]
+            if any(len(ring) < 3 for ring in rings):
+                rings = None
+        loops.append(rings)
+    ok = setup.ok[ids] & np.array([rings is not None for rings in loops])
+    normal, area = setup.normal[ids], setup.area[ids]
     todo = np.flatnonzero(ok).tolist()
     if not todo:
         return [None] * count
     rings_of = [loops[r] for r in todo]
+    ring_sizes = [len(ring) for rings in rings_of for ring in rings]
     ring_vertices = np.array(
         [v for rings in rings_of for ring in rings for v in ring], dtype=np.int64
     )
     projected_from = positions[ring_vertices]
-    tris, done, at = [], [], 0
-    expected: list[tuple] = []
-
-    for r, rings in zip(todo, rings_of):
-        size = sum(len(ring) for ring in rings)
-        vertices = ring_vertices[at : at + size]
-        points = projected_from[at : at + size] @ basis[r]
-        at += size
+    # Every ring vertex's predecessor in its ring (the outline edges, keyed below).
+    ring_ends = np.array(list(itertools.accumulate(ring_sizes)))
+    previous = np.arange(-1, len(ring_vertices) - 1)
+    previous[ring_ends - np.array(ring_sizes)] = ring_ends - 1
+    region_sizes = [sum(len(ring) for ring in rings) for rings in rings_of]
+    # Earcut's ring ends of a one-ring region: a view of this array.
+    one_ring_ends = np.array(region_sizes, dtype=np.uint32)
+    tris, offsets, done, at = [], [], [], 0
+    for j, (r, rings, size) in enumerate(zip(todo, rings_of, region_sizes)):
+        points = projected_from[at : at + size] @ setup.basis[ids[r]]
+        local = None
         if len(rings) > 1:
             # Outer ring first (largest area), then the holes.
             ends = np.cumsum([0] + [len(ring) for ring in rings])
@@ -337,57 +430,90 @@ def _retriangulate_many(positions, faces, corner_uvs, members: list, droppable: 
             ]
             order = np.argsort(-np.abs(signed))
             rings = [rings[i] for i in order]
-            vertices = np.concatenate(rings)
+            local = np.concatenate([np.arange(ends[i], ends[i + 1]) for i in order])
             points = np.concatenate([flat[i] for i in order])
-        ends = np.array(list(itertools.accumulate(len(ring) for ring in rings)), dtype=np.uint32)
+            ends = np.array(list(itertools.accumulate(len(ring) for ring in rings)), np.uint32)
+        else:
+            ends = one_ring_ends[j : j + 1]
         tri = mapbox_earcut.triangulate_float64(points, ends)
         if len(tri) != 3 * (size - 2 + 2 * (len(rings) - 1)):
+            at += size
             continue
-        tris.append(vertices[tri.reshape(-1, 3)])
+        # Earcut's indices into this region's slice of ring_vertices (in the original ring order).
+        tris.append(tri if local is None else local[tri])
+        offsets.append(at)
         done.append(r)
-        expected.extend((r, ring[i], ring[i - 1]) for ring in rings for i in range(len(ring)))
+        at += size
     results: list = [None] * count
     if not done:
         return results
-    new_faces = np.concatenate(tris)
-    face_bounds = [0] + list(itertools.accumulate(len(t) for t in tris))
-    new_region = np.repeat(done, np.diff(face_bounds))
+    face_counts = [len(t) // 3 for t in tris]
+    new_faces = ring_vertices[
+        np.concatenate(tris).astype(np.int64) + np.repeat(offsets, 3 * np.array(face_counts))
+    ].reshape(-1, 3)
+    face_bounds = [0, *itertools.accumulate(face_counts)]
+    new_region = np.repeat(done, face_counts)
     # The new triangles' outline must be exactly the (dropped) loops: no edge across a hole.
-    pairs = np.sort(new_faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    edge_key = (np.repeat(new_region, 3) * k + pairs[:, 0]) * k + pairs[:, 1]
-    edges, uses = np.unique(edge_key, return_counts=True)
-    loop_edges = np.array(expected, dtype=np.int64)
-    loop_key = (loop_edges[:, 0] * k + loop_edges[:, 1:].min(axis=1)) * k + loop_edges[:, 1:].max(
-        axis=1
+    ahead = new_faces[:, [1, 2, 0]]
+    edge_key = np.sort(
+        (
+            (new_region[:, None] * k + np.minimum(new_faces, ahead)) * k
+            + np.maximum(new_faces, ahead)
+        ).reshape(-1)
     )
-    single = edges[uses == 1]
-    if not np.array_equal(single, np.sort(loop_key)):  # the usual case: every region's sets agree
+    # Edges used once (equal to neither sorted neighbour) and more than twice.
+    differs = np.concatenate([[True], edge_key[1:] != edge_key[:-1], [True]])
+    single = edge_key[differs[:-1] & differs[1:]]
+    overused = edge_key[2:][edge_key[2:] == edge_key[:-2]]
+    # The loops' edges of the regions earcut did (ring vertex and predecessor; order is free).
+    vertex_region = np.repeat(todo, region_sizes)
+    did = np.zeros(count, dtype=bool)
+    did[done] = True
+    in_done = did[vertex_region]
+    ends_a, ends_b = ring_vertices[in_done], ring_vertices[previous[in_done]]
+    loop_key = (vertex_region[in_done] * k + np.minimum(ends_a, ends_b)) * k + np.maximum(
+        ends_a, ends_b
+    )
+    loop_key.sort()
+    if len(single) != len(loop_key) or (single != loop_key).any():  # usually every region's agree
         ok[np.setxor1d(single, loop_key) // (k * k)] = False
-    ok[edges[uses > 2] // (k * k)] = False
-    n = cross_rows(
-        positions[new_faces[:, 1]] - positions[new_faces[:, 0]],
-        positions[new_faces[:, 2]] - positions[new_faces[:, 0]],
-    )
-    areas = 0.5 * np.linalg.norm(n, axis=1)  # reversing a face keeps its area
-    smallest = np.minimum.reduceat(areas, face_bounds[:-1]).tolist()
-    flip = np.zeros(len(new_faces), dtype=bool)
-    for i, r in enumerate(done):
+    ok[overused // (k * k)] = False
+    corners = positions[new_faces]
+    n = cross_rows(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    areas = 0.5 * row_norms(n)  # reversing a face keeps its area
+    starts = face_bounds[:-1]
+    smallest = np.minimum.reduceat(areas, starts)
+    # Earcut may emit zero-area slivers along collinear outline vertices: not exact, refuse. The
+    # per-region sums in one reduceat (its summation order may differ from the one-region
+    # reference's ``areas.sum()`` in the last bits: recomputed that way where it could matter).
+    total = area[done]
+    scale = np.maximum(total, 1.0)
+    off = np.abs(np.add.reduceat(areas, starts) - total) - 1e-6 * scale
+    for i in np.flatnonzero(np.abs(off) <= 1e-9 * scale).tolist():
         lo, hi = face_bounds[i], face_bounds[i + 1]
-        total = float(area[r])
-        # Earcut may emit zero-area slivers along collinear outline vertices: not exact, refuse.
-        if abs(areas[lo:hi].sum() - total) > 1e-6 * max(total, 1.0) or smallest[i] < 1e-9 * max(
-            total, 1.0
-        ):
-            ok[r] = False
-        flip[lo:hi] = (n[lo:hi] @ normal[r]) < 0
+        off[i] = abs(areas[lo:hi].sum() - total[i]) - 1e-6 * scale[i]
+    ok[np.array(done)[(off > 0) | (smallest < 1e-9 * scale)]] = False
+    # Orientation: the sign of each face's normal . region normal. The row sums differ from the
+    # reference's per-region matmul by a few ulps of |n| at most, so only faces almost edge-on
+    # to the plane are recomputed the reference's way.
+    dots = (n * normal[new_region]).sum(axis=1)
+    flip = dots < 0
+    edge_on = np.abs(dots) <= 1e-12 * areas
+    if edge_on.any():
+        for i in np.unique(
+            np.searchsorted(face_bounds, np.flatnonzero(edge_on), "right") - 1
+        ).tolist():
+            lo, hi = face_bounds[i], face_bounds[i + 1]
+            flip[lo:hi] = (n[lo:hi] @ normal[done[i]]) < 0
     new_faces = np.where(flip[:, None], new_faces[:, ::-1], new_faces)
     new_uvs = None
-    if corner_uvs is not None:
-        new_uvs = uv_values[np.searchsorted(uv_keys, new_region[:, None] * k + new_faces)].astype(
-            np.float32
-        )
+    if setup.uv_keys is not None and setup.uv_values is not None:
+        new_uvs = setup.uv_values[
+            np.searchsorted(setup.uv_keys, np.array(ids)[new_region][:, None] * k + new_faces)
+        ].astype(np.float32)
+    kept = ok.tolist()
     for i, r in enumerate(done):
-        if ok[r]:
+        if kept[r]:
             lo, hi = face_bounds[i], face_bounds[i + 1]
             results[r] = (new_faces[lo:hi], None if new_uvs is None else new_uvs[lo:hi])
     return results
@@ -424,10 +550,12 @@ def retriangulate_planar_checked(
     (same surface, but edges that were open are shared now), so the result is not LOD0's mesh
     in every metric."""
     before = _boundary(positions, faces)
-    regions = planar_regions(positions, faces, face_chart)
     m, k = len(faces), len(positions)
     if m == 0:
         return faces, corner_uvs, np.arange(m), True
+    # One sort of the faces' edges for the regions and the straight vertices.
+    edge_keys = sorted_edge_keys(faces, k)
+    regions = planar_regions(positions, faces, face_chart, edge_keys)
     # Vertices inside one region (off the open border) go; so do straight outline vertices.
     corner_region = np.repeat(regions, 3)
     low = np.full(k, np.iinfo(np.int64).max)
@@ -438,20 +566,32 @@ def retriangulate_planar_checked(
     interior = (low == high) & ~border & ~locked
     used = np.zeros(k, dtype=bool)
     used[faces.reshape(-1)] = True
-    straight = straight_vertices(positions, faces, regions, locked, on_border=True)
+    straight = straight_vertices(
+        positions, faces, regions, locked, on_border=True, edge_keys=edge_keys
+    )
     # Faces of every region, ascending (one stable sort instead of a scan per region).
     by_region = np.argsort(regions, kind="stable")
     region_start = np.searchsorted(regions[by_region], np.arange(regions.max() + 2))
     done: dict = {}  # both passes share the regions their different border choice does not touch
+    droppable = (interior | straight) & used
+    # Droppable vertices only ever become fewer (failures keep theirs; the second pass drops a
+    # subset), so only regions holding one now are ever redone: the setup is theirs only.
+    held = np.logical_or.reduceat(droppable[faces[by_region]].any(axis=1), region_start[:-1])
+    candidates = np.flatnonzero(held).tolist()
+    members = [by_region[region_start[r] : region_start[r + 1]] for r in candidates]
+    setup = region_setup(positions, faces, corner_uvs, members) if members else None
+    slot = {region: i for i, region in enumerate(candidates)}
     result = _retriangulate_regions(
         positions,
         faces,
         corner_uvs,
         regions,
-        (interior | straight) & used,
+        droppable,
         done,
         by_region,
         region_start,
+        setup,
+        slot,
     )
     length, _ = _boundary(positions, result[0])
     if abs(length - before[0]) > 1e-9 * max(before[0], 1.0):
@@ -465,28 +605,45 @@ def retriangulate_planar_checked(
             done,
             by_region,
             region_start,
+            setup,
+            slot,
         )
         length, _ = _boundary(positions, result[0])
     return (*result, abs(length - before[0]) <= 1e-9 * max(before[0], 1.0))
 
 
 def _retriangulate_regions(
-    positions, faces, corner_uvs, regions, droppable, done: dict, by_region, region_start
+    positions,
+    faces,
+    corner_uvs,
+    regions,
+    droppable,
+    done: dict,
+    by_region,
+    region_start,
+    setup,
+    slot: dict,
 ):
     """One pass of :func:`retriangulate_planar` with the vertices ``droppable`` (k,) bool (changed
     in place where a region fails). ``done``: region -> (droppable bits of its corners, result),
     reused when the bits are the same; ``by_region`` / ``region_start``: faces of region r are
-    ``by_region[region_start[r]:region_start[r + 1]]``."""
+    ``by_region[region_start[r]:region_start[r + 1]]``; ``setup``: :func:`region_setup` of the
+    regions that can be redone (or None: one region at a time), region r at ``slot[r]``."""
     m = len(faces)
+    faces_by_region = faces[by_region]
+    bounds = region_start.tolist()
+
+    def drop_state() -> tuple[np.ndarray, list]:
+        """The droppable bits (m, 3) of the faces in region order and the regions holding one."""
+        bits = droppable[faces_by_region]
+        held = np.logical_or.reduceat(bits.any(axis=1), region_start[:-1])
+        return bits, np.flatnonzero(held).tolist()
+
     # Every region holding a droppable vertex is redone; a region that cannot be done exactly
     # keeps its vertices, so its neighbours must keep them too: repeat until consistent.
     for _ in range(8):
-        corner_drop = droppable[faces].any(axis=1)
-        candidates = np.unique(regions[corner_drop]).tolist()
-        bits = droppable[faces[by_region]]
-        keys = [
-            bits[region_start[region] : region_start[region + 1]].tobytes() for region in candidates
-        ]
+        bits, candidates = drop_state()
+        keys = [bits[bounds[region] : bounds[region + 1]].tobytes() for region in candidates]
         # All regions not cached are done in one batch with this round's droppable bits; regions
         # whose bits a failure earlier in the round changed are redone below, in one batch too.
         todo = [
@@ -494,59 +651,65 @@ def _retriangulate_regions(
             for i, region in enumerate(candidates)
             if not (region in done and done[region][0] == keys[i])
         ]
-        batch = _retriangulate_many(
-            positions,
-            faces,
-            corner_uvs,
-            [
-                by_region[region_start[candidates[i]] : region_start[candidates[i] + 1]]
-                for i in todo
-            ],
-            droppable,
-        )
-        for i, result in zip(todo, batch):
-            done[candidates[i]] = (keys[i], result)
-        results, failed = {}, False
-        for region, key in zip(candidates, keys):
-            members = by_region[region_start[region] : region_start[region + 1]]
+        if todo:
+            batch = _retriangulate_many(
+                positions,
+                faces,
+                corner_uvs,
+                [by_region[bounds[candidates[i]] : bounds[candidates[i] + 1]] for i in todo],
+                droppable,
+                setup,
+                [slot[candidates[i]] for i in todo],
+            )
+            for i, result in zip(todo, batch):
+                done[candidates[i]] = (keys[i], result)
+        results: dict = {}
+        failed = False
+        for index, (region, key) in enumerate(zip(candidates, keys)):
             if failed:
-                key = droppable[faces[members]].tobytes()
+                key = bits[bounds[region] : bounds[region + 1]].tobytes()
             if not (region in done and done[region][0] == key):
                 # A failure earlier in this pass changed this region's bits: redo it together with
                 # every later region and every next-round candidate whose bits changed too (results
                 # depend on the bits only, so whatever is computed ahead is reused or ignored).
-                ahead = np.unique(regions[droppable[faces].any(axis=1)]).tolist()
-                later = sorted(set(candidates[candidates.index(region) :]) | set(ahead))
-                members_of = [by_region[region_start[r] : region_start[r + 1]] for r in later]
-                bits_of = [droppable[faces[m]].tobytes() for m in members_of]
+                later = sorted(set(candidates[index:]) | set(drop_state()[1]))
+                bits_of = [bits[bounds[r] : bounds[r + 1]].tobytes() for r in later]
                 stale = [
                     i for i, r in enumerate(later) if not (r in done and done[r][0] == bits_of[i])
                 ]
                 redone = _retriangulate_many(
-                    positions, faces, corner_uvs, [members_of[i] for i in stale], droppable
+                    positions,
+                    faces,
+                    corner_uvs,
+                    [by_region[bounds[later[i]] : bounds[later[i] + 1]] for i in stale],
+                    droppable,
+                    setup,
+                    [slot[later[i]] for i in stale],
                 )
                 for i, result in zip(stale, redone):
                     done[later[i]] = (bits_of[i], result)
             result = done[region][1]
             if result is None:
-                droppable[faces[members].reshape(-1)] = False
+                droppable[faces_by_region[bounds[region] : bounds[region + 1]].reshape(-1)] = False
+                bits = droppable[faces_by_region]
                 failed = True
             else:
-                results[region] = (members, result)
+                results[region] = result
         if not failed:
             break
     else:
         results = {}
-    keep = np.ones(m, dtype=bool)
-    new_faces, new_uvs, new_source = [], [], []
-    for members, (tri, uvs) in results.values():
-        keep[members] = False
-        new_faces.append(tri)
-        if corner_uvs is not None:
-            new_uvs.append(uvs)
-        new_source.append(np.full(len(tri), members[0]))
-    if not new_faces:
+    if not results:
         return faces, corner_uvs, np.arange(m)
-    out_faces = np.concatenate([faces[keep]] + new_faces)
-    out_uvs = np.concatenate([corner_uvs[keep]] + new_uvs) if corner_uvs is not None else None
-    return out_faces, out_uvs, np.concatenate([np.flatnonzero(keep)] + new_source)
+    redone_regions = list(results)
+    kept = np.ones(len(bounds) - 1, dtype=bool)
+    kept[redone_regions] = False
+    keep = kept[regions]
+    tris = [results[r][0] for r in redone_regions]
+    out_faces = np.concatenate([faces[keep]] + tris)
+    out_uvs = None
+    if corner_uvs is not None:
+        out_uvs = np.concatenate([corner_uvs[keep]] + [results[r][1] for r in redone_regions])
+    # Every new face's source: its region's first face.
+    source = np.repeat(by_region[region_start[redone_regions]], [len(t) for t in tris])
+    return out_faces, out_uvs, np.concatenate([np.flatnonzero(keep), source])

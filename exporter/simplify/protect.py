@@ -61,8 +61,20 @@ def edge_use(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     seen, result = _last_edge_use
     if seen is faces:
         return result
-    edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    unique, counts = unique_rows(edges, return_counts=True)
+    if len(faces) == 0:
+        unique, counts = np.zeros((0, 2), np.int64), np.zeros(0, np.int64)
+    else:
+        # One int64 key per side (low * base + high) sorted once; groups of equal keys are the
+        # edges (the rows and counts of np.unique(axis=0) on the sorted pairs).
+        corners = np.asarray(faces, dtype=np.int64)
+        ahead = corners[:, [1, 2, 0]]
+        low, high = np.minimum(corners, ahead).reshape(-1), np.maximum(corners, ahead).reshape(-1)
+        base = int(high.max()) + 1
+        keys = np.sort(low * base + high)
+        start = np.flatnonzero(np.concatenate([[True], keys[1:] != keys[:-1]]))
+        counts = np.concatenate([start[1:], [len(keys)]]) - start
+        unique = np.empty((len(start), 2), np.int64)
+        unique[:, 0], unique[:, 1] = np.divmod(keys[start], base)
     unique.flags.writeable = counts.flags.writeable = False
     _last_edge_use = (faces, (unique, counts))
     return unique, counts
@@ -113,29 +125,51 @@ def footprint_wall_faces(
     return (up <= max_normal_up) & on_ground & (length > 0)
 
 
+def row_norms(rows: np.ndarray) -> np.ndarray:
+    """(n,) Euclidean norms of real (n, d) rows: ``np.linalg.norm(rows, axis=1)``'s own arithmetic
+    (the square root of ``add.reduce`` of the squares) without its per-call dispatch."""
+    return np.sqrt(np.add.reduce(rows * rows, axis=1))
+
+
+def sorted_edge_keys(faces: np.ndarray, vertex_count: int) -> tuple[np.ndarray, np.ndarray]:
+    """Every face side's undirected edge as one key ``low * vertex_count + high``, ascending
+    (3m,) int64, and the stable permutation of the sides (side ``3 f + i`` runs from corner i of
+    face f to the next) that sorts them: ``np.lexsort`` of the (low, high) pairs, with one key."""
+    sides = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    low, high = sides.min(axis=1), sides.max(axis=1)
+    keys = low * vertex_count + high
+    order = np.argsort(keys, kind="stable")
+    return keys[order], order
+
+
 def planar_regions(
-    positions: np.ndarray, faces: np.ndarray, groups: np.ndarray | None = None
+    positions: np.ndarray,
+    faces: np.ndarray,
+    groups: np.ndarray | None = None,
+    edge_keys: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
     """(m,) int64 region of every face: edge-connected faces on one plane (the polygons of the
     building's polygonal model, whatever their triangulation); with ``groups`` (m,) int64 only
-    faces of one group (e.g. one UV chart) join."""
+    faces of one group (e.g. one UV chart) join. ``edge_keys``: :func:`sorted_edge_keys` of
+    ``faces`` and ``len(positions)`` when the caller has them."""
     m = len(faces)
     if m == 0:
         return np.zeros(0, np.int64)
     a, b, c = (positions[faces[:, i]] for i in range(3))
     normal = cross_rows(b - a, c - a)
-    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-30)
-    edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    owner = np.repeat(np.arange(m), 3)
-    order = np.lexsort((edges[:, 1], edges[:, 0]))
-    edges, owner = edges[order], owner[order]
-    same = (edges[1:] == edges[:-1]).all(axis=1)
+    normal /= np.maximum(row_norms(normal)[:, None], 1e-30)
+    keys, order = edge_keys if edge_keys is not None else sorted_edge_keys(faces, len(positions))
+    owner = order // 3
+    same = keys[1:] == keys[:-1]
     f, g = owner[:-1][same], owner[1:][same]
     if groups is not None:
         keep = groups[f] == groups[g]
         f, g = f[keep], g[keep]
+    # Every face's centroid with the arithmetic of positions[faces].mean(axis=1) (its sum starts
+    # at 0.0), for all faces at once.
+    centroid = (0.0 + a + b + c) / 3
     coplanar = ((normal[f] * normal[g]).sum(1) > COPLANAR_COS) & (
-        np.abs(((positions[faces[g]].mean(axis=1) - a[f]) * normal[f]).sum(1)) < PLANE_M
+        np.abs(((centroid[g] - a[f]) * normal[f]).sum(1)) < PLANE_M
     )
     # Components numbered by their lowest face, as scipy's connected_components numbers them.
     lowest = lowest_member(m, f[coplanar], g[coplanar])
