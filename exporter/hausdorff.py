@@ -87,6 +87,7 @@ class Surface:
         self._regions: _Regions | None = None
         self._chains: _Chains | None = None
         self._trusted: np.ndarray | None = None
+        self._face_planes: tuple[np.ndarray, np.ndarray, float] | None = None
 
     @property
     def empty(self) -> bool:
@@ -111,6 +112,23 @@ class Surface:
             longest = np.sqrt(((t - t[:, [1, 2, 0]]) ** 2).sum(-1)).max(axis=1)
             self._trusted = area2 >= TRUSTED * longest**2
         return self._trusted
+
+    @property
+    def face_planes(self) -> tuple[np.ndarray, np.ndarray, float]:
+        """Each face's plane ``normal . x = offset``: unit normals (m, 3), offsets (m,) metres
+        (both 0 for untrusted faces: no plane) and the rounding margin (metres) of a point's
+        distance to a plane (normals of trusted faces keep ~1e-10 of their direction)."""
+        if self._face_planes is None:
+            t = self.tri
+            cross = cross_rows(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+            length = np.sqrt((cross**2).sum(1))
+            ok = self.trusted & (length > 0)
+            normal = np.zeros_like(cross)
+            normal[ok] = cross[ok] / length[ok, None]
+            offset = _dot3(t[:, 0], normal)
+            scale = float(np.abs(self.positions).max()) if len(self.positions) else 0.0
+            self._face_planes = (normal, offset, 1e-6 * scale + 1e-12)
+        return self._face_planes
 
     @property
     def chains(self) -> _Chains:
@@ -581,6 +599,7 @@ def _planar_bound(tri: np.ndarray, target: Surface, row: np.ndarray, face: np.nd
     sx = ix[todo, None] + (tx[todo] - ix[todo, None]) * (1.0 - SHRINK)
     sy = iy[todo, None] + (ty[todo] - iy[todo, None]) * (1.0 - SHRINK)
     owner, seg = _boundary_crosses(sx, sy, region[todo], reg, pairs=True)
+    crossing = (todo[owner], seg)  # (triangle, segment) pairs crossing the first shrunk copy
     inside = np.ones(len(todo), bool)
     inside[owner] = False
     rho = 2.0 * ratio * reach[todo] + reg.gap[region[todo]]
@@ -595,20 +614,30 @@ def _planar_bound(tri: np.ndarray, target: Surface, row: np.ndarray, face: np.nd
             which = todo[pick[ok]]
             rho = 2.0 * shift[ok] + reg.gap[region[which]]
             value[which] = np.sqrt(height[which] ** 2 + rho**2) + reg.slack[region[which]]
-    # Last tries: shrunk about the incentre by a share of the target's diagonal.
-    for loose in LOOSE:
-        delta = np.maximum(SHRINK * inradius, loose * reg.scale)
-        todo = np.flatnonzero(fine & ~np.isfinite(value) & (delta < 0.5 * inradius))
-        if len(todo) == 0:
-            break
-        ratio = delta[todo] / inradius[todo]
-        sx = ix[todo, None] + (tx[todo] - ix[todo, None]) * (1.0 - ratio[:, None])
-        sy = iy[todo, None] + (ty[todo] - iy[todo, None]) * (1.0 - ratio[:, None])
-        inside = ~_boundary_crosses(sx, sy, region[todo], reg)
-        rho = 2.0 * ratio * reach[todo] + reg.gap[region[todo]]
-        value[todo[inside]] = (np.sqrt(height[todo] ** 2 + rho**2) + reg.slack[region[todo]])[
-            inside
-        ]
+    # Last tries: shrunk about the incentre by shares of the target's diagonal, all in one test
+    # (a triangle takes the first that holds, as when tried one after the other). They are
+    # nested in the first shrunk copy (the same incentre, a larger shrink), so only the
+    # segments crossing that one can cross them.
+    todo = np.flatnonzero(fine & ~np.isfinite(value))
+    if len(todo):
+        delta = np.maximum(SHRINK * inradius[todo, None], np.array(LOOSE)[None] * reg.scale)
+        tries = delta < 0.5 * inradius[todo, None]  # (t, len(LOOSE)), False from some on
+        which, level = np.nonzero(tries)
+        tri_of = todo[which]
+        ratio = delta[which, level] / inradius[tri_of]
+        sx = ix[tri_of, None] + (tx[tri_of] - ix[tri_of, None]) * (1.0 - ratio[:, None])
+        sy = iy[tri_of, None] + (ty[tri_of] - iy[tri_of, None]) * (1.0 - ratio[:, None])
+        first_owner, first_seg = crossing
+        counts = np.bincount(first_owner, minlength=len(row))
+        starts = np.cumsum(counts) - counts
+        owner, item = _ranges(starts[tri_of], counts[tri_of])
+        inside = ~_boundary_crosses(
+            sx, sy, region[tri_of], reg, candidates=(owner, first_seg[item])
+        )
+        rho = 2.0 * ratio * reach[tri_of] + reg.gap[region[tri_of]]
+        got, first = np.unique(tri_of[inside], return_index=True)
+        take = np.flatnonzero(inside)[first]
+        value[got] = (np.sqrt(height[tri_of] ** 2 + rho**2) + reg.slack[region[tri_of]])[take]
     np.minimum.at(bound, row, value)
     return bound
 
@@ -695,13 +724,23 @@ def _ranges(starts: np.ndarray, counts: np.ndarray) -> tuple[np.ndarray, np.ndar
 
 
 def _boundary_crosses(
-    tx: np.ndarray, ty: np.ndarray, region: np.ndarray, reg: _Regions, pairs: bool = False
+    tx: np.ndarray,
+    ty: np.ndarray,
+    region: np.ndarray,
+    reg: _Regions,
+    pairs: bool = False,
+    candidates: tuple[np.ndarray, np.ndarray] | None = None,
 ):
     """(p,) bool: a boundary edge of the region meets the open triangle with corners (tx, ty)
     (p, 3) metres (bounding boxes first, then separating axes: the triangle's three edge
-    normals and the segment's normal)."""
-    counts = reg.seg_start[region + 1] - reg.seg_start[region]
-    owner, item = _ranges(reg.seg_start[region], counts)
+    normals and the segment's normal). ``candidates``: the (triangle, segment) pairs to test
+    (sorted by triangle; a superset of the crossing ones), by default all of each region's.
+    ``pairs``: return the crossing pairs instead."""
+    if candidates is None:
+        counts = reg.seg_start[region + 1] - reg.seg_start[region]
+        owner, item = _ranges(reg.seg_start[region], counts)
+    else:
+        owner, item = candidates
     low_x, high_x = np.min(tx, axis=1), np.max(tx, axis=1)
     low_y, high_y = np.min(ty, axis=1), np.max(ty, axis=1)
     x0, y0, x1, y1 = reg.seg_x0[item], reg.seg_y0[item], reg.seg_x1[item], reg.seg_y1[item]
@@ -714,19 +753,23 @@ def _boundary_crosses(
     owner, item = owner[near], item[near]
     x0, y0, x1, y1 = x0[near], y0[near], x1[near], y1[near]
     px, py = tx[owner], ty[owner]  # (q, 3)
-    separated = np.zeros(len(owner), bool)
-    for i, j in ((0, 1), (1, 2), (2, 0), (-1, -1)):
-        if i < 0:
-            nx, ny = y0 - y1, x1 - x0
-        else:
-            nx, ny = py[:, i] - py[:, j], px[:, j] - px[:, i]
-        t0 = px[:, 0] * nx + py[:, 0] * ny
-        t1 = px[:, 1] * nx + py[:, 1] * ny
-        t2 = px[:, 2] * nx + py[:, 2] * ny
-        s0, s1 = x0 * nx + y0 * ny, x1 * nx + y1 * ny
-        separated |= (np.maximum(s0, s1) <= np.minimum(np.minimum(t0, t1), t2)) | (
-            np.minimum(s0, s1) >= np.maximum(np.maximum(t0, t1), t2)
-        )
+    # Separating axes: the triangle's three edge normals at once (axis a from corner a to a + 1)
+    # and the segment's normal; each projection is the same product sum as one axis at a time.
+    nx = py - py[:, [1, 2, 0]]  # (q, 3)
+    ny = px[:, [1, 2, 0]] - px
+    t = px[:, None, :] * nx[:, :, None] + py[:, None, :] * ny[:, :, None]  # (q, axis, corner)
+    s0, s1 = x0[:, None] * nx + y0[:, None] * ny, x1[:, None] * nx + y1[:, None] * ny
+    separated = ((np.maximum(s0, s1) <= t.min(axis=2)) | (np.minimum(s0, s1) >= t.max(axis=2))).any(
+        axis=1
+    )
+    nx, ny = y0 - y1, x1 - x0
+    t0 = px[:, 0] * nx + py[:, 0] * ny
+    t1 = px[:, 1] * nx + py[:, 1] * ny
+    t2 = px[:, 2] * nx + py[:, 2] * ny
+    s0, s1 = x0 * nx + y0 * ny, x1 * nx + y1 * ny
+    separated |= (np.maximum(s0, s1) <= np.minimum(np.minimum(t0, t1), t2)) | (
+        np.minimum(s0, s1) >= np.maximum(np.maximum(t0, t1), t2)
+    )
     if pairs:
         return owner[~separated], item[~separated]
     result = np.zeros(len(tx), bool)
@@ -843,7 +886,7 @@ def _bound(tri: np.ndarray, target: Surface, goal: float) -> np.ndarray:
     open_ = np.flatnonzero(bound > goal)
     extra = None
     if len(open_):
-        nearest = _nearest_face(index, centre[open_])
+        nearest = _nearest_face(target, centre[open_])
         extra = np.full(n, -1)
         extra[open_] = nearest
         fresh = ~(faces[open_] == nearest[:, None]).any(axis=1)
@@ -871,16 +914,24 @@ def _bound(tri: np.ndarray, target: Surface, goal: float) -> np.ndarray:
     return bound
 
 
-def _nearest_face(index: _quality.SurfaceIndex, points: np.ndarray) -> np.ndarray:
-    """(p,) int64: a face of ``index`` at the least distance from each point (p, 3) metres (the
-    faces whose bounding sphere comes within the probes' upper bound are all checked)."""
+def _nearest_face(target: Surface, points: np.ndarray) -> np.ndarray:
+    """(p,) int64: a face of ``target`` at the least distance from each point (p, 3) metres (the
+    faces whose bounding sphere and plane both come within the probes' upper bound are all
+    checked)."""
+    index = target.index
     upper = index.upper(points)
     squared = (points[:, 0, None] - index.centres[None, :, 0]) ** 2
     squared += (points[:, 1, None] - index.centres[None, :, 1]) ** 2
     squared += (points[:, 2, None] - index.centres[None, :, 2]) ** 2
-    rows, cols = np.nonzero(
-        np.sqrt(squared) - index.radii[None] <= upper[:, None] * (1 + 1e-9) + 1e-12
-    )
+    reach = upper * (1 + 1e-9) + 1e-12
+    rows, cols = np.nonzero(np.sqrt(squared) - index.radii[None] <= reach[:, None])
+    # A face's plane is no farther than the face: faces whose plane is beyond the bound cannot
+    # be nearest (the margin covers the rounding of both distances; untrusted slivers, whose
+    # normals are noise, have no plane and are always kept).
+    normal, offset, margin = target.face_planes
+    plane = np.abs(_dot3(points[rows], normal[cols]) - offset[cols])
+    keep = plane <= reach[rows] + margin
+    rows, cols = rows[keep], cols[keep]
     distance = _quality.point_triangle_distance(points[rows], index.tri[cols])
     order = np.lexsort((distance, rows))
     first = np.ones(len(order), bool)
