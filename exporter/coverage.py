@@ -139,7 +139,7 @@ def _chain_difference(
     half = half.reshape(-1, 2)
     from_level = np.concatenate([np.ones(3 * len(faces_l), bool), np.zeros(3 * len(faces_s), bool)])
     region = np.repeat(np.concatenate([reg_l, reg_s]), 3)
-    lo, hi = half.min(axis=1), half.max(axis=1)
+    lo, hi = np.minimum(half[:, 0], half[:, 1]), np.maximum(half[:, 0], half[:, 1])
     sign = np.where(half[:, 0] < half[:, 1], 1.0, -1.0)
     keys = (region * k + lo) * k + hi
     uniq, inverse = np.unique(keys, return_inverse=True)
@@ -210,7 +210,9 @@ def region_certificate(
             (fl[placed], cross_l[placed], reg_l[placed]),
         ):
             t = points[faces_x]
-            longest = np.max(((t - t[:, [1, 2, 0]]) ** 2).sum(-1), axis=1)
+            e = t - t[:, [1, 2, 0]]
+            e2 = e[..., 0] * e[..., 0] + e[..., 1] * e[..., 1] + e[..., 2] * e[..., 2]
+            longest = np.maximum(np.maximum(e2[:, 0], e2[:, 1]), e2[:, 2])
             along = (cross_x * normals[reg_x]).sum(1)
             bad = along <= ORIENTED * longest
             good[reg_x[bad]] = False
@@ -225,8 +227,8 @@ def region_certificate(
         heights_hi = np.full(r, -np.inf)
         for faces_x, reg_x in ((fs, region), (fl[placed], reg_l[placed])):
             h = np.einsum("mkj,mj->mk", points[faces_x], normals[reg_x])
-            np.minimum.at(heights_lo, reg_x, h.min(axis=1))
-            np.maximum.at(heights_hi, reg_x, h.max(axis=1))
+            np.minimum.at(heights_lo, reg_x, np.minimum(np.minimum(h[:, 0], h[:, 1]), h[:, 2]))
+            np.maximum.at(heights_hi, reg_x, np.maximum(np.maximum(h[:, 0], h[:, 1]), h[:, 2]))
         spread = heights_hi - heights_lo
         # Rounding of the heights themselves: a relative margin.
         scale = float(np.abs(points).max()) if len(points) else 0.0

@@ -439,15 +439,18 @@ class _Chains:
 
 
 def _segment_distance(points: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.ndarray:
-    """Distance (...) metres from points (..., 3) to segments start-end (..., 3) (broadcast)."""
-    d = end - start
-    w = points - start
-    d = np.broadcast_to(d, w.shape)
-    length2 = (d * d).sum(-1)
-    t = np.clip(
-        np.divide((w * d).sum(-1), length2, out=np.zeros_like(length2), where=length2 > 0), 0.0, 1.0
-    )
-    return np.sqrt(((w - t[..., None] * d) ** 2).sum(-1))
+    """Distance (...) metres from points (..., 3) to segments start-end (..., 3) (broadcast).
+
+    Per coordinate (no reduction over a length-3 axis): each sum of three products is added in
+    the order ``.sum(-1)`` adds them, so the same floats."""
+    d = [end[..., i] - start[..., i] for i in range(3)]
+    w = [points[..., i] - start[..., i] for i in range(3)]
+    length2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+    along = w[0] * d[0] + w[1] * d[1] + w[2] * d[2]
+    length2 = np.broadcast_to(length2, along.shape)
+    t = np.clip(np.divide(along, length2, out=np.zeros_like(along), where=length2 > 0), 0.0, 1.0)
+    e = [w[i] - t * d[i] for i in range(3)]
+    return np.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
 
 
 def _chain_bound(tri: np.ndarray, target: Surface, faces: np.ndarray) -> np.ndarray:
@@ -456,13 +459,9 @@ def _chain_bound(tri: np.ndarray, target: Surface, faces: np.ndarray) -> np.ndar
     chains = target.chains
     n = len(tri)
     cand = chains.face_chain[faces].reshape(n, -1)  # (n, 3c)
-    d = (
-        _segment_distance(
-            tri[:, None, :, :], chains.start[cand][:, :, None], chains.end[cand][:, :, None]
-        ).max(axis=2)
-        + chains.slack[cand]
-    )
-    return d.min(axis=1)
+    start, end = chains.start[cand], chains.end[cand]  # (n, 3c, 3)
+    d = [_segment_distance(tri[:, None, v], start, end) for v in range(3)]  # 3 x (n, 3c)
+    return (np.maximum(np.maximum(d[0], d[1]), d[2]) + chains.slack[cand]).min(axis=1)
 
 
 def _matched(region, a, b, ok, k) -> np.ndarray:
@@ -523,7 +522,7 @@ def _single_triangle_bound(tri: np.ndarray, target: Surface, nearest: np.ndarray
     index = target.index
     assert index.tree is not None  # callers check for an empty surface first
     n = len(tri)
-    points = np.concatenate([tri, tri.mean(axis=1, keepdims=True)], axis=1)  # (n, 4, 3)
+    points = np.concatenate([tri, _centroid(tri)[:, None]], axis=1)  # (n, 4, 3)
     k = min(CANDIDATES, index.tree.n)
     _, probes = index.tree.query(points.reshape(-1, 3), k=k)
     owners = np.sort(
@@ -538,7 +537,7 @@ def _single_triangle_bound(tri: np.ndarray, target: Surface, nearest: np.ndarray
     d = _quality.point_triangle_distance(tri[row], index.tri[cand][:, None])
     d[~target.trusted[cand]] = np.inf
     starts = np.concatenate([[0], np.cumsum(fresh.sum(axis=1))[:-1]])
-    return np.minimum.reduceat(d.max(axis=1), starts)
+    return np.minimum.reduceat(_max3(d), starts)
 
 
 def _planar_bound(tri: np.ndarray, target: Surface, row: np.ndarray, face: np.ndarray, cap):
@@ -562,7 +561,8 @@ def _planar_bound(tri: np.ndarray, target: Surface, row: np.ndarray, face: np.nd
     ty = _dot3(t, v[:, None])
     height = np.abs(_dot3(t, normal[:, None]) - reg.offset[region, None])
     height = np.maximum(np.maximum(height[:, 0], height[:, 1]), height[:, 2])
-    cx, cy = tx.sum(1) / 3.0, ty.sum(1) / 3.0
+    cx = (tx[:, 0] + tx[:, 1] + tx[:, 2]) / 3.0  # the order .sum(1) adds them
+    cy = (ty[:, 0] + ty[:, 1] + ty[:, 2]) / 3.0
     keep = _inside_face(cx, cy, reg.tri2[face])
     if cap is not None:
         keep &= height + reg.slack[region] < cap[row]
@@ -585,8 +585,8 @@ def _planar_bound(tri: np.ndarray, target: Surface, row: np.ndarray, face: np.nd
         ix = (la * tx[:, 0] + lb * tx[:, 1] + lc * tx[:, 2]) / perimeter
         iy = (la * ty[:, 0] + lb * ty[:, 1] + lc * ty[:, 2]) / perimeter
         inradius = area2 / perimeter
-    reach = np.sqrt(np.max((tx - ix[:, None]) ** 2 + (ty - iy[:, None]) ** 2, axis=1))
-    size = np.max(np.abs(tx), axis=1) + np.max(np.abs(ty), axis=1) + reach
+    reach = np.sqrt(_max3((tx - ix[:, None]) ** 2 + (ty - iy[:, None]) ** 2))
+    size = _max3(np.abs(tx)) + _max3(np.abs(ty)) + reach
     # Too thin to shrink safely against rounding: left to the other bounds.
     fine = np.isfinite(inradius) & (inradius > 1e-9 * size)
     inradius = np.where(fine, inradius, 1.0)
@@ -650,8 +650,8 @@ def _sides_in(tx, ty, inradius, owner, seg, reg, retry):
     and each one's largest corner displacement (metres; d(., moved triangle) is convex, so every
     point of the triangle is that close to it), or None."""
     # Inward unit normals of the sides i -> i+1 (side i is opposite corner i+2).
-    ex = np.roll(tx, -1, axis=1) - tx
-    ey = np.roll(ty, -1, axis=1) - ty
+    ex = tx[:, [1, 2, 0]] - tx  # np.roll(tx, -1, axis=1), without its Python overhead
+    ey = ty[:, [1, 2, 0]] - ty
     length = np.hypot(ex, ey)
     orient = np.sign(
         (tx[:, 1] - tx[:, 0]) * (ty[:, 2] - ty[:, 0])
@@ -669,7 +669,7 @@ def _sides_in(tx, ty, inradius, owner, seg, reg, retry):
     np.maximum.at(need, (owner, side), depth[np.arange(len(owner)), side])
     need = need[retry]
     r = inradius[retry]
-    size = np.abs(tx[retry]).max(axis=1) + np.abs(ty[retry]).max(axis=1)
+    size = _max3(np.abs(tx[retry])) + _max3(np.abs(ty[retry]))
     delta = np.maximum(need * (1 + 1e-6) + 1e-12 * size[:, None], SHRINK * r[:, None])
     keep = (delta < 0.25 * r[:, None]).all(axis=1)
     if not keep.any():
@@ -678,15 +678,33 @@ def _sides_in(tx, ty, inradius, owner, seg, reg, retry):
     px, py = tx[retry], ty[retry]
     nxr, nyr = nx[retry], ny[retry]
     # Corner i lies on sides i-1 and i: solve n . x = n . p + delta for both moved sides.
-    a1x, a1y = np.roll(nxr, 1, axis=1), np.roll(nyr, 1, axis=1)
-    c1 = a1x * np.roll(px, 1, axis=1) + a1y * np.roll(py, 1, axis=1) + np.roll(delta, 1, axis=1)
+    back = [2, 0, 1]  # np.roll(., 1, axis=1)
+    a1x, a1y = nxr[:, back], nyr[:, back]
+    c1 = a1x * px[:, back] + a1y * py[:, back] + delta[:, back]
     c2 = nxr * px + nyr * py + delta
     det = a1x * nyr - a1y * nxr
     mx = (c1 * nyr - a1y * c2) / det
     my = (a1x * c2 - c1 * nxr) / det
-    shift = np.sqrt((mx - px) ** 2 + (my - py) ** 2).max(axis=1)
+    shift = _max3(np.sqrt((mx - px) ** 2 + (my - py) ** 2))
     good = np.isfinite(shift)
     return retry[good], mx[good], my[good], shift[good]
+
+
+def _centroid(tri: np.ndarray) -> np.ndarray:
+    """(n, 3) metres: ``tri.mean(axis=1)`` of triangles (n, 3, 3), written out (the same sum,
+    in the same order, divided by 3)."""
+    return (tri[:, 0] + tri[:, 1] + tri[:, 2]) / 3.0
+
+
+def _max3(x: np.ndarray) -> np.ndarray:
+    """``x.max(-1)`` for (..., 3) arrays, written out (numpy's reduction over a length-3 axis
+    costs several elementwise passes)."""
+    return np.maximum(np.maximum(x[..., 0], x[..., 1]), x[..., 2])
+
+
+def _min3(x: np.ndarray) -> np.ndarray:
+    """``x.min(-1)`` for (..., 3) arrays, written out."""
+    return np.minimum(np.minimum(x[..., 0], x[..., 1]), x[..., 2])
 
 
 def _dot3(points: np.ndarray, axis: np.ndarray) -> np.ndarray:
@@ -741,8 +759,8 @@ def _boundary_crosses(
         owner, item = _ranges(reg.seg_start[region], counts)
     else:
         owner, item = candidates
-    low_x, high_x = np.min(tx, axis=1), np.max(tx, axis=1)
-    low_y, high_y = np.min(ty, axis=1), np.max(ty, axis=1)
+    low_x, high_x = _min3(tx), _max3(tx)
+    low_y, high_y = _min3(ty), _max3(ty)
     x0, y0, x1, y1 = reg.seg_x0[item], reg.seg_y0[item], reg.seg_x1[item], reg.seg_y1[item]
     near = (
         (np.maximum(x0, x1) > low_x[owner])
@@ -759,9 +777,8 @@ def _boundary_crosses(
     ny = px[:, [1, 2, 0]] - px
     t = px[:, None, :] * nx[:, :, None] + py[:, None, :] * ny[:, :, None]  # (q, axis, corner)
     s0, s1 = x0[:, None] * nx + y0[:, None] * ny, x1[:, None] * nx + y1[:, None] * ny
-    separated = ((np.maximum(s0, s1) <= t.min(axis=2)) | (np.minimum(s0, s1) >= t.max(axis=2))).any(
-        axis=1
-    )
+    cut = (np.maximum(s0, s1) <= _min3(t)) | (np.minimum(s0, s1) >= _max3(t))  # (q, axis)
+    separated = cut[:, 0] | cut[:, 1] | cut[:, 2]
     nx, ny = y0 - y1, x1 - x0
     t0 = px[:, 0] * nx + py[:, 0] * ny
     t1 = px[:, 1] * nx + py[:, 1] * ny
@@ -878,7 +895,7 @@ def _bound(tri: np.ndarray, target: Surface, goal: float) -> np.ndarray:
     assert index.tree is not None  # callers check for an empty surface first
     n = len(tri)
     # Planar regions of the faces nearest the centroid (probes, then exact for the rest).
-    centre = tri.mean(axis=1)
+    centre = _centroid(tri)
     k = min(CENTRE_PROBES, index.tree.n)
     _, near = index.tree.query(centre, k=k)
     faces = index.owner[near.reshape(n, k)]

@@ -4,7 +4,7 @@ The certified Hausdorff bound (``exporter.hausdorff``) and the region certificat
 (``exporter.coverage``) were made faster (branch speed-hausdorff): the nearest face skips faces
 whose plane is beyond the bound, the last containment tries of the in-plane bound run in one test
 on the segments that crossed the first, band widths are measured for all cycles at once, sliver
-edges are looked up in one sorted search. The former functions are copied here from commit
+edges are looked up in one sorted search, sums and extremes over three corners are written out. The former functions are copied here from commit
 6f9f0a9 as ``reference_*``; each test runs both and asserts equality bit for bit (the same lower
 and upper floats), so a later change that moves a bound fails here. Coordinates are metres
 (building-local East/Up/North for the generated buildings, arbitrary for random cycles).
@@ -19,6 +19,7 @@ from exporter import coverage, hausdorff, quality
 from exporter.coverage import SLIVER, _band_widths, _cycles
 from exporter.geometry import cross_rows
 from exporter.hausdorff import (
+    CANDIDATES,
     LOOSE,
     PLANE_SLACK_MAX,
     SHRINK,
@@ -291,6 +292,62 @@ def reference_slivers(points: np.ndarray, faces: np.ndarray, done: np.ndarray, b
     return (float(width[ok].max()) if ok.any() else 0.0), settled
 
 
+def reference_segment_distance(
+    points: np.ndarray, start: np.ndarray, end: np.ndarray
+) -> np.ndarray:
+    """Distance (...) metres from points (..., 3) to segments start-end (..., 3) (broadcast)."""
+    d = end - start
+    w = points - start
+    d = np.broadcast_to(d, w.shape)
+    length2 = (d * d).sum(-1)
+    t = np.clip(
+        np.divide((w * d).sum(-1), length2, out=np.zeros_like(length2), where=length2 > 0), 0.0, 1.0
+    )
+    return np.sqrt(((w - t[..., None] * d) ** 2).sum(-1))
+
+
+def reference_chain_bound(tri: np.ndarray, target: Surface, faces: np.ndarray) -> np.ndarray:
+    """(n,) metres: ``min_chain max_v d(v, chain segment) + slack`` over the chains of the edges
+    of each triangle's candidate ``faces`` (n, c) of ``target``."""
+    chains = target.chains
+    n = len(tri)
+    cand = chains.face_chain[faces].reshape(n, -1)  # (n, 3c)
+    d = (
+        reference_segment_distance(
+            tri[:, None, :, :], chains.start[cand][:, :, None], chains.end[cand][:, :, None]
+        ).max(axis=2)
+        + chains.slack[cand]
+    )
+    return d.min(axis=1)
+
+
+def reference_single_triangle_bound(
+    tri: np.ndarray, target: Surface, nearest: np.ndarray
+) -> np.ndarray:
+    """Step 1: (n,) metres ``min_t max_v d(v, t)`` over candidate triangles t of ``target`` (the
+    owners of the nearest probes of the vertices and centroid, and the face ``nearest`` (n,) to
+    the centroid)."""
+    index = target.index
+    assert index.tree is not None  # callers check for an empty surface first
+    n = len(tri)
+    points = np.concatenate([tri, tri.mean(axis=1, keepdims=True)], axis=1)  # (n, 4, 3)
+    k = min(CANDIDATES, index.tree.n)
+    _, probes = index.tree.query(points.reshape(-1, 3), k=k)
+    owners = np.sort(
+        np.column_stack([index.owner[probes.reshape(n, -1)], nearest]), axis=1
+    )  # (n, 4k + 1)
+    fresh = np.ones(owners.shape, dtype=bool)
+    fresh[:, 1:] = owners[:, 1:] != owners[:, :-1]
+    row = np.repeat(np.arange(n), fresh.sum(axis=1))
+    cand = owners[fresh]
+    # (pairs, 3): each vertex's distance to the candidate triangle; slivers, whose distances
+    # lose digits (Ericson's barycentric products cancel), are no candidates.
+    d = quality.point_triangle_distance(tri[row], index.tri[cand][:, None])
+    d[~target.trusted[cand]] = np.inf
+    starts = np.concatenate([[0], np.cumsum(fresh.sum(axis=1))[:-1]])
+    return np.minimum.reduceat(d.max(axis=1), starts)
+
+
 # --------------------------------------------------------------------------- tests
 
 
@@ -343,6 +400,8 @@ def _former(monkeypatch):
         lambda target, points: reference_nearest_face(target.index, points),
     )
     monkeypatch.setattr(hausdorff, "_planar_bound", reference_planar_bound)
+    monkeypatch.setattr(hausdorff, "_chain_bound", reference_chain_bound)
+    monkeypatch.setattr(hausdorff, "_single_triangle_bound", reference_single_triangle_bound)
     monkeypatch.setattr(coverage, "_bands", reference_bands)
     monkeypatch.setattr(coverage, "_slivers", reference_slivers)
 
