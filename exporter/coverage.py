@@ -303,8 +303,8 @@ def _cycles(rows: list) -> list | None:
     that at a vertex where several edges leave, the walk turns onto the other side's edge (two
     bands meeting at a corner); None when that is ambiguous or a walk does not close."""
     leaving: dict[int, list[int]] = {}
-    for i, (_, va, _vb, _side) in enumerate(rows):
-        leaving.setdefault(va, []).append(i)
+    for i, row in enumerate(rows):
+        leaving.setdefault(row[1], []).append(i)
     used = [False] * len(rows)
     cycles = []
     for first in range(len(rows)):
@@ -316,12 +316,22 @@ def _cycles(rows: list) -> list | None:
             cycle.append(i)
             if len(cycle) > MAX_BAND_EDGES:
                 return None
-            at, side = rows[i][2], rows[i][3]
-            options = [j for j in leaving.get(at, ()) if not used[j] or j == first]
+            row = rows[i]
+            out = leaving.get(row[2], ())
+            if len(out) == 1:
+                # One edge leaves (most vertices): the general rule below, without its lists.
+                j = out[0]
+                if j == first:
+                    break
+                if used[j]:
+                    return None
+                i = j
+                continue
+            options = [j for j in out if not used[j] or j == first]
             if first in options:
                 break
             if len(options) > 1:
-                options = [j for j in options if rows[j][3] != side]
+                options = [j for j in options if rows[j][3] != row[3]]
             if len(options) != 1:
                 return None
             i = options[0]
@@ -350,11 +360,12 @@ def _bands(diff: np.ndarray, points: np.ndarray, normals: np.ndarray, good, widt
     edges: list[int] = []
     lengths: list[int] = []
     owners: list[int] = []
+    every = diff.tolist()
     for s, e in zip(starts.tolist(), ends.tolist()):
-        g = int(diff[s, 0])
+        g = every[s][0]
         if not good[g]:
             continue
-        rows = diff[s:e].tolist()
+        rows = every[s:e]
         cycles = _cycles(rows)
         if cycles is None or any(row[3] == 0 for row in rows):
             good[g] = False

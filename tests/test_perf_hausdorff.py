@@ -239,7 +239,7 @@ def reference_bands(diff: np.ndarray, points: np.ndarray, normals: np.ndarray, g
         if not good[g]:
             continue
         rows = diff[s:e].tolist()
-        cycles = _cycles(rows)
+        cycles = reference_cycles(rows)
         if cycles is None or any(row[3] == 0 for row in rows):
             good[g] = False
             continue
@@ -346,6 +346,37 @@ def reference_single_triangle_bound(
     d[~target.trusted[cand]] = np.inf
     starts = np.concatenate([[0], np.cumsum(fresh.sum(axis=1))[:-1]])
     return np.minimum.reduceat(d.max(axis=1), starts)
+
+
+def reference_cycles(rows: list) -> list | None:
+    """The cycles of one region's chain difference (``(region, a, b, side)`` rows), walked so
+    that at a vertex where several edges leave, the walk turns onto the other side's edge (two
+    bands meeting at a corner); None when that is ambiguous or a walk does not close."""
+    leaving: dict[int, list[int]] = {}
+    for i, (_, va, _vb, _side) in enumerate(rows):
+        leaving.setdefault(va, []).append(i)
+    used = [False] * len(rows)
+    cycles = []
+    for first in range(len(rows)):
+        if used[first]:
+            continue
+        cycle, i = [], first
+        while True:
+            used[i] = True
+            cycle.append(i)
+            if len(cycle) > coverage.MAX_BAND_EDGES:
+                return None
+            at, side = rows[i][2], rows[i][3]
+            options = [j for j in leaving.get(at, ()) if not used[j] or j == first]
+            if first in options:
+                break
+            if len(options) > 1:
+                options = [j for j in options if rows[j][3] != side]
+            if len(options) != 1:
+                return None
+            i = options[0]
+        cycles.append(cycle)
+    return cycles
 
 
 # --------------------------------------------------------------------------- tests
@@ -457,3 +488,27 @@ def test_the_former_bounds_on_random_soups(monkeypatch):
             _former(patch)
             former = hausdorff.hausdorff_bounds(Surface(*a), b)
         assert fast == former
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_cycles_equal_the_former_walk(seed):
+    # Random chain differences: closed loops (one edge leaving each vertex), loops meeting at a
+    # corner (two leaving), dangling and branching walks; long loops past MAX_BAND_EDGES.
+    rng = np.random.default_rng(seed)
+    closed = 0
+    for _ in range(400):
+        rows = []
+        for _loop in range(int(rng.integers(1, 4))):
+            n = int(rng.integers(2, 80 if rng.random() < 0.1 else 12))
+            ring = rng.choice(100, size=n, replace=False).tolist()
+            side = int(rng.choice([-1, 1]))
+            rows += [[0, ring[i], ring[(i + 1) % n], side] for i in range(n)]
+        for _extra in range(int(rng.integers(0, 3)) if rng.random() < 0.5 else 0):
+            rows.append(
+                [0, int(rng.integers(100)), int(rng.integers(100)), int(rng.choice([-1, 1]))]
+            )
+        rng.shuffle(rows)
+        expected = reference_cycles(rows)
+        assert _cycles(rows) == expected
+        closed += expected is not None
+    assert closed > 100
