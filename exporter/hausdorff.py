@@ -307,9 +307,9 @@ class _Regions:
             return seg_region, seg
         outgoing: dict[tuple[int, int], list[int]] = {}
         incoming: dict[tuple[int, int], list[int]] = {}
-        for i, (g, (va, vb), ok) in enumerate(
-            zip(seg_region.tolist(), ends.tolist(), oriented.tolist())
-        ):
+        # Plain lists: the walk below looks items up one at a time (numpy scalars cost more).
+        region_of, ends_of, oriented_of = seg_region.tolist(), ends.tolist(), oriented.tolist()
+        for i, (g, (va, vb), ok) in enumerate(zip(region_of, ends_of, oriented_of)):
             if ok:
                 outgoing.setdefault((g, va), []).append(i)
                 incoming.setdefault((g, vb), []).append(i)
@@ -319,17 +319,17 @@ class _Regions:
             return out[0] if len(out) == 1 and len(into) == 1 else None
 
         points = seg.tolist()
-        used = np.zeros(len(seg), bool)
+        used = [False] * len(seg)
         merged_region, merged = [], []
         order = sorted(
-            range(len(seg)), key=lambda i: through(seg_region[i], ends[i, 0]) is not None
+            range(len(seg)), key=lambda i: through(region_of[i], ends_of[i][0]) is not None
         )
         for i in order:
             if used[i]:
                 continue
             used[i] = True
-            g = int(seg_region[i])
-            if not oriented[i]:
+            g = region_of[i]
+            if not oriented_of[i]:
                 merged_region.append(g)
                 merged.append(points[i])
                 continue
@@ -337,7 +337,7 @@ class _Regions:
             inner: list[list[float]] = []
             j = i
             while True:
-                nxt = through(g, int(ends[j, 1]))
+                nxt = through(g, ends_of[j][1])
                 if nxt is None or used[nxt]:
                     break
                 candidate = points[nxt][1]

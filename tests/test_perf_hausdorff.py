@@ -379,6 +379,80 @@ def reference_cycles(rows: list) -> list | None:
     return cycles
 
 
+def reference_straight_runs(
+    self, seg_region: np.ndarray, seg: np.ndarray, ends: np.ndarray, oriented: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Boundary runs a -> b -> ... -> c whose inner vertices lie within ``hausdorff.T_JUNCTION`` x |ac|
+    of the chord ac, on the region's side of it (left of a -> c), become the one segment ac
+    (the planar stage drops such straight outline vertices, and a level's edge ac would
+    otherwise be crossed by a -> b -> c through float noise). The region grows by slivers
+    whose height goes into its ``gap`` (every point of the new region is that close to the
+    old one). A vertex off to the outside is never crossed by a triangle inside the region,
+    so it is left (1e-9 x |ac| of rounding allowed, counted in ``gap`` too). Only runs
+    through vertices with one boundary edge in and one out, on faces that keep their
+    orientation."""
+    if len(seg) < 2:
+        return seg_region, seg
+    outgoing: dict[tuple[int, int], list[int]] = {}
+    incoming: dict[tuple[int, int], list[int]] = {}
+    for i, (g, (va, vb), ok) in enumerate(
+        zip(seg_region.tolist(), ends.tolist(), oriented.tolist())
+    ):
+        if ok:
+            outgoing.setdefault((g, va), []).append(i)
+            incoming.setdefault((g, vb), []).append(i)
+
+    def through(g, v):
+        out, into = outgoing.get((g, v), ()), incoming.get((g, v), ())
+        return out[0] if len(out) == 1 and len(into) == 1 else None
+
+    points = seg.tolist()
+    used = np.zeros(len(seg), bool)
+    merged_region, merged = [], []
+    order = sorted(range(len(seg)), key=lambda i: through(seg_region[i], ends[i, 0]) is not None)
+    for i in order:
+        if used[i]:
+            continue
+        used[i] = True
+        g = int(seg_region[i])
+        if not oriented[i]:
+            merged_region.append(g)
+            merged.append(points[i])
+            continue
+        start, end = points[i][0], points[i][1]
+        inner: list[list[float]] = []
+        j = i
+        while True:
+            nxt = through(g, int(ends[j, 1]))
+            if nxt is None or used[nxt]:
+                break
+            candidate = points[nxt][1]
+            cx, cy = candidate[0] - start[0], candidate[1] - start[1]
+            length = (cx * cx + cy * cy) ** 0.5
+            offsets = [
+                (cx * (q[1] - start[1]) - cy * (q[0] - start[0])) / length if length > 0 else 1e300
+                for q in inner + [end]
+            ]
+            # Inward (left, the region's side) only: the new region then contains the old
+            # one, and is within the largest offset of it.
+            if max(offsets) > hausdorff.T_JUNCTION * length or min(offsets) < -1e-9 * length:
+                break
+            inner.append(end)
+            end = candidate
+            used[nxt] = True
+            j = nxt
+        if inner:
+            cx, cy = end[0] - start[0], end[1] - start[1]
+            length = (cx * cx + cy * cy) ** 0.5
+            offset = max(
+                abs(cx * (q[1] - start[1]) - cy * (q[0] - start[0])) / length for q in inner
+            )
+            self.gap[g] = max(self.gap[g], offset)
+        merged_region.append(g)
+        merged.append([start, end])
+    return np.array(merged_region, np.int64), np.array(merged, np.float64).reshape(-1, 2, 2)
+
+
 # --------------------------------------------------------------------------- tests
 
 
@@ -431,6 +505,7 @@ def _former(monkeypatch):
         lambda target, points: reference_nearest_face(target.index, points),
     )
     monkeypatch.setattr(hausdorff, "_planar_bound", reference_planar_bound)
+    monkeypatch.setattr(hausdorff._Regions, "_straight_runs", reference_straight_runs)
     monkeypatch.setattr(hausdorff, "_chain_bound", reference_chain_bound)
     monkeypatch.setattr(hausdorff, "_single_triangle_bound", reference_single_triangle_bound)
     monkeypatch.setattr(coverage, "_bands", reference_bands)
