@@ -616,8 +616,9 @@ def _planar_bound(tri: np.ndarray, target: Surface, row: np.ndarray, face: np.nd
             value[which] = np.sqrt(height[which] ** 2 + rho**2) + reg.slack[region[which]]
     # Last tries: shrunk about the incentre by shares of the target's diagonal, all in one test
     # (a triangle takes the first that holds, as when tried one after the other). They are
-    # nested in the first shrunk copy (the same incentre, a larger shrink), so only the
-    # segments crossing that one can cross them.
+    # nested in the first shrunk copy (the same incentre, a ratio at least SHRINK), so only the
+    # segments crossing that one can cross them: sound, and the same decisions unless a segment
+    # passes within rounding of a copy's corner (what the 2x of rho covers anyway).
     todo = np.flatnonzero(fine & ~np.isfinite(value))
     if len(todo):
         delta = np.maximum(SHRINK * inradius[todo, None], np.array(LOOSE)[None] * reg.scale)
