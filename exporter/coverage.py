@@ -127,39 +127,6 @@ def _unit_normals(points: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np
     return cross / np.maximum(length, 1e-300)[:, None], cross
 
 
-def _band_width(xy: list, sides: list) -> float | None:
-    """Width (metres) across the chord of a cycle of the chain difference that is a band: the
-    cycle (its vertices ``xy``, 2-D in-plane metres, edge i from vertex i to i + 1) splits at its
-    two farthest-apart vertices into two runs, each monotone along the chord, one of the level's
-    boundary edges and the other of the source's (``sides`` +1 / -1 per edge); None otherwise.
-    Plain floats: cycles have a handful of edges."""
-    n = len(xy)
-    best, i, j = -1.0, 0, 0
-    for p in range(n):
-        xp, yp = xy[p]
-        for q in range(p + 1, n):
-            d = (xy[q][0] - xp) ** 2 + (xy[q][1] - yp) ** 2
-            if d > best:
-                best, i, j = d, p, q
-    if best <= 0.0:
-        return None
-    length = best**0.5
-    ax, ay = (xy[j][0] - xy[i][0]) / length, (xy[j][1] - xy[i][1]) / length
-    t = [(x - xy[i][0]) * ax + (y - xy[i][1]) * ay for x, y in xy]
-    h = [(y - xy[i][1]) * ax - (x - xy[i][0]) * ay for x, y in xy]
-    first = [(i + m) % n for m in range((j - i) % n)]  # edges i -> ... -> j
-    second = [(j + m) % n for m in range((i - j) % n)]  # edges j -> ... -> i
-    slack = 1e-12 * length
-    if any(t[(e + 1) % n] - t[e] < -slack for e in first):
-        return None
-    if any(t[e] - t[(e + 1) % n] < -slack for e in second):
-        return None
-    kinds = {sides[e] for e in first}, {sides[e] for e in second}
-    if kinds not in (({1}, {-1}), ({-1}, {1})):
-        return None
-    return max(h) - min(h)
-
-
 def _chain_difference(
     faces_l: np.ndarray, reg_l: np.ndarray, faces_s: np.ndarray, reg_s: np.ndarray, k: int
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -172,7 +139,7 @@ def _chain_difference(
     half = half.reshape(-1, 2)
     from_level = np.concatenate([np.ones(3 * len(faces_l), bool), np.zeros(3 * len(faces_s), bool)])
     region = np.repeat(np.concatenate([reg_l, reg_s]), 3)
-    lo, hi = half.min(axis=1), half.max(axis=1)
+    lo, hi = np.minimum(half[:, 0], half[:, 1]), np.maximum(half[:, 0], half[:, 1])
     sign = np.where(half[:, 0] < half[:, 1], 1.0, -1.0)
     keys = (region * k + lo) * k + hi
     uniq, inverse = np.unique(keys, return_inverse=True)
@@ -243,7 +210,9 @@ def region_certificate(
             (fl[placed], cross_l[placed], reg_l[placed]),
         ):
             t = points[faces_x]
-            longest = np.max(((t - t[:, [1, 2, 0]]) ** 2).sum(-1), axis=1)
+            e = t - t[:, [1, 2, 0]]
+            e2 = e[..., 0] * e[..., 0] + e[..., 1] * e[..., 1] + e[..., 2] * e[..., 2]
+            longest = np.maximum(np.maximum(e2[:, 0], e2[:, 1]), e2[:, 2])
             along = (cross_x * normals[reg_x]).sum(1)
             bad = along <= ORIENTED * longest
             good[reg_x[bad]] = False
@@ -258,8 +227,8 @@ def region_certificate(
         heights_hi = np.full(r, -np.inf)
         for faces_x, reg_x in ((fs, region), (fl[placed], reg_l[placed])):
             h = np.einsum("mkj,mj->mk", points[faces_x], normals[reg_x])
-            np.minimum.at(heights_lo, reg_x, h.min(axis=1))
-            np.maximum.at(heights_hi, reg_x, h.max(axis=1))
+            np.minimum.at(heights_lo, reg_x, np.minimum(np.minimum(h[:, 0], h[:, 1]), h[:, 2]))
+            np.maximum.at(heights_hi, reg_x, np.maximum(np.maximum(h[:, 0], h[:, 1]), h[:, 2]))
         spread = heights_hi - heights_lo
         # Rounding of the heights themselves: a relative margin.
         scale = float(np.abs(points).max()) if len(points) else 0.0
@@ -313,14 +282,17 @@ def _slivers(points: np.ndarray, faces: np.ndarray, done: np.ndarray, budget: fl
     kept = faces[done]
     pairs = np.sort(kept[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
     known = np.unique(pairs[:, 0] * k + pairs[:, 1])
-    f = faces[open_]
-    rows = np.arange(len(open_))
-
-    def on_settled(i: np.ndarray) -> np.ndarray:
-        a, b = f[rows, i], f[rows, (i + 1) % 3]
-        return np.isin(np.minimum(a, b) * k + np.maximum(a, b), known)
-
-    along = on_settled(longest) | (on_settled((longest + 1) % 3) & on_settled((longest + 2) % 3))
+    # Only the thin faces' edges are looked up (one sorted search for all three edges of each).
+    thin_rows = np.flatnonzero(thin)
+    f = faces[open_[thin_rows]]
+    g = f[:, [1, 2, 0]]
+    keys = np.minimum(f, g) * k + np.maximum(f, g)  # (t, 3): edge i from corner i to i + 1
+    at = np.minimum(np.searchsorted(known, keys), len(known) - 1)
+    on = (known[at] == keys) if len(known) else np.zeros(keys.shape, bool)
+    rows = np.arange(len(thin_rows))
+    i = longest[thin_rows]
+    along = np.zeros(len(open_), bool)
+    along[thin_rows] = on[rows, i] | (on[rows, (i + 1) % 3] & on[rows, (i + 2) % 3])
     ok = thin & along
     settled[open_[ok]] = True
     return (float(width[ok].max()) if ok.any() else 0.0), settled
@@ -331,8 +303,8 @@ def _cycles(rows: list) -> list | None:
     that at a vertex where several edges leave, the walk turns onto the other side's edge (two
     bands meeting at a corner); None when that is ambiguous or a walk does not close."""
     leaving: dict[int, list[int]] = {}
-    for i, (_, va, _vb, _side) in enumerate(rows):
-        leaving.setdefault(va, []).append(i)
+    for i, row in enumerate(rows):
+        leaving.setdefault(row[1], []).append(i)
     used = [False] * len(rows)
     cycles = []
     for first in range(len(rows)):
@@ -344,12 +316,22 @@ def _cycles(rows: list) -> list | None:
             cycle.append(i)
             if len(cycle) > MAX_BAND_EDGES:
                 return None
-            at, side = rows[i][2], rows[i][3]
-            options = [j for j in leaving.get(at, ()) if not used[j] or j == first]
+            row = rows[i]
+            out = leaving.get(row[2], ())
+            if len(out) == 1:
+                # One edge leaves (most vertices): the general rule below, without its lists.
+                j = out[0]
+                if j == first:
+                    break
+                if used[j]:
+                    return None
+                i = j
+                continue
+            options = [j for j in out if not used[j] or j == first]
             if first in options:
                 break
             if len(options) > 1:
-                options = [j for j in options if rows[j][3] != side]
+                options = [j for j in options if rows[j][3] != row[3]]
             if len(options) != 1:
                 return None
             i = options[0]
@@ -370,21 +352,88 @@ def _bands(diff: np.ndarray, points: np.ndarray, normals: np.ndarray, good, widt
     u /= np.sqrt((u**2).sum(1))[:, None]
     v = cross_rows(n, u)
     start = points[diff[:, 1]]
-    xy = np.column_stack([(start * u).sum(1), (start * v).sum(1)]).tolist()
+    xy = np.column_stack([(start * u).sum(1), (start * v).sum(1)])
     starts = np.flatnonzero(np.r_[True, diff[1:, 0] != diff[:-1, 0]])
     ends = np.r_[starts[1:], len(diff)]
+    # Walk every region's cycles (plain Python: a handful of edges each), then measure all the
+    # cycles at once (:func:`_band_widths`).
+    edges: list[int] = []
+    lengths: list[int] = []
+    owners: list[int] = []
+    every = diff.tolist()
     for s, e in zip(starts.tolist(), ends.tolist()):
-        g = int(diff[s, 0])
+        g = every[s][0]
         if not good[g]:
             continue
-        rows = diff[s:e].tolist()
+        rows = every[s:e]
         cycles = _cycles(rows)
         if cycles is None or any(row[3] == 0 for row in rows):
             good[g] = False
             continue
         for cycle in cycles:
-            band = _band_width([xy[s + i] for i in cycle], [rows[i][3] for i in cycle])
-            if band is None:
-                good[g] = False
-                break
-            width[g] = max(width[g], band)
+            edges.extend(s + i for i in cycle)
+            lengths.append(len(cycle))
+            owners.append(g)
+    if not lengths:
+        return
+    band = _band_widths(xy[edges], diff[edges, 3], np.array(lengths))
+    owner = np.array(owners)
+    bad = np.isnan(band)
+    good[owner[bad]] = False
+    np.maximum.at(width, owner[~bad], band[~bad])
+
+
+def _band_widths(xy: np.ndarray, sides: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """Width (metres) across the chord of each cycle of the chain difference that is a band: a
+    cycle (vertices ``xy`` (sum lengths, 2) in-plane metres, edge e from vertex e to e + 1, the
+    cycles' ``lengths`` (c,) one after the other) splits at its two farthest-apart vertices into
+    two runs, each monotone along the chord, one of the level's boundary edges and the other of
+    the source's (``sides`` (sum lengths,) +1 / -1 per edge); (c,) metres, NaN otherwise.
+
+    All cycles at once on (c, L, L) padded arrays (a loop per cycle cost ~60 us of Python); the
+    same float operations in the same order as the former loop, so the same bits (checked
+    against it in tests/test_coverage.py)."""
+    c, most = len(lengths), int(lengths.max())
+    first = np.cumsum(lengths) - lengths
+    owner = np.repeat(np.arange(c), lengths)
+    pos = np.arange(len(owner)) - first[owner]
+    x = np.zeros((c, most))
+    y = np.zeros((c, most))
+    side = np.zeros((c, most), np.int64)
+    x[owner, pos], y[owner, pos], side[owner, pos] = xy[:, 0], xy[:, 1], sides
+    valid = np.arange(most)[None] < lengths[:, None]  # (c, L)
+    # Farthest pair p < q, the first in (p, q) order among equals (as the loop's strict '>').
+    dx = x[:, None, :] - x[:, :, None]  # [p, q] = x_q - x_p
+    dy = y[:, None, :] - y[:, :, None]
+    d = dx * dx + dy * dy
+    pair = np.triu(np.ones((most, most), bool), 1)[None] & valid[:, None, :]
+    d = np.where(pair, d, -1.0)
+    flat = d.reshape(c, -1).argmax(axis=1)
+    i, j = flat // most, flat % most
+    best = d.reshape(c, -1)[np.arange(c), flat]
+    rows = np.arange(c)
+    # Python's '** 0.5' (the loop's) rather than np.sqrt: the same last bit.
+    length = np.array([b**0.5 if b > 0.0 else 1.0 for b in best.tolist()])
+    xi, yi = x[rows, i][:, None], y[rows, i][:, None]
+    ax = ((x[rows, j] - x[rows, i]) / length)[:, None]
+    ay = ((y[rows, j] - y[rows, i]) / length)[:, None]
+    t = (x - xi) * ax + (y - yi) * ay
+    h = (y - yi) * ax - (x - xi) * ay
+    # Edge e runs from vertex e to e + 1 (cyclically); the first run is i <= e < j.
+    nxt = np.where(np.arange(most)[None] + 1 < lengths[:, None], np.arange(most)[None] + 1, 0)
+    step = t[rows[:, None], nxt] - t  # (c, L) t[e + 1] - t[e]
+    e = np.arange(most)[None]
+    in_first = (e >= i[:, None]) & (e < j[:, None]) & valid
+    in_second = ~in_first & valid
+    slack = (1e-12 * length)[:, None]
+    ok = ~(in_first & (step < -slack)).any(axis=1) & ~(in_second & (-step < -slack)).any(axis=1)
+    # One side's edges on each run: all +1 then all -1, or the reverse.
+    first_pos = ((side == 1) | ~in_first).all(axis=1)
+    first_neg = ((side == -1) | ~in_first).all(axis=1)
+    second_pos = ((side == 1) | ~in_second).all(axis=1)
+    second_neg = ((side == -1) | ~in_second).all(axis=1)
+    ok &= (first_pos & second_neg) | (first_neg & second_pos)
+    ok &= best > 0.0
+    high = np.where(valid, h, -np.inf).max(axis=1)
+    low = np.where(valid, h, np.inf).min(axis=1)
+    return np.where(ok, high - low, np.nan)

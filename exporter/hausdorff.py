@@ -87,6 +87,7 @@ class Surface:
         self._regions: _Regions | None = None
         self._chains: _Chains | None = None
         self._trusted: np.ndarray | None = None
+        self._face_planes: tuple[np.ndarray, np.ndarray, float] | None = None
 
     @property
     def empty(self) -> bool:
@@ -111,6 +112,23 @@ class Surface:
             longest = np.sqrt(((t - t[:, [1, 2, 0]]) ** 2).sum(-1)).max(axis=1)
             self._trusted = area2 >= TRUSTED * longest**2
         return self._trusted
+
+    @property
+    def face_planes(self) -> tuple[np.ndarray, np.ndarray, float]:
+        """Each face's plane ``normal . x = offset``: unit normals (m, 3), offsets (m,) metres
+        (both 0 for untrusted faces: no plane) and the rounding margin (metres) of a point's
+        distance to a plane (normals of trusted faces keep ~1e-10 of their direction)."""
+        if self._face_planes is None:
+            t = self.tri
+            cross = cross_rows(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+            length = np.sqrt((cross**2).sum(1))
+            ok = self.trusted & (length > 0)
+            normal = np.zeros_like(cross)
+            normal[ok] = cross[ok] / length[ok, None]
+            offset = _dot3(t[:, 0], normal)
+            scale = float(np.abs(self.positions).max()) if len(self.positions) else 0.0
+            self._face_planes = (normal, offset, 1e-6 * scale + 1e-12)
+        return self._face_planes
 
     @property
     def chains(self) -> _Chains:
@@ -289,9 +307,9 @@ class _Regions:
             return seg_region, seg
         outgoing: dict[tuple[int, int], list[int]] = {}
         incoming: dict[tuple[int, int], list[int]] = {}
-        for i, (g, (va, vb), ok) in enumerate(
-            zip(seg_region.tolist(), ends.tolist(), oriented.tolist())
-        ):
+        # Plain lists: the walk below looks items up one at a time (numpy scalars cost more).
+        region_of, ends_of, oriented_of = seg_region.tolist(), ends.tolist(), oriented.tolist()
+        for i, (g, (va, vb), ok) in enumerate(zip(region_of, ends_of, oriented_of)):
             if ok:
                 outgoing.setdefault((g, va), []).append(i)
                 incoming.setdefault((g, vb), []).append(i)
@@ -301,17 +319,17 @@ class _Regions:
             return out[0] if len(out) == 1 and len(into) == 1 else None
 
         points = seg.tolist()
-        used = np.zeros(len(seg), bool)
+        used = [False] * len(seg)
         merged_region, merged = [], []
         order = sorted(
-            range(len(seg)), key=lambda i: through(seg_region[i], ends[i, 0]) is not None
+            range(len(seg)), key=lambda i: through(region_of[i], ends_of[i][0]) is not None
         )
         for i in order:
             if used[i]:
                 continue
             used[i] = True
-            g = int(seg_region[i])
-            if not oriented[i]:
+            g = region_of[i]
+            if not oriented_of[i]:
                 merged_region.append(g)
                 merged.append(points[i])
                 continue
@@ -319,7 +337,7 @@ class _Regions:
             inner: list[list[float]] = []
             j = i
             while True:
-                nxt = through(g, int(ends[j, 1]))
+                nxt = through(g, ends_of[j][1])
                 if nxt is None or used[nxt]:
                     break
                 candidate = points[nxt][1]
@@ -421,15 +439,18 @@ class _Chains:
 
 
 def _segment_distance(points: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.ndarray:
-    """Distance (...) metres from points (..., 3) to segments start-end (..., 3) (broadcast)."""
-    d = end - start
-    w = points - start
-    d = np.broadcast_to(d, w.shape)
-    length2 = (d * d).sum(-1)
-    t = np.clip(
-        np.divide((w * d).sum(-1), length2, out=np.zeros_like(length2), where=length2 > 0), 0.0, 1.0
-    )
-    return np.sqrt(((w - t[..., None] * d) ** 2).sum(-1))
+    """Distance (...) metres from points (..., 3) to segments start-end (..., 3) (broadcast).
+
+    Per coordinate (no reduction over a length-3 axis): each sum of three products is added in
+    the order ``.sum(-1)`` adds them, so the same floats."""
+    d = [end[..., i] - start[..., i] for i in range(3)]
+    w = [points[..., i] - start[..., i] for i in range(3)]
+    length2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+    along = w[0] * d[0] + w[1] * d[1] + w[2] * d[2]
+    length2 = np.broadcast_to(length2, along.shape)
+    t = np.clip(np.divide(along, length2, out=np.zeros_like(along), where=length2 > 0), 0.0, 1.0)
+    e = [w[i] - t * d[i] for i in range(3)]
+    return np.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
 
 
 def _chain_bound(tri: np.ndarray, target: Surface, faces: np.ndarray) -> np.ndarray:
@@ -438,13 +459,9 @@ def _chain_bound(tri: np.ndarray, target: Surface, faces: np.ndarray) -> np.ndar
     chains = target.chains
     n = len(tri)
     cand = chains.face_chain[faces].reshape(n, -1)  # (n, 3c)
-    d = (
-        _segment_distance(
-            tri[:, None, :, :], chains.start[cand][:, :, None], chains.end[cand][:, :, None]
-        ).max(axis=2)
-        + chains.slack[cand]
-    )
-    return d.min(axis=1)
+    start, end = chains.start[cand], chains.end[cand]  # (n, 3c, 3)
+    d = [_segment_distance(tri[:, None, v], start, end) for v in range(3)]  # 3 x (n, 3c)
+    return (np.maximum(np.maximum(d[0], d[1]), d[2]) + chains.slack[cand]).min(axis=1)
 
 
 def _matched(region, a, b, ok, k) -> np.ndarray:
@@ -505,7 +522,7 @@ def _single_triangle_bound(tri: np.ndarray, target: Surface, nearest: np.ndarray
     index = target.index
     assert index.tree is not None  # callers check for an empty surface first
     n = len(tri)
-    points = np.concatenate([tri, tri.mean(axis=1, keepdims=True)], axis=1)  # (n, 4, 3)
+    points = np.concatenate([tri, _centroid(tri)[:, None]], axis=1)  # (n, 4, 3)
     k = min(CANDIDATES, index.tree.n)
     _, probes = index.tree.query(points.reshape(-1, 3), k=k)
     owners = np.sort(
@@ -520,7 +537,7 @@ def _single_triangle_bound(tri: np.ndarray, target: Surface, nearest: np.ndarray
     d = _quality.point_triangle_distance(tri[row], index.tri[cand][:, None])
     d[~target.trusted[cand]] = np.inf
     starts = np.concatenate([[0], np.cumsum(fresh.sum(axis=1))[:-1]])
-    return np.minimum.reduceat(d.max(axis=1), starts)
+    return np.minimum.reduceat(_max3(d), starts)
 
 
 def _planar_bound(tri: np.ndarray, target: Surface, row: np.ndarray, face: np.ndarray, cap):
@@ -544,7 +561,8 @@ def _planar_bound(tri: np.ndarray, target: Surface, row: np.ndarray, face: np.nd
     ty = _dot3(t, v[:, None])
     height = np.abs(_dot3(t, normal[:, None]) - reg.offset[region, None])
     height = np.maximum(np.maximum(height[:, 0], height[:, 1]), height[:, 2])
-    cx, cy = tx.sum(1) / 3.0, ty.sum(1) / 3.0
+    cx = (tx[:, 0] + tx[:, 1] + tx[:, 2]) / 3.0  # the order .sum(1) adds them
+    cy = (ty[:, 0] + ty[:, 1] + ty[:, 2]) / 3.0
     keep = _inside_face(cx, cy, reg.tri2[face])
     if cap is not None:
         keep &= height + reg.slack[region] < cap[row]
@@ -567,8 +585,8 @@ def _planar_bound(tri: np.ndarray, target: Surface, row: np.ndarray, face: np.nd
         ix = (la * tx[:, 0] + lb * tx[:, 1] + lc * tx[:, 2]) / perimeter
         iy = (la * ty[:, 0] + lb * ty[:, 1] + lc * ty[:, 2]) / perimeter
         inradius = area2 / perimeter
-    reach = np.sqrt(np.max((tx - ix[:, None]) ** 2 + (ty - iy[:, None]) ** 2, axis=1))
-    size = np.max(np.abs(tx), axis=1) + np.max(np.abs(ty), axis=1) + reach
+    reach = np.sqrt(_max3((tx - ix[:, None]) ** 2 + (ty - iy[:, None]) ** 2))
+    size = _max3(np.abs(tx)) + _max3(np.abs(ty)) + reach
     # Too thin to shrink safely against rounding: left to the other bounds.
     fine = np.isfinite(inradius) & (inradius > 1e-9 * size)
     inradius = np.where(fine, inradius, 1.0)
@@ -581,6 +599,7 @@ def _planar_bound(tri: np.ndarray, target: Surface, row: np.ndarray, face: np.nd
     sx = ix[todo, None] + (tx[todo] - ix[todo, None]) * (1.0 - SHRINK)
     sy = iy[todo, None] + (ty[todo] - iy[todo, None]) * (1.0 - SHRINK)
     owner, seg = _boundary_crosses(sx, sy, region[todo], reg, pairs=True)
+    crossing = (todo[owner], seg)  # (triangle, segment) pairs crossing the first shrunk copy
     inside = np.ones(len(todo), bool)
     inside[owner] = False
     rho = 2.0 * ratio * reach[todo] + reg.gap[region[todo]]
@@ -595,20 +614,31 @@ def _planar_bound(tri: np.ndarray, target: Surface, row: np.ndarray, face: np.nd
             which = todo[pick[ok]]
             rho = 2.0 * shift[ok] + reg.gap[region[which]]
             value[which] = np.sqrt(height[which] ** 2 + rho**2) + reg.slack[region[which]]
-    # Last tries: shrunk about the incentre by a share of the target's diagonal.
-    for loose in LOOSE:
-        delta = np.maximum(SHRINK * inradius, loose * reg.scale)
-        todo = np.flatnonzero(fine & ~np.isfinite(value) & (delta < 0.5 * inradius))
-        if len(todo) == 0:
-            break
-        ratio = delta[todo] / inradius[todo]
-        sx = ix[todo, None] + (tx[todo] - ix[todo, None]) * (1.0 - ratio[:, None])
-        sy = iy[todo, None] + (ty[todo] - iy[todo, None]) * (1.0 - ratio[:, None])
-        inside = ~_boundary_crosses(sx, sy, region[todo], reg)
-        rho = 2.0 * ratio * reach[todo] + reg.gap[region[todo]]
-        value[todo[inside]] = (np.sqrt(height[todo] ** 2 + rho**2) + reg.slack[region[todo]])[
-            inside
-        ]
+    # Last tries: shrunk about the incentre by shares of the target's diagonal, all in one test
+    # (a triangle takes the first that holds, as when tried one after the other). They are
+    # nested in the first shrunk copy (the same incentre, a ratio at least SHRINK), so only the
+    # segments crossing that one can cross them: sound, and the same decisions unless a segment
+    # passes within rounding of a copy's corner (what the 2x of rho covers anyway).
+    todo = np.flatnonzero(fine & ~np.isfinite(value))
+    if len(todo):
+        delta = np.maximum(SHRINK * inradius[todo, None], np.array(LOOSE)[None] * reg.scale)
+        tries = delta < 0.5 * inradius[todo, None]  # (t, len(LOOSE)), False from some on
+        which, level = np.nonzero(tries)
+        tri_of = todo[which]
+        ratio = delta[which, level] / inradius[tri_of]
+        sx = ix[tri_of, None] + (tx[tri_of] - ix[tri_of, None]) * (1.0 - ratio[:, None])
+        sy = iy[tri_of, None] + (ty[tri_of] - iy[tri_of, None]) * (1.0 - ratio[:, None])
+        first_owner, first_seg = crossing
+        counts = np.bincount(first_owner, minlength=len(row))
+        starts = np.cumsum(counts) - counts
+        owner, item = _ranges(starts[tri_of], counts[tri_of])
+        inside = ~_boundary_crosses(
+            sx, sy, region[tri_of], reg, candidates=(owner, first_seg[item])
+        )
+        rho = 2.0 * ratio * reach[tri_of] + reg.gap[region[tri_of]]
+        got, first = np.unique(tri_of[inside], return_index=True)
+        take = np.flatnonzero(inside)[first]
+        value[got] = (np.sqrt(height[tri_of] ** 2 + rho**2) + reg.slack[region[tri_of]])[take]
     np.minimum.at(bound, row, value)
     return bound
 
@@ -621,8 +651,8 @@ def _sides_in(tx, ty, inradius, owner, seg, reg, retry):
     and each one's largest corner displacement (metres; d(., moved triangle) is convex, so every
     point of the triangle is that close to it), or None."""
     # Inward unit normals of the sides i -> i+1 (side i is opposite corner i+2).
-    ex = np.roll(tx, -1, axis=1) - tx
-    ey = np.roll(ty, -1, axis=1) - ty
+    ex = tx[:, [1, 2, 0]] - tx  # np.roll(tx, -1, axis=1), without its Python overhead
+    ey = ty[:, [1, 2, 0]] - ty
     length = np.hypot(ex, ey)
     orient = np.sign(
         (tx[:, 1] - tx[:, 0]) * (ty[:, 2] - ty[:, 0])
@@ -640,7 +670,7 @@ def _sides_in(tx, ty, inradius, owner, seg, reg, retry):
     np.maximum.at(need, (owner, side), depth[np.arange(len(owner)), side])
     need = need[retry]
     r = inradius[retry]
-    size = np.abs(tx[retry]).max(axis=1) + np.abs(ty[retry]).max(axis=1)
+    size = _max3(np.abs(tx[retry])) + _max3(np.abs(ty[retry]))
     delta = np.maximum(need * (1 + 1e-6) + 1e-12 * size[:, None], SHRINK * r[:, None])
     keep = (delta < 0.25 * r[:, None]).all(axis=1)
     if not keep.any():
@@ -649,15 +679,33 @@ def _sides_in(tx, ty, inradius, owner, seg, reg, retry):
     px, py = tx[retry], ty[retry]
     nxr, nyr = nx[retry], ny[retry]
     # Corner i lies on sides i-1 and i: solve n . x = n . p + delta for both moved sides.
-    a1x, a1y = np.roll(nxr, 1, axis=1), np.roll(nyr, 1, axis=1)
-    c1 = a1x * np.roll(px, 1, axis=1) + a1y * np.roll(py, 1, axis=1) + np.roll(delta, 1, axis=1)
+    back = [2, 0, 1]  # np.roll(., 1, axis=1)
+    a1x, a1y = nxr[:, back], nyr[:, back]
+    c1 = a1x * px[:, back] + a1y * py[:, back] + delta[:, back]
     c2 = nxr * px + nyr * py + delta
     det = a1x * nyr - a1y * nxr
     mx = (c1 * nyr - a1y * c2) / det
     my = (a1x * c2 - c1 * nxr) / det
-    shift = np.sqrt((mx - px) ** 2 + (my - py) ** 2).max(axis=1)
+    shift = _max3(np.sqrt((mx - px) ** 2 + (my - py) ** 2))
     good = np.isfinite(shift)
     return retry[good], mx[good], my[good], shift[good]
+
+
+def _centroid(tri: np.ndarray) -> np.ndarray:
+    """(n, 3) metres: ``tri.mean(axis=1)`` of triangles (n, 3, 3), written out (the same sum,
+    in the same order, divided by 3)."""
+    return (tri[:, 0] + tri[:, 1] + tri[:, 2]) / 3.0
+
+
+def _max3(x: np.ndarray) -> np.ndarray:
+    """``x.max(-1)`` for (..., 3) arrays, written out (numpy's reduction over a length-3 axis
+    costs several elementwise passes)."""
+    return np.maximum(np.maximum(x[..., 0], x[..., 1]), x[..., 2])
+
+
+def _min3(x: np.ndarray) -> np.ndarray:
+    """``x.min(-1)`` for (..., 3) arrays, written out."""
+    return np.minimum(np.minimum(x[..., 0], x[..., 1]), x[..., 2])
 
 
 def _dot3(points: np.ndarray, axis: np.ndarray) -> np.ndarray:
@@ -695,15 +743,25 @@ def _ranges(starts: np.ndarray, counts: np.ndarray) -> tuple[np.ndarray, np.ndar
 
 
 def _boundary_crosses(
-    tx: np.ndarray, ty: np.ndarray, region: np.ndarray, reg: _Regions, pairs: bool = False
+    tx: np.ndarray,
+    ty: np.ndarray,
+    region: np.ndarray,
+    reg: _Regions,
+    pairs: bool = False,
+    candidates: tuple[np.ndarray, np.ndarray] | None = None,
 ):
     """(p,) bool: a boundary edge of the region meets the open triangle with corners (tx, ty)
     (p, 3) metres (bounding boxes first, then separating axes: the triangle's three edge
-    normals and the segment's normal)."""
-    counts = reg.seg_start[region + 1] - reg.seg_start[region]
-    owner, item = _ranges(reg.seg_start[region], counts)
-    low_x, high_x = np.min(tx, axis=1), np.max(tx, axis=1)
-    low_y, high_y = np.min(ty, axis=1), np.max(ty, axis=1)
+    normals and the segment's normal). ``candidates``: the (triangle, segment) pairs to test
+    (sorted by triangle; a superset of the crossing ones), by default all of each region's.
+    ``pairs``: return the crossing pairs instead."""
+    if candidates is None:
+        counts = reg.seg_start[region + 1] - reg.seg_start[region]
+        owner, item = _ranges(reg.seg_start[region], counts)
+    else:
+        owner, item = candidates
+    low_x, high_x = _min3(tx), _max3(tx)
+    low_y, high_y = _min3(ty), _max3(ty)
     x0, y0, x1, y1 = reg.seg_x0[item], reg.seg_y0[item], reg.seg_x1[item], reg.seg_y1[item]
     near = (
         (np.maximum(x0, x1) > low_x[owner])
@@ -714,19 +772,22 @@ def _boundary_crosses(
     owner, item = owner[near], item[near]
     x0, y0, x1, y1 = x0[near], y0[near], x1[near], y1[near]
     px, py = tx[owner], ty[owner]  # (q, 3)
-    separated = np.zeros(len(owner), bool)
-    for i, j in ((0, 1), (1, 2), (2, 0), (-1, -1)):
-        if i < 0:
-            nx, ny = y0 - y1, x1 - x0
-        else:
-            nx, ny = py[:, i] - py[:, j], px[:, j] - px[:, i]
-        t0 = px[:, 0] * nx + py[:, 0] * ny
-        t1 = px[:, 1] * nx + py[:, 1] * ny
-        t2 = px[:, 2] * nx + py[:, 2] * ny
-        s0, s1 = x0 * nx + y0 * ny, x1 * nx + y1 * ny
-        separated |= (np.maximum(s0, s1) <= np.minimum(np.minimum(t0, t1), t2)) | (
-            np.minimum(s0, s1) >= np.maximum(np.maximum(t0, t1), t2)
-        )
+    # Separating axes: the triangle's three edge normals at once (axis a from corner a to a + 1)
+    # and the segment's normal; each projection is the same product sum as one axis at a time.
+    nx = py - py[:, [1, 2, 0]]  # (q, 3)
+    ny = px[:, [1, 2, 0]] - px
+    t = px[:, None, :] * nx[:, :, None] + py[:, None, :] * ny[:, :, None]  # (q, axis, corner)
+    s0, s1 = x0[:, None] * nx + y0[:, None] * ny, x1[:, None] * nx + y1[:, None] * ny
+    cut = (np.maximum(s0, s1) <= _min3(t)) | (np.minimum(s0, s1) >= _max3(t))  # (q, axis)
+    separated = cut[:, 0] | cut[:, 1] | cut[:, 2]
+    nx, ny = y0 - y1, x1 - x0
+    t0 = px[:, 0] * nx + py[:, 0] * ny
+    t1 = px[:, 1] * nx + py[:, 1] * ny
+    t2 = px[:, 2] * nx + py[:, 2] * ny
+    s0, s1 = x0 * nx + y0 * ny, x1 * nx + y1 * ny
+    separated |= (np.maximum(s0, s1) <= np.minimum(np.minimum(t0, t1), t2)) | (
+        np.minimum(s0, s1) >= np.maximum(np.maximum(t0, t1), t2)
+    )
     if pairs:
         return owner[~separated], item[~separated]
     result = np.zeros(len(tx), bool)
@@ -835,7 +896,7 @@ def _bound(tri: np.ndarray, target: Surface, goal: float) -> np.ndarray:
     assert index.tree is not None  # callers check for an empty surface first
     n = len(tri)
     # Planar regions of the faces nearest the centroid (probes, then exact for the rest).
-    centre = tri.mean(axis=1)
+    centre = _centroid(tri)
     k = min(CENTRE_PROBES, index.tree.n)
     _, near = index.tree.query(centre, k=k)
     faces = index.owner[near.reshape(n, k)]
@@ -843,7 +904,7 @@ def _bound(tri: np.ndarray, target: Surface, goal: float) -> np.ndarray:
     open_ = np.flatnonzero(bound > goal)
     extra = None
     if len(open_):
-        nearest = _nearest_face(index, centre[open_])
+        nearest = _nearest_face(target, centre[open_])
         extra = np.full(n, -1)
         extra[open_] = nearest
         fresh = ~(faces[open_] == nearest[:, None]).any(axis=1)
@@ -871,16 +932,24 @@ def _bound(tri: np.ndarray, target: Surface, goal: float) -> np.ndarray:
     return bound
 
 
-def _nearest_face(index: _quality.SurfaceIndex, points: np.ndarray) -> np.ndarray:
-    """(p,) int64: a face of ``index`` at the least distance from each point (p, 3) metres (the
-    faces whose bounding sphere comes within the probes' upper bound are all checked)."""
+def _nearest_face(target: Surface, points: np.ndarray) -> np.ndarray:
+    """(p,) int64: a face of ``target`` at the least distance from each point (p, 3) metres (the
+    faces whose bounding sphere and plane both come within the probes' upper bound are all
+    checked)."""
+    index = target.index
     upper = index.upper(points)
     squared = (points[:, 0, None] - index.centres[None, :, 0]) ** 2
     squared += (points[:, 1, None] - index.centres[None, :, 1]) ** 2
     squared += (points[:, 2, None] - index.centres[None, :, 2]) ** 2
-    rows, cols = np.nonzero(
-        np.sqrt(squared) - index.radii[None] <= upper[:, None] * (1 + 1e-9) + 1e-12
-    )
+    reach = upper * (1 + 1e-9) + 1e-12
+    rows, cols = np.nonzero(np.sqrt(squared) - index.radii[None] <= reach[:, None])
+    # A face's plane is no farther than the face: faces whose plane is beyond the bound cannot
+    # be nearest (the margin covers the rounding of both distances; untrusted slivers, whose
+    # normals are noise, have no plane and are always kept).
+    normal, offset, margin = target.face_planes
+    plane = np.abs(_dot3(points[rows], normal[cols]) - offset[cols])
+    keep = plane <= reach[rows] + margin
+    rows, cols = rows[keep], cols[keep]
     distance = _quality.point_triangle_distance(points[rows], index.tri[cols])
     order = np.lexsort((distance, rows))
     first = np.ones(len(order), bool)
