@@ -247,7 +247,7 @@ def process_entry(
     from .gltf_writer import glb_bytes
     from .placement import building_placement, relative_placement
     from .quality import boundary_quality, exact_quality, measure_lod
-    from .simplify import build_mesh_chain
+    from .simplify import build_mesh_chain, degenerate_only
 
     seconds = {stage: 0.0 for stage in STAGES}
     clock = time.perf_counter()
@@ -274,6 +274,8 @@ def process_entry(
             problems.append(tile_message)
         if building.triangle_count == 0:
             raise ProcessError("no triangles to export")
+        if degenerate_only(building.parts):
+            raise ProcessError("every triangle is degenerate (narrower than 1 micrometre)")
         chain = build_mesh_chain(building.parts, config.lods, config.simplify)
         parts_by_level = [level.parts for level in chain]
         lap("simplify")

@@ -50,7 +50,7 @@ from .protect import (
 from .quadric import Collapsed, collapse
 from .weld import weld_positions
 
-__all__ = ["MeshLevel", "build_mesh_chain", "build_mesh_lods", "clean_part"]
+__all__ = ["MeshLevel", "build_mesh_chain", "build_mesh_lods", "clean_part", "degenerate_only"]
 
 # Faces below this area (square metres) are degenerate: dropped from level 0.
 ZERO_AREA_M2 = 1e-12
@@ -80,6 +80,24 @@ def clean_part(part: Part) -> Part:
     if np.all(areas >= ZERO_AREA_M2):
         return part
     return dataclasses.replace(part, triangles=part.triangles[areas >= ZERO_AREA_M2])
+
+
+def degenerate_only(parts: list[Part]) -> bool:
+    """Whether no face of ``parts`` is wider than the pipeline's noise (``NOISE_M``): every
+    triangle's least altitude (twice its area over its longest edge, metres) is below 1 um.
+
+    Such a model has nothing to show: collinear input that reprojection to the local frame turned
+    into ~1e-9 m^2 slivers passes level 0's area test (1e-12 m^2) yet draws no pixel."""
+    for part in parts:
+        t = part.positions[part.triangles]
+        if not len(t):
+            continue
+        edges = t[:, [1, 2, 0]] - t
+        longest = np.sqrt((edges**2).sum(-1)).max(axis=1)
+        area2 = np.sqrt((np.cross(edges[:, 0], -edges[:, 2]) ** 2).sum(1))
+        if np.any(area2 >= NOISE_M * longest):
+            return False
+    return True
 
 
 def uv_charts(faces: np.ndarray, vertex_count: int) -> np.ndarray:
