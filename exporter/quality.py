@@ -66,6 +66,10 @@ without distances when the certified Hausdorff bound is within the tolerance (ev
 that tile). The three views rasterised in one pass (rasters 0.67x), boundary loops with fewer
 passes. What is left: rasterising ~55 %, boundary loops ~20 %, element work on (3, lines)
 arrays rather than calls.
+
+Round 4 (against 895b66a, the export's 131 quality calls of /tmp/perf100q replayed interleaved,
+best of 9, CPU): 0.94x, values identical (tests/test_perf_quality.py): loops counted by a Python
+union-find (scipy's sparse setup was ~150 us a call), one weld per source and per level.
 """
 
 from __future__ import annotations
@@ -75,8 +79,6 @@ from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from . import hausdorff
@@ -355,19 +357,37 @@ def boundary_loops(faces: np.ndarray, vertex_count: int) -> tuple[np.ndarray, in
         once[1:] &= ~repeated
         once[:-1] &= ~repeated
     border = np.column_stack(np.divmod(keys[once], vertex_count + 1))
-    if len(border) == 0:
-        return border, 0
-    # The keys are sorted, so the border's rows come in order: the CSR form directly (no COO),
-    # in the index type connected_components works in (no conversion there).
-    indptr = np.searchsorted(border[:, 0], np.arange(vertex_count + 1)).astype(np.int32)
-    graph = csr_matrix(
-        (np.ones(len(border)), border[:, 1].astype(np.int32), indptr),
-        shape=(vertex_count, vertex_count),
-    )
-    count = connected_components(graph, directed=False, return_labels=False)
-    # Every vertex off the border is a component of its own: the rest are the loops.
-    on_border = np.count_nonzero(np.bincount(border.ravel(), minlength=vertex_count))
-    return border, int(count - (vertex_count - on_border))
+    return border, count_components(border.tolist())
+
+
+def count_components(edges: list) -> int:
+    """Connected components of the graph of ``edges`` ((a, b) vertex pairs, a Python list):
+    only vertices on an edge count.
+
+    Union-find in plain Python: a building's open boundary has tens of edges, where scipy's
+    ``csr_matrix`` + ``connected_components`` cost ~150 us of argument checking per call (a
+    count, so any exact method gives the same number)."""
+    parent: dict[int, int] = {}
+
+    def find(x: int) -> int:
+        root = x
+        while parent[root] != root:
+            root = parent[root]
+        while parent[x] != root:  # path compression
+            parent[x], x = root, parent[x]
+        return root
+
+    count = 0
+    for a, b in edges:
+        for v in (a, b):
+            if v not in parent:
+                parent[v] = v
+                count += 1
+        ra, rb = find(a), find(b)
+        if ra != rb:
+            parent[ra] = rb
+            count -= 1
+    return count
 
 
 def open_boundary(positions: np.ndarray, faces: np.ndarray) -> tuple[float, int]:
@@ -510,6 +530,17 @@ def _remember(cache: OrderedDict, key: bytes, value):
     return value
 
 
+def _joined_source(parts: list[Part], key: bytes) -> tuple[np.ndarray, np.ndarray]:
+    """``joined(parts)`` of a source, taken from whichever cache already holds it (the source
+    side or the certification surface of the same building): one weld per building."""
+    if key in _CACHE:
+        return _CACHE[key].positions, _CACHE[key].faces
+    if key in _SURFACES:
+        surface = _SURFACES[key][0]
+        return surface.positions, surface.faces
+    return joined(parts)
+
+
 def _source_outline(parts: list[Part]) -> _Outline:
     key = _source_key(parts)
     for cache in (_CACHE, _OUTLINES):
@@ -517,7 +548,7 @@ def _source_outline(parts: list[Part]) -> _Outline:
             cache.move_to_end(key)
             s = cache[key]
             return _Outline(s.triangles, s.diagonal, s.border_length, s.loops)
-    positions, faces = joined(parts)
+    positions, faces = _joined_source(parts, key)
     # The diagonal and the outline exactly as _source_side computes them.
     diagonal = max(float(np.linalg.norm(positions.max(axis=0) - positions.min(axis=0))), 1e-9)
     border_length, loops = open_boundary(positions, faces)
@@ -533,7 +564,7 @@ def _source_side(parts: list[Part]) -> _Source:
     if key in _CACHE:
         _CACHE.move_to_end(key)
         return _CACHE[key]
-    positions, faces = joined(parts)
+    positions, faces = _joined_source(parts, key)
     low, high = positions.min(axis=0), positions.max(axis=0)
     rng = np.random.default_rng(SEED)
     normals = face_normals(positions, faces)
@@ -623,7 +654,7 @@ def measure_lod(
     hausdorff = (
         hausdorff_m
         if hausdorff_m is not None
-        else certified_hausdorff_rel(source_parts, lod_parts) * src.diagonal
+        else certified_hausdorff_rel(source_parts, lod_parts, (lod_pos, lod_faces)) * src.diagonal
     )
     wall_coverage = _wall_coverage(src, lod_pos, lod_faces, hausdorff)
 
@@ -653,22 +684,30 @@ def _source_surface(parts: list[Part]):
     if key in _SURFACES:
         _SURFACES.move_to_end(key)
         return _SURFACES[key]
-    positions, faces = joined(parts)
+    positions, faces = _joined_source(parts, key)
     diagonal = max(float(np.linalg.norm(positions.max(axis=0) - positions.min(axis=0))), 1e-9)
     return _remember(_SURFACES, key, (hausdorff.Surface(positions, faces), diagonal))
 
 
-def certified_hausdorff_rel(source_parts: list[Part], lod_parts: list[Part]) -> float:
+def certified_hausdorff_rel(
+    source_parts: list[Part],
+    lod_parts: list[Part],
+    lod_mesh: tuple[np.ndarray, np.ndarray] | None = None,
+) -> float:
     """Certified upper bound of the symmetric Hausdorff distance between the level and the source
     (both local East/Up/North metres) / the source's diagonal: refined until it is within
     ``HAUSDORFF_RTOL`` of the lower bound or below ``HAUSDORFF_ATOL`` (then its value is what the
     refinement reached; :func:`exporter.hausdorff.hausdorff_bounds`); inf for an empty level,
-    0 for an empty source and level."""
+    0 for an empty source and level. ``lod_mesh``: ``joined(lod_parts)`` when the caller has it
+    (not welded twice)."""
     if not any(p.triangle_count for p in source_parts):
         return 0.0 if not any(p.triangle_count for p in lod_parts) else float("inf")
     surface, diagonal = _source_surface(source_parts)
     upper = hausdorff.hausdorff_bounds(
-        surface, joined(lod_parts), rtol=HAUSDORFF_RTOL, atol=HAUSDORFF_ATOL * diagonal
+        surface,
+        joined(lod_parts) if lod_mesh is None else lod_mesh,
+        rtol=HAUSDORFF_RTOL,
+        atol=HAUSDORFF_ATOL * diagonal,
     )[1]
     return upper / diagonal
 
@@ -696,7 +735,7 @@ def boundary_quality(source_parts: list[Part], lod_parts: list[Part]) -> dict:
         )
     return {
         "triangle_ratio": keys["triangle_ratio"],
-        "hausdorff_rel": certified_hausdorff_rel(source_parts, lod_parts),
+        "hausdorff_rel": certified_hausdorff_rel(source_parts, lod_parts, (lod_pos, lod_faces)),
         "silhouette_iou": 1.0,
         "wall_coverage": 1.0,
         "boundary_length_change": keys["boundary_length_change"],

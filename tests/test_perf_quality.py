@@ -463,3 +463,61 @@ def test_wall_coverage_is_the_exact_share_whichever_path_gives_it():
             assert measured["wall_coverage"] == float(inside.mean())
             shortcut += measured["hausdorff_rel"] < quality.COVER_TOLERANCE
     assert 0 < shortcut < 12  # both paths were taken
+
+
+def former_quality(source, level, kind, deviation, monkeypatch):
+    """The value the former code gave (before the quality speed pass 2): every source side
+    prepared afresh (no weld shared between the caches), the level welded again for the
+    certification and the loops counted by scipy's connected_components."""
+    with monkeypatch.context() as patch:
+        patch.setattr(quality, "boundary_loops", reference_boundary_loops)
+        patch.setattr(
+            quality,
+            "certified_hausdorff_rel",
+            lambda s, lod, mesh=None, inner=quality.certified_hausdorff_rel: inner(s, lod),
+        )
+        for cache in (quality._CACHE, quality._OUTLINES, quality._SURFACES):
+            cache.clear()
+        if kind == "exact":
+            return quality.exact_quality(source, level)
+        if kind == "boundary":
+            return boundary_quality(source, level)
+        return measure_lod(source, level, deviation)
+
+
+def test_export_quality_equals_the_former_code_bit_for_bit(tmp_path, monkeypatch):
+    """Every level k >= 1 of generated buildings, measured as the pipeline does (caches shared
+    between a building's levels, in level order), against the former code's values."""
+    from exporter.readers import load_entry, scan_folder
+    from exporter.samplegen import generate_tile
+    from exporter.simplify import build_mesh_chain
+
+    generate_tile(str(tmp_path / "tile"), count=24, seed=3, atlas_size=64)
+    config = Config()
+    kinds = set()
+    for entry in scan_folder(str(tmp_path / "tile"), config.readers).entries:
+        parts = load_entry(entry, config.readers).parts
+        chain = build_mesh_chain(parts, config.lods, config.simplify)
+        for cache in (quality._CACHE, quality._OUTLINES, quality._SURFACES):
+            cache.clear()
+        levels = []
+        for level in chain[1:]:
+            kind = "exact" if level.exact else "boundary" if level.surface_exact else "measured"
+            if kind == "exact":
+                value = quality.exact_quality(chain[0].parts, level.parts)
+            elif kind == "boundary":
+                value = boundary_quality(chain[0].parts, level.parts)
+            else:
+                value = measure_lod(chain[0].parts, level.parts, level.deviation)
+            levels.append((kind, level, value))
+        for kind, level, value in levels:
+            former = former_quality(chain[0].parts, level.parts, kind, level.deviation, monkeypatch)
+            assert repr(value) == repr(former), (entry.id, kind)
+            kinds.add(kind)
+        # With the level's own certification too (no guard bound given).
+        for kind, level, _value in levels:
+            if kind == "measured":
+                assert repr(measure_lod(chain[0].parts, level.parts)) == repr(
+                    former_quality(chain[0].parts, level.parts, kind, None, monkeypatch)
+                )
+    assert {"exact", "measured"} <= kinds
