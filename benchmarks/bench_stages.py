@@ -74,9 +74,11 @@ def _stages(modules, folder: str, repeat: int, profile: str | None) -> dict[str,
     )
 
     def quality():
-        modules[
-            "quality"
-        ]._CACHE.clear()  # the source side is cached per building, as in one export
+        # The source side is cached per building, as in one export: every cache emptied per run.
+        for name in ("_CACHE", "_OUTLINES", "_SURFACES"):
+            cache = getattr(modules["quality"], name, None)
+            if cache is not None:
+                cache.clear()
         return [
             [modules["quality"].measure_lod(chain[0], chain[k]) for k in range(1, len(chain))]
             for chain in levels
