@@ -128,6 +128,12 @@ def _join(parts: list[Part], link_distance: float):
     """One welded mesh from all parts: positions (k, 3) metres, faces (m, 3), face_part (m,),
     corner_uvs (m, 3, 2) or None, face_chart (m,), and whether welding merged vertices further
     apart than ``NOISE_M`` (only possible with ``link_distance > NOISE_M``)."""
+    return _join_welded(parts, link_distance)[0]
+
+
+def _join_welded(parts: list[Part], link_distance: float):
+    """:func:`_join`'s mesh, the parts' vertices concatenated (n, 3) metres and the welded vertex
+    of each (n,) int64 (so :func:`weld_offset` needs no second welding)."""
     offsets = np.cumsum([0] + [p.vertex_count for p in parts])
     positions = np.concatenate([p.positions for p in parts]) if parts else np.zeros((0, 3))
     faces = (
@@ -161,7 +167,7 @@ def _join(parts: list[Part], link_distance: float):
     distinct = (
         (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])
     )
-    return (
+    joined = (
         welded_positions,
         faces[distinct],
         face_part[distinct],
@@ -169,6 +175,7 @@ def _join(parts: list[Part], link_distance: float):
         face_chart[distinct],
         merged,
     )
+    return joined, positions, welded
 
 
 def _locks(positions, faces, face_part, options: SimplifyOptions) -> np.ndarray:
@@ -487,7 +494,7 @@ def build_mesh_chain(
         _check_part(part, i)
     source_triangles = sum(p.triangle_count for p in parts)
     chain = [MeshLevel([clean_part(p) for p in parts], True, True)]
-    joined = _join(chain[0].parts, 0.0)
+    joined, lod0_positions, lod0_welded = _join_welded(chain[0].parts, 0.0)
     reference = Reference(*joined[:2])  # the guard's reference: LOD0, welded
     size = largest_side(joined[0])
     offset = None  # LOD0's noise welding, metres (weld_offset), when a bound needs it
@@ -504,7 +511,8 @@ def build_mesh_chain(
         )
         if bounds is not None:
             if offset is None:
-                offset = weld_offset(chain[0].parts, joined[0])
+                # weld_offset(chain[0].parts, joined[0]) from the welding _join made
+                offset = _offset(lod0_positions, joined[0][lod0_welded])
             deviation: float | None = bounds[1] + offset
         elif level is chain[-1].parts:
             deviation = chain[-1].deviation  # the level above, unchanged
@@ -533,7 +541,15 @@ def weld_offset(parts: list[Part], welded_positions: np.ndarray) -> float:
     welded, points = weld_positions(positions, NOISE_M)
     if len(points) != len(welded_positions) or not np.array_equal(points, welded_positions):
         raise AssertionError("weld_offset: not the welding _join made")
-    return float(np.sqrt(((positions - points[welded]) ** 2).sum(1)).max())
+    return _offset(positions, points[welded])
+
+
+def _offset(positions: np.ndarray, moved: np.ndarray) -> float:
+    """Metres: the largest distance between rows of ``positions`` and ``moved`` (n, 3) (0 for
+    none)."""
+    if len(positions) == 0:
+        return 0.0
+    return float(np.sqrt(((positions - moved) ** 2).sum(1)).max())
 
 
 def largest_side(positions: np.ndarray) -> float:

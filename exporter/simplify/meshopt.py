@@ -203,7 +203,10 @@ def _wedges(faces, corner_uvs, face_part, keep_seams: bool):
     """meshopt's vertices: (w,) welded vertex of every wedge, (w, 2) UVs or None, (m, 3) wedge
     indices of the faces. A wedge is one (welded vertex, part, UV) combination."""
     corners = faces.reshape(-1)
-    columns = [corners.astype(np.float64), np.repeat(face_part, 3).astype(np.float64)]
+    columns = [corners.astype(np.float64)]
+    # A constant column changes neither the groups nor their order: one part needs no column.
+    if len(face_part) and face_part.min() != face_part.max():
+        columns.append(np.repeat(face_part, 3).astype(np.float64))
     if corner_uvs is not None and keep_seams:
         columns.append(corner_uvs.reshape(-1, 2).astype(np.float64))
     first, inverse = unique_float_rows(np.column_stack(columns))
@@ -327,7 +330,10 @@ def collapse(
                 vertex_locked[offenders] = True
                 continue
         face_ids = _source_faces(wedge_faces, out, len(vertex_of))
-        used = np.unique(out_faces)
+        # np.unique(out_faces) without its sort: the vertices used, ascending.
+        seen = np.zeros(len(positions), dtype=bool)
+        seen[out_faces.reshape(-1)] = True
+        used = np.flatnonzero(seen)
         remap = np.full(len(positions), -1, dtype=np.int64)
         remap[used] = np.arange(len(used))
         return Collapsed(positions[used], remap[out_faces], uvs, used, face_ids)

@@ -25,8 +25,8 @@ PLANE_M = 1e-3
 
 def face_areas(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Area of every face, (m,) float64 square metres."""
-    a, b, c = (positions[faces[:, i]] for i in range(3))
-    return 0.5 * np.linalg.norm(cross_rows(b - a, c - a), axis=1)
+    a, b, c = positions[faces[:, 0]], positions[faces[:, 1]], positions[faces[:, 2]]
+    return 0.5 * row_norms(cross_rows(b - a, c - a))
 
 
 def largest_faces(areas: np.ndarray, share: float) -> np.ndarray:
@@ -98,6 +98,8 @@ def nonmanifold_vertices(faces: np.ndarray, vertex_count: int) -> np.ndarray:
 
 def part_border_vertices(faces: np.ndarray, face_part: np.ndarray, vertex_count: int) -> np.ndarray:
     """(k,) bool: vertices used by faces of two or more parts; locking them means no cracks."""
+    if len(face_part) == 0 or face_part.min() == face_part.max():
+        return np.zeros(vertex_count, dtype=bool)  # one part (most buildings): no part border
     corner_part = np.repeat(face_part, 3)
     low = np.full(vertex_count, np.iinfo(np.int64).max)
     high = np.full(vertex_count, np.iinfo(np.int64).min)
