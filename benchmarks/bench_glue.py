@@ -13,26 +13,16 @@ what remains; only ratios measured in one run mean anything (2 shared cores).
 from __future__ import annotations
 
 import argparse
-import importlib
-import sys
 import time
 from pathlib import Path
+
+from checkouts import load_exporter
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _load(root: Path):
-    """The exporter modules of the checkout at ``root`` (a fresh import)."""
-    for name in [m for m in sys.modules if m == "exporter" or m.startswith("exporter.")]:
-        del sys.modules[name]
-    sys.path.insert(0, str(root))
-    try:
-        return {
-            name: importlib.import_module(f"exporter.{name}")
-            for name in ("config", "readers", "simplify")
-        }
-    finally:
-        sys.path.remove(str(root))
+def _load(root: Path) -> dict:
+    return load_exporter(root, ("config", "readers", "simplify"))
 
 
 class _Timed:

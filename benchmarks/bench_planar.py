@@ -18,27 +18,18 @@ from __future__ import annotations
 import argparse
 import cProfile
 import gc
-import importlib
 import pstats
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
+from checkouts import load_exporter
 
 
-def _load(root: Path):
-    """The exporter package's modules of the checkout at ``root`` (a fresh import)."""
-    for name in [m for m in sys.modules if m == "exporter" or m.startswith("exporter.")]:
-        del sys.modules[name]
-    sys.path.insert(0, str(root))
-    try:
-        return {
-            name: importlib.import_module(f"exporter.{name}")
-            for name in ("config", "readers", "simplify", "simplify.planar", "simplify.protect")
-        }
-    finally:
-        sys.path.remove(str(root))
+def _load(root: Path) -> dict:
+    return load_exporter(
+        root, ("config", "readers", "simplify", "simplify.planar", "simplify.protect")
+    )
 
 
 def record_calls(modules, folder: str) -> list[tuple]:

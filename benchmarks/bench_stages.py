@@ -24,25 +24,15 @@ from __future__ import annotations
 
 import argparse
 import cProfile
-import importlib
 import pstats
-import sys
 import time
 from pathlib import Path
 
+from checkouts import load_exporter
 
-def _load(root: Path):
-    """The exporter package of the checkout at ``root`` (a fresh import)."""
-    for name in [m for m in sys.modules if m == "exporter" or m.startswith("exporter.")]:
-        del sys.modules[name]
-    sys.path.insert(0, str(root))
-    try:
-        return {
-            name: importlib.import_module(f"exporter.{name}")
-            for name in ("config", "readers", "simplify", "quality", "gltf_writer")
-        }
-    finally:
-        sys.path.remove(str(root))
+
+def _load(root: Path) -> dict:
+    return load_exporter(root, ("config", "readers", "simplify", "quality", "gltf_writer"))
 
 
 def _stages(modules, folder: str, repeat: int, profile: str | None) -> dict[str, float]:
