@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_perf_simplify import planar_cases, same, welded_mesh
+from test_perf_simplify import planar_cases, reference_planar_regions, same, welded_mesh
 from test_simplify_shapes import crafted_building
 
 from exporter.geometry import cross_rows
@@ -22,36 +22,12 @@ from exporter.simplify.planar import (
     straight_vertices,
 )
 from exporter.simplify.protect import (
-    COPLANAR_COS,
-    PLANE_M,
     border_vertices,
     edge_use,
     nonmanifold_vertices,
     row_norms,
     unique_rows,
 )
-from exporter.simplify.weld import lowest_member
-
-
-def reference_planar_regions(positions, faces, groups):
-    m = len(faces)
-    a, b, c = (positions[faces[:, i]] for i in range(3))
-    normal = cross_rows(b - a, c - a)
-    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-30)
-    edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    owner = np.repeat(np.arange(m), 3)
-    order = np.lexsort((edges[:, 1], edges[:, 0]))
-    edges, owner = edges[order], owner[order]
-    same_edge = (edges[1:] == edges[:-1]).all(axis=1)
-    f, g = owner[:-1][same_edge], owner[1:][same_edge]
-    keep = groups[f] == groups[g]
-    f, g = f[keep], g[keep]
-    coplanar = ((normal[f] * normal[g]).sum(1) > COPLANAR_COS) & (
-        np.abs(((positions[faces[g]].mean(axis=1) - a[f]) * normal[f]).sum(1)) < PLANE_M
-    )
-    lowest = lowest_member(m, f[coplanar], g[coplanar])
-    root = lowest == np.arange(m)
-    return (np.cumsum(root) - 1)[lowest]
 
 
 def reference_straight_vertices(positions, faces, regions, locked, tolerance=1e-6, on_border=True):
