@@ -482,6 +482,14 @@ def silhouettes(
     return rasterise_views(pixels[:, VIEWS].transpose(1, 0, 2), faces, RESOLUTION)
 
 
+def min_iou(source: np.ndarray, level: np.ndarray) -> float:
+    """The smallest intersection over union of two stacks of views (v, n, n) bool (1 for two
+    empty views)."""
+    unions = (source | level).sum(axis=(1, 2))
+    overlaps = (source & level).sum(axis=(1, 2))
+    return min(float(o / u) if u else 1.0 for o, u in zip(overlaps.tolist(), unions.tolist()))
+
+
 # --------------------------------------------------------------------------- the metrics
 
 
@@ -658,16 +666,13 @@ def measure_lod(
     )
     wall_coverage = _wall_coverage(src, lod_pos, lod_faces, hausdorff)
 
-    level = silhouettes(lod_pos, lod_faces, src.low, src.high)
-    unions = (src.silhouettes | level).sum(axis=(1, 2))
-    overlaps = (src.silhouettes & level).sum(axis=(1, 2))
-    ious = [float(o / u) if u else 1.0 for o, u in zip(overlaps.tolist(), unions.tolist())]
+    iou = min_iou(src.silhouettes, silhouettes(lod_pos, lod_faces, src.low, src.high))
 
     keys = _boundary_keys(src, lod_parts, lod_pos, lod_faces)
     return {
         "triangle_ratio": keys["triangle_ratio"],
         "hausdorff_rel": hausdorff / src.diagonal,
-        "silhouette_iou": min(ious),
+        "silhouette_iou": iou,
         "wall_coverage": wall_coverage,
         "boundary_length_change": keys["boundary_length_change"],
         "new_holes": keys["new_holes"],

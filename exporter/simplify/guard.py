@@ -49,9 +49,13 @@ class Reference:
         """(3, RESOLUTION, RESOLUTION) bool: the reference's top, front and side silhouettes on
         its own box (:func:`exporter.quality.silhouettes`)."""
         if self._silhouettes is None:
-            low, high = self.positions.min(axis=0), self.positions.max(axis=0)
-            self._silhouettes = quality.silhouettes(self.positions, self.faces, low, high)
+            self._silhouettes = quality.silhouettes(self.positions, self.faces, *self.box)
         return self._silhouettes
+
+    @property
+    def box(self) -> tuple[np.ndarray, np.ndarray]:
+        """The reference's axis-aligned box ``(low (3,), high (3,))``, metres."""
+        return self.positions.min(axis=0), self.positions.max(axis=0)
 
 
 def _reference(reference) -> Reference:
@@ -118,9 +122,5 @@ def silhouette_iou(reference: Reference, positions: np.ndarray, faces: np.ndarra
     ``silhouette_iou`` measures, there on LOD0 as given rather than welded)."""
     if len(reference.faces) == 0:
         return 1.0
-    low, high = reference.positions.min(axis=0), reference.positions.max(axis=0)
-    source = reference.silhouettes
-    level = quality.silhouettes(positions, faces, low, high)
-    unions = (source | level).sum(axis=(1, 2))
-    overlaps = (source & level).sum(axis=(1, 2))
-    return min(float(o / u) if u else 1.0 for o, u in zip(overlaps.tolist(), unions.tolist()))
+    low, high = reference.box
+    return quality.min_iou(reference.silhouettes, quality.silhouettes(positions, faces, low, high))
