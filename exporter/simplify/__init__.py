@@ -133,7 +133,7 @@ def _join(parts: list[Part], link_distance: float):
 
 def _join_welded(parts: list[Part], link_distance: float):
     """:func:`_join`'s mesh, the parts' vertices concatenated (n, 3) metres and the welded vertex
-    of each (n,) int64 (so :func:`weld_offset` needs no second welding)."""
+    of each (n,) int64 (for :func:`weld_offset`, with no second welding)."""
     offsets = np.cumsum([0] + [p.vertex_count for p in parts])
     positions = np.concatenate([p.positions for p in parts]) if parts else np.zeros((0, 3))
     faces = (
@@ -511,8 +511,7 @@ def build_mesh_chain(
         )
         if bounds is not None:
             if offset is None:
-                # weld_offset(chain[0].parts, joined[0]) from the welding _join made
-                offset = _offset(lod0_positions, joined[0][lod0_welded])
+                offset = weld_offset(lod0_positions, joined[0][lod0_welded])
             deviation: float | None = bounds[1] + offset
         elif level is chain[-1].parts:
             deviation = chain[-1].deviation  # the level above, unchanged
@@ -530,26 +529,14 @@ def build_mesh_chain(
     return chain
 
 
-def weld_offset(parts: list[Part], welded_positions: np.ndarray) -> float:
-    """Metres: the largest distance from a vertex of ``parts`` to its position after ``_join``'s
-    noise welding (``welded_positions``), so a bound measured against the welded mesh plus this
-    holds against the parts as given (moving every vertex by at most d moves no point of a face
-    by more than d)."""
-    positions = np.concatenate([p.positions for p in parts]) if parts else np.zeros((0, 3))
+def weld_offset(positions: np.ndarray, welded: np.ndarray) -> float:
+    """Metres: the largest distance between a vertex (``positions`` (n, 3)) and its position after
+    welding (``welded`` (n, 3)); 0 for none. A bound measured against the welded mesh plus this
+    holds against the mesh as given (moving every vertex by at most d moves no point of a face by
+    more than d)."""
     if len(positions) == 0:
         return 0.0
-    welded, points = weld_positions(positions, NOISE_M)
-    if len(points) != len(welded_positions) or not np.array_equal(points, welded_positions):
-        raise AssertionError("weld_offset: not the welding _join made")
-    return _offset(positions, points[welded])
-
-
-def _offset(positions: np.ndarray, moved: np.ndarray) -> float:
-    """Metres: the largest distance between rows of ``positions`` and ``moved`` (n, 3) (0 for
-    none)."""
-    if len(positions) == 0:
-        return 0.0
-    return float(np.sqrt(((positions - moved) ** 2).sum(1)).max())
+    return float(np.sqrt(((positions - welded) ** 2).sum(1)).max())
 
 
 def largest_side(positions: np.ndarray) -> float:
