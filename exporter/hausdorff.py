@@ -20,6 +20,10 @@ The bound (one direction, triangle T of A against surface B):
 1. ``d(., t)`` to one triangle t (a convex set) is convex, so over T its maximum is at a vertex:
    ``U(T) = min_t max_v d(v, t)`` is an upper bound of ``max_{p in T} d(p, B)`` and
    ``L(T) = max_v d(v, B)`` a lower bound. A triangle of A equal to one of B has U = 0.
+1b. A triangle bridging two faces t_i, t_j (a chord across a dome's facets, a facet piece over
+   a ridge) is cut by the plane where their planes are equally far; each cell is convex, so the
+   bound ``max(max_{cell_i corners} d(., t_i), max_{cell_j corners} d(., t_j))`` is again taken
+   at corners (:func:`_pair_bound`).
 2. Coplanar source triangles (a wall of 50 becomes 2 at a coarser level): B's faces are grouped
    in planar regions (:func:`~exporter.simplify.protect.planar_regions`); the region R of plane
    P (its vertices within ``slack`` of P) projected on P is a polygon ``R_P``. If T projected on
@@ -929,6 +933,74 @@ def _bound(tri: np.ndarray, target: Surface, goal: float) -> np.ndarray:
         bound[open_] = np.minimum(
             bound[open_], _single_triangle_bound(tri[open_], target, extra[open_])
         )
+        open_ = open_[bound[open_] > goal]
+    if len(open_):
+        assert extra is not None
+        bound[open_] = np.minimum(bound[open_], _pair_bound(tri[open_], target, extra[open_]))
+    return bound
+
+
+def _pair_bound(tri: np.ndarray, target: Surface, nearest: np.ndarray) -> np.ndarray:
+    """Step 1b: (n,) metres, the single-triangle bound over a split of each triangle (n, 3, 3)
+    in two cells, for a triangle bridging two faces of ``target`` (a chord across the facets of
+    a dome or a curved roof: no one face is near all of it).
+
+    For faces t_i, t_j and any plane s = 0 cutting the triangle T, ``d(p, target) <= d(p, t_i)``
+    on ``T ∩ {s <= 0}`` and ``<= d(p, t_j)`` on ``T ∩ {s >= 0}``; both cells are convex
+    polygons and each distance is convex, so each maximum is at a cell corner: T's corners on
+    that side and the points where T's edges cross s = 0. The cut is where the two faces'
+    planes are equally far (signed, with the faces' own normals); either face may take either
+    cell (the nearer face has the larger signed distance at a convex edge, the smaller at a
+    concave one), the lesser of both bounds is kept. Pairs: the face ``nearest`` (n,) to the
+    centroid with the face nearest each corner; the least bound is kept (inf where no pair of
+    distinct trusted faces exists). The crossing points carry rounding of about 1e-16 of the
+    coordinates: 1e-12 x the largest coordinate is added (distances are 1-Lipschitz)."""
+    n = len(tri)
+    other = _nearest_face(target, tri.reshape(-1, 3)).reshape(n, 3)
+    trusted = target.trusted
+    ok = (other != nearest[:, None]) & trusted[other] & trusted[nearest][:, None]
+    # One pair per distinct other face of a row.
+    ok[:, 1] &= other[:, 1] != other[:, 0]
+    ok[:, 2] &= (other[:, 2] != other[:, 0]) & (other[:, 2] != other[:, 1])
+    row, col = np.nonzero(ok)
+    fi, fj = nearest[row], other[row, col]
+    bound = np.full(n, np.inf)
+    if len(row) == 0:
+        return bound
+    normal, offset, _ = target.face_planes
+    t = tri[row]  # (q, 3, 3)
+    s = (_dot3(t, normal[fi][:, None]) - offset[fi][:, None]) - (
+        _dot3(t, normal[fj][:, None]) - offset[fj][:, None]
+    )  # (q, 3) at the corners: where the two planes are equally far (signed)
+    after = [1, 2, 0]
+    s_next = s[:, after]
+    crosses = s * s_next < 0  # edge k -> k + 1 crosses the cut
+    with np.errstate(divide="ignore", invalid="ignore"):
+        share = np.where(crosses, s / (s - s_next), 0.0)
+    cut = t + share[..., None] * (t[:, after] - t)  # (q, 3, 3) crossing points
+    tri_i, tri_j = target.tri[fi][:, None], target.tri[fj][:, None]
+    corner_i = _quality.point_triangle_distance(t, tri_i)
+    corner_j = _quality.point_triangle_distance(t, tri_j)
+    on_cut = _max3(
+        np.where(
+            crosses,
+            np.maximum(
+                _quality.point_triangle_distance(cut, tri_i),
+                _quality.point_triangle_distance(cut, tri_j),
+            ),
+            0.0,
+        )
+    )
+    below, above = s <= 0, s >= 0
+    # Either face may take either cell (the nearer face lies on the larger signed distance at
+    # a convex edge, on the smaller at a concave one): both assignments are bounds.
+    value = np.minimum(
+        np.maximum(_max3(np.where(below, corner_i, 0.0)), _max3(np.where(above, corner_j, 0.0))),
+        np.maximum(_max3(np.where(above, corner_i, 0.0)), _max3(np.where(below, corner_j, 0.0))),
+    )
+    value = np.maximum(value, on_cut)
+    value += 1e-12 * np.abs(t).reshape(len(t), -1).max(axis=1)
+    np.minimum.at(bound, row, value)
     return bound
 
 
