@@ -1010,11 +1010,8 @@ def _nearest_face(target: Surface, points: np.ndarray) -> np.ndarray:
     checked)."""
     index = target.index
     upper = index.upper(points)
-    squared = (points[:, 0, None] - index.centres[None, :, 0]) ** 2
-    squared += (points[:, 1, None] - index.centres[None, :, 1]) ** 2
-    squared += (points[:, 2, None] - index.centres[None, :, 2]) ** 2
     reach = upper * (1 + 1e-9) + 1e-12
-    rows, cols = np.nonzero(np.sqrt(squared) - index.radii[None] <= reach[:, None])
+    rows, cols = index.sphere_pairs(points, reach)
     # A face's plane is no farther than the face: faces whose plane is beyond the bound cannot
     # be nearest (the margin covers the rounding of both distances; untrusted slivers, whose
     # normals are noise, have no plane and are always kept).

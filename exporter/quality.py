@@ -75,6 +75,7 @@ union-find (scipy's sparse setup was ~150 us a call), one weld per source and pe
 from __future__ import annotations
 
 import hashlib
+import itertools
 from collections import OrderedDict
 from dataclasses import dataclass
 
@@ -233,8 +234,44 @@ class SurfaceIndex:
         probes = np.concatenate([self.tri.reshape(-1, 3), self.centres, samples])
         self.owner = np.concatenate([np.repeat(np.arange(m), 3), np.arange(m), sample_faces])
         self.tree = cKDTree(probes) if m else None
+        self._centre_tree: cKDTree | None = None  # of the centres, made when first needed
 
     CANDIDATES = 6  # nearest probes whose triangles give the upper bound
+    DENSE_PAIRS = 20_000  # point x triangle tests below which all pairs are tested at once
+
+    def sphere_pairs(
+        self, points: np.ndarray, limit: np.ndarray, strict: bool = False
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(rows, cols) int64, row-major sorted: every point i (p, 3) metres and triangle j whose
+        bounding sphere comes within ``limit[i]`` (metres; ``< limit`` when ``strict``) of it.
+
+        Small problems test all p x m pairs; larger ones only the centres a ``cKDTree`` finds
+        within ``limit + largest radius`` (widened by 1e-9 for the tree's own rounding), then
+        apply the same test to those: the same pairs either way (an O(p m) step was the certified
+        bound's cost on buildings of thousands of triangles)."""
+        m = len(self.centres)
+        if len(points) * m <= self.DENSE_PAIRS or not np.all(np.isfinite(limit)):
+            # Per coordinate, so no (p, m, 3) temporary: dx^2 + dy^2 + dz^2 is the same sum, in
+            # the same order, as ((p - c) ** 2).sum(-1).
+            squared = (points[:, 0, None] - self.centres[None, :, 0]) ** 2
+            squared += (points[:, 1, None] - self.centres[None, :, 1]) ** 2
+            squared += (points[:, 2, None] - self.centres[None, :, 2]) ** 2
+            gap = np.sqrt(squared) - self.radii[None]
+            rows, cols = np.nonzero(gap < limit[:, None] if strict else gap <= limit[:, None])
+            return rows, cols
+        if self._centre_tree is None:
+            self._centre_tree = cKDTree(self.centres)
+        reach = (limit + self.radii.max()) * (1 + 1e-9) + 1e-12
+        found = self._centre_tree.query_ball_point(points, reach, return_sorted=True)
+        counts = np.fromiter(map(len, found), np.int64, len(found))
+        rows = np.repeat(np.arange(len(points)), counts)
+        cols = np.fromiter(itertools.chain.from_iterable(found), np.int64, int(counts.sum()))
+        squared = (points[rows, 0] - self.centres[cols, 0]) ** 2
+        squared += (points[rows, 1] - self.centres[cols, 1]) ** 2
+        squared += (points[rows, 2] - self.centres[cols, 2]) ** 2
+        gap = np.sqrt(squared) - self.radii[cols]
+        keep = gap < limit[rows] if strict else gap <= limit[rows]
+        return rows[keep], cols[keep]
 
     def _nearest(self, points: np.ndarray, candidates: int) -> tuple[np.ndarray, np.ndarray]:
         """Distances (p, k) metres and indices (p, k) of the k nearest probes, k <= candidates."""
@@ -276,14 +313,8 @@ class SurfaceIndex:
         open_points = np.flatnonzero(upper > 1e-9)  # points on the surface need no second look
         if len(open_points) == 0 or self.tree is None:
             return exact
-        # Per coordinate, so no (p, m, 3) temporary: dx^2 + dy^2 + dz^2 is the same sum, in the
-        # same order, as ((p - c) ** 2).sum(-1).
         near = points[open_points]
-        squared = (near[:, 0, None] - self.centres[None, :, 0]) ** 2
-        squared += (near[:, 1, None] - self.centres[None, :, 1]) ** 2
-        squared += (near[:, 2, None] - self.centres[None, :, 2]) ** 2
-        gap = np.sqrt(squared) - self.radii[None]
-        rows, cols = np.nonzero(gap < upper[open_points, None] - 1e-12)
+        rows, cols = self.sphere_pairs(near, upper[open_points] - 1e-12, strict=True)
         if len(rows):
             # rows come sorted (row-major nonzero): one minimum per point over its triangles.
             distance = point_triangle_distance(near[rows], self.tri[cols])

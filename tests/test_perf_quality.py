@@ -521,3 +521,27 @@ def test_export_quality_equals_the_former_code_bit_for_bit(tmp_path, monkeypatch
                     former_quality(chain[0].parts, level.parts, kind, None, monkeypatch)
                 )
     assert {"exact", "measured"} <= kinds
+
+
+@pytest.mark.parametrize("strict", [False, True])
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_sphere_pairs_from_the_centre_tree_equal_all_pairs(seed, strict, monkeypatch):
+    """The k-d tree path of ``SurfaceIndex.sphere_pairs`` (large problems) returns the very
+    pairs, in the same order, that testing every point against every triangle does, limits
+    at exactly a pair's gap included."""
+    rng = np.random.default_rng(seed)
+    positions = rng.uniform(-20, 20, (300, 3))
+    faces = rng.integers(0, 300, (400, 3))
+    index = SurfaceIndex(positions, faces)
+    points = rng.uniform(-25, 25, (500, 3))
+    limit = rng.uniform(0, 8, 500)
+    # Some limits exactly at a triangle's gap, where < and <= differ.
+    gap = np.sqrt(((points[:50, None] - index.centres[None, :50]) ** 2).sum(-1)) - index.radii[:50]
+    limit[:50] = np.diagonal(gap)
+    monkeypatch.setattr(SurfaceIndex, "DENSE_PAIRS", 10**12)
+    dense = index.sphere_pairs(points, limit, strict)
+    monkeypatch.setattr(SurfaceIndex, "DENSE_PAIRS", 0)
+    tree = index.sphere_pairs(points, limit, strict)
+    assert len(dense[0]) > 1000
+    np.testing.assert_array_equal(dense[0], tree[0])
+    np.testing.assert_array_equal(dense[1], tree[1])
