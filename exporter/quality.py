@@ -238,6 +238,19 @@ class SurfaceIndex:
 
     CANDIDATES = 6  # nearest probes whose triangles give the upper bound
     DENSE_PAIRS = 20_000  # point x triangle tests below which all pairs are tested at once
+    TREE_SHARE = 8  # the tree's lists are used when they hold under 1/8 of all pairs
+
+    def _dense_pairs(
+        self, points: np.ndarray, limit: np.ndarray, strict: bool
+    ) -> tuple[np.ndarray, np.ndarray]:
+        # Per coordinate, so no (p, m, 3) temporary: dx^2 + dy^2 + dz^2 is the same sum, in the
+        # same order, as ((p - c) ** 2).sum(-1).
+        squared = (points[:, 0, None] - self.centres[None, :, 0]) ** 2
+        squared += (points[:, 1, None] - self.centres[None, :, 1]) ** 2
+        squared += (points[:, 2, None] - self.centres[None, :, 2]) ** 2
+        gap = np.sqrt(squared) - self.radii[None]
+        rows, cols = np.nonzero(gap < limit[:, None] if strict else gap <= limit[:, None])
+        return rows, cols
 
     def sphere_pairs(
         self, points: np.ndarray, limit: np.ndarray, strict: bool = False
@@ -248,22 +261,20 @@ class SurfaceIndex:
         Small problems test all p x m pairs; larger ones only the centres a ``cKDTree`` finds
         within ``limit + largest radius`` (widened by 1e-9 for the tree's own rounding), then
         apply the same test to those: the same pairs either way (an O(p m) step was the certified
-        bound's cost on buildings of thousands of triangles)."""
+        bound's cost on buildings of thousands of triangles). The tree's lists are Python lists:
+        when they would hold more than 1/``TREE_SHARE`` of all pairs (counted first, in C), the
+        dense test is cheaper and is used."""
         m = len(self.centres)
         if len(points) * m <= self.DENSE_PAIRS or not np.all(np.isfinite(limit)):
-            # Per coordinate, so no (p, m, 3) temporary: dx^2 + dy^2 + dz^2 is the same sum, in
-            # the same order, as ((p - c) ** 2).sum(-1).
-            squared = (points[:, 0, None] - self.centres[None, :, 0]) ** 2
-            squared += (points[:, 1, None] - self.centres[None, :, 1]) ** 2
-            squared += (points[:, 2, None] - self.centres[None, :, 2]) ** 2
-            gap = np.sqrt(squared) - self.radii[None]
-            rows, cols = np.nonzero(gap < limit[:, None] if strict else gap <= limit[:, None])
-            return rows, cols
+            return self._dense_pairs(points, limit, strict)
         if self._centre_tree is None:
             self._centre_tree = cKDTree(self.centres)
         reach = (limit + self.radii.max()) * (1 + 1e-9) + 1e-12
+        counts = self._centre_tree.query_ball_point(points, reach, return_length=True)
+        if counts.sum() * self.TREE_SHARE > len(points) * m:
+            # Most pairs are near (large limits, one big face): the lists would cost more.
+            return self._dense_pairs(points, limit, strict)
         found = self._centre_tree.query_ball_point(points, reach, return_sorted=True)
-        counts = np.fromiter(map(len, found), np.int64, len(found))
         rows = np.repeat(np.arange(len(points)), counts)
         cols = np.fromiter(itertools.chain.from_iterable(found), np.int64, int(counts.sum()))
         squared = (points[rows, 0] - self.centres[cols, 0]) ** 2
