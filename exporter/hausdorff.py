@@ -842,6 +842,8 @@ def directed_bounds(
         # A first lower bound from the corners, so that refining aims at a known value.
         corners = np.unique(tri.reshape(-1, 3), axis=0)
         lower = float(index.max_distance(corners))
+        if lower > give_up:
+            return lower, float("inf")  # a corner is already too far: no triangle bounded
 
     def goal() -> float:
         if tolerance is not None:

@@ -275,6 +275,7 @@ class SurfaceIndex:
             # Most pairs are near (large limits, one big face): the lists would cost more.
             return self._dense_pairs(points, limit, strict)
         found = self._centre_tree.query_ball_point(points, reach, return_sorted=True)
+        counts = np.fromiter(map(len, found), np.int64, len(found))  # the lists' own lengths
         rows = np.repeat(np.arange(len(points)), counts)
         cols = np.fromiter(itertools.chain.from_iterable(found), np.int64, int(counts.sum()))
         squared = (points[rows, 0] - self.centres[cols, 0]) ** 2

@@ -168,3 +168,23 @@ def test_no_exported_level_exceeds_its_budget_on_a_generated_tile(tmp_path):
             assert dense_hausdorff(lod0, level, 4) <= budget
             checked += 1
     assert checked == 16
+
+
+def test_a_corner_beyond_give_up_returns_before_any_triangle_is_bounded(monkeypatch):
+    """The guard's rejection: the notch's apex lies 1 m under the level, so with ``give_up``
+    0.5 m the directed bound returns (1 m, inf) from the corners alone (a refused candidate
+    used to pay a full round of triangle bounds first)."""
+    import exporter.hausdorff as hausdorff_module
+
+    source, level = notch()
+
+    def no_triangles(*args):
+        raise AssertionError("a triangle was bounded")
+
+    monkeypatch.setattr(hausdorff_module, "_bound", no_triangles)
+    lower, upper = directed_bounds(Surface(*source).tri, Surface(*level), give_up=0.5)
+    assert lower == pytest.approx(1.0) and upper == float("inf")
+    monkeypatch.undo()
+    # Under the corners' distance the bound runs as before.
+    lower, upper = directed_bounds(Surface(*source).tri, Surface(*level), give_up=1.5)
+    assert lower == pytest.approx(1.0) and 1.0 <= upper <= 1.03
