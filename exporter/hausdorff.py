@@ -830,7 +830,7 @@ def directed_bounds(
     ``upper <= max(lower, floor) * (1 + rtol) + atol`` or ``max_depth``. ``floor`` (metres): a
     value the caller already has (the other direction), below which nothing is refined.
     ``give_up`` (metres): refining stops as soon as the lower bound is above it (the upper bound
-    returned is then inf)."""
+    returned is then inf), and goes on while the upper bound is above it (within ``max_depth``)."""
     if len(tri) == 0:
         return 0.0, 0.0
     if target.empty:
@@ -848,7 +848,8 @@ def directed_bounds(
     def goal() -> float:
         if tolerance is not None:
             return tolerance
-        return max(lower, floor) * (1 + rtol) + atol
+        # Never stop above give_up while the bound may still come under it.
+        return min(max(lower, floor) * (1 + rtol) + atol, give_up)
 
     # Best-first refinement: the pending triangles with the largest bounds are split first.
     depth = np.zeros(len(tri), np.int64)

@@ -13,8 +13,10 @@ measures only the boundary keys):
 - ``triangle_ratio``: level triangles / source triangles.
 - ``hausdorff_rel``: symmetric Hausdorff distance / diagonal, a certified upper bound
   (:mod:`exporter.hausdorff`: never below the true value, within ``HAUSDORFF_RTOL`` of a certified
-  lower bound or below ``HAUSDORFF_ATOL``), also for the levels :func:`exact_quality` and
-  :func:`boundary_quality` report (a re-triangulated polygon is flat only to rounding).
+  lower bound or below ``HAUSDORFF_ATOL``; the error guard's own bound, which the pipeline passes
+  in for the levels it certified, is refined no finer than ``guard.BUDGET_SHARE`` of the level's
+  budget), also for the levels :func:`exact_quality` and :func:`boundary_quality` report (a
+  re-triangulated polygon is flat only to rounding).
 - ``silhouette_iou``: minimum over the orthographic views from the top and the four sides of the
   IoU of the two silhouettes rasterised at ``RESOLUTION`` pixels on the source's box (an
   orthographic silhouette seen from the back is the mirror of the front, so three rasters

@@ -188,3 +188,51 @@ def test_a_corner_beyond_give_up_returns_before_any_triangle_is_bounded(monkeypa
     # Under the corners' distance the bound runs as before.
     lower, upper = directed_bounds(Surface(*source).tri, Surface(*level), give_up=1.5)
     assert lower == pytest.approx(1.0) and 1.0 <= upper <= 1.03
+
+
+def cone(facets: int, height: float):
+    """A faceted cone: apex ``height`` m over a ring of ``facets`` corners 5 m out (y up)."""
+    angle = np.linspace(0, 2 * np.pi, facets, endpoint=False)
+    ring = np.column_stack([5 * np.cos(angle), np.zeros(facets), 5 * np.sin(angle)])
+    faces = np.array([[0, 1 + (i + 1) % facets, 1 + i] for i in range(facets)])
+    return np.vstack([[0.0, height, 0.0], ring]), faces
+
+
+def test_the_guard_refines_no_finer_than_a_share_of_the_budget(monkeypatch):
+    """``certify`` of a 6-facet cone (apex 0.1 m lower) against a 24-facet one, budget 3 m: the
+    bound (certified: never below the lower one) stops within 5 % of the budget, in fewer
+    rounds than the manifest's 2 % alone would take."""
+    import exporter.hausdorff as hausdorff_module
+    from exporter.simplify import guard
+
+    source = cone(24, 1.0)
+    positions, _ = cone(6, 0.9)
+    level = (positions, cone(6, 0.9)[1])
+    calls = []
+    real = hausdorff_module._bound
+
+    def counted(*args):
+        calls.append(len(args[0]))
+        return real(*args)
+
+    monkeypatch.setattr(hausdorff_module, "_bound", counted)
+    lower, upper = guard.certify(guard.Reference(*source), *level, 3.0)
+    coarse = len(calls)
+    assert lower <= upper <= lower * 1.02 + 0.05 * 3.0
+    calls.clear()
+    monkeypatch.setattr(guard, "BUDGET_SHARE", 0.0)
+    tight = guard.certify(guard.Reference(*source), *level, 3.0)
+    assert tight[0] == lower and tight[1] <= lower * 1.02 + 1e-3
+    assert coarse < len(calls)
+
+
+def test_refinement_goes_on_under_give_up_where_the_relative_gap_would_stop_above_it():
+    """A 6-facet cone against a 24-facet one: refined to a 30 % gap the bound stops at ~0.159 m
+    (true ~0.131 m); with ``give_up`` 0.14 m (the guard's budget) the refinement goes on until
+    the bound is under it instead of refusing a level that is within."""
+    source = Surface(*cone(24, 1.0))
+    level = Surface(*cone(6, 0.9))
+    lower, upper = directed_bounds(level.tri, source, rtol=0.3)
+    assert upper > 0.14 > lower
+    lower, upper = directed_bounds(level.tri, source, rtol=0.3, give_up=0.14)
+    assert lower <= upper <= 0.14

@@ -11,7 +11,10 @@ keeps more triangles. The distance is
 certified (:mod:`exporter.hausdorff`): :func:`exceeds` never accepts a level whose true distance
 is above the tolerance (it may refuse one whose bound it cannot bring below the tolerance), and
 :func:`deviation` is an upper bound of the true distance, within ``hausdorff.RTOL`` of it (plus
-``hausdorff.ATOL`` x the diagonal) unless the refinement depth ran out first.
+``hausdorff.ATOL`` x the diagonal) unless the refinement depth ran out first. :func:`certify`
+(what the search runs, and whose bounds the manifest reports) refines no finer than
+``BUDGET_SHARE`` of the level's budget, and never stops above the budget while the bound may
+still come under it.
 
 The reference side (LOD0: its surface index, planar regions and straight edge chains) is
 prepared once per building (:class:`Reference`) and shared by every level and every search step.
@@ -22,6 +25,8 @@ from __future__ import annotations
 import numpy as np
 
 from .. import hausdorff, quality
+
+BUDGET_SHARE = 0.05  # certified bounds are refined to within this share of the budget at least
 
 
 class Reference:
@@ -88,8 +93,11 @@ def certify(
     if len(faces) == 0:
         return None
     reference = _reference(reference)
-    # The manifest's tightness (exporter.quality), so these bounds are what it would report.
+    # The manifest's tightness (exporter.quality), so these bounds are what it would report, but
+    # no finer than BUDGET_SHARE of the level's budget: the last digits of an error far under
+    # the budget cost refinement rounds and tell the user nothing.
     atol = quality.HAUSDORFF_ATOL * diagonal(np.concatenate([reference.positions, positions]))
+    atol = max(atol, BUDGET_SHARE * tolerance)
     return hausdorff.bounds_within(
         reference.surface, (positions, faces), tolerance, rtol=quality.HAUSDORFF_RTOL, atol=atol
     )
