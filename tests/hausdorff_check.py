@@ -37,3 +37,19 @@ def directed_dense(a, b, steps: int) -> float:
 def dense_hausdorff(a, b, steps: int = 8) -> float:
     """Symmetric sampled Hausdorff distance (metres) between meshes ``a`` and ``b``."""
     return max(directed_dense(a, b, steps), directed_dense(b, a, steps))
+
+
+def count_rounds(monkeypatch) -> list[int]:
+    """Record every call of the certified bound's per-round step (``exporter.hausdorff._bound``)
+    from now on: the returned list gets each call's number of triangles (one entry a round)."""
+    from exporter import hausdorff
+
+    calls: list[int] = []
+    real = hausdorff._bound
+
+    def counted(*args):
+        calls.append(len(args[0]))
+        return real(*args)
+
+    monkeypatch.setattr(hausdorff, "_bound", counted)
+    return calls

@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from exporter.hausdorff import Surface, directed_bounds, exceeds, hausdorff_bounds
-from tests.hausdorff_check import dense_hausdorff, directed_dense
+from tests.hausdorff_check import count_rounds, dense_hausdorff, directed_dense
 
 
 def notch():
@@ -202,20 +202,11 @@ def test_the_guard_refines_no_finer_than_a_share_of_the_budget(monkeypatch):
     """``certify`` of a 6-facet cone (apex 0.1 m lower) against a 24-facet one, budget 3 m: the
     bound (certified: never below the lower one) stops within 5 % of the budget, in fewer
     rounds than the manifest's 2 % alone would take."""
-    import exporter.hausdorff as hausdorff_module
     from exporter.simplify import guard
 
     source = cone(24, 1.0)
-    positions, _ = cone(6, 0.9)
-    level = (positions, cone(6, 0.9)[1])
-    calls = []
-    real = hausdorff_module._bound
-
-    def counted(*args):
-        calls.append(len(args[0]))
-        return real(*args)
-
-    monkeypatch.setattr(hausdorff_module, "_bound", counted)
+    level = cone(6, 0.9)
+    calls = count_rounds(monkeypatch)
     lower, upper = guard.certify(guard.Reference(*source), *level, 3.0)
     coarse = len(calls)
     assert lower <= upper <= lower * 1.02 + 0.05 * 3.0

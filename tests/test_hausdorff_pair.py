@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from exporter import hausdorff
 from exporter.hausdorff import Surface, _nearest_face, _pair_bound, directed_bounds
-from tests.hausdorff_check import grid_points
+from tests.hausdorff_check import count_rounds, grid_points
 
 
 def ridge(angle: float, convex: bool = True):
@@ -60,14 +60,7 @@ def test_a_triangle_across_a_ridge_is_bounded_tightly_in_one_step(convex):
 def test_the_pair_step_saves_refinement_rounds(convex, monkeypatch):
     target = Surface(*ridge(0.1, convex))
     tri = chord(0.05)
-    calls = []
-    real = hausdorff._bound
-
-    def counted(*args):
-        calls.append(len(args[0]))
-        return real(*args)
-
-    monkeypatch.setattr(hausdorff, "_bound", counted)
+    calls = count_rounds(monkeypatch)
     with_pairs = directed_bounds(tri, target)
     rounds_with = len(calls)
     calls.clear()
