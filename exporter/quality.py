@@ -242,16 +242,29 @@ class SurfaceIndex:
     DENSE_PAIRS = 20_000  # point x triangle tests below which all pairs are tested at once
     TREE_SHARE = 8  # the tree's lists are used when they hold under 1/8 of all pairs
 
+    @staticmethod
+    def _near(point: list, centre: list, radius, limit, strict: bool) -> np.ndarray:
+        """Bool (broadcast): the sphere of ``centre`` and ``radius`` comes within ``limit`` of
+        ``point`` (``< limit`` when ``strict``); points and centres as their three coordinate
+        arrays, so no (p, m, 3) temporary: dx^2 + dy^2 + dz^2 is the same sum, in the same order,
+        as ((p - c) ** 2).sum(-1)."""
+        squared = (point[0] - centre[0]) ** 2
+        squared += (point[1] - centre[1]) ** 2
+        squared += (point[2] - centre[2]) ** 2
+        gap = np.sqrt(squared) - radius
+        return gap < limit if strict else gap <= limit
+
     def _dense_pairs(
         self, points: np.ndarray, limit: np.ndarray, strict: bool
     ) -> tuple[np.ndarray, np.ndarray]:
-        # Per coordinate, so no (p, m, 3) temporary: dx^2 + dy^2 + dz^2 is the same sum, in the
-        # same order, as ((p - c) ** 2).sum(-1).
-        squared = (points[:, 0, None] - self.centres[None, :, 0]) ** 2
-        squared += (points[:, 1, None] - self.centres[None, :, 1]) ** 2
-        squared += (points[:, 2, None] - self.centres[None, :, 2]) ** 2
-        gap = np.sqrt(squared) - self.radii[None]
-        rows, cols = np.nonzero(gap < limit[:, None] if strict else gap <= limit[:, None])
+        near = self._near(
+            [points[:, i, None] for i in range(3)],
+            [self.centres[None, :, i] for i in range(3)],
+            self.radii[None],
+            limit[:, None],
+            strict,
+        )
+        rows, cols = np.nonzero(near)
         return rows, cols
 
     def sphere_pairs(
@@ -280,11 +293,13 @@ class SurfaceIndex:
         counts = np.fromiter(map(len, found), np.int64, len(found))  # the lists' own lengths
         rows = np.repeat(np.arange(len(points)), counts)
         cols = np.fromiter(itertools.chain.from_iterable(found), np.int64, int(counts.sum()))
-        squared = (points[rows, 0] - self.centres[cols, 0]) ** 2
-        squared += (points[rows, 1] - self.centres[cols, 1]) ** 2
-        squared += (points[rows, 2] - self.centres[cols, 2]) ** 2
-        gap = np.sqrt(squared) - self.radii[cols]
-        keep = gap < limit[rows] if strict else gap <= limit[rows]
+        keep = self._near(
+            [points[rows, i] for i in range(3)],
+            [self.centres[cols, i] for i in range(3)],
+            self.radii[cols],
+            limit[rows],
+            strict,
+        )
         return rows[keep], cols[keep]
 
     def _nearest(self, points: np.ndarray, candidates: int) -> tuple[np.ndarray, np.ndarray]:
