@@ -36,6 +36,11 @@ def triangle_cross(positions: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     return cross_rows(b - a, c - a)
 
 
+def longest_edges(tri: np.ndarray) -> np.ndarray:
+    """(m,) metres: the longest edge of each triangle of a soup (m, 3, 3)."""
+    return np.sqrt(((tri[:, [1, 2, 0]] - tri) ** 2).sum(-1)).max(axis=1)
+
+
 def unique_float_rows(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``np.unique(keys, axis=0, return_index=True, return_inverse=True)[1:]`` for (c, w) float64
     rows (the same lexicographic order, first occurrences, inverse): one stable lexsort (rows equal

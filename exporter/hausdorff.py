@@ -50,7 +50,7 @@ import numpy as np
 
 from . import coverage
 from . import quality as _quality
-from .geometry import cross_rows, unique_float_rows
+from .geometry import cross_rows, longest_edges, unique_float_rows
 
 MAX_DEPTH = 7  # 4-splits per triangle at most (edges down to 1/128 of the triangle's)
 MAX_OPEN = 4096  # sub-triangles bounded per round at most (the worst split first)
@@ -113,8 +113,7 @@ class Surface:
             t = self.tri
             cross = cross_rows(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
             area2 = np.sqrt((cross**2).sum(1))
-            longest = np.sqrt(((t - t[:, [1, 2, 0]]) ** 2).sum(-1)).max(axis=1)
-            self._trusted = area2 >= TRUSTED * longest**2
+            self._trusted = area2 >= TRUSTED * longest_edges(t) ** 2
         return self._trusted
 
     @property

@@ -34,7 +34,7 @@ from scipy.spatial import cKDTree
 
 from ..config import LodSpec, SimplifyOptions
 from ..errors import ProcessError
-from ..geometry import triangle_cross, unique_float_rows
+from ..geometry import longest_edges, triangle_cross, unique_float_rows
 from ..model import Part
 from . import meshopt
 from .guard import Reference, certify, exceeds, silhouette_iou
@@ -92,9 +92,8 @@ def degenerate_only(parts: list[Part]) -> bool:
         t = part.positions[part.triangles]
         if not len(t):
             continue
-        longest = np.sqrt(((t[:, [1, 2, 0]] - t) ** 2).sum(-1)).max(axis=1)
         area2 = np.sqrt((triangle_cross(part.positions, part.triangles) ** 2).sum(1))
-        if np.any(area2 >= NOISE_M * longest):
+        if np.any(area2 >= NOISE_M * longest_edges(t)):
             return False
     return True
 
