@@ -286,12 +286,16 @@ def _simplify_level(
         reference = Reference(*reference)
     # Lossless first: flat polygons re-triangulated from their outlines.
     if options.planar_retriangulation and not planar_done:
+        of_lod0 = positions is reference.positions and faces is reference.faces
         # Lossless, so only non-manifold vertices are held: straight vertices on the open border or
         # between two parts are dropped from both sides at once (no T-junction, no crack).
         faces, corner_uvs, source, boundary_kept = retriangulate_planar_checked(
             positions, faces, corner_uvs, face_chart, nonmanifold_vertices(faces, len(positions))
         )
         face_part, face_chart = face_part[source], face_chart[source]
+        if of_lod0:
+            # LOD0 itself, re-triangulated losslessly: the guard's bounds close faster on it.
+            reference.offer_twin(faces)
     # Without an error budget (or on pymeshlab, whose search runs on the count) a level ends at its
     # cap; with one, meshoptimizer goes on as far as the budget allows.
     if len(faces) <= target and capped:
