@@ -193,6 +193,25 @@ def test_max_screen_error_px_bounds_the_deviation(dome):
     assert count(uncapped) < count([clean_part(dome[0])])
 
 
+def test_nothing_locked_and_a_huge_budget_collapses_without_failing(grid_box):
+    """Border, seams and the largest faces all free, a budget of 1000 px and seams free (UVs
+    taken from the nearest chart): meshoptimizer may collapse a candidate to no face at all. That
+    candidate is refused like any other (empty level), not a crash (it used to raise in the UV
+    transfer), and the levels still shrink within their budgets."""
+    options = dataclasses.replace(
+        BASE,
+        planar_retriangulation=True,
+        max_screen_error_px=1000.0,
+        min_silhouette_iou=0.0,
+        preserve_border_edges=False,
+        preserve_uv_seam_edges=False,
+    )
+    lods = [LodSpec(0.5), LodSpec(0.17, mesh=1.0), LodSpec(0.02, mesh=1.0)]
+    levels = build_mesh_lods(grid_box, lods, options)
+    counts = [count(level) for level in levels]
+    assert counts[0] > counts[1] >= counts[2] > 0
+
+
 def test_protect_walls_keeps_the_footprint_walls(grid_box):
     walls = lod(grid_box, 0.2, protect_walls=True, preserve_border_edges=False)
     free = lod(grid_box, 0.2, preserve_border_edges=False)

@@ -225,6 +225,8 @@ def _source_faces(wedge_faces: np.ndarray, out: np.ndarray, wedge_count: int) ->
 def _best_sources(faces: np.ndarray, out_faces: np.ndarray) -> np.ndarray:
     """(m',) int64: for every output face (welded vertex indices), the input face sharing most of
     its corners (ties: lowest index) -- the face whose chart gives its UVs when seams may go."""
+    if len(out_faces) == 0:  # everything collapsed away (nothing locked, no error limit)
+        return np.zeros(0, np.int64)
     k = int(max(faces.max(), out_faces.max())) + 1
     order = np.argsort(faces.reshape(-1), kind="stable")
     face_of = np.repeat(np.arange(len(faces)), 3)[order]
