@@ -24,9 +24,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from exporter.config import Config  # noqa: E402
-from exporter.samplegen import generate_buildings  # noqa: E402
-from exporter.simplify import build_mesh_chain  # noqa: E402
+from exporter.config import Config
+from exporter.samplegen import generate_buildings
+from exporter.simplify import build_mesh_chain
 
 
 def configurations(base) -> dict:

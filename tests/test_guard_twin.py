@@ -10,8 +10,7 @@ import pytest
 from exporter.config import Config
 from exporter.quality import joined
 from exporter.samplegen import generate_buildings
-from exporter.simplify import _join, build_mesh_chain
-from exporter.simplify import guard
+from exporter.simplify import _join, build_mesh_chain, guard
 from exporter.simplify.planar import retriangulate_planar_checked
 from exporter.simplify.protect import nonmanifold_vertices
 from tests.hausdorff_check import dense_hausdorff
