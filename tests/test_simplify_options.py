@@ -11,12 +11,14 @@ import dataclasses
 
 import numpy as np
 import pytest
+from hypothesis import example, given, settings
+from hypothesis import strategies as st
 from test_simplify_shapes import Atlas, Builder, add_dome, box_building
 
 from exporter.config import LodSpec, SimplifyOptions
 from exporter.model import Part
 from exporter.quality import boundary_loops, joined, measure_lod
-from exporter.simplify import build_mesh_lods, clean_part
+from exporter.simplify import build_mesh_chain, build_mesh_lods, clean_part
 from exporter.simplify.protect import face_areas, largest_faces
 
 BASE = SimplifyOptions(planar_retriangulation=False, max_screen_error_px=0.0, protect_largest=0.0)
@@ -263,3 +265,64 @@ def test_min_silhouette_iou_keeps_a_thin_tower_s_outline(engine):
     if engine == "meshoptimizer":  # the floor acted: without it the outline went
         assert iou_free < 0.97
         assert count(kept[2]) > count(free[2])
+
+
+@pytest.fixture(scope="module")
+def mixed_buildings():
+    """A generated tower, dome and L-shaped building (small atlases), the crafted grid box."""
+    from exporter.samplegen import generate_buildings
+
+    kinds = ["tower", "dome", "l_shape"]
+    generated = generate_buildings(3, seed=12, atlas_size=16, mean_triangles=200, kinds=kinds)
+    return [b.parts for b in generated] + [box_building(6, 4.5, 8.0, (4, 3), 4)]
+
+
+@settings(max_examples=12, deadline=None)
+@given(
+    engine=st.sampled_from(["meshoptimizer", "pymeshlab"]),
+    flags=st.lists(st.booleans(), min_size=6, max_size=6),
+    protect=st.sampled_from([0.0, 0.3, 0.9]),
+    pixels=st.sampled_from([0.0, 0.5, 2.0, 1000.0]),
+    link=st.sampled_from([0.0, 0.05]),
+    caps=st.sampled_from([(0.65, 0.45), (0.1, 0.01), (1.0, 1.0)]),
+)
+# Found by a wider sweep: nothing locked and no real budget collapsed a candidate to no face.
+@example(
+    engine="meshoptimizer",
+    flags=[False, False, True, False, True, False],
+    protect=0.0,
+    pixels=1000.0,
+    link=0.0,
+    caps=(1.0, 1.0),
+)
+def test_any_option_set_gives_a_chain_within_its_budgets(
+    mixed_buildings, engine, flags, protect, pixels, link, caps
+):
+    """Whatever the user sets in ``simplify:`` (every Table II switch, the filter, the budget,
+    the engine, the link distance, the caps), every building gets a chain: no level larger than
+    the one above, every certified bound within its level's budget, UVs kept per corner."""
+    border, seams, foldovers, curvature, planar, walls = flags
+    options = SimplifyOptions(
+        engine=engine,
+        preserve_border_edges=border,
+        preserve_uv_seam_edges=seams,
+        preserve_uv_foldover_edges=foldovers,
+        preserve_surface_curvature=curvature,
+        planar_retriangulation=planar,
+        protect_walls=walls,
+        protect_largest=protect,
+        max_screen_error_px=pixels,
+        vertex_link_distance=link,
+        min_silhouette_iou=0.97 if pixels < 100 else 0.0,
+    )
+    lods = [LodSpec(0.5), LodSpec(0.17, mesh=caps[0]), LodSpec(0.02, mesh=caps[1])]
+    for parts in mixed_buildings:
+        chain = build_mesh_chain(parts, lods, options)
+        counts = [count(level.parts) for level in chain]
+        assert all(b <= a for a, b in zip(counts, counts[1:])), counts
+        for level in chain[1:]:
+            if level.deviation is not None:
+                assert level.deviation <= level.tolerance * (1 + 1e-9) + 1e-12
+            for part in level.parts:
+                if part.uvs is not None:
+                    assert len(part.uvs) == len(part.positions)
