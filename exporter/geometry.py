@@ -41,6 +41,17 @@ def longest_edges(tri: np.ndarray) -> np.ndarray:
     return np.sqrt(((tri[:, [1, 2, 0]] - tri) ** 2).sum(-1)).max(axis=1)
 
 
+def compact_vertices(faces: np.ndarray, vertex_count: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(used (k',) int64, faces (m, 3) int64)``: the vertices ``faces`` (m, 3) use, ascending
+    (``np.unique(faces)`` without its sort), and the faces renumbered onto them."""
+    seen = np.zeros(vertex_count, dtype=bool)
+    seen[faces.reshape(-1)] = True
+    used = np.flatnonzero(seen)
+    remap = np.full(vertex_count, -1, dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    return used, remap[faces]
+
+
 def unique_float_rows(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``np.unique(keys, axis=0, return_index=True, return_inverse=True)[1:]`` for (c, w) float64
     rows (the same lexicographic order, first occurrences, inverse): one stable lexsort (rows equal

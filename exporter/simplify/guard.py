@@ -33,6 +33,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import coverage, hausdorff, quality
+from ..geometry import compact_vertices
 
 BUDGET_SHARE = 0.05  # certified bounds are refined to within this share of the budget at least
 TWIN_SLACK = 1e-6  # the twin stands in for LOD0 only within this x LOD0's diagonal (metres)
@@ -51,10 +52,8 @@ def lossless_twin(
     not certified within ``slack`` metres."""
     if len(faces) == 0 or len(twin_faces) == 0 or len(twin_faces) > TWIN_SHARE * len(faces):
         return None
-    used = np.unique(twin_faces)
-    remap = np.zeros(len(positions), np.int64)
-    remap[used] = np.arange(len(used))
-    twin_positions, twin = positions[used], remap[twin_faces]
+    used, twin = compact_vertices(twin_faces, len(positions))
+    twin_positions = positions[used]
     settled = coverage.region_certificate(
         (twin_positions, twin), (positions, faces), max_bound=slack
     )
@@ -106,11 +105,6 @@ class Reference:
                 else (self.surface, 0.0)
             )
         return self._twin
-
-    @property
-    def index(self):
-        """The reference's exact point-distance index (:class:`~exporter.quality.SurfaceIndex`)."""
-        return self.surface.index
 
     @property
     def silhouettes(self) -> np.ndarray:

@@ -52,7 +52,7 @@ import meshoptimizer._loader as _binding
 import numpy as np
 from numpy.ctypeslib import ndpointer
 
-from ..geometry import unique_float_rows, vertex_normals
+from ..geometry import compact_vertices, unique_float_rows, vertex_normals
 from .protect import face_areas
 from .quadric import Collapsed, assign_uvs, uv_signs
 
@@ -332,11 +332,6 @@ def collapse(
                 vertex_locked[offenders] = True
                 continue
         face_ids = _source_faces(wedge_faces, out, len(vertex_of))
-        # np.unique(out_faces) without its sort: the vertices used, ascending.
-        seen = np.zeros(len(positions), dtype=bool)
-        seen[out_faces.reshape(-1)] = True
-        used = np.flatnonzero(seen)
-        remap = np.full(len(positions), -1, dtype=np.int64)
-        remap[used] = np.arange(len(used))
-        return Collapsed(positions[used], remap[out_faces], uvs, used, face_ids)
+        used, kept = compact_vertices(out_faces, len(positions))
+        return Collapsed(positions[used], kept, uvs, used, face_ids)
     return unchanged

@@ -38,6 +38,8 @@ from dataclasses import dataclass
 import numpy as np
 import pymeshlab
 
+from ..geometry import compact_vertices
+
 # Offsets (metres) of an anchor's two extra corners; odd values so they never hit a real vertex.
 PRESERVE_TOPOLOGY = True
 _ANCHOR_OFFSETS = np.array([[7.31e-4, 0.0, 0.0], [0.0, 0.0, 6.17e-4]])
@@ -288,8 +290,6 @@ def collapse(
             if len(offenders):
                 locked[offenders] = True
                 continue
-        used = np.unique(out_faces)
-        remap = np.full(len(positions), -1, dtype=np.int64)
-        remap[used] = np.arange(len(used))
-        return Collapsed(moved[used], remap[out_faces], uvs, used, face_ids)
+        used, kept = compact_vertices(out_faces, len(positions))
+        return Collapsed(moved[used], kept, uvs, used, face_ids)
     return unchanged
