@@ -14,6 +14,7 @@ from exporter.simplify import _join, build_mesh_chain, guard
 from exporter.simplify.planar import retriangulate_planar_checked
 from exporter.simplify.protect import nonmanifold_vertices
 from tests.hausdorff_check import dense_hausdorff
+from tests.test_hausdorff import wall
 
 
 def planar_faces(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -66,13 +67,9 @@ def test_a_wall_bent_within_the_planar_tolerance_is_no_twin():
     """A wall of 10 x 10 squares whose middle vertex is pushed 0.5 mm out: the planar stage
     still takes it as one polygon (1 mm plane tolerance), but the twin is 0.5 mm off LOD0,
     more than the slack, so the guard keeps LOD0."""
-    xs, ys = np.meshgrid(np.linspace(0, 10, 11), np.linspace(0, 10, 11))
-    positions = np.column_stack([xs.ravel(), ys.ravel(), np.zeros(xs.size)])
-    positions[60, 2] = 5e-4
-    index = np.arange(xs.size).reshape(11, 11)
-    a, b = index[:-1, :-1].ravel(), index[:-1, 1:].ravel()
-    c, d = index[1:, 1:].ravel(), index[1:, :-1].ravel()
-    faces = np.concatenate([np.column_stack([a, b, c]), np.column_stack([a, c, d])])
+    (positions, faces), _ = wall(10, 10.0, 10.0)
+    positions = positions.copy()
+    positions[60, 2] = 5e-4  # the middle vertex
     twin = planar_faces(positions, faces)
     assert len(twin) < len(faces)  # the planar stage did take it
     slack = guard.TWIN_SLACK * guard.diagonal(positions)
