@@ -21,6 +21,12 @@ def cross_rows(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return out
 
 
+def row_norms(rows: np.ndarray) -> np.ndarray:
+    """(n,) Euclidean norms of real (n, d) rows: ``np.linalg.norm(rows, axis=1)``'s own arithmetic
+    (the square root of ``add.reduce`` of the squares) without its per-call dispatch."""
+    return np.sqrt(np.add.reduce(rows * rows, axis=1))
+
+
 def cross3(a, b) -> np.ndarray:
     """a x b of two 3-vectors (sequences or (3,) arrays), (3,) float64; ``np.cross`` costs ~20x
     more on single vectors."""

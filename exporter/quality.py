@@ -26,7 +26,9 @@ measures only the boundary keys):
   ``COVER_TOLERANCE`` x diagonal of the level's surface.
 - ``boundary_length_change``: (level open-boundary length - source's) / source's; the open
   boundary of a floorless building is its footprint outline (when the source has none, the
-  level's boundary length / diagonal).
+  level's boundary length / diagonal). Both sides are measured as surfaces: a slit (a T-junction
+  crack of zero width, :mod:`exporter.slits`) is not part of the open boundary, so closing one
+  changes nothing here.
 - ``new_holes``: how many more boundary loops the level has than the source (never negative).
 
 Speed (issue 8; ratios against af57811's measure_lod in one run, 2 shared cores): the values
@@ -87,6 +89,7 @@ from scipy.spatial import cKDTree
 from . import hausdorff
 from .geometry import cross_rows, unique_float_rows
 from .model import Part
+from .slits import close_slits
 
 RESOLUTION = 128  # silhouette raster side, pixels
 SAMPLES = 256  # area-weighted surface samples per side for the Hausdorff distance
@@ -451,7 +454,10 @@ def count_components(edges: list) -> int:
 
 
 def open_boundary(positions: np.ndarray, faces: np.ndarray) -> tuple[float, int]:
-    """Length of the open boundary (metres) of a welded mesh and its number of loops."""
+    """Length of the open boundary (metres) of a welded mesh's surface and its number of loops:
+    the border edges once its slits are closed (:func:`exporter.slits.close_slits`), since a
+    zero-width crack along which the surface goes on is no outline."""
+    faces = close_slits(positions, faces, None)[0]
     border, loops = boundary_loops(faces, len(positions))
     # The same sum as np.linalg.norm(np.diff(positions[border], axis=1), axis=-1).sum().
     length = (

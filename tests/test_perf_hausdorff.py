@@ -521,7 +521,7 @@ def test_the_guard_gives_the_former_bounds_on_a_generated_tile(tmp_path, monkeyp
     from exporter.readers import load_entry, scan_folder
     from exporter.simplify.guard import Reference, certify
 
-    samplegen.generate_tile(tmp_path, count=12, seed=3, atlas_size=16)
+    samplegen.generate_tile(tmp_path, count=24, seed=3, atlas_size=16)
     config = Config()
     calls = []
 

@@ -1,7 +1,8 @@
 """The batched planar stage (:func:`retriangulate_planar_checked`) gives bit for bit what the
 straightforward formulation it replaced gives: the reference below is the stage as it was before
-issue 14's speed-up (planar regions, straight vertices, the two border passes), with every region
-re-triangulated one at a time by the one-region :func:`_retriangulate` and no caching.
+issue 14's speed-up (planar regions, straight vertices, the border passes), with every region
+re-triangulated one at a time by the one-region :func:`_retriangulate` and no caching, after
+the source's slits are closed (:func:`exporter.slits.close_slits`).
 
 Meshes are welded as the simplifier welds them; positions are building-local East/Up/North metres.
 """
@@ -18,6 +19,7 @@ from exporter.samplegen import generate_buildings
 from exporter.simplify.planar import (
     _region_sums,
     _retriangulate,
+    _retriangulate_keeping_boundary,
     retriangulate_planar_checked,
     straight_vertices,
 )
@@ -28,6 +30,7 @@ from exporter.simplify.protect import (
     row_norms,
     unique_rows,
 )
+from exporter.slits import close_slits, slit_vertices
 
 
 def reference_straight_vertices(positions, faces, regions, locked, tolerance=1e-6, on_border=True):
@@ -121,11 +124,26 @@ def reference_checked(positions, faces, corner_uvs, face_chart, locked):
     tolerance = 1e-9 * max(before, 1.0)
     result = reference_pass(positions, faces, corner_uvs, regions, (interior | straight) & used)
     second = abs(reference_boundary(positions, result[0]) - before) > tolerance
-    if second:
-        droppable = (interior | straight & ~border) & used
+    # Then keeping the straight border vertices inside a slit, then all of them.
+    for keep in (slit_vertices(positions, faces), border):
+        if abs(reference_boundary(positions, result[0]) - before) <= tolerance:
+            break
+        droppable = (interior | straight & ~keep) & used
         result = reference_pass(positions, faces, corner_uvs, regions, droppable)
     kept = abs(reference_boundary(positions, result[0]) - before) <= tolerance
     return (*result, kept), second
+
+
+def reference_closed_then_checked(positions, faces, corner_uvs, face_chart, locked):
+    """Slits closed first (kept only when the planar stage then gets below the input's face
+    count), then :func:`reference_checked`."""
+    closed, closed_uvs, source = close_slits(positions, faces, corner_uvs)
+    (out, out_uvs, kept_source, kept), second = reference_checked(
+        positions, closed, closed_uvs, face_chart[source], locked
+    )
+    if len(out) >= len(faces) and len(closed) > len(faces):
+        return reference_checked(positions, faces, corner_uvs, face_chart, locked)
+    return (out, out_uvs, source[kept_source], kept), second
 
 
 def meshes():
@@ -149,12 +167,19 @@ def test_retriangulate_planar_checked_equals_the_reference(with_uvs):
         # vertices and outlines differ between the passes.
         for locked in (nonmanifold_vertices(faces, k), rng.random(k) < 0.1):
             fast = retriangulate_planar_checked(positions, faces, uvs, charts, locked.copy())
+            expected, _ = reference_closed_then_checked(
+                positions, faces, uvs, charts, locked.copy()
+            )
+            assert all(same(a, b) for a, b in zip(fast[:3], expected[:3]))
+            assert fast[3] == expected[3]
+            changed += len(fast[0]) < len(faces)
+            # The passes alone, on the slits as they are: the border-keeping passes run.
+            fast = _retriangulate_keeping_boundary(positions, faces, uvs, charts, locked.copy())
             expected, second = reference_checked(positions, faces, uvs, charts, locked.copy())
             assert all(same(a, b) for a, b in zip(fast[:3], expected[:3]))
             assert fast[3] == expected[3]
             second_passes += second
-            changed += len(fast[0]) < len(faces)
-    # The comparison covered re-triangulated meshes and the border-keeping second pass.
+    # The comparison covered re-triangulated meshes and the border-keeping passes.
     assert changed > 20 and second_passes > 3
 
 

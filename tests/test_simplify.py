@@ -143,12 +143,20 @@ def plain_qec(parts, ratio):
 
 
 def test_plain_quadric_collapse_loses_walls_where_this_method_keeps_them():
-    # Crafted building 3 (a domed box): at the same triangle budget pymeshlab's plain collapse
-    # eats into the walls and moves the footprint; this method keeps both.
-    parts = crafted_building(3)
-    ours = build_mesh_lods(parts, default_lods(), OPTIONS)[2]
-    theirs = plain_qec(parts, count(ours) / count(parts))
-    assert abs(count(theirs) - count(ours)) <= 2
+    # Crafted building 6 with an 8 px budget (a lossy LOD2): at the same triangle count
+    # pymeshlab's plain collapse moves the footprint; this method keeps it and the walls. (At
+    # the default 2 px its LOD2 and building 3's, used before issue 13's round 6, are lossless
+    # re-triangulations, and a plain collapse to that count is lossless too.)
+    parts = crafted_building(6)
+    options = dataclasses.replace(OPTIONS, max_screen_error_px=8.0)
+    ours = build_mesh_lods(parts, default_lods(), options)[2]
+    # pymeshlab may stop short of its face target: raised until it keeps as many as ours.
+    target = count(ours)
+    theirs = plain_qec(parts, target / len(joined(parts)[1]))
+    while count(theirs) < count(ours):
+        target += 2
+        theirs = plain_qec(parts, target / len(joined(parts)[1]))
+    assert count(theirs) - count(ours) <= 4
     ours_m, theirs_m = measure_lod(parts, ours), measure_lod(parts, theirs)
     assert ours_m["wall_coverage"] >= 0.98 and ours_m["silhouette_iou"] >= 0.97
     assert ours_m["boundary_length_change"] == pytest.approx(0.0, abs=1e-9)

@@ -36,7 +36,14 @@ import mapbox_earcut
 import numpy as np
 
 from ..geometry import cross3, cross_rows
-from .protect import border_vertices, edge_use, planar_regions, row_norms, sorted_edge_keys
+from ..slits import close_slits, slit_vertices
+from .protect import (
+    border_vertices,
+    edge_use,
+    planar_regions,
+    row_norms,
+    sorted_edge_keys,
+)
 
 
 def _loops(region_faces: np.ndarray) -> list[list[int]] | None:
@@ -545,10 +552,30 @@ def retriangulate_planar(
 def retriangulate_planar_checked(
     positions: np.ndarray, faces: np.ndarray, corner_uvs, face_chart: np.ndarray, locked: np.ndarray
 ):
-    """:func:`retriangulate_planar` plus whether the open boundary kept its length (within 1e-9
-    relative): False when even the border-keeping pass closed a slit or T-junction of the source
-    (same surface, but edges that were open are shared now), so the result is not LOD0's mesh
-    in every metric."""
+    """:func:`retriangulate_planar` plus whether the open boundary of the surface kept its length
+    (within 1e-9 relative): False when a slit or T-junction was closed that
+    :func:`.slits.close_slits` leaves open (same surface, but edges that were open are shared
+    now), so the result is not LOD0's mesh in every metric.
+
+    Slits are closed first (:func:`exporter.slits.close_slits`; a slit is no part of the open
+    boundary of the surface, see :func:`exporter.quality.open_boundary`): their vertices then lie
+    on outlines between two regions, where the planar stage can drop them from both."""
+    closed, closed_uvs, closed_source = close_slits(positions, faces, corner_uvs)
+    out_faces, out_uvs, source, kept = _retriangulate_keeping_boundary(
+        positions, closed, closed_uvs, face_chart[closed_source], locked
+    )
+    if len(out_faces) >= len(faces) and len(closed) > len(faces):
+        # Closing the slits split faces that no region could merge again: not worth it.
+        return _retriangulate_keeping_boundary(positions, faces, corner_uvs, face_chart, locked)
+    return out_faces, out_uvs, closed_source[source], kept
+
+
+def _retriangulate_keeping_boundary(
+    positions: np.ndarray, faces: np.ndarray, corner_uvs, face_chart: np.ndarray, locked: np.ndarray
+):
+    """:func:`retriangulate_planar_checked` without closing slits first: the planar stage keeps
+    the open border's straight vertices where dropping them would change its length (first
+    those inside a slit, then, if that is not enough, all)."""
     before = _boundary(positions, faces)
     m, k = len(faces), len(positions)
     if m == 0:
@@ -594,14 +621,16 @@ def retriangulate_planar_checked(
         slot,
     )
     length, _ = _boundary(positions, result[0])
-    if abs(length - before[0]) > 1e-9 * max(before[0], 1.0):
-        # Keep the open border's straight vertices (straight_vertices(on_border=False)).
+    # A slit closed: keep the straight border vertices inside a slit, then, if the boundary
+    # still changes, every straight border vertex (straight_vertices(on_border=False)).
+    fallbacks = [lambda: straight & ~slit_vertices(positions, faces), lambda: straight & ~border]
+    while abs(length - before[0]) > 1e-9 * max(before[0], 1.0) and fallbacks:
         result = _retriangulate_regions(
             positions,
             faces,
             corner_uvs,
             regions,
-            (interior | straight & ~border) & used,
+            (interior | fallbacks.pop(0)()) & used,
             done,
             by_region,
             region_start,

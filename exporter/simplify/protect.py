@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry import cross_rows
+from ..geometry import cross_rows, row_norms
 from .weld import lowest_member
 
 # Two faces sharing an edge are one planar region when their unit normals differ by less than
@@ -125,12 +125,6 @@ def footprint_wall_faces(
     low = y <= y.min() + 0.01 * max(float(np.ptp(y)), 1e-9)
     on_ground = (border & low)[faces].any(axis=1)
     return (up <= max_normal_up) & on_ground & (length > 0)
-
-
-def row_norms(rows: np.ndarray) -> np.ndarray:
-    """(n,) Euclidean norms of real (n, d) rows: ``np.linalg.norm(rows, axis=1)``'s own arithmetic
-    (the square root of ``add.reduce`` of the squares) without its per-call dispatch."""
-    return np.sqrt(np.add.reduce(rows * rows, axis=1))
 
 
 def sorted_edge_keys(faces: np.ndarray, vertex_count: int) -> tuple[np.ndarray, np.ndarray]:
