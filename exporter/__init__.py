@@ -5,4 +5,4 @@ read (``readers``) -> simplify (``simplify``) -> textures (``textures``) -> plac
 ``tiles``) -> write (``gltf_writer``) -> manifest (``manifest``), driven by ``pipeline`` and ``cli``.
 """
 
-__version__ = "0.3.3"
+__version__ = "0.3.4"
