@@ -74,14 +74,18 @@ def slit_points(
     a = positions[start]
     direction = positions[end] - a
     length = np.maximum(row_norms(direction), 1e-30)
+    # Coordinates apart: (points, sides) arrays with no reduction over a length-3 axis.
+    ax, ay, az = a.T
+    unit_x, unit_y, unit_z = (direction / length[:, None]).T
     found_side, found_vertex, found_t = [], [], []
     # Border points x border sides in blocks, so a large open mesh stays within memory.
     block = max(1, 2_000_000 // len(sides))
     for first in range(0, len(points), block):
         ids = points[first : first + block]
-        offset = positions[ids][:, None, :] - a
-        along = (offset * direction).sum(2) / length  # metres from the side's start
-        off2 = (offset * offset).sum(2) - along * along
+        px, py, pz = positions[ids].T
+        ox, oy, oz = px[:, None] - ax, py[:, None] - ay, pz[:, None] - az
+        along = ox * unit_x + oy * unit_y + oz * unit_z  # metres from the side's start
+        off2 = ox * ox + oy * oy + oz * oz - along * along
         hit = (
             (off2 <= tolerance * tolerance)
             & (along > tolerance)
@@ -107,20 +111,25 @@ def _facing_partner(positions, faces, sides, start, end, side, vertex) -> np.nda
     the slit) on a face turned against the side's face (unit normals' dot product < -0.5)."""
     if not len(side):
         return np.zeros(0, dtype=bool)
-    a, b, c = (positions[faces[:, i]] for i in range(3))
-    normal = cross_rows(b - a, c - a)
-    normal /= np.maximum(row_norms(normal), 1e-30)[:, None]
+    # Unit normals of the faces on the border only (every face asked about is one).
+    border_faces = np.unique(sides // 3)
+    a, b, c = (positions[faces[border_faces, i]] for i in range(3))
+    normal = np.zeros((len(faces), 3))
+    cross = cross_rows(b - a, c - a)
+    normal[border_faces] = cross / np.maximum(row_norms(cross), 1e-30)[:, None]
     # Border sides by vertex (each side listed under both its ends).
     ends = np.concatenate([start, end])
     owner = np.concatenate([sides, sides])
     order = np.argsort(ends, kind="stable")
     ends, owner = ends[order], owner[order]
     lo = np.searchsorted(ends, vertex, "left")
-    hi = np.searchsorted(ends, vertex, "right")
+    count = np.searchsorted(ends, vertex, "right") - lo
+    # Every (pair, partner side) in one array: pair p repeated count[p] times.
+    pair = np.repeat(np.arange(len(side)), count)
+    partner = owner[np.arange(len(pair)) - np.repeat(np.cumsum(count) - count, count) + lo[pair]]
+    against = (normal[partner // 3] * normal[side[pair] // 3]).sum(axis=1) < -0.5
     facing = np.zeros(len(side), dtype=bool)
-    for i in np.flatnonzero(hi > lo).tolist():
-        partners = owner[lo[i] : hi[i]] // 3
-        facing[i] = bool((normal[partners] @ normal[side[i] // 3] < -0.5).any())
+    facing[pair[against]] = True
     return facing
 
 
@@ -138,43 +147,60 @@ def split_sides(
     side: np.ndarray,
     vertex: np.ndarray,
     t: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
-    """Every face split at the points on one of its sides (the lowest side that has some; the
-    others wait for the next round): ``(faces (m', 3), corner_uvs (m', 3, 2) or None, source
-    (m',) int64)``, ``source`` the input face of every output face. ``side``, ``vertex``, ``t``:
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, tuple]:
+    """Every face split at the points on one of its sides (the lowest side that has some):
+    ``(faces (m', 3), corner_uvs (m', 3, 2) or None, source (m',) int64, rest)``, ``source``
+    the input face of every output face, ``rest`` the ``(side, vertex, t)`` of the points on the
+    faces' other sides, on the output faces now holding those sides (the fan's first face holds
+    the side ``c -> a``, its last face ``b -> c``). ``side``, ``vertex``, ``t``:
     :func:`slit_points`, sorted by side then t."""
     face = side // 3
-    chosen = np.zeros(len(side), dtype=bool)
     first_of_face = np.flatnonzero(np.concatenate([[True], face[1:] != face[:-1]]))
     lowest = np.repeat(side[first_of_face], np.diff(np.append(first_of_face, len(side))))
     chosen = side == lowest
+    rest = side[~chosen], vertex[~chosen], t[~chosen]
     side, vertex, t = side[chosen], vertex[chosen], t[chosen]
-    split = np.unique(side)
+    f, i = side // 3, side % 3
+    a, b, c = faces[f, i], faces[f, (i + 1) % 3], faces[f, (i + 2) % 3]
+    # The fan of a side with points v1..vn: (a, v1, c), (v1, v2, c), ..., (vn, b, c): one face
+    # ending at each point, plus the last one ending at b.
+    first = np.concatenate([[True], side[1:] != side[:-1]])
+    last = np.concatenate([side[1:] != side[:-1], [True]])
+    previous = np.concatenate([[0], vertex[:-1]])
+    previous[first] = a[first]
+    fan = np.concatenate(
+        [np.column_stack([previous, vertex, c]), np.column_stack([vertex[last], b[last], c[last]])]
+    )
+    fan_source = np.concatenate([f, f[last]])
     keep = np.ones(len(faces), dtype=bool)
-    keep[split // 3] = False
-    new_faces, new_uvs, new_source = [], [], []
-    bounds = np.searchsorted(side, split)
-    for s, lo, hi in zip(split.tolist(), bounds.tolist(), np.append(bounds[1:], len(side))):
-        f, i = divmod(s, 3)
-        a, b, c = faces[f, i], faces[f, (i + 1) % 3], faces[f, (i + 2) % 3]
-        chain = np.concatenate([[a], vertex[lo:hi], [b]])
-        fan = np.column_stack([chain[:-1], chain[1:], np.full(len(chain) - 1, c)])
-        new_faces.append(fan)
-        new_source.append(np.full(len(fan), f))
-        if corner_uvs is not None:
-            uv_a, uv_b, uv_c = (corner_uvs[f, (i + k) % 3].astype(np.float64) for k in range(3))
-            along = np.concatenate([[0.0], t[lo:hi], [1.0]])
-            chain_uvs = uv_a + along[:, None] * (uv_b - uv_a)
-            fan_uvs = np.stack(
-                [chain_uvs[:-1], chain_uvs[1:], np.broadcast_to(uv_c, (len(fan), 2))], axis=1
-            )
-            new_uvs.append(fan_uvs.astype(np.float32))
-    out_faces = np.concatenate([faces[keep]] + new_faces)
-    source = np.concatenate([np.flatnonzero(keep)] + new_source)
+    keep[f] = False
+    kept = int(keep.sum())
+    out_faces = np.concatenate([faces[keep], fan])
+    source = np.concatenate([np.flatnonzero(keep), fan_source])
     out_uvs = None
     if corner_uvs is not None:
-        out_uvs = np.concatenate([corner_uvs[keep]] + new_uvs)
-    return out_faces, out_uvs, source
+        uv_a, uv_b, uv_c = (corner_uvs[f, (i + k) % 3].astype(np.float64) for k in range(3))
+        at = uv_a + t[:, None] * (uv_b - uv_a)  # the UV of each point, along its side
+        at_previous = np.concatenate([at[:1], at[:-1]])
+        at_previous[first] = uv_a[first]
+        fan_uvs = np.concatenate(
+            [
+                np.stack([at_previous, at, uv_c], axis=1),
+                np.stack([at[last], uv_b[last], uv_c[last]], axis=1),
+            ]
+        ).astype(np.float32)
+        out_uvs = np.concatenate([corner_uvs[keep], fan_uvs])
+    if len(rest[0]):
+        # The split faces ascend (sides sorted), so a face's fan is found by searchsorted.
+        split_face = f[first]
+        group = np.searchsorted(split_face, rest[0] // 3)
+        first_fan = kept + np.flatnonzero(first)[group]
+        last_fan = kept + len(side) + group
+        on_last = rest[0] % 3 == (i[first][group] + 1) % 3  # the side b -> c
+        moved = np.where(on_last, 3 * last_fan + 1, 3 * first_fan + 2)
+        order = np.lexsort((rest[2], moved))
+        rest = moved[order], rest[1][order], rest[2][order]
+    return out_faces, out_uvs, source, rest
 
 
 def close_slits(
@@ -184,21 +210,64 @@ def close_slits(
     (m', 3, 2) or None, source (m',) int64)``, ``source`` the input face of every output face;
     the input itself (``source`` the identity) when it has no slit or closing would add a
     boundary loop."""
-    identity = (faces, corner_uvs, np.arange(len(faces)))
+    return _close(positions, faces, corner_uvs)[:3]
+
+
+def closed_surface(positions: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, float]:
+    """:func:`close_slits`' faces (m', 3) and a bound (metres) of the symmetric Hausdorff
+    distance between them and ``faces``: the largest distance of a point it split a side at
+    from that side's line (every fan triangle lies within it of the face it replaces, and
+    covers that face's projection; 0 when nothing was split)."""
+    closed, _, _, offset = _close(positions, faces, None)
+    return closed, offset
+
+
+# The last mesh _close saw (its arrays, held, so their identities cannot pass to others) and its
+# result: the planar stage closes LOD0's slits, then the guard's twin needs the same closed faces
+# (without UVs). Callers never modify these arrays in place.
+_last_close: tuple = (None, None, None, None)
+
+
+def _close(positions, faces, corner_uvs):
+    """:func:`close_slits` and its :func:`closed_surface` offset (metres)."""
+    global _last_close
+    seen_positions, seen_faces, seen_uvs, result = _last_close
+    if (
+        seen_positions is positions
+        and seen_faces is faces
+        and (seen_uvs is corner_uvs or corner_uvs is None)
+    ):
+        closed, closed_uvs, source, offset = result
+        return closed, closed_uvs if corner_uvs is not None else None, source, offset
+    result = _close_uncached(positions, faces, corner_uvs)
+    _last_close = (positions, faces, corner_uvs, result)
+    return result
+
+
+def _close_uncached(positions, faces, corner_uvs):
+    identity = (faces, corner_uvs, np.arange(len(faces)), 0.0)
     side, vertex, t = slit_points(positions, faces)
     if not len(side):
         return identity
     out_faces, out_uvs, source = faces, corner_uvs, np.arange(len(faces))
+    offset = 0.0
     for _ in range(MAX_ROUNDS):
         if not len(side):
             break
-        out_faces, out_uvs, step = split_sides(out_faces, out_uvs, side, vertex, t)
+        a = positions[out_faces.reshape(-1)[side]]
+        b = positions[out_faces[side // 3, (side % 3 + 1) % 3]]
+        off_line = positions[vertex] - a - t[:, None] * (b - a)
+        offset = max(offset, float(row_norms(off_line).max()))
+        # A face with points on two sides is split on one per round; the points on its other
+        # sides come back on the fan faces that now hold those sides.
+        out_faces, out_uvs, step, (side, vertex, t) = split_sides(
+            out_faces, out_uvs, side, vertex, t
+        )
         source = source[step]
-        side, vertex, t = slit_points(positions, out_faces)
     # quality imports this package (through hausdorff and coverage): imported when needed.
     from .quality import boundary_loops
 
     k = len(positions)
     if boundary_loops(out_faces, k)[1] > boundary_loops(faces, k)[1]:
         return identity
-    return out_faces, out_uvs, source
+    return out_faces, out_uvs, source, offset

@@ -9,7 +9,7 @@ import pytest
 
 from exporter.config import Config
 from exporter.quality import joined
-from exporter.samplegen import generate_buildings
+from exporter.samplegen import generate_buildings, generate_samples
 from exporter.simplify import _join, build_mesh_chain, guard
 from exporter.simplify.planar import retriangulate_planar_checked
 from exporter.simplify.protect import nonmanifold_vertices
@@ -100,3 +100,25 @@ def test_bounds_through_the_twin_stay_bounds(tower):
     # Without an offer (or with planar_retriangulation off) the guard measures LOD0 itself.
     bare = guard.Reference(positions, faces)
     assert bare.twin[0] is bare.surface and bare.twin[1] == 0.0
+
+
+def test_a_twin_with_the_slits_closed_is_certified_through_the_closed_surface():
+    # A T-shaped building with slits along its roofs: the planar stage closes them first, so its
+    # output is the closed mesh's re-triangulation, not LOD0's; the twin is certified against
+    # the closed mesh, plus the closing's own offset. Against LOD0 itself the region
+    # certificate leaves faces along the former slits open and the twin would be refused.
+    building = generate_samples(16, seed=3, atlas_size=16)[15].building
+    positions, faces, _, corner_uvs, face_chart, _ = _join(building.parts, 0.0)
+    twin_faces = retriangulate_planar_checked(
+        positions, faces, corner_uvs, face_chart, nonmanifold_vertices(faces, len(positions))
+    )[0]
+    assert len(guard.closed_surface(positions, faces)[0]) > len(faces)  # it had slits
+    slack = guard.TWIN_SLACK * guard.diagonal(positions)
+    twin = guard.lossless_twin(positions, faces, twin_faces, slack)
+    assert twin is not None
+    twin_positions, twin_faces, delta = twin
+    assert dense_hausdorff((twin_positions, twin_faces), (positions, faces), 6) <= delta + 1e-12
+    settled = guard.coverage.region_certificate(
+        (twin_positions, twin_faces), (positions, faces), max_bound=slack
+    )
+    assert settled.open_level.any() or settled.open_source.any()

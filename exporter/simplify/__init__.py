@@ -265,12 +265,15 @@ def _simplify_level(
     joined: tuple | None = None,
     tolerance: float = float("inf"),
     planar_done: bool = False,
+    slits_closed: bool = False,
 ) -> tuple[list[Part], bool, bool, tuple[float, float] | None]:
     """:func:`simplify_parts`, whether the step kept the surface (only noise welding and the
     planar re-triangulation: no collapse, no link-distance welding) and whether it also kept the
     open boundary's length (lossless). ``joined``: ``_join(parts, link distance)`` when the caller
     has it already (level 1 shares LOD0's with the guard's reference). ``planar_done``: the parts
     are the planar stage's own output (the level above kept LOD0's surface), so it is not rerun.
+    ``slits_closed``: the parts descend from a planar stage that closed their slits (a collapse
+    opens none), so the planar stage does not look for any.
     Last: the guard's certified ``(lower, upper)`` metres to ``reference`` for the level it
     accepted (None when the guard did not run on the result)."""
     total = sum(p.triangle_count for p in parts)
@@ -290,7 +293,12 @@ def _simplify_level(
         # Lossless, so only non-manifold vertices are held: straight vertices on the open border or
         # between two parts are dropped from both sides at once (no T-junction, no crack).
         faces, corner_uvs, source, boundary_kept = retriangulate_planar_checked(
-            positions, faces, corner_uvs, face_chart, nonmanifold_vertices(faces, len(positions))
+            positions,
+            faces,
+            corner_uvs,
+            face_chart,
+            nonmanifold_vertices(faces, len(positions)),
+            close=not slits_closed,
         )
         face_part, face_chart = face_part[source], face_chart[source]
         if of_lod0:
@@ -508,8 +516,17 @@ def build_mesh_chain(
         shared = joined if k == 1 and options.vertex_link_distance <= NOISE_M else None
         # A level above that kept LOD0's surface is the planar stage's output: not redone.
         planar_done = k > 1 and chain[-1].surface_exact
+        # Slits were closed by the first level that is not LOD0's own parts.
+        slits_closed = chain[-1].parts is not chain[0].parts
         level, surface_kept, lossless, bounds = _simplify_level(
-            chain[-1].parts, target, options, reference, shared, tolerance, planar_done
+            chain[-1].parts,
+            target,
+            options,
+            reference,
+            shared,
+            tolerance,
+            planar_done,
+            slits_closed,
         )
         if bounds is not None:
             if offset is None:

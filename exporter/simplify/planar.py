@@ -550,7 +550,12 @@ def retriangulate_planar(
 
 
 def retriangulate_planar_checked(
-    positions: np.ndarray, faces: np.ndarray, corner_uvs, face_chart: np.ndarray, locked: np.ndarray
+    positions: np.ndarray,
+    faces: np.ndarray,
+    corner_uvs,
+    face_chart: np.ndarray,
+    locked: np.ndarray,
+    close: bool = True,
 ):
     """:func:`retriangulate_planar` plus whether the open boundary of the surface kept its length
     (within 1e-9 relative): False when a slit or T-junction was closed that
@@ -559,7 +564,11 @@ def retriangulate_planar_checked(
 
     Slits are closed first (:func:`exporter.slits.close_slits`; a slit is no part of the open
     boundary of the surface, see :func:`exporter.quality.open_boundary`): their vertices then lie
-    on outlines between two regions, where the planar stage can drop them from both."""
+    on outlines between two regions, where the planar stage can drop them from both. ``close``
+    False skips that (a level collapsed from one whose slits were closed has none: an edge
+    collapse moves no vertex into another's edge)."""
+    if not close:
+        return _retriangulate_keeping_boundary(positions, faces, corner_uvs, face_chart, locked)
     closed, closed_uvs, closed_source = close_slits(positions, faces, corner_uvs)
     out_faces, out_uvs, source, kept = _retriangulate_keeping_boundary(
         positions, closed, closed_uvs, face_chart[closed_source], locked
