@@ -18,7 +18,9 @@ above its budget or under-bounded.
 Measured (round 3 of issue 13, after the region certificate's sliver step and the silhouette
 floor; 10 steps per edge): generated seed 977 (60 buildings), Zürich LoD2 (49) and 3D BAG (10),
 Rotterdam (2 textured), default and ``protect_largest: 0%``: 484 levels, none above its budget (worst 0.96 of it), no
-certified bound below the dense value.
+certified bound below the dense value. Round 6 (0.3.4, slits closed): the same sets, none above
+its budget (worst 0.999), none under-bounded beyond the check's own rounding (``ROUNDING``);
+seed 31337 (80 buildings): worst 0.865 of the budget.
 """
 
 from __future__ import annotations
@@ -27,6 +29,8 @@ import argparse
 import dataclasses
 import sys
 from pathlib import Path
+
+import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
@@ -44,6 +48,13 @@ def joined(parts) -> tuple:
     return _join(parts, 0.0)[:2]
 
 
+# The dense check's own rounding, as a share of the building's diagonal: Ericson's point-triangle
+# distance (quality.point_triangle_distance) returned 3.2e-10 m for a grid point lying inside a
+# 35.6 x 2.4 m sliver 1.8e-15 m off its plane (50-digit arithmetic; seed 977, building 57, a
+# 60 m diagonal: 5e-12 of it). A dense value within this of the certified bound is no failure.
+ROUNDING = 1e-10
+
+
 def check(buildings: list, options, steps: int) -> tuple[int, float, float, int]:
     """(levels, worst dense / budget, worst dense / certified bound, levels failing either)."""
     levels, worst_budget, worst_bound, failing = 0, 0.0, 0.0, 0
@@ -51,14 +62,18 @@ def check(buildings: list, options, steps: int) -> tuple[int, float, float, int]
     for building in buildings:
         chain = build_mesh_chain(building.parts, config.lods, options)
         source = joined(chain[0].parts)
+        rounding = ROUNDING * float(np.linalg.norm(np.ptp(source[0], axis=0)))
         for level in chain[1:]:
             dense = dense_hausdorff(source, joined(level.parts), steps)
             levels += 1
             bad = dense > level.tolerance
             worst_budget = max(worst_budget, dense / level.tolerance)
             if level.deviation is not None:
-                worst_bound = max(worst_bound, dense / max(level.deviation, 1e-300))
-                bad |= dense > level.deviation * (1 + 1e-9) + 1e-12
+                # Beyond the check's own rounding (a bound of 1e-10 m is no ratio to read).
+                worst_bound = max(
+                    worst_bound, max(dense - rounding, 0.0) / max(level.deviation, 1e-300)
+                )
+                bad |= dense > level.deviation * (1 + 1e-9) + rounding
             failing += int(bad)
     return levels, worst_budget, worst_bound, failing
 

@@ -210,14 +210,54 @@ def close_slits(
     (m', 3, 2) or None, source (m',) int64)``, ``source`` the input face of every output face;
     the input itself (``source`` the identity) when it has no slit or closing would add a
     boundary loop."""
-    identity = (faces, corner_uvs, np.arange(len(faces)))
+    return _close(positions, faces, corner_uvs)[:3]
+
+
+def closed_surface(positions: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, float]:
+    """:func:`close_slits`' faces (m', 3) and a bound (metres) of the symmetric Hausdorff
+    distance between them and ``faces``: the largest distance of a point it split a side at
+    from that side's line (every fan triangle lies within it of the face it replaces, and
+    covers that face's projection; 0 when nothing was split)."""
+    closed, _, _, offset = _close(positions, faces, None)
+    return closed, offset
+
+
+# The last mesh _close saw (its arrays, held, so their identities cannot pass to others) and its
+# result: the planar stage closes LOD0's slits, then the guard's twin needs the same closed faces
+# (without UVs). Callers never modify these arrays in place.
+_last_close: tuple = (None, None, None, None)
+
+
+def _close(positions, faces, corner_uvs):
+    """:func:`close_slits` and its :func:`closed_surface` offset (metres)."""
+    global _last_close
+    seen_positions, seen_faces, seen_uvs, result = _last_close
+    if (
+        seen_positions is positions
+        and seen_faces is faces
+        and (seen_uvs is corner_uvs or corner_uvs is None)
+    ):
+        closed, closed_uvs, source, offset = result
+        return closed, closed_uvs if corner_uvs is not None else None, source, offset
+    result = _close_uncached(positions, faces, corner_uvs)
+    _last_close = (positions, faces, corner_uvs, result)
+    return result
+
+
+def _close_uncached(positions, faces, corner_uvs):
+    identity = (faces, corner_uvs, np.arange(len(faces)), 0.0)
     side, vertex, t = slit_points(positions, faces)
     if not len(side):
         return identity
     out_faces, out_uvs, source = faces, corner_uvs, np.arange(len(faces))
+    offset = 0.0
     for _ in range(MAX_ROUNDS):
         if not len(side):
             break
+        a = positions[out_faces.reshape(-1)[side]]
+        b = positions[out_faces[side // 3, (side % 3 + 1) % 3]]
+        off_line = positions[vertex] - a - t[:, None] * (b - a)
+        offset = max(offset, float(row_norms(off_line).max()))
         # A face with points on two sides is split on one per round; the points on its other
         # sides come back on the fan faces that now hold those sides.
         out_faces, out_uvs, step, (side, vertex, t) = split_sides(
@@ -230,4 +270,4 @@ def close_slits(
     k = len(positions)
     if boundary_loops(out_faces, k)[1] > boundary_loops(faces, k)[1]:
         return identity
-    return out_faces, out_uvs, source
+    return out_faces, out_uvs, source, offset

@@ -103,11 +103,12 @@ def test_bounds_through_the_twin_stay_bounds(tower):
     assert bare.twin[0] is bare.surface and bare.twin[1] == 0.0
 
 
-def test_a_twin_with_slits_closed_is_certified_with_the_general_bound_along_them():
+def test_a_twin_with_slits_closed_is_certified_through_the_closed_surface():
     # A T-shaped building with slits along its roofs: the planar stage closes them first, so its
-    # output is not LOD0's re-triangulation; the region certificate leaves the faces along the
-    # former slits open. Without LOD0's surface the twin is refused; with it, those faces get
-    # the general certified bound and the twin stands (a dense check stays below its delta).
+    # output is not LOD0's re-triangulation. Against LOD0 itself the region certificate leaves
+    # the faces along the former slits open; against LOD0 with its slits closed
+    # (slits.closed_surface, plus its offset) it settles them all, so the twin stands without
+    # LOD0's prepared surface. A dense check stays below its delta.
     building = generate_samples(16, seed=3, atlas_size=16)[15].building
     positions, faces, _, corner_uvs, face_chart, _ = _join(building.parts, 0.0)
     twin_faces = retriangulate_planar_checked(
@@ -115,10 +116,12 @@ def test_a_twin_with_slits_closed_is_certified_with_the_general_bound_along_them
     )[0]
     assert len(close_slits(positions, faces, None)[0]) > len(faces)  # it had slits
     slack = guard.TWIN_SLACK * guard.diagonal(positions)
-    assert guard.lossless_twin(positions, faces, twin_faces, slack) is None
-    surface = guard.hausdorff.Surface(positions, faces)
-    twin = guard.lossless_twin(positions, faces, twin_faces, slack, lambda: surface)
+    twin = guard.lossless_twin(positions, faces, twin_faces, slack)
     assert twin is not None
     twin_positions, twin_faces, delta = twin
     assert 0 <= delta <= slack
     assert dense_hausdorff((twin_positions, twin_faces), (positions, faces), 6) <= delta + 1e-12
+    settled = guard.coverage.region_certificate(
+        (twin_positions, twin_faces), (positions, faces), max_bound=slack
+    )
+    assert settled.open_level.any() or settled.open_source.any()

@@ -15,7 +15,7 @@ from exporter.samplegen import generate_samples
 from exporter.simplify import _join
 from exporter.simplify.planar import _retriangulate_keeping_boundary, retriangulate_planar_checked
 from exporter.simplify.protect import nonmanifold_vertices
-from exporter.slits import close_slits, slit_points
+from exporter.slits import close_slits, closed_surface, slit_points
 
 
 def roof(points, faces):
@@ -139,3 +139,17 @@ def test_the_planar_stage_gets_further_with_the_slits_closed():
         assert hausdorff_bounds((positions, faces), (positions, out))[1] <= 1e-7 * diagonal
         fewer += len(out) < len(alone)
     assert fewer >= 5
+
+
+def test_the_closed_surface_bounds_its_own_move():
+    """The T-junction roof with its junction vertex 5e-6 m off the line (within SLIT_M): the
+    closed roof moves by that much, and closed_surface says so."""
+    positions, faces = joined(t_junction_roof()[0])
+    junction = np.flatnonzero((positions[:, 0] == 1.0) & (positions[:, 2] == 1.0))[0]
+    positions = positions.copy()
+    positions[junction, 1] += 5e-6  # up, off the roof's plane
+    closed, offset = closed_surface(positions, faces)
+    assert len(closed) > len(faces) and offset == pytest.approx(5e-6, rel=1e-6)
+    low, _ = hausdorff_bounds((positions, faces), (positions, closed), rtol=1e-3, atol=1e-9)
+    assert low <= offset
+    assert closed_surface(*joined(t_junction_roof()[1]))[1] == 0.0  # nothing to close

@@ -36,6 +36,7 @@ import numpy as np
 
 from .. import coverage, hausdorff, quality
 from ..geometry import compact_vertices
+from ..slits import closed_surface
 
 BUDGET_SHARE = 0.05  # certified bounds are refined to within this share of the budget at least
 TWIN_SLACK = 1e-6  # the twin stands in for LOD0 only within this x LOD0's diagonal (metres)
@@ -53,37 +54,43 @@ def lossless_twin(
     positions, LOD0's flat polygons re-triangulated from their outlines (the planar stage's
     output, :func:`~.planar.retriangulate_planar_checked`), as the twin ``(positions (k', 3),
     faces (m', 3), delta)`` on its own vertices: ``delta`` metres certifies the symmetric
-    Hausdorff distance between LOD0 and the twin (:func:`exporter.coverage.region_certificate`;
-    faces it leaves open, those along slits the planar stage closed, are bounded by the general
-    method, :func:`exporter.hausdorff.directed_bounds`, when ``surface`` gives LOD0 as a
-    :class:`~exporter.hausdorff.Surface`). None when the twin has more than ``TWIN_SHARE`` of
+    Hausdorff distance between LOD0 and the twin: :func:`exporter.coverage.region_certificate`
+    against LOD0 with its slits closed (:func:`exporter.slits.closed_surface`, whose offset is
+    added); faces it leaves open are bounded by the general method,
+    :func:`exporter.hausdorff.directed_bounds`, when ``surface`` gives LOD0 as a
+    :class:`~exporter.hausdorff.Surface`. None when the twin has more than ``TWIN_SHARE`` of
     LOD0's faces or is not certified within ``slack`` metres."""
     if len(faces) == 0 or len(twin_faces) == 0 or len(twin_faces) > TWIN_SHARE * len(faces):
         return None
     used, twin = compact_vertices(twin_faces, len(positions))
     twin_positions = positions[used]
+    # The planar stage re-triangulated LOD0 with its slits closed: the twin is certified against
+    # that mesh, every point of which is within ``offset`` of LOD0 and back (a metric).
+    closed, offset = closed_surface(positions, faces)
     settled = coverage.region_certificate(
-        (twin_positions, twin), (positions, faces), max_bound=slack
+        (twin_positions, twin), (positions, closed), max_bound=slack
     )
     delta = float(settled.bound)
-    if delta > slack:
+    if delta + offset > slack:
         return None
     if settled.open_level.any() or settled.open_source.any():
         if surface is None:
             return None
-        # Only the open faces, each against the whole other side, decided at the slack.
+        # Only the open faces, each against the whole other side, decided at the slack: the
+        # closed mesh's against the twin, the twin's against LOD0 itself.
         for tri, target in (
             (
-                positions[faces[settled.open_source]],
+                positions[closed[settled.open_source]],
                 lambda: hausdorff.Surface(twin_positions, twin),
             ),
             (twin_positions[twin[settled.open_level]], surface),
         ):
             if len(tri):
-                upper = hausdorff.directed_bounds(tri, target(), tolerance=slack)[1]
-                if upper > slack:
+                upper = hausdorff.directed_bounds(tri, target(), tolerance=slack - offset)[1]
+                if upper + offset > slack:
                     return None
                 delta = max(delta, upper)
+    delta += offset
     return twin_positions, twin, delta
 
 
