@@ -30,8 +30,6 @@ import dataclasses
 import sys
 from pathlib import Path
 
-import numpy as np
-
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
@@ -39,6 +37,7 @@ from exporter.config import Config  # noqa: E402
 from exporter.readers import load_entry, scan_folder  # noqa: E402
 from exporter.samplegen import generate_buildings  # noqa: E402
 from exporter.simplify import _join, build_mesh_chain  # noqa: E402
+from exporter.simplify.guard import diagonal  # noqa: E402
 from tests.hausdorff_check import dense_hausdorff  # noqa: E402
 
 
@@ -62,7 +61,7 @@ def check(buildings: list, options, steps: int) -> tuple[int, float, float, int]
     for building in buildings:
         chain = build_mesh_chain(building.parts, config.lods, options)
         source = joined(chain[0].parts)
-        rounding = ROUNDING * float(np.linalg.norm(np.ptp(source[0], axis=0)))
+        rounding = ROUNDING * diagonal(source[0])
         for level in chain[1:]:
             dense = dense_hausdorff(source, joined(level.parts), steps)
             levels += 1

@@ -27,6 +27,17 @@ def row_norms(rows: np.ndarray) -> np.ndarray:
     return np.sqrt(np.add.reduce(rows * rows, axis=1))
 
 
+def sorted_edge_keys(faces: np.ndarray, vertex_count: int) -> tuple[np.ndarray, np.ndarray]:
+    """Every face side's undirected edge as one key ``low * vertex_count + high``, ascending
+    (3m,) int64, and the stable permutation of the sides (side ``3 f + i`` runs from corner i of
+    face f to the next) that sorts them: ``np.lexsort`` of the (low, high) pairs, with one key."""
+    sides = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    low, high = sides.min(axis=1), sides.max(axis=1)
+    keys = low * vertex_count + high
+    order = np.argsort(keys, kind="stable")
+    return keys[order], order
+
+
 def cross3(a, b) -> np.ndarray:
     """a x b of two 3-vectors (sequences or (3,) arrays), (3,) float64; ``np.cross`` costs ~20x
     more on single vectors."""

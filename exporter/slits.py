@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import cross_rows, row_norms
+from .geometry import cross_rows, row_norms, sorted_edge_keys
 
 SLIT_M = 1e-5  # metres: a vertex this close to a border side lies on it (float32 input rounding)
 MAX_ROUNDS = 4  # a face is split on one side per round; three sides at most, plus slack
@@ -46,12 +46,9 @@ MAX_ROUNDS = 4  # a face is split on one side per round; three sides at most, pl
 def border_sides(faces: np.ndarray, vertex_count: int) -> np.ndarray:
     """(s,) int64 border sides ``3 f + i`` (from corner i of face f to corner i + 1): the sides
     whose undirected edge no other side uses."""
-    sides = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    keys = sides.min(axis=1) * vertex_count + sides.max(axis=1)
-    order = np.argsort(keys, kind="stable")
-    ordered = keys[order]
-    once = np.ones(len(keys), dtype=bool)
-    if len(keys) > 1:
+    ordered, order = sorted_edge_keys(faces, vertex_count)
+    once = np.ones(len(ordered), dtype=bool)
+    if len(ordered) > 1:
         repeated = ordered[1:] == ordered[:-1]
         once[1:] &= ~repeated
         once[:-1] &= ~repeated

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry import cross_rows, row_norms
+from ..geometry import cross_rows, row_norms, sorted_edge_keys
 from .weld import lowest_member
 
 # Two faces sharing an edge are one planar region when their unit normals differ by less than
@@ -125,17 +125,6 @@ def footprint_wall_faces(
     low = y <= y.min() + 0.01 * max(float(np.ptp(y)), 1e-9)
     on_ground = (border & low)[faces].any(axis=1)
     return (up <= max_normal_up) & on_ground & (length > 0)
-
-
-def sorted_edge_keys(faces: np.ndarray, vertex_count: int) -> tuple[np.ndarray, np.ndarray]:
-    """Every face side's undirected edge as one key ``low * vertex_count + high``, ascending
-    (3m,) int64, and the stable permutation of the sides (side ``3 f + i`` runs from corner i of
-    face f to the next) that sorts them: ``np.lexsort`` of the (low, high) pairs, with one key."""
-    sides = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    low, high = sides.min(axis=1), sides.max(axis=1)
-    keys = low * vertex_count + high
-    order = np.argsort(keys, kind="stable")
-    return keys[order], order
 
 
 def planar_regions(
