@@ -30,10 +30,13 @@ namespace VWorldLod
 
         /// <summary>
         /// The LODGroup of a building of which only `levels` (ascending) are loaded so far:
-        /// renderers[i] are those of levels[i], heights from LodPlanner.LoadedHeights.
+        /// levelObjects[i] holds renderers[i], those of levels[i]; heights from
+        /// LodPlanner.LoadedHeights. The level objects are activated first, so that the LODs and
+        /// the bounds are set from active renderers.
         /// </summary>
-        public static LODGroup ConfigureLoaded(GameObject root, BuildingPlan building, TilePlan tile, int[] levels, Renderer[][] renderers)
+        public static LODGroup ConfigureLoaded(GameObject root, BuildingPlan building, TilePlan tile, int[] levels, GameObject[] levelObjects, Renderer[][] renderers)
         {
+            foreach (GameObject level in levelObjects) level.SetActive(true);
             double[] heights = LodPlanner.LoadedHeights(building, levels);
             LODGroup group = root.GetComponent<LODGroup>();
             if (group == null) group = root.AddComponent<LODGroup>();
@@ -51,14 +54,23 @@ namespace VWorldLod
         }
 
         /// <summary>
-        /// Adds (or reuses) the LODGroup on root and sets one LOD per level: renderers[k] are the
-        /// renderers of level k, heights and fade settings from the plan; bounds recalculated.
+        /// Adds (or reuses) the LODGroup on root and sets one LOD per level: levelObjects[k] (made
+        /// active) holds renderers[k], the renderers of level k; heights and fade settings from
+        /// the plan; bounds recalculated.
         /// </summary>
-        public static LODGroup Configure(GameObject root, BuildingPlan building, TilePlan tile, Renderer[][] renderers)
+        public static LODGroup Configure(GameObject root, BuildingPlan building, TilePlan tile, GameObject[] levelObjects, Renderer[][] renderers)
         {
             var all = new int[building.Levels.Length];
             for (int k = 0; k < all.Length; k++) all[k] = k;
-            return ConfigureLoaded(root, building, tile, all, renderers);
+            return ConfigureLoaded(root, building, tile, all, levelObjects, renderers);
+        }
+
+        /// <summary>Logs why the tile's fade settings will not show as asked (LodPlanner.FadeWarning); true when it did.</summary>
+        public static bool WarnAboutFade(TilePlan tile)
+        {
+            string warning = LodPlanner.FadeWarning(tile);
+            if (warning != null) Debug.LogWarning("VWorld LoD: " + warning);
+            return warning != null;
         }
     }
 }
