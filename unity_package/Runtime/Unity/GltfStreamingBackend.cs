@@ -62,14 +62,7 @@ namespace VWorldLod
         {
             GameObject root;
             if (!buildingRoots.TryGetValue(building, out root) || root == null) return;
-            var objects = new GameObject[loaded.Length];
-            var renderers = new Renderer[loaded.Length][];
-            for (int i = 0; i < loaded.Length; i++)
-            {
-                objects[i] = ((LoadedLevel)loaded[i]).Root;
-                renderers[i] = ((LoadedLevel)loaded[i]).Renderers;
-            }
-            LodGroupAssembly.ConfigureLoaded(root, building, tile, levels, objects, renderers);
+            LodGroupAssembly.ConfigureLoaded(root, building, tile, levels, Array.ConvertAll(loaded, level => (LoadedLevel)level));
         }
 
         public void ReleaseLevel(object loaded)

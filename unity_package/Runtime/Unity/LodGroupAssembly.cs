@@ -4,6 +4,7 @@
 // Frames: Placement values are in the parent's frame (see LodPlan.cs); Unity stores float, so
 // globe positions (~6.4e6 units for UR = R) keep 0.25-0.5 unit steps: place tile roots relative
 // to a georeference (VWorldLodGeoreference) to keep them small.
+using System.Collections.Generic;
 using UnityEngine;
 
 namespace VWorldLod
@@ -60,9 +61,28 @@ namespace VWorldLod
         /// </summary>
         public static LODGroup Configure(GameObject root, BuildingPlan building, TilePlan tile, GameObject[] levelObjects, Renderer[][] renderers)
         {
+            return ConfigureLoaded(root, building, tile, AllLevels(building), levelObjects, renderers);
+        }
+
+        /// <summary>ConfigureLoaded over levels loaded at run time: loaded[i] is level levels[i].</summary>
+        public static LODGroup ConfigureLoaded(GameObject root, BuildingPlan building, TilePlan tile, int[] levels, IList<LoadedLevel> loaded)
+        {
+            var objects = new GameObject[loaded.Count];
+            var renderers = new Renderer[loaded.Count][];
+            for (int i = 0; i < objects.Length; i++)
+            {
+                objects[i] = loaded[i].Root;
+                renderers[i] = loaded[i].Renderers;
+            }
+            return ConfigureLoaded(root, building, tile, levels, objects, renderers);
+        }
+
+        /// <summary>0, 1, ..., the building's last level.</summary>
+        public static int[] AllLevels(BuildingPlan building)
+        {
             var all = new int[building.Levels.Length];
             for (int k = 0; k < all.Length; k++) all[k] = k;
-            return ConfigureLoaded(root, building, tile, all, levelObjects, renderers);
+            return all;
         }
 
         /// <summary>Logs why the tile's fade settings will not show as asked (LodPlanner.FadeWarning); true when it did.</summary>

@@ -94,14 +94,7 @@ namespace VWorldLod
                 levels.Add(level);
             }
             loaded.AddRange(levels);
-            var objects = new GameObject[levels.Count];
-            var renderers = new Renderer[levels.Count][];
-            for (int k = 0; k < renderers.Length; k++)
-            {
-                objects[k] = levels[k].Root;
-                renderers[k] = levels[k].Renderers;
-            }
-            LodGroupAssembly.Configure(root, building, plan, objects, renderers);
+            LodGroupAssembly.ConfigureLoaded(root, building, plan, LodGroupAssembly.AllLevels(building), levels);
             return true;
         }
 
