@@ -36,6 +36,7 @@ binary chunk is kept as its pieces, so the (large) image bytes are copied once, 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import io
 import json
 import struct
@@ -74,6 +75,15 @@ def alpha_mode(alpha: np.ndarray) -> str:
     inner = ndimage.minimum_filter(partial.view(np.uint8), size=2 * RIM + 1, mode="nearest")
     translucent = int(np.count_nonzero(inner))
     return pygltflib.BLEND if translucent >= BLEND_SHARE * alpha.size else pygltflib.MASK
+
+
+@functools.lru_cache(maxsize=8)
+def texture_alpha_mode(data: bytes) -> str:
+    """:func:`alpha_mode` of an encoded PNG/JPEG atlas; ``OPAQUE`` without an alpha channel. Cached:
+    an atlas shared by many buildings is decoded once (the key is the bytes themselves, whose hash
+    Python keeps on the object)."""
+    alpha = texture_alpha(data)
+    return pygltflib.OPAQUE if alpha is None else alpha_mode(alpha)
 
 
 def texture_alpha(data: bytes) -> np.ndarray | None:
@@ -320,7 +330,6 @@ def glb_bytes(parts: list[Part], name: str) -> bytes:
     sampler_index = None
     primitives = []
     texture_of_image: dict[int, int] = {}
-    alpha_of_image: dict[int, str] = {}
     for part_index, part in enumerate(parts):
         if part.triangle_count == 0:
             continue
@@ -391,11 +400,9 @@ def glb_bytes(parts: list[Part], name: str) -> bytes:
             material.pbrMetallicRoughness.baseColorTexture = pygltflib.TextureInfo(
                 index=texture_of_image[key]
             )
-            if key not in alpha_of_image:
-                alpha = texture_alpha(part.texture.data) if part.texture.has_alpha_channel else None
-                alpha_of_image[key] = pygltflib.OPAQUE if alpha is None else alpha_mode(alpha)
-            if material.alphaMode == pygltflib.OPAQUE:  # a translucent colour keeps BLEND
-                material.alphaMode = alpha_of_image[key]
+            if material.alphaMode == pygltflib.OPAQUE and part.texture.has_alpha_channel:
+                # (a translucent colour has made it BLEND already: that stays)
+                material.alphaMode = texture_alpha_mode(bytes(part.texture.data))
                 if material.alphaMode == pygltflib.MASK:
                     material.alphaCutoff = ALPHA_CUTOFF
         gltf.materials.append(material)
