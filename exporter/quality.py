@@ -86,10 +86,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from . import hausdorff
-from .geometry import cross_rows, unique_float_rows
+from .mesh import hausdorff
+from .mesh.geometry import cross_rows, unique_float_rows
+from .mesh.slits import close_slits
 from .model import Part
-from .slits import close_slits
 
 RESOLUTION = 128  # silhouette raster side, pixels
 SAMPLES = 256  # area-weighted surface samples per side for the Hausdorff distance

@@ -42,7 +42,7 @@ def dense_hausdorff(a, b, steps: int = 8) -> float:
 def count_rounds(monkeypatch) -> list[int]:
     """Record every call of the certified bound's per-round step (``exporter.hausdorff._bound``)
     from now on: the returned list gets each call's number of triangles (one entry a round)."""
-    from exporter import hausdorff
+    from exporter.mesh import hausdorff
 
     calls: list[int] = []
     real = hausdorff._bound

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from exporter.coverage import region_certificate
+from exporter.mesh.coverage import region_certificate
 from tests.hausdorff_check import directed_dense
 from tests.test_hausdorff import notch, wall
 

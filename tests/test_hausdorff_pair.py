@@ -11,8 +11,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from exporter import hausdorff
-from exporter.hausdorff import Surface, _nearest_face, _pair_bound, directed_bounds
+from exporter.mesh import hausdorff
+from exporter.mesh.hausdorff import Surface, _nearest_face, _pair_bound, directed_bounds
 from tests.hausdorff_check import count_rounds, grid_points
 
 

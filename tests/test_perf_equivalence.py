@@ -169,7 +169,7 @@ def test_glb_bytes_are_pygltflib_bytes(monkeypatch, mime, mode):
 
 
 def test_unique_points_matches_numpy_unique_axis_0():
-    from exporter.geometry import unique_float_rows
+    from exporter.mesh.geometry import unique_float_rows
 
     rng = np.random.default_rng(6)
     keys = np.round(rng.integers(-20, 20, size=(2000, 3)) * 1.37 / 1e-6)

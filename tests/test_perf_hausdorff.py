@@ -15,10 +15,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from exporter import coverage, hausdorff, quality
-from exporter.coverage import SLIVER, _band_widths, _cycles
-from exporter.geometry import cross_rows
-from exporter.hausdorff import (
+from exporter import quality
+from exporter.mesh import coverage, hausdorff
+from exporter.mesh.coverage import SLIVER, _band_widths, _cycles
+from exporter.mesh.geometry import cross_rows
+from exporter.mesh.hausdorff import (
     CANDIDATES,
     LOOSE,
     PLANE_SLACK_MAX,

@@ -16,7 +16,8 @@ from test_simplify_shapes import box_building, crafted_building
 
 from exporter import quality
 from exporter.config import Config
-from exporter.hausdorff import hausdorff_bounds
+from exporter.mesh.hausdorff import hausdorff_bounds
+from exporter.mesh.slits import close_slits
 from exporter.quality import (
     SurfaceIndex,
     boundary_loops,
@@ -30,7 +31,6 @@ from exporter.quality import (
     silhouettes,
 )
 from exporter.simplify import build_mesh_lods
-from exporter.slits import close_slits
 
 # --------------------------------------------------------------------------- reference formulations
 

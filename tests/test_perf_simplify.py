@@ -19,7 +19,8 @@ from scipy.spatial import cKDTree
 from test_simplify_shapes import Atlas, Builder, add_dome, box_building, crafted_building
 
 from exporter.config import LodSpec, SimplifyOptions, default_lods
-from exporter.geometry import unique_float_rows
+from exporter.mesh.geometry import unique_float_rows
+from exporter.mesh.weld import lowest_member, weld_positions
 from exporter.quality import boundary_loops, joined, measure_lod
 from exporter.simplify import NOISE_M, MeshLevel, build_mesh_chain, build_mesh_lods, uv_charts
 from exporter.simplify.planar import (
@@ -38,7 +39,6 @@ from exporter.simplify.protect import (
     planar_regions,
 )
 from exporter.simplify.quadric import assign_uvs, closest_barycentric
-from exporter.simplify.weld import lowest_member, weld_positions
 
 
 def same(a, b) -> bool:

@@ -14,7 +14,8 @@ import pytest
 from test_perf_simplify import planar_cases, reference_planar_regions, same, welded_mesh
 from test_simplify_shapes import crafted_building
 
-from exporter.geometry import cross_rows
+from exporter.mesh.geometry import cross_rows
+from exporter.mesh.slits import close_slits, slit_vertices
 from exporter.samplegen import generate_buildings
 from exporter.simplify.planar import (
     _region_sums,
@@ -30,7 +31,6 @@ from exporter.simplify.protect import (
     row_norms,
     unique_rows,
 )
-from exporter.slits import close_slits, slit_vertices
 
 
 def reference_straight_vertices(positions, faces, regions, locked, tolerance=1e-6, on_border=True):

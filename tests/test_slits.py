@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 from test_quality import t_junction_roof
 
-from exporter.hausdorff import hausdorff_bounds
+from exporter.mesh.hausdorff import hausdorff_bounds
+from exporter.mesh.slits import close_slits, closed_surface, slit_points
 from exporter.quality import boundary_loops, joined
 from exporter.samplegen import generate_samples
 from exporter.simplify import _join
 from exporter.simplify.planar import _retriangulate_keeping_boundary, retriangulate_planar_checked
 from exporter.simplify.protect import nonmanifold_vertices
-from exporter.slits import close_slits, closed_surface, slit_points
 
 
 def roof(points, faces):

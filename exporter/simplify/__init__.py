@@ -34,7 +34,8 @@ from scipy.spatial import cKDTree
 
 from ..config import LodSpec, SimplifyOptions
 from ..errors import ProcessError
-from ..geometry import longest_edges, triangle_cross, unique_float_rows
+from ..mesh.geometry import longest_edges, triangle_cross, unique_float_rows
+from ..mesh.weld import weld_positions
 from ..model import Part
 from . import meshopt
 from .guard import Reference, certify, exceeds, silhouette_iou
@@ -48,7 +49,6 @@ from .protect import (
     part_border_vertices,
 )
 from .quadric import Collapsed, collapse
-from .weld import weld_positions
 
 __all__ = ["MeshLevel", "build_mesh_chain", "build_mesh_lods", "clean_part", "degenerate_only"]
 

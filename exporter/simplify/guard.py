@@ -34,9 +34,10 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .. import coverage, hausdorff, quality
-from ..geometry import compact_vertices
-from ..slits import closed_surface
+from .. import quality
+from ..mesh import coverage, hausdorff
+from ..mesh.geometry import compact_vertices
+from ..mesh.slits import closed_surface
 
 BUDGET_SHARE = 0.05  # certified bounds are refined to within this share of the budget at least
 TWIN_SLACK = 1e-6  # the twin stands in for LOD0 only within this x LOD0's diagonal (metres)

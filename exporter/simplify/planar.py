@@ -35,8 +35,8 @@ from typing import NamedTuple
 import mapbox_earcut
 import numpy as np
 
-from ..geometry import cross3, cross_rows
-from ..slits import close_slits, slit_vertices
+from ..mesh.geometry import cross3, cross_rows
+from ..mesh.slits import close_slits, slit_vertices
 from .protect import (
     border_vertices,
     edge_use,

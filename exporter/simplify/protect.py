@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry import cross_rows, row_norms, sorted_edge_keys
-from .weld import lowest_member
+from ..mesh.geometry import cross_rows, row_norms, sorted_edge_keys
+from ..mesh.weld import lowest_member
 
 # Two faces sharing an edge are one planar region when their unit normals differ by less than
 # this angle (cosine) and the second lies on the first's plane within PLANE_M metres.

@@ -48,8 +48,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import quality as _quality
 from . import coverage
-from . import quality as _quality
 from .geometry import cross_rows, longest_edges, unique_float_rows
 
 MAX_DEPTH = 7  # 4-splits per triangle at most (edges down to 1/128 of the triangle's)
@@ -157,7 +157,7 @@ class _Regions:
     ``face_order`` (m,) the faces of each region (CSR)."""
 
     def __init__(self, positions: np.ndarray, faces: np.ndarray, straighten: bool = True) -> None:
-        from .simplify.protect import planar_regions
+        from ..simplify.protect import planar_regions
 
         self.straighten = straighten
         m = len(faces)

@@ -262,7 +262,7 @@ def _close_uncached(positions, faces, corner_uvs):
         )
         source = source[step]
     # quality imports this package (through hausdorff and coverage): imported when needed.
-    from .quality import boundary_loops
+    from ..quality import boundary_loops
 
     k = len(positions)
     if boundary_loops(out_faces, k)[1] > boundary_loops(faces, k)[1]:

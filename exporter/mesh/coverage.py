@@ -51,9 +51,9 @@ import dataclasses
 
 import numpy as np
 
+from ..simplify.protect import planar_regions
 from .geometry import cross_rows
-from .simplify.protect import planar_regions
-from .simplify.weld import weld_positions
+from .weld import weld_positions
 
 WELD_M = 1e-6  # metres: vertices this close are one (the pipeline's noise welding)
 ORIENTED = 1e-9  # projected doubled area below this x the squared longest edge: not trusted
