@@ -1,4 +1,4 @@
-"""The region certificate (exporter/coverage.py): re-triangulated flat polygons settled by
+"""The region certificate (exporter/mesh/coverage.py): re-triangulated flat polygons settled by
 counting, and everything it cannot vouch for left open. Soundness is checked against the
 independent dense sampling of tests/hausdorff_check.py."""
 

@@ -1,4 +1,4 @@
-"""The certified Hausdorff distance (exporter/hausdorff.py): hand-built cases with known values,
+"""The certified Hausdorff distance (exporter/mesh/hausdorff.py): hand-built cases with known values,
 random meshes against a dense sampling, degenerate input, and the guard never accepting a level
 that a dense check finds above its budget."""
 

@@ -1,4 +1,4 @@
-"""The pair step of the certified bound (``exporter.hausdorff._pair_bound``): a triangle bridging
+"""The pair step of the certified bound (``exporter.mesh.hausdorff._pair_bound``): a triangle bridging
 two faces of the target (a chord across the facets of a dome, a piece of a facet across a ridge)
 is bounded by splitting it where the two faces' planes are equally far.
 

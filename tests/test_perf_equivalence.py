@@ -14,10 +14,11 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 import exporter.gltf_writer as gltf_writer
+from exporter.mesh.distance import SurfaceIndex, point_triangle_distance
+from exporter.mesh.geometry import cross_rows
+from exporter.mesh.topology import unique_rows
 from exporter.model import Part, Texture
-from exporter.quality import SurfaceIndex, point_triangle_distance
 from exporter.simplify import uv_charts
-from exporter.simplify.protect import cross_rows, unique_rows
 
 
 def reference_point_triangle_distance(points, tri):

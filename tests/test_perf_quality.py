@@ -16,20 +16,13 @@ from test_simplify_shapes import box_building, crafted_building
 
 from exporter import quality
 from exporter.config import Config
+from exporter.mesh import slits
+from exporter.mesh.distance import SurfaceIndex, face_normals, point_triangle_distance, row_lengths
 from exporter.mesh.hausdorff import hausdorff_bounds
+from exporter.mesh.raster import rasterise, silhouettes
 from exporter.mesh.slits import close_slits
-from exporter.quality import (
-    SurfaceIndex,
-    boundary_loops,
-    boundary_quality,
-    face_normals,
-    joined,
-    measure_lod,
-    point_triangle_distance,
-    rasterise,
-    row_lengths,
-    silhouettes,
-)
+from exporter.mesh.topology import boundary_loops
+from exporter.quality import boundary_quality, joined, measure_lod
 from exporter.simplify import build_mesh_lods
 
 # --------------------------------------------------------------------------- reference formulations
@@ -264,7 +257,8 @@ def test_measure_lod_hausdorff_bounds_the_sampled_two_way_maximum(seed):
 
 def measure_points(positions, faces, seed):
     """The points measure_lod measures from: vertices + SAMPLES samples, seeded as it does."""
-    from exporter.quality import SAMPLES, SEED, sample_surface
+    from exporter.mesh.distance import SEED, sample_surface
+    from exporter.quality import SAMPLES
 
     return np.vstack(
         [positions, sample_surface(positions, faces, SAMPLES, np.random.default_rng(SEED + seed))]
@@ -434,7 +428,8 @@ def test_boundary_quality_keys_are_measure_lods_bit_for_bit(boundary_first):
 def reference_wall_points(parts):
     """The source's wall samples as af57811 drew them: after SAMPLES samples of the whole
     surface (for the sampled Hausdorff distance) from the same stream."""
-    from exporter.quality import SAMPLES, SEED, WALL_MAX_UP, WALL_SAMPLES, sample_surface
+    from exporter.mesh.distance import SEED, sample_surface
+    from exporter.quality import SAMPLES, WALL_MAX_UP, WALL_SAMPLES
 
     positions, faces = joined(parts)
     rng = np.random.default_rng(SEED)
@@ -474,7 +469,7 @@ def former_quality(source, level, kind, deviation, monkeypatch):
     prepared afresh (no weld shared between the caches), the level welded again for the
     certification and the loops counted by scipy's connected_components."""
     with monkeypatch.context() as patch:
-        patch.setattr(quality, "boundary_loops", reference_boundary_loops)
+        patch.setattr(slits, "boundary_loops", reference_boundary_loops)
         patch.setattr(
             quality,
             "certified_hausdorff_rel",

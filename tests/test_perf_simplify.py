@@ -19,9 +19,16 @@ from scipy.spatial import cKDTree
 from test_simplify_shapes import Atlas, Builder, add_dome, box_building, crafted_building
 
 from exporter.config import LodSpec, SimplifyOptions, default_lods
-from exporter.mesh.geometry import unique_float_rows
+from exporter.mesh.geometry import cross_rows, unique_float_rows
+from exporter.mesh.topology import (
+    COPLANAR_COS,
+    PLANE_M,
+    border_vertices,
+    boundary_loops,
+    planar_regions,
+)
 from exporter.mesh.weld import lowest_member, weld_positions
-from exporter.quality import boundary_loops, joined, measure_lod
+from exporter.quality import joined, measure_lod
 from exporter.simplify import NOISE_M, MeshLevel, build_mesh_chain, build_mesh_lods, uv_charts
 from exporter.simplify.planar import (
     _loops,
@@ -30,13 +37,6 @@ from exporter.simplify.planar import (
     _retriangulate,
     _retriangulate_many,
     _row_dots,
-)
-from exporter.simplify.protect import (
-    COPLANAR_COS,
-    PLANE_M,
-    border_vertices,
-    cross_rows,
-    planar_regions,
 )
 from exporter.simplify.quadric import assign_uvs, closest_barycentric
 

@@ -12,17 +12,11 @@ import numpy as np
 import pytest
 from test_simplify_shapes import box_building, crafted_building
 
+from exporter.mesh.distance import distance_to_surface, point_triangle_distance
+from exporter.mesh.raster import rasterise
+from exporter.mesh.topology import boundary_loops
 from exporter.model import Part
-from exporter.quality import (
-    boundary_loops,
-    boundary_quality,
-    distance_to_surface,
-    exact_quality,
-    joined,
-    measure_lod,
-    point_triangle_distance,
-    rasterise,
-)
+from exporter.quality import boundary_quality, exact_quality, joined, measure_lod
 
 KEYS = {
     "triangle_ratio",

@@ -97,7 +97,7 @@ def test_paper_targets_on_sample_generator_buildings():
 
 
 def test_uvs_stay_inside_their_source_islands(buildings, chains):
-    from exporter.quality import point_triangle_distance
+    from exporter.mesh.distance import point_triangle_distance
 
     # Every output UV lies in the UV box of the source part (no UV from another part or nowhere),
     # and the winding stays outward: each face's normal agrees with its nearest source face's.

@@ -16,8 +16,9 @@ from hypothesis import strategies as st
 from test_simplify_shapes import Atlas, Builder, add_dome, box_building
 
 from exporter.config import LodSpec, SimplifyOptions
+from exporter.mesh.topology import boundary_loops
 from exporter.model import Part
-from exporter.quality import boundary_loops, joined, measure_lod
+from exporter.quality import joined, measure_lod
 from exporter.simplify import build_mesh_chain, build_mesh_lods, clean_part
 from exporter.simplify.protect import face_areas, largest_faces
 
