@@ -26,7 +26,7 @@ from .gltf_writer import glb_bytes
 from .manifest import safe_folder_name
 from .model import Building, Part, Skipped, Texture, TileId
 from .placement import building_placement, relative_placement
-from .quality import boundary_quality, exact_quality, measure_lod
+from .quality import LevelQuality, boundary_quality, exact_quality, measure_lod
 from .readers import Entry, load_entry
 from .simplify import build_mesh_chain, degenerate_only
 from .textures import build_texture_lods
@@ -94,7 +94,10 @@ def same_geometry(parts: list[Part], other: list[Part]) -> bool:
     )
 
 
-def lod_record(level: int, parts: list[Part], file_name: str, data: bytes, quality: dict) -> dict:
+def lod_record(
+    level: int, parts: list[Part], file_name: str, data: bytes, quality: LevelQuality | None
+) -> dict:
+    """A level's manifest record; ``quality`` None for LOD0 (the source: only its ratio, 1)."""
     textures = [p.texture for p in parts if p.texture is not None and p.triangle_count]
     largest = max(textures, key=lambda t: t.width * t.height, default=None)
     return {
@@ -105,7 +108,7 @@ def lod_record(level: int, parts: list[Part], file_name: str, data: bytes, quali
         "texture_size": [largest.width, largest.height] if largest else [0, 0],
         "texture_bytes": sum(len(t.data) for t in {id(t): t for t in textures}.values()),
         "file_bytes": len(data),
-        "quality": quality,
+        "quality": quality.to_manifest() if quality is not None else {"triangle_ratio": 1.0},
     }
 
 
@@ -172,11 +175,11 @@ def process_entry(
         lap("simplify")
         parts_by_level = texture_levels(parts_by_level, config, problems)
         lap("textures")
-        qualities = [{"triangle_ratio": 1.0}]
+        qualities: list[LevelQuality | None] = [None]  # LOD0 is the source
         for level in range(1, len(parts_by_level)):
             if level > 1 and same_geometry(parts_by_level[level], parts_by_level[level - 1]):
                 # The level above's mesh (no_smaller_than_above): its metrics, certified once.
-                qualities.append(dict(qualities[-1]))
+                qualities.append(qualities[-1])
             elif chain[level].exact:  # a lossless re-triangulation: only the bound to certify
                 qualities.append(exact_quality(parts_by_level[0], parts_by_level[level]))
             elif chain[level].surface_exact:  # same surface, outline changed (a closed slit)

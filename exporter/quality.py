@@ -5,10 +5,10 @@ in the building-local East/Up/North frame, y = Up; triangles (m, 3) wound outwar
 joined and welded by exact position (to 1e-6 m) so texture seams and part junctions do not count
 as open boundary. Every length is relative to the source's bounding-box diagonal (metres / metres).
 
-Entry point: :func:`measure_lod` returns a flat dict of JSON-able numbers (:func:`exact_quality`
+Entry point: :func:`measure_lod` returns a :class:`LevelQuality` (:func:`exact_quality`
 gives the same keys without measuring, for a level known to be a lossless re-triangulation;
 :func:`boundary_quality` for a level with the source's surface but a changed open boundary
-measures only the boundary keys):
+measures only the boundary keys; ``to_manifest()`` gives the manifest's ``quality`` object):
 
 - ``triangle_ratio``: level triangles / source triangles.
 - ``hausdorff_rel``: symmetric Hausdorff distance / diagonal, a certified upper bound
@@ -78,6 +78,7 @@ union-find (scipy's sparse setup was ~150 us a call), one weld per source and pe
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 from collections import OrderedDict
 from dataclasses import dataclass
@@ -105,7 +106,31 @@ COVER_TOLERANCE = 0.01  # wall sample covered when within this x diagonal of the
 HAUSDORFF_RTOL = 0.02  # hausdorff_rel's certified upper bound is refined to 2 % of the lower one
 HAUSDORFF_ATOL = 1e-5  # ... or until it is below this x the diagonal (lossless levels: flatness)
 
-__all__ = ["measure_lod", "exact_quality", "boundary_quality", "RESOLUTION", "COVER_TOLERANCE"]
+__all__ = [
+    "LevelQuality",
+    "measure_lod",
+    "exact_quality",
+    "boundary_quality",
+    "RESOLUTION",
+    "COVER_TOLERANCE",
+]
+
+
+@dataclass(frozen=True)
+class LevelQuality:
+    """A level's quality against its source (LOD0): the six numbers of the module doc, in the
+    manifest's order (each level's ``quality`` object)."""
+
+    triangle_ratio: float
+    hausdorff_rel: float
+    silhouette_iou: float
+    wall_coverage: float
+    boundary_length_change: float
+    new_holes: int
+
+    def to_manifest(self) -> dict:
+        """The manifest's ``quality`` object: ``{"triangle_ratio": ..., ..., "new_holes": ...}``."""
+        return dataclasses.asdict(self)
 
 
 # --------------------------------------------------------------------------- mesh helpers
@@ -263,25 +288,24 @@ def _wall_coverage(src: _Source, lod_pos: np.ndarray, lod_faces: np.ndarray, hau
 
 def measure_lod(
     source_parts: list[Part], lod_parts: list[Part], hausdorff_m: float | None = None
-) -> dict:
+) -> LevelQuality:
     """Quality of ``lod_parts`` against ``source_parts`` (both local East/Up/North metres).
 
-    Returns ``{"triangle_ratio", "hausdorff_rel", "silhouette_iou", "wall_coverage",
-    "boundary_length_change", "new_holes"}`` (floats, ``new_holes`` an int); see the module doc.
+    Returns a :class:`LevelQuality` (floats, ``new_holes`` an int); see the module doc.
     Deterministic: the samples come from a fixed seed. The source side is computed once and
     cached (keyed by its bytes), so measuring every level of a building costs one source pass.
     ``hausdorff_m``: a certified upper bound (metres) of the level's Hausdorff distance to the
     source that the caller has already (the error guard's), used instead of certifying again.
     """
     if sum(p.triangle_count for p in source_parts) == 0:
-        return {
-            "triangle_ratio": 1.0,
-            "hausdorff_rel": 0.0,
-            "silhouette_iou": 1.0,
-            "wall_coverage": 1.0,
-            "boundary_length_change": 0.0,
-            "new_holes": 0,
-        }
+        return LevelQuality(
+            triangle_ratio=1.0,
+            hausdorff_rel=0.0,
+            silhouette_iou=1.0,
+            wall_coverage=1.0,
+            boundary_length_change=0.0,
+            new_holes=0,
+        )
     src = _source_side(source_parts)
     lod_pos, lod_faces = joined(lod_parts)
 
@@ -296,14 +320,14 @@ def measure_lod(
     iou = min_iou(src.silhouettes, silhouettes(lod_pos, lod_faces, src.low, src.high))
 
     keys = _boundary_keys(src, lod_parts, lod_pos, lod_faces)
-    return {
-        "triangle_ratio": keys["triangle_ratio"],
-        "hausdorff_rel": hausdorff / src.diagonal,
-        "silhouette_iou": iou,
-        "wall_coverage": wall_coverage,
-        "boundary_length_change": keys["boundary_length_change"],
-        "new_holes": keys["new_holes"],
-    }
+    return LevelQuality(
+        triangle_ratio=keys["triangle_ratio"],
+        hausdorff_rel=hausdorff / src.diagonal,
+        silhouette_iou=iou,
+        wall_coverage=wall_coverage,
+        boundary_length_change=keys["boundary_length_change"],
+        new_holes=keys["new_holes"],
+    )
 
 
 _SURFACES: OrderedDict[bytes, tuple] = OrderedDict()
@@ -344,7 +368,7 @@ def certified_hausdorff_rel(
     return upper / diagonal
 
 
-def boundary_quality(source_parts: list[Part], lod_parts: list[Part]) -> dict:
+def boundary_quality(source_parts: list[Part], lod_parts: list[Part]) -> LevelQuality:
     """:func:`measure_lod`'s metrics for a level whose *surface* is the source's but whose open
     boundary may not be (both local East/Up/North metres).
 
@@ -365,17 +389,17 @@ def boundary_quality(source_parts: list[Part], lod_parts: list[Part]) -> dict:
         raise ValueError(
             "boundary_quality: an empty level cannot have the surface of a non-empty source"
         )
-    return {
-        "triangle_ratio": keys["triangle_ratio"],
-        "hausdorff_rel": certified_hausdorff_rel(source_parts, lod_parts, (lod_pos, lod_faces)),
-        "silhouette_iou": 1.0,
-        "wall_coverage": 1.0,
-        "boundary_length_change": keys["boundary_length_change"],
-        "new_holes": keys["new_holes"],
-    }
+    return LevelQuality(
+        triangle_ratio=keys["triangle_ratio"],
+        hausdorff_rel=certified_hausdorff_rel(source_parts, lod_parts, (lod_pos, lod_faces)),
+        silhouette_iou=1.0,
+        wall_coverage=1.0,
+        boundary_length_change=keys["boundary_length_change"],
+        new_holes=keys["new_holes"],
+    )
 
 
-def exact_quality(source_parts: list[Part], lod_parts: list[Part]) -> dict:
+def exact_quality(source_parts: list[Part], lod_parts: list[Part]) -> LevelQuality:
     """What :func:`measure_lod` would ideally give for a level whose surface *is* the source's.
 
     For a lossless level (the source re-triangulated: same surface, same outline, same UV
@@ -395,11 +419,11 @@ def exact_quality(source_parts: list[Part], lod_parts: list[Part]) -> dict:
         raise ValueError(
             "exact_quality: an empty level cannot be a re-triangulation of a non-empty source"
         )
-    return {
-        "triangle_ratio": float(lod_tris / source_tris) if source_tris else 1.0,
-        "hausdorff_rel": certified_hausdorff_rel(source_parts, lod_parts),
-        "silhouette_iou": 1.0,
-        "wall_coverage": 1.0,
-        "boundary_length_change": 0.0,
-        "new_holes": 0,
-    }
+    return LevelQuality(
+        triangle_ratio=float(lod_tris / source_tris) if source_tris else 1.0,
+        hausdorff_rel=certified_hausdorff_rel(source_parts, lod_parts),
+        silhouette_iou=1.0,
+        wall_coverage=1.0,
+        boundary_length_change=0.0,
+        new_holes=0,
+    )

@@ -302,7 +302,7 @@ def test_exact_levels_carry_identity_metrics_and_changed_levels_are_measured(tmp
             )
             for level in range(1, len(chain)):
                 quality = record["lods"][level]["quality"]
-                measured = measure_lod(chain[0].parts, chain[level].parts)
+                measured = measure_lod(chain[0].parts, chain[level].parts).to_manifest()
                 surface = {
                     key: quality[key]
                     for key in ("hausdorff_rel", "silhouette_iou", "wall_coverage")

@@ -247,7 +247,7 @@ def test_measure_lod_hausdorff_bounds_the_sampled_two_way_maximum(seed):
         lower, upper = hausdorff_bounds(
             (source_pos, source_faces), (lod_pos, lod_faces), rtol=0.02, atol=1e-5 * diagonal
         )
-        reported = measure_lod(chain[0], level)["hausdorff_rel"] * diagonal
+        reported = measure_lod(chain[0], level).hausdorff_rel * diagonal
         # Both are certified upper bounds (measure_lod's own refinement order may end at another
         # one): each above every lower bound and within the requested gap of the lower bound.
         for bound in (upper, reported):
@@ -281,8 +281,8 @@ def test_moved_level_keeps_its_values_through_the_floor():
     assert backward > forward  # the level's raised roof is far from the source, not the reverse
     diagonal = float(np.linalg.norm(source_pos.max(0) - source_pos.min(0)))
     # The certified bound (issue 13): the sampled value (the roof's top, exact) from below.
-    assert backward / diagonal <= measure_lod(box, moved)["hausdorff_rel"]
-    assert measure_lod(box, moved)["hausdorff_rel"] <= backward / diagonal * 1.02 + 1e-5
+    assert backward / diagonal <= measure_lod(box, moved).hausdorff_rel
+    assert measure_lod(box, moved).hausdorff_rel <= backward / diagonal * 1.02 + 1e-5
 
 
 def tricky_pixels(rng, count, size):
@@ -420,7 +420,8 @@ def test_boundary_quality_keys_are_measure_lods_bit_for_bit(boundary_first):
                 measured, bounded = measure_lod(source, level), boundary_quality(source, level)
             expected = reference_boundary_keys(source, level)
             for key, value in expected.items():
-                assert bounded[key] == measured[key] == value and type(bounded[key]) is type(value)
+                ours = getattr(bounded, key)
+                assert ours == getattr(measured, key) == value and type(ours) is type(value)
             checked += keep < 1.0 and expected["boundary_length_change"] != 0.0
     assert checked >= 6  # the subsets did change the boundary
 
@@ -459,8 +460,8 @@ def test_wall_coverage_is_the_exact_share_whichever_path_gives_it():
             lod_pos, lod_faces = joined(level)
             inside = reference_within(SurfaceIndex(lod_pos, lod_faces), side.wall_points, tolerance)
             measured = measure_lod(source, level)
-            assert measured["wall_coverage"] == float(inside.mean())
-            shortcut += measured["hausdorff_rel"] < quality.COVER_TOLERANCE
+            assert measured.wall_coverage == float(inside.mean())
+            shortcut += measured.hausdorff_rel < quality.COVER_TOLERANCE
     assert 0 < shortcut < 12  # both paths were taken
 
 
