@@ -50,7 +50,7 @@ DASK_MISSING = (
     "pip install 'vworld-lod[dask]'"
 )
 
-# Buildings per task, chosen by benchmarks/bench_distributed.py (README, "Running at scale"): a
+# Buildings per task, chosen by benchmarks/bench_distributed.py (docs/performance.md): a
 # task cost 7-11 ms of client + scheduler time on loopback against 38-135 ms of work per building
 # (both measured on 2 loaded cores), so 16 buildings keep the overhead near 1 % while a lost
 # worker costs little (16 x ~23 ms unloaded).

@@ -31,49 +31,10 @@ measures only the boundary keys; ``to_manifest()`` gives the manifest's ``qualit
   changes nothing here.
 - ``new_holes``: how many more boundary loops the level has than the source (never negative).
 
-Speed (issue 8; ratios against af57811's measure_lod in one run, 2 shared cores): the values
-are bit for bit af57811's (tests/test_perf_quality.py; exports of a generated tile byte-identical).
-Per measured level 0.85x on generated VWorld-like buildings and on Zürich's (values identical),
-silhouettes 0.87x; the export's quality stage with every level measured
-(``planar_retriangulation: false``) 0.86x. Where the time still goes per measured level:
-silhouettes ~30 %, exact point-triangle distances ~17 %, surface indexes ~11 %, k-nearest probe
-queries ~9 %, boundary loops ~9 %: many small numpy calls. Tried and dropped: rasterising the three
-views in one pass (not faster: arrays past glibc's mmap threshold fault their pages on every
-temporary), reusing the source's spans for triangles a level kept (the matching costs what it
-saves); a 64-pixel raster and/or half the samples change values (up to 2e-3 IoU, 9e-4
-hausdorff_rel, 8e-3 wall coverage) for only 0.67-0.9x. The large saving is :func:`exact_quality`
-for levels the simplifier reports exact (most levels of VWorld-like tiles).
-
-Round 2 (against f369deb, same run): :func:`boundary_quality` costs 0.056x of measure_lod on the
-25 levels of /tmp/p100 (defaults) whose planar pass only closed slits (0.32 against 5.8 ms per
-level; boundary keys bit for bit measure_lod's, its hausdorff_rel there <= 2.2e-8); with those
-levels given boundary_quality the quality stage of /tmp/p100 (defaults, as the pipeline runs
-it) is 0.59x (1.49 against 2.51 CPU ms/building). measure_lod itself is unchanged (values bit
-for bit on every level of /tmp/p100 with and without ``planar_retriangulation`` and of the real
-Zürich/Rotterdam files; 0.96-1.01x, noise). Tried and dropped, values identical each time:
-updating a level's silhouettes from the last mesh rastered against the same source (LOD0 for
-LOD1, LOD1 for LOD2: span ends are additive over triangles, so lost and gained triangles
-suffice; 40 % of the triangles rastered, but they are the large ones) 1.01-1.03x; the three
-edges of the raster in one (3, lines) pass 1.01x, one repeat per edge 1.08x; nearest-probe
-blocks before the candidate bounds in max_distance 1.3x (most source points lie on the level,
-their probes are far but their distance is 0); measuring the level-to-source direction first
-1.02x; a k = 1 query before the k = 6 one (1.27x the query time: 67 % of the points are off
-every probe); cKDTree without balancing and a hand-written ``rng.choice`` (< 2 % each).
-
-Round 3 (issue 13, the Hausdorff bound excluded; against a9d60e1 alternated in one run, best
-of 3, 100 generated buildings of seed 3, every level k >= 1): measure_lod 0.38-0.42x (0.39-0.45x on the
-20 levels that are not exact), values identical (also with the bound replaced by inf, which
-forces the exact wall distances). Dead work gone: the level's SAMPLES samples (they fed
-nothing since the sampled Hausdorff distance left) and the source's SurfaceIndex and sample
-points (the stream is advanced as before, so the wall samples are af57811's). Wall coverage is 1
-without distances when the certified Hausdorff bound is within the tolerance (every level of
-that tile). The three views rasterised in one pass (rasters 0.67x), boundary loops with fewer
-passes. What is left: rasterising ~55 %, boundary loops ~20 %, element work on (3, lines)
-arrays rather than calls.
-
-Round 4 (against 895b66a, the export's 131 quality calls of /tmp/perf100q replayed interleaved,
-best of 9, CPU): 0.94x, values identical (tests/test_perf_quality.py): loops counted by a Python
-union-find (scipy's sparse setup was ~150 us a call), one weld per source and per level.
+Cost: the source side (weld, wall samples, silhouettes, outline) is computed once per building
+and cached; a level known to keep the source's surface is not measured (:func:`exact_quality`,
+:func:`boundary_quality`), and wall coverage needs no distance when the certified bound is
+within its tolerance. Measurement history: docs/performance.md.
 """
 
 from __future__ import annotations
@@ -232,9 +193,9 @@ def _source_side(parts: list[Part]) -> _Source:
     walls = (np.abs(normals[:, 1]) < WALL_MAX_UP * lengths) & (lengths > 0)
     border_length, loops = open_boundary(positions, faces)
     if lengths.sum() > 0:
-        # The SAMPLES surface samples the stream gave the old sampled Hausdorff distance first:
-        # sample_surface draws 3 doubles per sample (rng.choice's uniforms, then r1, r2), so the
-        # wall samples stay the ones measured since af57811.
+        # The stream skips the SAMPLES surface samples a sampled Hausdorff distance once took
+        # (3 doubles each: rng.choice's uniform, then r1, r2), so the wall samples, and with
+        # them wall_coverage, stay those earlier versions reported.
         rng.random(3 * SAMPLES)
     source = _Source(
         positions,

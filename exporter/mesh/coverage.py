@@ -31,10 +31,8 @@ distance computed at all:
 6. Slivers: a collapse onto a line leaves collinear triangles filling a T-junction (no region
    takes them: their normal is noise). One whose longest edge, or both other edges, are edges of
    settled faces of its side lies within twice its least altitude of those faces, so it is
-   settled with that width added (a fan of them ring by ring, the widths summed). On generated
-   buildings this left 163 level faces open where there were 633 over the guard's 71 candidate
-   certifications of a 100-building tile, and the certification ran 0.83-0.89x its time
-   (``bench_stages.py``, quality and simplify columns, same run).
+   settled with that width added (a fan of them ring by ring, the widths summed), which leaves
+   far fewer faces to the general method.
 
 A region that fails a test (a flipped face, a chain that differs otherwise) and every face not
 placed in a region are returned as *open*: the caller bounds them with the general method

@@ -33,11 +33,11 @@ def rasterise_views(xy: np.ndarray, faces: np.ndarray, size: int) -> np.ndarray:
     line ``k - 0.5`` of its triangle's rows, clipped to the edge's y-range, and row k reads its
     two lines as neighbours in one flat array (no gathers per row; rows straddling two triangles
     are dropped). One pass for all views and edges: a few dozen numpy calls on (3, lines) arrays
-    instead of ~60 per view on (lines,) ones (issue 13: the calls, not the arithmetic, were half
-    the time). The arithmetic is that of the (triangle, row) form of af57811 (an edge's x at a
-    line is ``px + (clip(y, py, qy) - py) * slope``, a flat edge gives its two end x; the minimum
-    and maximum over the edges meeting the strip), so the pixels are the same bit for bit
-    (tests/test_perf_quality.py).
+    rather than many per view (on building-sized meshes the calls, not the arithmetic, cost).
+    The arithmetic is that of the plain (triangle, row) form (an edge's x at a line is
+    ``px + (clip(y, py, qy) - py) * slope``, a flat edge gives its two end x; the minimum and
+    maximum over the edges meeting the strip), so the pixels are the same bit for bit
+    (tests/test_perf_quality.py holds that form as the reference).
     """
     views = len(xy)
     if len(faces) == 0:

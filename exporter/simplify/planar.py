@@ -19,12 +19,9 @@ UVs in the region, or earcut's triangles not covering the region's area.
 
 Regions are done in batches (:func:`_retriangulate_many`, ~19 regions per building): everything
 but earcut and the per-region float reductions runs once per batch, with the results of the
-one-region reference :func:`_retriangulate` bit for bit (``tests/test_perf_simplify.py``). What
-does not depend on the droppable vertices (outline loops, UV check, normals, plane bases) is
-computed once per call (:func:`region_setup`) for every batch of both passes, and one sort of the
-faces' edges serves the regions and the straight vertices. Measured (issue 14, perf tile of 100
-buildings, ``benchmarks/bench_planar.py``, per call best of 20, same run): 0.65x of the stage
-before, outputs identical (``tests/test_planar_reference.py`` holds that stage as the reference).
+one-region reference :func:`_retriangulate` bit for bit (``tests/test_perf_simplify.py``,
+``tests/test_planar_reference.py``). What does not depend on the droppable vertices (outline
+loops, UV check, normals, plane bases) is computed once per call (:func:`region_setup`).
 """
 
 from __future__ import annotations
