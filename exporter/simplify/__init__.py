@@ -28,6 +28,7 @@ Pipeline per level (each level is built from the level above; measured, see the 
 from __future__ import annotations
 
 import dataclasses
+from typing import NamedTuple
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -116,10 +117,20 @@ def uv_charts(faces: np.ndarray, vertex_count: int) -> np.ndarray:
     return (np.cumsum(root) - 1)[labels]
 
 
-def _join(parts: list[Part], link_distance: float):
-    """One welded mesh from all parts: positions (k, 3) metres, faces (m, 3), face_part (m,),
-    corner_uvs (m, 3, 2) or None, face_chart (m,), and whether welding merged vertices further
-    apart than ``NOISE_M`` (only possible with ``link_distance > NOISE_M``)."""
+class JoinedParts(NamedTuple):
+    """A building's parts as the one welded mesh the simplifier works on (unpacks as the six
+    values; ``[:2]`` is the ``(positions, faces)`` pair the mesh layer takes)."""
+
+    positions: np.ndarray  # (k, 3) float64 metres, building-local East/Up/North, welded
+    faces: np.ndarray  # (m, 3) int64 into positions, wound outward
+    face_part: np.ndarray  # (m,) int64: the part of each face
+    corner_uvs: np.ndarray | None  # (m, 3, 2) float32 per face corner (glTF UV convention)
+    face_chart: np.ndarray  # (m,) int64: the UV chart (texture island) of each face
+    merged: bool  # welding merged vertices further apart than NOISE_M (link_distance > NOISE_M)
+
+
+def _join(parts: list[Part], link_distance: float) -> JoinedParts:
+    """One welded mesh from all parts (:class:`JoinedParts`)."""
     return _join_welded(parts, link_distance)[0]
 
 
@@ -159,7 +170,7 @@ def _join_welded(parts: list[Part], link_distance: float):
     distinct = (
         (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])
     )
-    joined = (
+    joined = JoinedParts(
         welded_positions,
         faces[distinct],
         face_part[distinct],
@@ -256,7 +267,7 @@ def _simplify_level(
     target: int,
     options: SimplifyOptions,
     reference: tuple[np.ndarray, np.ndarray] | Reference | None = None,
-    joined: tuple | None = None,
+    joined: JoinedParts | None = None,
     tolerance: float = float("inf"),
     planar_done: bool = False,
     slits_closed: bool = False,
@@ -499,8 +510,8 @@ def build_mesh_chain(
     source_triangles = sum(p.triangle_count for p in parts)
     chain = [MeshLevel([clean_part(p) for p in parts], True, True)]
     joined, lod0_positions, lod0_welded = _join_welded(chain[0].parts, 0.0)
-    reference = Reference(*joined[:2])  # the guard's reference: LOD0, welded
-    size = largest_side(joined[0])
+    reference = Reference(joined.positions, joined.faces)  # the guard's reference: LOD0, welded
+    size = largest_side(joined.positions)
     offset = None  # LOD0's noise welding, metres (weld_offset), when a bound needs it
     for k, spec in enumerate(lods[1:], start=1):
         target = int(round(source_triangles * spec.mesh))
