@@ -47,7 +47,7 @@ from PIL import Image
 from pygltflib import GLTF2
 from scipy import ndimage
 
-from .geometry import unit_vectors, vertex_normals
+from .mesh.geometry import unit_vectors, vertex_normals
 from .model import Part
 
 GLTF_MIMES = ("image/jpeg", "image/png")

@@ -369,7 +369,7 @@ def placement_cases(path: Path) -> Path:
 
 def name_cases(path: Path) -> Path:
     """Building ids and the exporter's safe folder names for them (prefab names must match)."""
-    from exporter.pipeline import safe_folder_name
+    from exporter.manifest import safe_folder_name
 
     ids = [
         "B1",

@@ -225,7 +225,7 @@ namespace VWorldLod
         }
 
         /// <summary>
-        /// The exporter's file-system-safe name of a building id (exporter.pipeline.safe_folder_name):
+        /// The exporter's file-system-safe name of a building id (exporter.manifest.safe_folder_name):
         /// runs of characters other than ASCII letters, digits, '.', '_' and '-' become '_', leading
         /// and trailing '.'/'_' go ("building" if nothing is left), and a changed name gets the first
         /// 8 hex digits of the id's SHA-1 (after at most 80 characters) so distinct ids stay distinct.
