@@ -30,7 +30,7 @@ from pathlib import Path
 from . import __version__
 from .atomic import remove_stale_temporaries, write_text_atomic
 from .config import Config
-from .distributed import ClusterOptions, cluster_results, cluster_session
+from .distributed import ClusterOptions, batch_size_for, cluster_results, cluster_session
 from .errors import InputError
 from .job import RECORD_NAME, STAGES, EntryResult, process_entry
 from .manifest import MANIFEST_NAME, build_manifest, dumps
@@ -65,13 +65,17 @@ def _sha256_file(name: str) -> str | None:
     return digest.hexdigest()
 
 
-def input_fingerprints(names: list[str], known: dict[str, dict]) -> list[dict]:
+def input_fingerprints(
+    names: list[str], known: dict[str, dict], hashed: dict[str, dict] | None = None
+) -> list[dict]:
     """``[{"path", "size", "mtime_ns", "sha256", "hashed_ns"}]`` of every input file.
 
     A file whose size and mtime equal what ``known`` (a previous run's fingerprints by path)
     recorded, and that was not modified within ``RACY_NS`` of being hashed then, keeps its recorded
     sha256 without being read again (as make, rsync and git trust stat data); any other file is
-    hashed. A missing file has ``sha256`` None."""
+    hashed. A missing file has ``sha256`` None. ``hashed`` (by path) holds the files this run has
+    hashed already, reused while their stat is unchanged: a file shared by many buildings (a
+    VWorld ``.dat``) is read once per run, not once per building."""
     out: list[dict] = []
     for name in names:
         try:
@@ -89,16 +93,25 @@ def input_fingerprints(names: list[str], known: dict[str, dict]) -> list[dict]:
         ):
             out.append(previous)
             continue
+        earlier = hashed.get(name) if hashed is not None else None
+        if (
+            earlier is not None
+            and earlier["size"] == stat.st_size
+            and earlier["mtime_ns"] == stat.st_mtime_ns
+        ):
+            out.append(earlier)
+            continue
         hashed_ns = time.time_ns()
-        out.append(
-            {
-                "path": name,
-                "size": stat.st_size,
-                "mtime_ns": stat.st_mtime_ns,
-                "sha256": _sha256_file(name),
-                "hashed_ns": hashed_ns,
-            }
-        )
+        fingerprint = {
+            "path": name,
+            "size": stat.st_size,
+            "mtime_ns": stat.st_mtime_ns,
+            "sha256": _sha256_file(name),
+            "hashed_ns": hashed_ns,
+        }
+        if hashed is not None and fingerprint["sha256"] is not None:
+            hashed[name] = fingerprint
+        out.append(fingerprint)
     return out
 
 
@@ -193,31 +206,52 @@ class RunStats:
 Progress = Callable[[int, int], None]
 
 
-def _results(work: Iterable[tuple | EntryResult], jobs: int) -> Iterable[EntryResult]:
+# Buildings per pool task at most: a task's round trip through the pool (pickling, the pool's
+# threads and pipes) costs about as much CPU as a tenth of a building's export.
+LOCAL_BATCH = 8
+
+
+def _process_batch(items: list[tuple]) -> list[EntryResult]:
+    """Run in a pool worker: :func:`exporter.job.process_entry` for each task tuple of ``items``."""
+    return [process_entry(*item) for item in items]
+
+
+def _results(
+    work: Iterable[tuple | EntryResult], jobs: int, total: int = 0
+) -> Iterable[EntryResult]:
     """Run ``process_entry`` over ``work`` (task tuples, or finished results passed through as
-    they come), in this process for one job, else in a process pool with a bounded number of
-    tasks in flight (memory stays bounded by the work in flight). ``work`` is consumed lazily,
-    so the caller's per-entry checks (input hashing) overlap the workers."""
+    they come), in this process for one job, else in a process pool, in batches of up to
+    ``LOCAL_BATCH`` tasks (smaller when ``total`` tasks would not give every worker four) with a
+    bounded number of batches in flight (memory stays bounded by the work in flight). ``work`` is
+    consumed lazily, so the caller's per-entry checks (input hashing) overlap the workers."""
     if jobs <= 1:
         for item in work:
             yield item if isinstance(item, EntryResult) else process_entry(*item)
         return
+    size = batch_size_for(total, jobs, LOCAL_BATCH)
     with ProcessPoolExecutor(max_workers=jobs) as pool:
         pending = set()
+        batch: list[tuple] = []
         try:
             for item in work:
                 if isinstance(item, EntryResult):
                     yield item
                     continue
-                pending.add(pool.submit(process_entry, *item))
-                if len(pending) >= jobs * 4:
+                batch.append(item)
+                if len(batch) < size:
+                    continue
+                pending.add(pool.submit(_process_batch, batch))
+                batch = []
+                if len(pending) >= jobs * 2:
                     done, pending = wait(pending, return_when=FIRST_COMPLETED)
                     for future in done:
-                        yield future.result()
+                        yield from future.result()
+            if batch:
+                pending.add(pool.submit(_process_batch, batch))
             while pending:
                 done, pending = wait(pending, return_when=FIRST_COMPLETED)
                 for future in done:
-                    yield future.result()
+                    yield from future.result()
         except BaseException:
             pool.shutdown(wait=False, cancel_futures=True)
             raise
@@ -237,7 +271,7 @@ def _result_stream(
     address, ``"local"`` or :class:`exporter.distributed.ClusterOptions`), from a Dask cluster
     checked before any work starts (``exporter.distributed``)."""
     if scheduler is None:
-        yield _results(work, min(jobs, max(1, total)))
+        yield _results(work, min(jobs, max(1, total)), total)
         return
     options = scheduler if isinstance(scheduler, ClusterOptions) else ClusterOptions(scheduler)
     if options.address == "local" and options.local_workers is None:
@@ -285,11 +319,12 @@ def export_tiles(
     # takes work: hashing is cheap I/O (and skipped for files whose stat is unchanged), and a
     # re-run that changes nothing starts no worker at all.
     def work() -> Iterable[tuple | EntryResult]:
+        hashed: dict[str, dict] = {}
         for entry in entries:
             before_path = previous.get((entry.source, entry.id))
             before = read_record(before_path) if before_path is not None else None
             fingerprints = input_fingerprints(
-                entry.inputs, {f["path"]: f for f in before["inputs"]} if before else {}
+                entry.inputs, {f["path"]: f for f in before["inputs"]} if before else {}, hashed
             )
             digest = input_hash(entry, config_hash, fingerprints)
             previous_run = reusable_record(before, digest, out_dir)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import multiprocessing
 import os
 import shutil
 import signal
@@ -452,3 +453,45 @@ def test_levels_report_their_error_budget_and_whether_they_shrank(tmp_path, smal
     assert summary[2]["no_smaller_count"] == sum(
         b["lods"][2]["no_smaller_than_above"] for b in manifest["buildings"]
     )
+
+
+def test_a_file_shared_by_many_buildings_is_hashed_once_per_run(tmp_path, small_tile, monkeypatch):
+    import exporter.pipeline as pipeline
+    from exporter.config import Config
+
+    hashed: list[str] = []
+    real_sha = pipeline._sha256_file
+    monkeypatch.setattr(
+        pipeline, "_sha256_file", lambda name: hashed.append(name) or real_sha(name)
+    )
+    pipeline.export_tiles([small_tile], tmp_path / "out", Config(), jobs=1)
+    (dat,) = small_tile.glob("*.dat")
+    assert hashed.count(str(dat)) == 1 and len(hashed) == len(set(hashed))
+    records = [json.loads(p.read_text()) for p in (tmp_path / "out").glob("*/*/building.json")]
+    assert len(records) == 6
+    assert all(r["inputs"][0]["path"] == str(dat) for r in records)
+    assert len({r["inputs"][0]["sha256"] for r in records}) == 1
+
+
+def test_the_local_pool_takes_buildings_in_batches(monkeypatch):
+    import exporter.pipeline as pipeline
+    from exporter.job import EntryResult
+
+    submitted: list[int] = []
+
+    class Counting(pipeline.ProcessPoolExecutor):
+        def submit(self, fn, /, *args, **kwargs):
+            submitted.append(len(args[0]))
+            return super().submit(fn, *args, **kwargs)
+
+    # Forked workers see the patched module: the "export" of an item is its number, back.
+    monkeypatch.setattr(pipeline, "ProcessPoolExecutor", Counting)
+    monkeypatch.setattr(
+        pipeline, "process_entry", lambda n: EntryResult(tile=None, seconds={"n": n})
+    )
+    if multiprocessing.get_start_method() != "fork":
+        pytest.skip("the patched process_entry reaches the workers only when they are forked")
+    results = list(pipeline._results(iter([(n,) for n in range(40)]), 2, 40))
+    assert sorted(r.seconds["n"] for r in results) == list(range(40))
+    # 40 buildings, 2 workers: batches of 5 (four per worker at least), not 40 tasks.
+    assert submitted == [5] * 8
