@@ -9,6 +9,7 @@ import io
 
 import numpy as np
 import pytest
+from gltf_reference import reference_glb_bytes
 from PIL import Image
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
@@ -135,12 +136,6 @@ def test_cross_rows_is_numpy_cross():
     assert np.array_equal(cross_rows(u, v), np.cross(u, v))
 
 
-def pygltflib_glb(gltf, blob):
-    """The writer's container through pygltflib's own save_to_bytes (what _glb replaced)."""
-    gltf.set_binary_blob(bytes(blob))
-    return b"".join(gltf.save_to_bytes())
-
-
 def texture(mode, mime):
     buffer = io.BytesIO()
     Image.new(mode, (16, 8), (200, 100, 50, 128)[: len(mode)]).save(
@@ -149,15 +144,32 @@ def texture(mode, mime):
     return Texture(buffer.getvalue(), mime, 16, 8, f"atlas.{mime.split('/')[1]}")
 
 
-@pytest.mark.parametrize("mime, mode", [("image/jpeg", "RGB"), ("image/png", "RGBA"), (None, None)])
-def test_glb_bytes_are_pygltflib_bytes(monkeypatch, mime, mode):
+@pytest.mark.parametrize(
+    "mime, mode, alpha",
+    [
+        ("image/jpeg", "RGB", "OPAQUE"),
+        ("image/png", "RGBA", "BLEND"),  # alpha 128 everywhere: translucent
+        ("image/png", "cut-out", "MASK"),  # clear and opaque halves
+        (None, None, None),
+    ],
+)
+def test_glb_bytes_are_pygltflib_bytes(mime, mode, alpha):
     quad = dict(
         positions=[[0, 0, 0], [2, 0, 0], [2, 3, 0], [0, 3, 0]],
         triangles=[[0, 1, 2], [0, 2, 3]],
         uvs=[[0, 1], [1, 1], [1, 0], [0, 0]],
     )
+    atlas = None
+    if mode == "cut-out":
+        image = Image.new("RGBA", (16, 8), (200, 100, 50, 255))
+        image.paste((0, 0, 0, 0), (0, 0, 8, 8))
+        buffer = io.BytesIO()
+        image.save(buffer, "PNG")
+        atlas = Texture(buffer.getvalue(), "image/png", 16, 8, "atlas.png")
+    elif mime:
+        atlas = texture(mode, mime)
     parts = [
-        Part(**quad, texture=texture(mode, mime) if mime else None, name="wall"),
+        Part(**quad, texture=atlas, name="wall"),
         Part(
             positions=np.array(quad["positions"]) + 5.0,
             triangles=quad["triangles"],
@@ -165,8 +177,10 @@ def test_glb_bytes_are_pygltflib_bytes(monkeypatch, mime, mode):
         ),
     ]
     fast = gltf_writer.glb_bytes(parts, "B1_LOD0")
-    monkeypatch.setattr(gltf_writer, "_glb", pygltflib_glb)
-    assert fast == gltf_writer.glb_bytes(parts, "B1_LOD0")
+    assert fast == reference_glb_bytes(parts, "B1_LOD0")
+    if alpha is not None:
+        assert f'"alphaMode":"{alpha}"'.encode() in fast
+        assert (b'"alphaCutoff":0.5' in fast) == (alpha == "MASK")
 
 
 def test_unique_points_matches_numpy_unique_axis_0():

@@ -1,18 +1,18 @@
 """Fast paths of the read and write stages equal their plain formulations bit for bit.
 
-- GLB: :func:`exporter.gltf_writer._gltf_json` (``json.dumps`` walking the pygltflib dataclasses
-  through a pruning ``default``) equals pygltflib's own ``gltf_to_json``; the container equals
-  pygltflib's ``save_to_bytes``; documents the fast path does not cover take the generic one.
+- GLB: :func:`exporter.gltf_writer.glb_bytes` (plain dicts, ``json.dumps``) equals the document
+  built from pygltflib's dataclasses and written by its ``save_to_bytes``
+  (``tests/gltf_reference.py``), names empty or not ASCII included.
 - VWorld reader: the frame computed once per building equals ``global_to_local`` /
   ``local_to_global``; the winding vote's cross product equals ``np.cross``; non-finite normals
   are still cleaned by ``nan_to_num``.
 """
 
-import json
+import dataclasses
 
 import numpy as np
-import pygltflib
 import pytest
+from gltf_reference import reference_glb_bytes
 
 import exporter.gltf_writer as gltf_writer
 from exporter.config import ReaderOptions
@@ -36,119 +36,39 @@ def buildings(tile):
     return scan, [vworld.load(entry, ReaderOptions()) for entry in scan.entries]
 
 
-def pygltflib_json(gltf):
-    return gltf.gltf_to_json(separators=(",", ":"), indent=None)
-
-
-def pygltflib_glb(gltf, blob):
-    gltf.set_binary_blob(bytes(blob))
-    return b"".join(gltf.save_to_bytes())
-
-
-def documents(parts_list, monkeypatch):
-    """The (GLTF2, blob) pairs glb_bytes hands to ``_glb`` for each list of parts."""
-    seen = []
-    real = gltf_writer._glb
-    monkeypatch.setattr(
-        gltf_writer, "_glb", lambda gltf, blob: seen.append((gltf, blob)) or real(gltf, blob)
-    )
-    outputs = [gltf_writer.glb_bytes(parts, f"B{i}_LOD0") for i, parts in enumerate(parts_list)]
-    monkeypatch.setattr(gltf_writer, "_glb", real)
-    return outputs, seen
-
-
 # --------------------------------------------------------------------------- GLB
 
 
-def test_generated_buildings_glb_equal_pygltflib_save_to_bytes(buildings, monkeypatch):
+def test_generated_buildings_glb_equal_pygltflib_save_to_bytes(buildings):
     _, loaded = buildings
-    outputs, seen = documents([b.parts for b in loaded], monkeypatch)
-    assert len(seen) == len(loaded) >= 6 and any(len(b.parts) > 1 for b in loaded)
-    for data, (gltf, blob) in zip(outputs, seen):
-        # The fast path itself covers these documents (no fallback), and agrees with pygltflib.
-        fast = json.dumps(
-            gltf, allow_nan=False, separators=(",", ":"), default=gltf_writer._pruned_fields
+    assert len(loaded) >= 6 and any(len(b.parts) > 1 for b in loaded)
+    for i, building in enumerate(loaded):
+        name = f"B{i}_LOD0"
+        assert gltf_writer.glb_bytes(building.parts, name) == reference_glb_bytes(
+            building.parts, name
         )
-        assert fast == pygltflib_json(gltf)
-        assert data == pygltflib_glb(gltf, blob)
 
 
-def unusual_documents():
-    """Documents with what glb_bytes never makes: each exercises a pruning rule of pygltflib."""
-
-    def base():
-        gltf = pygltflib.GLTF2(asset=pygltflib.Asset(version="2.0", generator="t"))
-        gltf.nodes.append(
-            pygltflib.Node(name="Bâtiment 건물", mesh=0, translation=[np.float64(1.5), 0.0, -2.0])
-        )
-        gltf.meshes.append(
-            pygltflib.Mesh(
-                primitives=[pygltflib.Primitive(attributes=pygltflib.Attributes(POSITION=0))]
-            )
-        )
-        gltf.scenes.append(pygltflib.Scene(name="", nodes=[0]))
-        gltf.scene = 0
-        return gltf
-
-    plain = base()
-    extras = base()
-    extras.nodes[0].extras = {"keep": 1, "drop": None, "nested": {"gone": []}}
-    extensions = base()
-    extensions.extensions = {"EXT_x": {"kept": None}}
-    custom = base()
-    custom.meshes[0].primitives[0].attributes._CUSTOM = 3  # Attributes may carry custom semantics
-    extra_attribute = base()
-    extra_attribute.nodes[0].not_a_field = "left out as asdict leaves it out"
-    nested = base()
-    nested.extras = {"rows": [[{"a": None}], []]}
-    targets = base()
-    targets.meshes[0].primitives[0].targets = [pygltflib.Attributes(POSITION=1)]
-    emptied = base()
-    emptied.meshes[0].primitives[0].attributes.__dict__.clear()  # converts to {}: pruned
-    extension_object = base()
-    extension_object.nodes[0].extensions = pygltflib.Asset(version="x")  # converted, left unpruned
-    return {
-        "plain": plain,
-        "extras": extras,
-        "extensions": extensions,
-        "custom": custom,
-        "extra_attribute": extra_attribute,
-        "nested": nested,
-        "targets": targets,
-        "emptied": emptied,
-        "extension_object": extension_object,
-    }
+@pytest.mark.parametrize("name", ["", 'Bâtiment 건물 "quoted"', "B1_LOD2"])
+def test_names_empty_or_not_ascii_equal_pygltflib(buildings, name):
+    _, loaded = buildings
+    parts = [
+        dataclasses.replace(part, name=name if i else "")
+        for i, part in enumerate(loaded[0].parts + loaded[1].parts)
+    ]
+    assert gltf_writer.glb_bytes(parts, name) == reference_glb_bytes(parts, name)
 
 
-@pytest.mark.parametrize("name", sorted(unusual_documents()))
-def test_unusual_documents_equal_pygltflib_json(name):
-    gltf = unusual_documents()[name]
-    assert gltf_writer._gltf_json(gltf) == pygltflib_json(gltf)
-
-
-def test_fast_path_refuses_what_it_could_prune_differently():
-    documents_ = unusual_documents()
-    for name in ("plain", "custom", "extra_attribute", "targets", "emptied"):
-        json.dumps(
-            documents_[name], separators=(",", ":"), default=gltf_writer._pruned_fields
-        )  # covered
-    for name in ("extras", "extensions", "nested", "extension_object"):
-        with pytest.raises(gltf_writer._Unusual):
-            json.dumps(documents_[name], separators=(",", ":"), default=gltf_writer._pruned_fields)
-
-
-def test_non_json_values_fail_as_in_pygltflib():
-    gltf = unusual_documents()["plain"]
-    gltf.nodes[0].scale = [
-        np.float32(1.0)
-    ] * 3  # not a float subclass: pygltflib's json_serial refuses it
-    with pytest.raises(TypeError):
-        pygltflib_json(gltf)
-    with pytest.raises(TypeError):
-        gltf_writer._gltf_json(gltf)
-    gltf.nodes[0].scale = [float("nan")] * 3
+def test_non_finite_positions_fail_as_in_pygltflib(buildings):
+    _, loaded = buildings
+    part = loaded[0].parts[0]
+    positions = np.array(part.positions, dtype=np.float64)
+    positions[0, 1] = np.nan
+    broken = [dataclasses.replace(part, positions=positions)]
     with pytest.raises(ValueError):
-        gltf_writer._gltf_json(gltf)
+        reference_glb_bytes(broken, "B")
+    with pytest.raises(ValueError):
+        gltf_writer.glb_bytes(broken, "B")
 
 
 def test_blob_pieces_are_the_aligned_binary_chunk():
