@@ -221,22 +221,26 @@ def _results(
 ) -> Iterable[EntryResult]:
     """Run ``process_entry`` over ``work`` (task tuples, or finished results passed through as
     they come), in this process for one job, else in a process pool, in batches of up to
-    ``LOCAL_BATCH`` tasks (smaller when ``total`` tasks would not give every worker four) with a
-    bounded number of batches in flight (memory stays bounded by the work in flight). ``work`` is
-    consumed lazily, so the caller's per-entry checks (input hashing) overlap the workers."""
+    ``LOCAL_BATCH`` tasks, smaller when what is left of the ``total`` items would not give every
+    worker four more (so the workers finish together), with a bounded number of batches in
+    flight (memory stays bounded by the work in flight). ``work`` is consumed lazily, so the
+    caller's per-entry checks (input hashing) overlap the workers."""
     if jobs <= 1:
         for item in work:
             yield item if isinstance(item, EntryResult) else process_entry(*item)
         return
-    size = batch_size_for(total, jobs, LOCAL_BATCH)
     with ProcessPoolExecutor(max_workers=jobs) as pool:
         pending = set()
         batch: list[tuple] = []
+        size = taken = 0
         try:
             for item in work:
+                taken += 1
                 if isinstance(item, EntryResult):
                     yield item
                     continue
+                if not batch:  # sized on what is left: batches shrink to one near the end
+                    size = batch_size_for(total - taken + 1, jobs, LOCAL_BATCH)
                 batch.append(item)
                 if len(batch) < size:
                     continue
