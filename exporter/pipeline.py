@@ -36,10 +36,13 @@ import numpy as np
 from . import __version__
 from .atomic import remove_stale_temporaries, write_bytes_atomic, write_text_atomic
 from .config import Config
-from .errors import InputError, ProcessError, ReadError
-from .manifest import MANIFEST_NAME, build_manifest, dumps, safe_folder_name
+from .errors import InputError, ProcessError, ReadError, error_text
+from .manifest import MANIFEST_NAME, build_manifest, dumps
 from .model import Building, Part, Skipped, Texture, TileId
+from .names import name_error, safe_folder_name, unique_ids
+from .plausible import vertex_problem
 from .readers import Entry, load_entry, scan_folder
+from .records import file_entry, files_intact, stamped, write_record
 from .tile_index import write_tile_index
 
 if TYPE_CHECKING:
@@ -228,13 +231,16 @@ class EntryResult:
 
 
 def reusable_record(previous: dict | None, digest: str, out_dir: Path) -> dict | None:
-    """A previous run's record when its input hash matches and all its files are still there."""
+    """A previous run's record when its input hash matches and all its files are still there,
+    intact (size and CRC-32, ``exporter.records``)."""
     if previous is None or previous["record"].get("input_hash") != digest:
         return None
     tile_dir = out_dir / previous["tile"].name
-    if all((tile_dir / lod["file"]).is_file() for lod in previous["record"]["lods"]):
-        return previous
-    return None
+    files = previous["files"] or [  # a record of 0.3.4 or older: sizes only
+        {"file": Path(lod["file"]).name, "bytes": lod.get("file_bytes")}
+        for lod in previous["record"]["lods"]
+    ]
+    return previous if files_intact(tile_dir / previous["record"]["folder"], files) else None
 
 
 def process_entry(
@@ -267,7 +273,14 @@ def process_entry(
             seconds=seconds,
         )
     lap("read")
+    building_dir = None
     try:
+        implausible = vertex_problem(
+            np.concatenate([part.positions for part in building.parts] or [np.zeros((0, 3))]),
+            config.readers.max_vertex_distance_m,
+        )
+        if implausible:
+            raise ProcessError(implausible)
         tile, centre_tile, tile_message = building_tile(building)
         problems = list(building.problems)
         if tile_message:
@@ -299,11 +312,12 @@ def process_entry(
         # The entry's id, not the reader's: the run made entry ids unique across folders and files.
         folder = safe_folder_name(entry.id)
         building_dir = Path(out_dir) / tile.name / folder
-        lods = []
+        lods, files = [], []
         for level, parts in enumerate(parts_by_level):
             data = glb_bytes(parts, f"{entry.id}_LOD{level}")
             file_name = f"{folder}/lod{level}.glb"
             write_bytes_atomic(building_dir / f"lod{level}.glb", data)
+            files.append(file_entry(f"lod{level}.glb", data))
             lods.append(lod_record(level, parts, file_name, data, qualities[level]))
             if level:
                 lods[-1].update(level_fields(chain[level], lods[-2]))
@@ -334,21 +348,31 @@ def process_entry(
                 "idx": centre_tile.idx,
                 "idy": centre_tile.idy,
             }
-        write_text_atomic(
+        write_record(
             building_dir / RECORD_NAME,
-            json.dumps(
-                {"tile": dataclasses.asdict(tile), "record": record, "inputs": list(fingerprints)},
-                allow_nan=False,
-            ),
+            {"tile": dataclasses.asdict(tile), "record": record, "files": files},
+            list(fingerprints),
         )
         lap("write")
         return EntryResult(tile=tile, record=record, seconds=seconds)
-    except OSError:  # the output cannot be written (disk full, read-only, denied): stop the run
-        raise
-    except Exception as error:  # one broken building never stops the tile
-        reason = (
-            error.problem if isinstance(error, ReadError) else f"{type(error).__name__}: {error}"
+    except OSError as error:
+        if not name_error(error):  # the output cannot be written (disk full, read-only, denied)
+            raise  # stop the run
+        # One building's file name the file system refuses: costs this building only.
+        if building_dir is not None:
+            shutil.rmtree(building_dir, ignore_errors=True)
+        return EntryResult(
+            tile=entry.tile,
+            skipped=Skipped(
+                entry.source,
+                f"cannot be written: {Path(error.filename or '?').name}: {error.strerror}",
+                entry.id,
+                entry.tile,
+            ),
+            seconds=seconds,
         )
+    except Exception as error:  # one broken building never stops the tile
+        reason = error.problem if isinstance(error, ReadError) else error_text(error)
         return EntryResult(
             tile=entry.tile,
             skipped=Skipped(entry.source, f"processing failed: {reason}", entry.id, entry.tile),
@@ -360,14 +384,18 @@ def process_entry(
 
 
 def read_record(path: Path) -> dict | None:
-    """A building's record file: ``{"tile", "record", "inputs"}`` (inputs: the input fingerprints
-    of the run that wrote it), or None when it cannot be read (such leftovers are simply redone)."""
+    """A building's record file: ``{"tile", "record", "inputs", "files"}`` (inputs: the input
+    fingerprints of the run that wrote it; files: its written files, ``exporter.records``), or None
+    when it cannot be read (such leftovers are simply redone)."""
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
-        inputs = [
-            item for item in data.get("inputs", []) if isinstance(item, dict) and "path" in item
-        ]
-        return {"tile": TileId(**data["tile"]), "record": data["record"], "inputs": inputs}
+        files = [item for item in data.get("files", []) if isinstance(item, dict)]
+        return {
+            "tile": TileId(**data["tile"]),
+            "record": data["record"],
+            "inputs": stamped(data.get("inputs", []), path),
+            "files": files,
+        }
     except (OSError, ValueError, KeyError, TypeError):
         return None
 
@@ -390,9 +418,9 @@ def _refresh_fingerprints(out_dir: Path, previous: dict, fingerprints: list[dict
     data = {
         "tile": dataclasses.asdict(previous["tile"]),
         "record": previous["record"],
-        "inputs": fingerprints,
+        "files": previous["files"],
     }
-    write_text_atomic(path, json.dumps(data, allow_nan=False))
+    write_record(path, data, fingerprints)
 
 
 # --------------------------------------------------------------------------- the run
@@ -505,12 +533,9 @@ def export_tiles(
     jobs = max(1, jobs or os.cpu_count() or 1)
 
     entries = [entry for scan in scans for entry in scan.entries]
-    seen_ids: dict[str, int] = {}
-    for entry in entries:  # ids must be unique in a run: they name the output folders
-        count = seen_ids.get(entry.id, 0)
-        seen_ids[entry.id] = count + 1
-        if count:
-            entry.id = f"{entry.id}~{count}"
+    # Ids must be unique in a run (also their folders, ignoring case): they name the output folders.
+    for entry, unique in zip(entries, unique_ids(entry.id for entry in entries)):
+        entry.id = unique
 
     # Unchanged buildings are recognised here, in the main process, entry by entry as the pool
     # takes work: hashing is cheap I/O (and skipped for files whose stat is unchanged), and a

@@ -55,7 +55,8 @@ import math
 import threading
 import warnings
 from collections import OrderedDict
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 
 import numpy as np
 from PIL import Image, ImageChops, ImageStat, UnidentifiedImageError
@@ -165,21 +166,31 @@ def _problem_of_bytes(data: bytes) -> str:
     return f"not a readable image ({len(data)} bytes starting {data[:8].hex()})"
 
 
-def open_header(data: bytes, where: str, max_pixels: int) -> Image.Image:
-    """Open encoded ``data`` lazily (header only) and refuse it if its declared size exceeds
-    ``max_pixels``; raises ReadError naming ``where``. No pixel is decoded here."""
-    if not data:
-        raise ReadError(where, "texture is missing or empty (0 bytes)")
-    # Pillow's own bomb guard uses a process-wide limit; make it agree with ours for this open
-    # (the lock keeps concurrent opens from seeing each other's value) and report its refusal
-    # in our words. Its warning duplicates the check just below.
+@contextmanager
+def pillow_pixel_limit(max_pixels: int | None) -> Iterator[None]:
+    """Pillow's own decompression-bomb guard set to ``max_pixels`` (None: off) while the block
+    opens images: its default (about 179 MP) would otherwise refuse atlases that
+    ``textures.max_pixels`` accepts. The limit is process-wide, so the lock keeps concurrent
+    opens from seeing each other's value; its warning duplicates our own check."""
     with _pillow_limit_lock:
         saved = Image.MAX_IMAGE_PIXELS
         Image.MAX_IMAGE_PIXELS = max_pixels
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", Image.DecompressionBombWarning)
-                image = Image.open(io.BytesIO(data), formats=ALLOWED_FORMATS)
+                yield
+        finally:
+            Image.MAX_IMAGE_PIXELS = saved
+
+
+def open_header(data: bytes, where: str, max_pixels: int) -> Image.Image:
+    """Open encoded ``data`` lazily (header only) and refuse it if its declared size exceeds
+    ``max_pixels``; raises ReadError naming ``where``. No pixel is decoded here."""
+    if not data:
+        raise ReadError(where, "texture is missing or empty (0 bytes)")
+    with pillow_pixel_limit(max_pixels):
+        try:
+            image = Image.open(io.BytesIO(data), formats=ALLOWED_FORMATS)
         except Image.DecompressionBombError:
             raise ReadError(
                 where,
@@ -187,8 +198,6 @@ def open_header(data: bytes, where: str, max_pixels: int) -> Image.Image:
             ) from None
         except (UnidentifiedImageError, OSError, ValueError, SyntaxError):
             raise ReadError(where, _problem_of_bytes(data)) from None
-        finally:
-            Image.MAX_IMAGE_PIXELS = saved
     width, height = image.size
     if width <= 0 or height <= 0:
         raise ReadError(where, f"image declares an empty size {width}x{height}")

@@ -606,8 +606,15 @@ def test_degenerate_polygon_left_out_and_declared_crs_override_noted(tmp_path):
     assert not scan.notes
     scan = scan_folder(tmp_path, ReaderOptions(crs="EPSG:2056"))
     assert not scan.notes  # same CRS written another way
-    scan = scan_folder(tmp_path, ReaderOptions(crs="EPSG:21781"))  # LV03: overriding is noted
+    # --crs is for files that declare none: another one than the declared is refused (issue 26) ...
+    with pytest.raises(InputError, match="declares .*2056, not EPSG:21781.*--override-crs"):
+        scan_folder(tmp_path, ReaderOptions(crs="EPSG:21781"))
+    # ... and replacing the declared one takes override_crs, noted in the scan and per building.
+    options = ReaderOptions(override_crs="EPSG:21781")  # LV03
+    scan = scan_folder(tmp_path, options)
     assert any("declares" in note and "EPSG:21781" in note for note in scan.notes)
+    building = load_entry(scan.entries[0], options)
+    assert any("in place of the declared" in p for p in building.problems)
 
 
 @pytest.mark.parametrize("sign", [1.0, -1.0])

@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from ..config import ReaderOptions
-from ..errors import InputError, ReadError
+from ..errors import InputError, ReadError, error_text
 from ..model import Building, Skipped, TileId
 
 # Format modules in detection order; each is imported lazily so a broken optional dependency of
@@ -197,7 +197,7 @@ def load_entry(entry: Entry, options: ReaderOptions | None = None) -> Building:
     except MemoryError:
         raise ReadError(entry.source, "too large to read into memory") from None
     except Exception as error:  # a reader bug must not stop the tile; report it as this building's
-        raise ReadError(entry.source, f"unexpected {type(error).__name__}: {error}") from error
+        raise ReadError(entry.source, f"unexpected {error_text(error)}") from error
 
 
 def _mentions(path: Path, text: bytes) -> bool:
