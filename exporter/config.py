@@ -327,7 +327,7 @@ class TextureOptions:
         default=16384 * 16384,
         metadata=meta(
             _integer(1, 1 << 40),
-            "refuse a source atlas with more pixels than this (bounded memory; also the limit Pillow applies when it opens an image)",
+            "refuse a source atlas with more pixels than this, from its header before decoding (bounded memory; Pillow's own smaller limit is not applied)",
         ),
     )
 

@@ -44,6 +44,7 @@ from .plausible import vertex_problem
 from .readers import Entry, load_entry, scan_folder
 from .records import file_entry, files_intact, stamped, write_record
 from .tile_index import write_tile_index
+from .workers import start_worker
 
 if TYPE_CHECKING:
     from .distributed import ClusterOptions
@@ -459,7 +460,10 @@ def _results(work: Iterable[tuple | EntryResult], jobs: int) -> Iterable[EntryRe
         for item in work:
             yield item if isinstance(item, EntryResult) else process_entry(*item)
         return
-    with ProcessPoolExecutor(max_workers=jobs) as pool:
+    # Workers end with this process even when it is killed outright (exporter.workers).
+    with ProcessPoolExecutor(
+        max_workers=jobs, initializer=start_worker, initargs=(os.getpid(),)
+    ) as pool:
         pending = set()
         try:
             for item in work:

@@ -169,9 +169,9 @@ def _problem_of_bytes(data: bytes) -> str:
 @contextmanager
 def pillow_pixel_limit(max_pixels: int | None) -> Iterator[None]:
     """Pillow's own decompression-bomb guard set to ``max_pixels`` (None: off) while the block
-    opens images: its default (about 179 MP) would otherwise refuse atlases that
-    ``textures.max_pixels`` accepts. The limit is process-wide, so the lock keeps concurrent
-    opens from seeing each other's value; its warning duplicates our own check."""
+    opens images: its default (refusing above about 179 MP) would otherwise refuse atlases that
+    ``textures.max_pixels`` (268 MP) accepts, in its own words. The limit is process-wide, so the
+    lock keeps concurrent opens from seeing each other's value."""
     with _pillow_limit_lock:
         saved = Image.MAX_IMAGE_PIXELS
         Image.MAX_IMAGE_PIXELS = max_pixels
@@ -188,14 +188,11 @@ def open_header(data: bytes, where: str, max_pixels: int) -> Image.Image:
     ``max_pixels``; raises ReadError naming ``where``. No pixel is decoded here."""
     if not data:
         raise ReadError(where, "texture is missing or empty (0 bytes)")
-    with pillow_pixel_limit(max_pixels):
+    # Pillow's own guard off for this header-only open: the check below, on the header's size,
+    # is the one users read about (it names the size and textures.max_pixels).
+    with pillow_pixel_limit(None):
         try:
             image = Image.open(io.BytesIO(data), formats=ALLOWED_FORMATS)
-        except Image.DecompressionBombError:
-            raise ReadError(
-                where,
-                f"image declares more than 2 x {max_pixels} pixels (textures.max_pixels); refused before decoding",
-            ) from None
         except (UnidentifiedImageError, OSError, ValueError, SyntaxError):
             raise ReadError(where, _problem_of_bytes(data)) from None
     width, height = image.size
