@@ -402,3 +402,40 @@ REPEAT = int(os.environ.get("VWORLD_LOD_SIGKILL_REPEAT", "0"))
 @pytest.mark.parametrize("attempt", range(max(REPEAT, 1)))
 def test_sigkill_repeatedly(attempt, tmp_path):
     check_sigkill_leaves_no_worker(tmp_path)
+
+
+# --------------------------------------------------------------------------- reproducibility
+
+
+def test_every_scheduler_writes_the_same_bytes(tmp_path):
+    """``--jobs 1``, ``--jobs 2`` and ``--scheduler local`` (a one-machine Dask cluster): the same
+    files with the same bytes, building records and manifests included."""
+    pytest.importorskip(
+        "distributed", reason="dask.distributed not installed: pip install -e '.[test]'"
+    )
+    tile = vworld_tile(tmp_path / "tile", count=4)
+    source = city_file(tmp_path / "bern.city.json", ["A", "B"])
+    runs = {
+        "jobs1": ["--jobs", "1"],
+        "jobs2": ["--jobs", "2"],
+        "dask": ["--jobs", "2", "--scheduler", "local"],
+    }
+    trees = {}
+    for name, options in runs.items():
+        out = tmp_path / name
+        assert main(["export", str(tile), str(source), "--out", str(out), "--quiet", *options]) == 0
+        trees[name] = tree_bytes(out)
+    names = list(trees["jobs1"])
+    assert sum(n.endswith(".glb") for n in names) == 6 * 3 and "tiles.json" in names
+    assert trees["jobs2"] == trees["jobs1"] and trees["dask"] == trees["jobs1"]
+
+
+def test_folder_names_are_safe_bounded_and_unique_ignoring_case():
+    from exporter.names import printable, unique_ids
+
+    ids = unique_ids(["B1", "b1", "B1", "a/b", "a_b", "x" * 300, "nul"])
+    assert ids[:3] == ["B1", "b1~1", "B1~1"]
+    folders = [safe_folder_name(i) for i in ids]
+    assert len({f.casefold() for f in folders}) == len(folders)
+    assert all(len(f) <= 89 and f.casefold() != "nul" for f in folders)
+    assert printable(os.fsdecode(b"caf\xe9")) == "caf\\xe9" and printable("café") == "café"
