@@ -143,13 +143,14 @@ def cmd_init_config(args) -> int:
 
 
 def cmd_inspect(args) -> int:
-    from .readers import input_paths, load_entry, scan_folder
+    from .readers import check_crs_option, input_paths, load_entry, scan_folder
 
     args.tile_dirs = input_paths(args.tile_dirs)
     config = _effective_config(args)
     out = sys.stdout
-    for folder in args.tile_dirs:
-        scan = scan_folder(folder, config.readers)
+    scans = [scan_folder(folder, config.readers) for folder in args.tile_dirs]
+    check_crs_option(scans, config.readers)
+    for folder, scan in zip(args.tile_dirs, scans):
         out.write(f"{folder}: format {scan.format}, {len(scan.entries)} buildings listed\n")
         for note in scan.notes:
             out.write(f"  note: {note}\n")
@@ -237,8 +238,8 @@ class _Parser(argparse.ArgumentParser):
 def _crs_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--crs",
-        help="CRS of input files that do not declare one, e.g. EPSG:7415 (a file declaring "
-        "another one is refused)",
+        help="CRS of input files that do not declare one, e.g. EPSG:7415 (never overrides a "
+        "declared one; refused when no input lacks one)",
     )
     parser.add_argument(
         "--override-crs",

@@ -346,7 +346,7 @@ class ReaderOptions:
         default=None,
         metadata=meta(
             parse_crs_option,
-            "CRS of input files that do not declare one, e.g. EPSG:7415 (never guessed; a file declaring another CRS is refused)",
+            "CRS of input files that do not declare one, e.g. EPSG:7415 (never guessed; files declaring one keep theirs, and a run where none lacks one is refused)",
         ),
     )
     override_crs: str | None = field(

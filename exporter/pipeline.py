@@ -41,7 +41,7 @@ from .manifest import MANIFEST_NAME, build_manifest, dumps
 from .model import Building, Part, Skipped, Texture, TileId
 from .names import name_error, safe_folder_name, unique_ids
 from .plausible import vertex_problem
-from .readers import Entry, load_entry, scan_folder
+from .readers import Entry, check_crs_option, load_entry, scan_folder
 from .records import file_entry, files_intact, stamped, write_record
 from .tile_index import write_tile_index
 from .workers import start_worker
@@ -530,6 +530,7 @@ def export_tiles(
     started = time.perf_counter()
     out_dir = Path(out)
     scans = [scan_folder(folder, config.readers) for folder in folders]  # all folders checked first
+    check_crs_option(scans, config.readers)
     out_dir.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(out_dir)
     previous = {} if force else previous_records(out_dir)

@@ -144,6 +144,15 @@ def case_01_crs_conflicting_with_the_declared_one(tmp: Path, capsys) -> None:
     # The declared CRS read as declared; an explicit override is applied, noted and recorded.
     assert run(export(source, "--out", tmp / "ok"), capsys)[0] == 0
     assert_placed(results(tmp / "ok")[0]["A"], 0)
+    # With a file lacking a CRS in the run, --crs is for that file; the declaring one keeps its own.
+    other = city_file(tmp / "nocrs.city.json", ["N"], crs=None)
+    assert run(export(source, other, "--out", tmp / "mixed", "--crs", "EPSG:2056"), capsys)[0] == 0
+    assert (
+        run(export(source, other, "--out", tmp / "mixed2", "--crs", "EPSG:21781"), capsys)[0] == 0
+    )
+    mixed = results(tmp / "mixed2")[0]
+    assert_placed(mixed["A"], 0)
+    assert_placed(mixed["N"], 0, "EPSG:21781")
     code, err = run(export(source, "--out", tmp / "lv03", "--override-crs", "EPSG:21781"), capsys)
     assert code == 0, err
     building = results(tmp / "lv03")[0]["A"]

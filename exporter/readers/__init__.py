@@ -57,6 +57,10 @@ class Scan:
     entries: list[Entry] = field(default_factory=list)
     skipped: list[Skipped] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    # ReaderOptions.crs: whether a file declaring no CRS was read in it, and the files declaring
+    # another one (read in theirs; see check_crs_option).
+    crs_option_used: bool = False
+    crs_conflicts: list[str] = field(default_factory=list)
 
 
 def _module(name: str):
@@ -144,6 +148,20 @@ def scan_folder(folder: str | Path, options: ReaderOptions | None = None) -> Sca
     except OSError as error:  # e.g. a file in it that cannot be opened
         where = error.filename or folder
         raise InputError(f"{where}: cannot be read ({error.strerror or error})") from None
+
+
+def check_crs_option(scans: list[Scan], options: ReaderOptions) -> None:
+    """Refuse ``options.crs`` (``--crs``) when it contradicts what files declare and no file of
+    the run lacks a CRS: it then could only have been meant to override, which it never does
+    silently (``override_crs`` does, noted). With a file lacking one, the option is for that file
+    and the declaring files keep their own CRS (noted)."""
+    conflicts = [text for scan in scans for text in scan.crs_conflicts]
+    if conflicts and not any(scan.crs_option_used for scan in scans):
+        raise InputError(
+            f"{conflicts[0]}, and no input lacks a CRS (--crs / readers.crs applies only to files "
+            "that declare none); drop --crs, or replace the declared CRS with --override-crs "
+            "EPSG:<code> or readers.override_crs"
+        )
 
 
 def input_paths(paths: list[str | Path]) -> list[Path]:

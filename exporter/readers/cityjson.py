@@ -18,7 +18,8 @@ Data form and the choices made:
   (VWorld-style floorless models).
 - **Coordinates**: vertices ``v * transform.scale + transform.translate`` are in the file's CRS:
   ``metadata.referenceSystem``; ``ReaderOptions.crs`` only for a file that declares none (a file
-  declaring another CRS is refused), ``ReaderOptions.override_crs`` in place of any declared one
+  declaring another CRS keeps it, noted; ``readers.check_crs_option`` refuses a run where no file
+  lacks one), ``ReaderOptions.override_crs`` in place of any declared one
   (noted in each building's problems); a file with none is refused, never guessed. A building
   with a vertex that is not finite, or far from its other vertices (:mod:`exporter.plausible`),
   is skipped alone. They go to lon/lat with pyproj (heights unchanged, see
@@ -154,8 +155,8 @@ def _check_version(path: Path, header: dict) -> None:
 
 
 def _crs_of(path: Path, header: dict, options: ReaderOptions) -> str:
-    """The CRS to read the file in (module doc); CrsError naming the file when there is none,
-    it is unknown, or ``options.crs`` contradicts the declared one."""
+    """The CRS to read the file in (module doc); CrsError naming the file when there is none or
+    it is unknown. A declared one always wins over ``options.crs`` (see ``Scan.crs_conflicts``)."""
     declared = (header.get("metadata") or {}).get("referenceSystem")
     if options.override_crs:
         crs, hint = str(options.override_crs), "check --override-crs / readers.override_crs"
@@ -166,14 +167,6 @@ def _crs_of(path: Path, header: dict, options: ReaderOptions) -> str:
                 f"declares no coordinate reference system (metadata.referenceSystem); {CRS_HINT}",
             )
         crs, hint = str(options.crs), CRS_HINT
-    elif options.crs and geodesy.normalise_crs_text(options.crs) != geodesy.normalise_crs_text(
-        declared
-    ):
-        raise CrsError(
-            str(path),
-            f"declares {declared}, not {options.crs} (--crs / readers.crs applies only to files "
-            f"that declare none); drop --crs, or {OVERRIDE_HINT}",
-        )
     else:
         crs, hint = str(declared), OVERRIDE_HINT
     try:
@@ -594,11 +587,18 @@ def scan(folder: Path, options: ReaderOptions) -> Scan:
             result.skipped.append(Skipped(source=str(path), reason=error.problem))
             continue
         declared = document.declared_crs
-        if declared and geodesy.normalise_crs_text(declared) != geodesy.normalise_crs_text(
-            document.crs
-        ):
+        if not declared:
+            result.crs_option_used = True
+        elif geodesy.normalise_crs_text(declared) != geodesy.normalise_crs_text(document.crs):
             result.notes.append(
                 f"{path.name}: declares {declared}; read as {document.crs} (readers.override_crs / --override-crs)"
+            )
+        elif options.crs and geodesy.normalise_crs_text(declared) != geodesy.normalise_crs_text(
+            options.crs
+        ):
+            result.crs_conflicts.append(f"{path}: declares {declared}, not {options.crs}")
+            result.notes.append(
+                f"{path.name}: declares {declared}; read in it (--crs / readers.crs is for files that declare none)"
             )
         if len(document.themes) > 1:
             result.notes.append(
