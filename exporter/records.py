@@ -12,7 +12,8 @@ within ``RACY_NS`` of being hashed is hashed again on the next run, see
 
 A re-run reuses a building only when every file the record lists is still there with its size and
 CRC-32 (:func:`files_intact`): a truncated or damaged ``lod1.glb`` is rebuilt, not kept. Reading
-the files back costs a re-run about as much I/O as the export wrote; CRC-32 runs at several GB/s.
+the files back costs an unchanged re-run 1.25x the time of checking sizes only (200 buildings,
+20.9 MB of ``.glb``, files in the page cache: 0.30 s against 0.24 s; first run 21.9 s).
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from pathlib import Path
 from .atomic import write_text_atomic
 
 STAMP = "hashed_ns"  # in-memory only: when an input was hashed (ns since the epoch)
+FROM_RECORD = "stamp_from_record"  # in-memory only: STAMP is a previous record's time
 
 
 def file_entry(name: str, data: bytes) -> dict:
@@ -49,10 +51,12 @@ def files_intact(folder: Path, files: list[dict]) -> bool:
 
 def write_record(path: Path, data: dict, inputs: list[dict]) -> None:
     """Write the record file ``path`` holding ``data`` plus ``inputs`` (fingerprints without their
-    hash times), atomically, then set its modification time to the earliest hash time (module
-    doc)."""
-    stamps = [item[STAMP] for item in inputs if isinstance(item.get(STAMP), int)]
-    stable = [{k: v for k, v in item.items() if k != STAMP} for item in inputs]
+    hash times), atomically, then set its modification time to the earliest time an input was
+    hashed in this run (module doc). Inputs trusted from a previous record were last modified
+    well before that record's time, so a later time is as safe for them."""
+    fresh = [item[STAMP] for item in inputs if STAMP in item and FROM_RECORD not in item]
+    stamps = fresh or [item[STAMP] for item in inputs if STAMP in item]
+    stable = [{k: v for k, v in item.items() if k not in (STAMP, FROM_RECORD)} for item in inputs]
     write_text_atomic(path, json.dumps({**data, "inputs": stable}, allow_nan=False))
     if stamps:
         os.utime(path, ns=(min(stamps), min(stamps)))
@@ -64,4 +68,8 @@ def stamped(inputs: list, path: Path) -> list[dict]:
         stamp = path.stat().st_mtime_ns
     except OSError:
         stamp = 0
-    return [{**item, STAMP: stamp} for item in inputs if isinstance(item, dict) and "path" in item]
+    return [
+        {**item, STAMP: stamp, FROM_RECORD: True}
+        for item in inputs
+        if isinstance(item, dict) and "path" in item
+    ]

@@ -448,3 +448,26 @@ def test_folder_names_are_safe_bounded_and_unique_ignoring_case():
     assert len({f.casefold() for f in folders}) == len(folders)
     assert all(len(f) <= 89 and f.casefold() != "nul" for f in folders)
     assert printable(os.fsdecode(b"caf\xe9")) == "caf\\xe9" and printable("café") == "café"
+
+
+def test_record_time_keeps_touched_inputs_trusted(tmp_path, monkeypatch):
+    """building.json holds no hash times: its own mtime is when its inputs were hashed. An input
+    touched after an old run is hashed once, then trusted again (its record's time moves on)."""
+    tile = vworld_tile(tmp_path / "tile", count=3)
+    old = time.time() - 3600
+    for path in tile.iterdir():
+        os.utime(path, (old, old))
+    out = tmp_path / "out"
+    assert main(export(tile, "--out", out)) == 0
+    for record in out.rglob("building.json"):  # as if that run was 20 minutes ago
+        os.utime(record, (time.time() - 1200, time.time() - 1200))
+    hashed: list[str] = []
+    real = pipeline._sha256_file
+    monkeypatch.setattr(pipeline, "_sha256_file", lambda name: hashed.append(name) or real(name))
+    jpg = sorted(tile.glob("*.jpg"))[0]
+    os.utime(jpg, (time.time() - 600, time.time() - 600))  # touched after that run, same bytes
+    glbs = {path: path.read_bytes() for path in out.rglob("*.glb")}
+    assert main(export(tile, "--out", out)) == 0 and hashed == [str(jpg)]
+    assert {path: path.read_bytes() for path in out.rglob("*.glb")} == glbs, "reused, not redone"
+    hashed.clear()
+    assert main(export(tile, "--out", out)) == 0 and hashed == []
