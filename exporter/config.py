@@ -286,7 +286,10 @@ class UnityOptions:
 
     fade_mode: str = field(
         default="none",
-        metadata=meta(_choice("none", "cross_fade", "speed_tree"), "LODGroup.fadeMode"),
+        metadata=meta(
+            _choice("none", "cross_fade", "speed_tree"),
+            "LODGroup.fadeMode; cross_fade needs shaders with LOD cross-fade, which glTFast's lack (both levels draw during a fade; the Unity package warns)",
+        ),
     )
     animate_cross_fading: bool = field(
         default=False, metadata=meta(parse_bool, "LODGroup.animateCrossFading (with cross_fade)")

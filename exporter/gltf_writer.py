@@ -12,6 +12,19 @@ One mesh, one primitive per part (one material each), one node, ``"scene": 0`` (
 importer only creates a main object when the file names a default scene). Textures are embedded
 as they are given (JPEG/PNG bytes, no re-encoding).
 
+Alpha (:func:`alpha_mode`, from the atlas's alpha histogram): a part whose colour has alpha below 1
+is ``BLEND``. A textured part is ``OPAQUE`` when no atlas pixel is see-through (alpha at least
+248 of 255, or no alpha channel), else ``MASK`` with ``alphaCutoff`` 0.5 unless partial alpha
+(8..247) covers at least :data:`BLEND_SHARE` of the atlas *and* is translucency rather than the
+rim of cut-outs, which makes it ``BLEND`` (glass, soft shadows): either the atlas has (almost) no
+clear pixels (alpha 0..7) for it to be the rim of (fewer than :data:`RIM_CLEAR` per partial one),
+or partial regions are wider than a rim (partial pixels with no clear or opaque pixel within
+:data:`RIM` pixels cover at least :data:`BLEND_SHARE`). Reducing a binary cut-out (box or Lanczos,
+as the texture stage does) leaves partial rims a few pixels wide around clear holes: those stay
+``MASK`` so a building's levels render alike, and a 0.5 cutoff keeps the reduced edge where it was.
+Holes reduced below ~2 pixels leave no clear pixel, and such a level is ``BLEND`` (a haze, which
+is what the holes look like at that size).
+
 The document is built with pygltflib's dataclasses and serialised by :func:`_glb`: byte for byte
 what pygltflib's ``save_to_bytes`` writes (same fields, same order, same empty-value pruning, same
 ``json.dumps`` options), but cheaply: ``json.dumps`` walks the dataclasses itself, asking
@@ -23,17 +36,66 @@ binary chunk is kept as its pieces, so the (large) image bytes are copied once, 
 from __future__ import annotations
 
 import dataclasses
+import functools
+import io
 import json
 import struct
 
 import numpy as np
 import pygltflib
+from PIL import Image
 from pygltflib import GLTF2
+from scipy import ndimage
 
-from .geometry import unit_vectors, vertex_normals
+from .mesh.geometry import unit_vectors, vertex_normals
 from .model import Part
 
 GLTF_MIMES = ("image/jpeg", "image/png")
+
+ALPHA_CUTOFF = 0.5  # glTF's default, written explicitly with MASK
+CLEAR, SOLID = 7, 248  # alpha <= CLEAR counts as clear, >= SOLID as opaque (0..255)
+RIM = 3  # pixels each side: partial alpha this close to clear/opaque pixels may be a resampled edge
+BLEND_SHARE = 0.01  # share of the atlas's pixels that must be translucent for BLEND
+RIM_CLEAR = 0.05  # clear pixels per partial pixel below which partial alpha surrounds no holes
+
+
+def alpha_mode(alpha: np.ndarray) -> str:
+    """glTF ``alphaMode`` of an atlas with (h, w) uint8 ``alpha`` (0 clear .. 255 opaque), by the
+    rule in the module docstring."""
+    histogram = np.bincount(alpha.reshape(-1), minlength=256)
+    if not histogram[:SOLID].any():
+        return pygltflib.OPAQUE
+    partial_count = int(histogram[CLEAR + 1 : SOLID].sum())
+    if partial_count < BLEND_SHARE * alpha.size:
+        return pygltflib.MASK
+    if int(histogram[: CLEAR + 1].sum()) < RIM_CLEAR * partial_count:
+        return pygltflib.BLEND
+    partial = (alpha > CLEAR) & (alpha < SOLID)
+    # Partial pixels whose whole (2 RIM + 1)^2 neighbourhood is partial: no resampled edge.
+    inner = ndimage.minimum_filter(partial.view(np.uint8), size=2 * RIM + 1, mode="nearest")
+    translucent = int(np.count_nonzero(inner))
+    return pygltflib.BLEND if translucent >= BLEND_SHARE * alpha.size else pygltflib.MASK
+
+
+@functools.lru_cache(maxsize=8)
+def texture_alpha_mode(data: bytes) -> str:
+    """:func:`alpha_mode` of an encoded PNG/JPEG atlas; ``OPAQUE`` without an alpha channel. Cached:
+    an atlas shared by many buildings is decoded once (the key is the bytes themselves, whose hash
+    Python keeps on the object)."""
+    alpha = texture_alpha(data)
+    return pygltflib.OPAQUE if alpha is None else alpha_mode(alpha)
+
+
+def texture_alpha(data: bytes) -> np.ndarray | None:
+    """(h, w) uint8 alpha of an encoded PNG/JPEG, or None when it has no alpha channel (opaque;
+    only the header is read then)."""
+    with Image.open(io.BytesIO(data)) as image:
+        if (
+            image.mode not in ("RGBA", "LA", "PA", "La", "RGBa")
+            and "transparency" not in image.info
+        ):
+            return None
+        return np.asarray(image.convert("RGBA").getchannel("A"))
 
 
 def local_to_gltf_positions(positions: np.ndarray) -> np.ndarray:
@@ -338,8 +400,11 @@ def glb_bytes(parts: list[Part], name: str) -> bytes:
             material.pbrMetallicRoughness.baseColorTexture = pygltflib.TextureInfo(
                 index=texture_of_image[key]
             )
-            if part.texture.mime == "image/png" and material.alphaMode is None:
-                material.alphaMode = pygltflib.MASK  # transparent atlas pixels cut out, not blended
+            if material.alphaMode == pygltflib.OPAQUE and part.texture.has_alpha_channel:
+                # (a translucent colour has made it BLEND already: that stays)
+                material.alphaMode = texture_alpha_mode(bytes(part.texture.data))
+                if material.alphaMode == pygltflib.MASK:
+                    material.alphaCutoff = ALPHA_CUTOFF
         gltf.materials.append(material)
         primitives.append(
             pygltflib.Primitive(

@@ -1,4 +1,4 @@
-"""Texture LoDs (issue 6): one encoded atlas in, one encoded atlas per level of detail out.
+"""Texture LoDs: one encoded atlas in, one encoded atlas per level of detail out.
 
 Data form: a :class:`~exporter.model.Texture` holds the *encoded* bytes of one atlas (JPEG, PNG,
 or another format Pillow reads) and its size in pixels. Each level ``k`` gets the atlas scaled per

@@ -7,8 +7,8 @@ import pygltflib
 import pytest
 from PIL import Image
 
-from exporter.geometry import vertex_normals
 from exporter.gltf_writer import glb_bytes, unit_normals_or_up
+from exporter.mesh.geometry import vertex_normals
 from exporter.model import Part, Texture
 
 
@@ -107,3 +107,83 @@ def test_empty_level_and_non_gltf_texture_are_refused():
     part.texture = Texture(b"BM...", "image/bmp", 4, 4, "x.bmp")
     with pytest.raises(ValueError, match="image/jpeg or image/png"):
         glb_bytes([part], "bmp")
+
+
+# --------------------------------------------------------------------------- alpha
+
+
+def png(alpha: np.ndarray, mode: str = "RGBA") -> Texture:
+    """A PNG atlas with the given (h, w) uint8 alpha over a brick colour."""
+    height, width = alpha.shape
+    rgba = np.zeros((height, width, 4), np.uint8)
+    rgba[..., :3] = (150, 70, 40)
+    rgba[..., 3] = alpha
+    image = Image.fromarray(rgba, "RGBA")
+    buffer = io.BytesIO()
+    (image if mode == "RGBA" else image.convert(mode)).save(buffer, "PNG")
+    return Texture(buffer.getvalue(), "image/png", width, height, "atlas.png")
+
+
+def windows(size: int = 256) -> np.ndarray:
+    """A facade atlas with cut-out windows: binary alpha, 16 clear 23 x 31 holes at odd pixels
+    (so that reductions cut through them)."""
+    alpha = np.full((size, size), 255, np.uint8)
+    for y in range(17, size - 40, 64):
+        for x in range(19, size - 30, 64):
+            alpha[y : y + 31, x : x + 23] = 0
+    return alpha
+
+
+def written_material(texture: Texture, color=(1, 1, 1, 1)) -> pygltflib.Material:
+    """The material of a wall textured with ``texture``, read back from the written GLB."""
+    part = east_wall()
+    part.texture, part.color = texture, color
+    gltf, _ = read_glb(glb_bytes([part], "wall"))
+    return gltf.materials[gltf.meshes[0].primitives[0].material]
+
+
+def test_cut_out_atlas_is_masked_at_every_reduction():
+    alpha = windows()
+    material = written_material(png(alpha))
+    assert material.alphaMode == "MASK" and material.alphaCutoff == 0.5
+    # Reduced levels have partial rims along the holes (Lanczos and box, as the texture stage
+    # makes them): still a cut-out, not translucency.
+    for size in (128, 64, 32):  # windows down to 3 x 4 pixels
+        for method in (Image.LANCZOS, Image.BOX, Image.BILINEAR):
+            reduced = np.asarray(Image.fromarray(alpha).resize((size, size), method))
+            assert ((reduced > 7) & (reduced < 248)).mean() > 0.02, "the reduction made rims"
+            material = written_material(png(reduced))
+            assert (material.alphaMode, material.alphaCutoff) == ("MASK", 0.5), (size, method)
+
+
+def test_translucent_atlas_is_blended_and_opaque_ones_stay_opaque():
+    glass = windows()
+    glass[glass == 0] = 110  # tinted glass instead of holes
+    for size in (256, 64, 32):  # the panes down to 3 x 4 pixels
+        reduced = np.asarray(Image.fromarray(glass).resize((size, size), Image.LANCZOS))
+        material = written_material(png(reduced))
+        assert material.alphaMode == "BLEND" and material.alphaCutoff is None, size
+    # Glass beside cut-out holes: the wide translucent panes decide.
+    glass[:, :128] = windows()[:, :128]
+    assert written_material(png(glass)).alphaMode == "BLEND"
+    # A palette PNG with one transparent index is a cut-out too.
+    assert written_material(png(windows(), mode="P")).alphaMode == "MASK"
+    for texture in (png(np.full((64, 64), 255, np.uint8)), png(windows(), mode="RGB"), jpeg()):
+        material = written_material(texture)
+        assert material.alphaMode == "OPAQUE" and material.alphaCutoff is None, texture.name
+    # A translucent colour stays BLEND whatever the atlas.
+    assert written_material(png(windows()), color=(1, 1, 1, 0.5)).alphaMode == "BLEND"
+
+
+def test_alpha_modes_are_valid_gltf(gltf_validator, tmp_path):
+    glass = windows()
+    glass[glass == 0] = 110
+    parts = []
+    for texture in (png(windows()), png(glass)):
+        part = east_wall()
+        part.texture = texture
+        parts.append(part)
+    path = tmp_path / "alpha.glb"
+    path.write_bytes(glb_bytes(parts, "alpha"))
+    report = gltf_validator([path])[0]
+    assert report["errors"] == 0, report["messages"]

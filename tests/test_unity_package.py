@@ -62,8 +62,9 @@ def build(tmp_path_factory) -> dict[str, Path]:
     gltfast = mcs(d / "glTFast.dll", [str(stubs / "GLTFast.cs")], [engine], strict=False)
     plan = mcs(d / "VWorldLod.Plan.dll", scripts(PACKAGE / "Runtime" / "Plan"))
     runtime = mcs(d / "VWorldLod.Runtime.dll", scripts(PACKAGE / "Runtime"), [engine, gltfast])
+    # As the asmdefs say: the Editor assembly does not reference glTFast.
     editor_asm = mcs(
-        d / "VWorldLod.Editor.dll", scripts(PACKAGE / "Editor"), [engine, editor, gltfast, runtime]
+        d / "VWorldLod.Editor.dll", scripts(PACKAGE / "Editor"), [engine, editor, runtime]
     )
     tests = mcs(
         d / "VWorldLod.Tests.exe",
@@ -91,22 +92,35 @@ def passed_failed(output: str) -> tuple[int, int]:
 
 def test_package_json_is_a_unity_package_depending_on_gltfast():
     data = json.loads((PACKAGE / "package.json").read_text(encoding="utf-8"))
-    assert data["name"] == "com.vworldlod.importer" and data["version"] == "0.2.0"
+    assert data["name"] == "com.vworldlod.importer" and data["version"] == "0.2.1"
     assert data["unity"] == "2022.3" and data["displayName"] and data["description"]
     # glTFast 6.3.0: the first release without the HDRP 17 compiler error and the exception on a
     # missing runtime shader (its CHANGELOG); the API the package calls exists there (see
-    # Runtime/Unity/GltfLevelLoader.cs). UnityWebRequest reads tiles.json and manifests.
+    # Runtime/Unity/GltfLevelLoader.cs). UnityWebRequest reads tiles.json and manifests;
+    # JsonUtility (the jsonserialize module) parses them: declared here rather than arriving
+    # only through glTFast's own dependencies.
     gltfast = tuple(int(v) for v in data["dependencies"]["com.unity.cloud.gltfast"].split("."))
     assert gltfast >= (6, 3, 0)
     assert data["dependencies"]["com.unity.modules.unitywebrequest"] == "1.0.0"
+    assert data["dependencies"]["com.unity.modules.jsonserialize"] == "1.0.0"
+    package_text = "\n".join(Path(p).read_text() for p in scripts(PACKAGE))
+    assert "JsonUtility." in package_text and "UnityWebRequest." in package_text
 
 
-def test_asmdefs_group_runtime_and_editor():
+def test_asmdefs_group_runtime_and_editor_and_reference_what_their_scripts_use():
     runtime = json.loads((PACKAGE / "Runtime" / "VWorldLod.Runtime.asmdef").read_text())
     editor = json.loads((PACKAGE / "Editor" / "VWorldLod.Editor.asmdef").read_text())
     assert runtime["includePlatforms"] == [] and "glTFast" in runtime["references"]
     assert editor["includePlatforms"] == ["Editor"]
-    assert set(editor["references"]) >= {runtime["name"], "glTFast"}
+    assert editor["references"] == [runtime["name"]]
+    # glTFast is referenced exactly where a script names its namespace (the mono build compiles
+    # the Editor assembly without it, as Unity would).
+    for folder, asmdef in (("Runtime", runtime), ("Editor", editor)):
+        uses = any(
+            re.search(r"^using GLTFast\b", Path(p).read_text(), re.M)
+            for p in scripts(PACKAGE / folder)
+        )
+        assert uses == ("glTFast" in asmdef["references"]), folder
 
 
 def test_every_asset_has_a_fixed_meta_and_no_meta_is_stale():

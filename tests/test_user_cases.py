@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 from pyproj import Transformer
 
-from exporter import pipeline
+from exporter import job, pipeline
 from exporter.cli import main
 from exporter.manifest import validate_manifest
 from exporter.model import TileId
@@ -214,14 +214,14 @@ def case_04_long_and_reserved_building_ids(tmp: Path, capsys, monkeypatch) -> No
         assert folder.casefold() not in ("con", "report")
         assert list(out.glob(f"*/{folder}/lod0.glb"))
     # A file name the file system refuses costs its building only, recorded in the manifest.
-    real = pipeline.write_bytes_atomic
+    real = job.write_bytes_atomic
 
     def refuses_ok(path, data, durable=False):
         if Path(path).parent.name == "ok":
             raise OSError(errno.ENAMETOOLONG, "File name too long", str(path))
         return real(path, data, durable)
 
-    monkeypatch.setattr(pipeline, "write_bytes_atomic", refuses_ok)
+    monkeypatch.setattr(job, "write_bytes_atomic", refuses_ok)
     code, err = run(export(source, "--out", tmp / "o2"), capsys)
     assert code == 0, err
     buildings, skipped = results(tmp / "o2")

@@ -70,7 +70,7 @@ def _module(name: str):
 EXPECTED = (
     "expected a VWorld .dat index with .xdo files, CityJSON *.city.json / *.json / *.city.jsonl "
     "files, or OBJ/glTF/GLB files with an index file buildings.csv/.yaml/.json; see README "
-    "'Input formats'"
+    "'Input'"
 )
 # Files a folder's index refers to: given on their own (e.g. by a shell glob over a tile folder)
 # they are read through their index, never alone.

@@ -58,7 +58,7 @@ import numpy as np
 from .. import geodesy
 from ..config import ReaderOptions
 from ..errors import InputError, ReadError
-from ..geometry import cross3
+from ..mesh.geometry import cross3
 from ..model import Building, Part, Skipped, Texture
 from ..plausible import vertex_problem
 from ..tiles import building_tile

@@ -1,4 +1,4 @@
-"""A visual HTML report of every tile's LoD chain (issue 9).
+"""A visual HTML report of every tile's LoD chain.
 
 One public entry point, :func:`write_reports`. For each tile folder ``OUT/<level>_<idx>_<idy>/``
 holding a ``lod_manifest.json`` it writes ``OUT/<tile>/report.html`` and the renders next to it in

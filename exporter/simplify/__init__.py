@@ -28,27 +28,22 @@ Pipeline per level (each level is built from the level above; measured, see the 
 from __future__ import annotations
 
 import dataclasses
+from typing import NamedTuple
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from ..config import LodSpec, SimplifyOptions
 from ..errors import ProcessError
-from ..geometry import longest_edges, triangle_cross, unique_float_rows
+from ..mesh.geometry import longest_edges, triangle_cross, unique_float_rows
+from ..mesh.topology import border_vertices, nonmanifold_vertices
+from ..mesh.weld import weld_positions
 from ..model import Part
 from . import meshopt
 from .guard import Reference, certify, exceeds, silhouette_iou
 from .planar import retriangulate_planar_checked
-from .protect import (
-    border_vertices,
-    face_areas,
-    footprint_wall_faces,
-    largest_faces,
-    nonmanifold_vertices,
-    part_border_vertices,
-)
+from .protect import face_areas, footprint_wall_faces, largest_faces, part_border_vertices
 from .quadric import Collapsed, collapse
-from .weld import weld_positions
 
 __all__ = ["MeshLevel", "build_mesh_chain", "build_mesh_lods", "clean_part", "degenerate_only"]
 
@@ -122,10 +117,20 @@ def uv_charts(faces: np.ndarray, vertex_count: int) -> np.ndarray:
     return (np.cumsum(root) - 1)[labels]
 
 
-def _join(parts: list[Part], link_distance: float):
-    """One welded mesh from all parts: positions (k, 3) metres, faces (m, 3), face_part (m,),
-    corner_uvs (m, 3, 2) or None, face_chart (m,), and whether welding merged vertices further
-    apart than ``NOISE_M`` (only possible with ``link_distance > NOISE_M``)."""
+class JoinedParts(NamedTuple):
+    """A building's parts as the one welded mesh the simplifier works on (unpacks as the six
+    values; ``[:2]`` is the ``(positions, faces)`` pair the mesh layer takes)."""
+
+    positions: np.ndarray  # (k, 3) float64 metres, building-local East/Up/North, welded
+    faces: np.ndarray  # (m, 3) int64 into positions, wound outward
+    face_part: np.ndarray  # (m,) int64: the part of each face
+    corner_uvs: np.ndarray | None  # (m, 3, 2) float32 per face corner (glTF UV convention)
+    face_chart: np.ndarray  # (m,) int64: the UV chart (texture island) of each face
+    merged: bool  # welding merged vertices further apart than NOISE_M (link_distance > NOISE_M)
+
+
+def _join(parts: list[Part], link_distance: float) -> JoinedParts:
+    """One welded mesh from all parts (:class:`JoinedParts`)."""
     return _join_welded(parts, link_distance)[0]
 
 
@@ -165,7 +170,7 @@ def _join_welded(parts: list[Part], link_distance: float):
     distinct = (
         (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])
     )
-    joined = (
+    joined = JoinedParts(
         welded_positions,
         faces[distinct],
         face_part[distinct],
@@ -262,7 +267,7 @@ def _simplify_level(
     target: int,
     options: SimplifyOptions,
     reference: tuple[np.ndarray, np.ndarray] | Reference | None = None,
-    joined: tuple | None = None,
+    joined: JoinedParts | None = None,
     tolerance: float = float("inf"),
     planar_done: bool = False,
     slits_closed: bool = False,
@@ -505,8 +510,8 @@ def build_mesh_chain(
     source_triangles = sum(p.triangle_count for p in parts)
     chain = [MeshLevel([clean_part(p) for p in parts], True, True)]
     joined, lod0_positions, lod0_welded = _join_welded(chain[0].parts, 0.0)
-    reference = Reference(*joined[:2])  # the guard's reference: LOD0, welded
-    size = largest_side(joined[0])
+    reference = Reference(joined.positions, joined.faces)  # the guard's reference: LOD0, welded
+    size = largest_side(joined.positions)
     offset = None  # LOD0's noise welding, metres (weld_offset), when a bound needs it
     for k, spec in enumerate(lods[1:], start=1):
         target = int(round(source_triangles * spec.mesh))

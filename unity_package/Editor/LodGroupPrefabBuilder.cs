@@ -59,6 +59,7 @@ namespace VWorldLod.EditorTools
             }
             foreach (ManifestException failure in plan.Failures)
                 Debug.LogError(failure.Message);
+            LodGroupAssembly.WarnAboutFade(plan);
             report.Failed = plan.Failures.Length;
 
             string prefabFolder = EnsureFolder(plan.Folder, "Prefabs");
@@ -136,14 +137,15 @@ namespace VWorldLod.EditorTools
             var root = new GameObject(building.Name);
             try
             {
+                var levels = new GameObject[levelAssets.Length];
                 var renderers = new Renderer[levelAssets.Length][];
                 for (int k = 0; k < levelAssets.Length; k++)
                 {
-                    var level = (GameObject)PrefabUtility.InstantiatePrefab(levelAssets[k], root.transform);
-                    level.name = building.Name + "_LOD" + k;
-                    renderers[k] = level.GetComponentsInChildren<Renderer>();
+                    levels[k] = (GameObject)PrefabUtility.InstantiatePrefab(levelAssets[k], root.transform);
+                    levels[k].name = building.Name + "_LOD" + k;
+                    renderers[k] = levels[k].GetComponentsInChildren<Renderer>();
                 }
-                LodGroupAssembly.Configure(root, building, plan, renderers);
+                LodGroupAssembly.Configure(root, building, plan, levels, renderers);
                 bool ok;
                 PrefabUtility.SaveAsPrefabAsset(root, prefabPath, out ok);
                 if (!ok) Debug.LogError(plan.ManifestPath + ": building " + building.Id + ": could not save " + prefabPath);

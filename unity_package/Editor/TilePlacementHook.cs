@@ -4,8 +4,12 @@
 // re-places on Update when its Transform changed, and this hook does it on every hierarchy change
 // too (a drop, a paste, an undo), so it holds even while the Editor does not tick Update. A scene
 // that gets a tile but has no georeference gets one at that tile's centre (logged), so the tile
-// is placed with small numbers from the start.
+// is placed with small numbers from the start. Tile roots outside the edited scene (Prefab Mode,
+// the hidden drag preview before a drop, preview scenes) are neither placed nor given a
+// georeference (PlacementScope): a cancelled drag leaves nothing behind.
+using System.Collections.Generic;
 using UnityEditor;
+using UnityEditor.SceneManagement;
 using UnityEngine;
 
 namespace VWorldLod.EditorTools
@@ -15,17 +19,34 @@ namespace VWorldLod.EditorTools
     {
         static TilePlacementHook()
         {
+            VWorldLodTilePlacement.AutoPlaces = InEditedScene;
             EditorApplication.hierarchyChanged += OnHierarchyChanged;
+        }
+
+        /// <summary>PlacementScope.Places for go, from what the Editor says about it.</summary>
+        public static bool InEditedScene(GameObject go)
+        {
+            PrefabStage stage = PrefabStageUtility.GetPrefabStage(go);
+            return PlacementScope.Places(stage != null, EditorSceneManager.IsPreviewSceneObject(go),
+                                         (go.hideFlags & HideFlags.HideInHierarchy) != 0);
         }
 
         static void OnHierarchyChanged()
         {
             if (EditorApplication.isPlayingOrWillChangePlaymode) return;
             var tiles = VWorldLodTilePlacement.All;
-            if (tiles.Count == 0) return;
-            if (VWorldLodGeoreference.Current == null) CreateGeoreference(tiles[0]);
+            VWorldLodTilePlacement site = GeoreferenceSite(tiles);
+            if (site != null && VWorldLodGeoreference.Current == null) CreateGeoreference(site);
             foreach (VWorldLodTilePlacement tile in tiles)
-                if (tile.keepPlaced && tile.transform.hasChanged) tile.Place();
+                if (tile.keepPlaced && tile.transform.hasChanged && tile.PlacesAutomatically) tile.Place();
+        }
+
+        /// <summary>The tile a missing georeference is created at: the first one placed automatically, or null.</summary>
+        public static VWorldLodTilePlacement GeoreferenceSite(IList<VWorldLodTilePlacement> tiles)
+        {
+            foreach (VWorldLodTilePlacement tile in tiles)
+                if (tile.PlacesAutomatically) return tile;
+            return null;
         }
 
         /// <summary>A georeference at the tile's centre (elevation of the tile centre).</summary>
@@ -49,10 +70,10 @@ namespace VWorldLod.EditorTools
                 Selection.activeGameObject = VWorldLodGeoreference.Current.gameObject;
                 return;
             }
-            var tiles = VWorldLodTilePlacement.All;
-            if (tiles.Count > 0)
+            VWorldLodTilePlacement site = GeoreferenceSite(VWorldLodTilePlacement.All);
+            if (site != null)
             {
-                Selection.activeGameObject = CreateGeoreference(tiles[0]).gameObject;
+                Selection.activeGameObject = CreateGeoreference(site).gameObject;
                 return;
             }
             var go = new GameObject("VWorld LoD Georeference");

@@ -15,6 +15,7 @@ namespace VWorldLod.Tests
             PlanTests.Run(t);
             UnityLayerTests.Run(t);
             GeoreferenceTests.Run(t);
+            EditorSceneTests.Run(t);
             StreamingTests.RunSelfContained(t);
             for (int i = 0; i < args.Length; i++)
             {

@@ -8,6 +8,13 @@ namespace VWorldLod.Tests
 {
     public static class UnityLayerTests
     {
+        static GameObject[] LevelObjects(int count)
+        {
+            var objects = new GameObject[count];
+            for (int k = 0; k < count; k++) objects[k] = new GameObject("LOD" + k);
+            return objects;
+        }
+
         public static void Run(TestRunner t)
         {
             t.Check("unity: LODGroup gets one LOD per level with the plan's heights, fade and renderers", () =>
@@ -17,7 +24,7 @@ namespace VWorldLod.Tests
                 var root = new GameObject(b.Name);
                 var renderers = new Renderer[b.Levels.Length][];
                 for (int k = 0; k < renderers.Length; k++) renderers[k] = new[] { new Renderer(), new Renderer() };
-                LODGroup group = LodGroupAssembly.Configure(root, b, plan, renderers);
+                LODGroup group = LodGroupAssembly.Configure(root, b, plan, LevelObjects(renderers.Length), renderers);
                 Assert.True(ReferenceEquals(group, root.GetComponent<LODGroup>()), "group added to the root");
                 Assert.Equal(3, group.lods.Length, "levels");
                 float[] expected = { 0.5f, 0.17f, 0.02f };
@@ -37,11 +44,29 @@ namespace VWorldLod.Tests
                 BuildingPlan b = plan.Buildings[1];
                 var root = new GameObject(b.Name);
                 var renderers = new[] { new Renderer[0], new Renderer[0] };
-                LODGroup first = LodGroupAssembly.Configure(root, b, plan, renderers);
-                LODGroup second = LodGroupAssembly.Configure(root, b, plan, renderers);
+                LODGroup first = LodGroupAssembly.Configure(root, b, plan, LevelObjects(2), renderers);
+                LODGroup second = LodGroupAssembly.Configure(root, b, plan, LevelObjects(2), renderers);
                 Assert.True(ReferenceEquals(first, second), "same component");
                 Assert.Equal(2, second.lods.Length, "levels");
                 Assert.Equal(0.02f, second.lods[1].height, "last level down to the culling height");
+            });
+            t.Check("unity: level objects are active before the LODs and bounds are set from their renderers", () =>
+            {
+                TilePlan plan = LodPlanner.Plan(PlanTests.Parse(PlanTests.Sample), PlanTests.ManifestPath, p => true);
+                BuildingPlan b = plan.Buildings[0];
+                var levels = new[] { 1, 2 }; // streamed coarsest first: LOD0 still loading
+                GameObject[] objects = LevelObjects(levels.Length);
+                var renderers = new Renderer[levels.Length][];
+                for (int i = 0; i < levels.Length; i++)
+                {
+                    objects[i].SetActive(false); // as GltfLevelLoader leaves a loaded level
+                    renderers[i] = new[] { objects[i].AddComponent<Renderer>() };
+                }
+                LODGroup group = LodGroupAssembly.ConfigureLoaded(new GameObject(b.Name), b, plan, levels, objects, renderers);
+                Assert.True(objects.All(o => o.active), "level objects activated");
+                Assert.Equal(0, group.inactiveAtSetLODs, "renderers inactive when the LODs were set");
+                Assert.Equal(1, group.boundsRecalculated, "bounds recalculated");
+                Assert.Equal(0, group.inactiveAtBounds, "renderers inactive when the bounds were recalculated");
             });
             t.Check("unity: pose goes to the local transform as floats (x, y, z, w order)", () =>
             {
@@ -69,7 +94,7 @@ namespace VWorldLod.Tests
                     var root = new GameObject(b.Name);
                     var renderers = new Renderer[c.Levels.Length][];
                     for (int i = 0; i < renderers.Length; i++) renderers[i] = new[] { new Renderer() };
-                    LODGroup group = LodGroupAssembly.ConfigureLoaded(root, b, plan, c.Levels, renderers);
+                    LODGroup group = LodGroupAssembly.ConfigureLoaded(root, b, plan, c.Levels, LevelObjects(renderers.Length), renderers);
                     string what = "levels " + string.Join(",", c.Levels);
                     Assert.Equal(string.Join(" ", c.Heights), string.Join(" ", group.lods.Select(l => l.height)), what);
                     for (int i = 0; i < renderers.Length; i++)

@@ -1,12 +1,17 @@
 // Stand-in for glTFast (com.unity.cloud.gltfast 6.x, assembly "glTFast"): exactly the members
 // unity_package uses, with glTFast's namespaces and signatures. In glTFast 6 GltfImport derives
 // from GltfImportBase<Root>, which derives from GltfImportBase; the generic middle class is left
-// out here because callers never name it. Bodies throw: loading needs the Unity runtime.
+// out here because callers never name it. Load records the settings it is given and reports
+// failure (the C# tests read them); the other bodies throw or do nothing: loading needs the Unity
+// runtime. Checked against the release/6.3.0 tag and the newest main of
+// Unity-Technologies/com.unity.cloud.gltfast.
 using System;
 using System.Collections.Generic;
 using System.Threading;
 using System.Threading.Tasks;
 using UnityEngine;
+
+[assembly: System.Runtime.CompilerServices.InternalsVisibleTo("VWorldLod.Tests")]
 
 namespace GLTFast.Loading { public interface IDownloadProvider { } }
 namespace GLTFast.Materials { public interface IMaterialGenerator { } }
@@ -16,7 +21,7 @@ namespace GLTFast.Logging
 
     public class CollectingLogger : ICodeLogger
     {
-        public IEnumerable<LogItem> Items { get { throw new NotSupportedException("stand-in"); } }
+        public IEnumerable<LogItem> Items { get { return new LogItem[0]; } }
     }
 
     public class LogItem
@@ -33,13 +38,21 @@ namespace GLTFast
 
     public interface IDeferAgent { }
 
-    public class ImportSettings { }
+    // Real: a [Serializable] class whose properties wrap private serialized fields.
+    public class ImportSettings
+    {
+        public bool GenerateMipMaps { get; set; }
+    }
 
     public abstract class GltfImportBase : IDisposable
     {
+        internal static readonly List<ImportSettings> loadedWith = new List<ImportSettings>();
+        internal static int disposed;
+
         public Task<bool> Load(Uri url, ImportSettings importSettings = null, CancellationToken cancellationToken = default(CancellationToken))
         {
-            throw new NotSupportedException("stand-in");
+            loadedWith.Add(importSettings);
+            return Task.FromResult(false);
         }
 
         public Task<bool> InstantiateMainSceneAsync(Transform parent, CancellationToken cancellationToken = default(CancellationToken))
@@ -47,7 +60,7 @@ namespace GLTFast
             throw new NotSupportedException("stand-in");
         }
 
-        public void Dispose() { throw new NotSupportedException("stand-in"); }
+        public void Dispose() { disposed++; }
     }
 
     public class GltfImport : GltfImportBase

@@ -1,5 +1,6 @@
 // Stand-in for UnityEditor: exactly the members unity_package's Editor scripts use, with Unity's
-// signatures (Unity 2022.3). Bodies throw: nothing here runs outside the Unity Editor.
+// signatures (Unity 2022.3 and 6000.0; base classes the package never names are left out). Bodies
+// throw: nothing here runs outside the Unity Editor.
 using System;
 using UnityEngine;
 
@@ -75,4 +76,20 @@ namespace UnityEditor
     }
 
     public class AssetPostprocessor { }
+}
+
+namespace UnityEditor.SceneManagement
+{
+    // Real: PrefabStage : PreviewSceneStage : Stage : ScriptableObject; EditorSceneManager : SceneManager.
+    public sealed class PrefabStage { }
+
+    public static class PrefabStageUtility
+    {
+        public static PrefabStage GetPrefabStage(GameObject gameObject) { throw new NotSupportedException("stand-in"); }
+    }
+
+    public sealed class EditorSceneManager
+    {
+        public static bool IsPreviewSceneObject(UnityEngine.Object obj) { throw new NotSupportedException("stand-in"); }
+    }
 }

@@ -1,8 +1,9 @@
 // Stand-in for UnityEngine: declares exactly the members unity_package uses, with Unity's
-// namespaces, type names and signatures (Unity 2022.3 scripting API), so the package's scripts
-// compile under mono. Bodies are minimal: GameObject keeps its components, LODGroup and the
-// Transform's properties record what they are given (in non-public fields, which the C# tests
-// read by reflection), and engine calls that need a running player throw.
+// namespaces, type names and signatures (Unity 2022.3 and 6000.0 scripting API), so the
+// package's scripts compile under mono. Bodies are minimal: GameObject keeps its components and
+// its active state, LODGroup, the Transform's properties, SetParent and Destroy record what they
+// are given (in non-public fields, which the C# tests read), and engine calls that need a running
+// player throw.
 using System;
 
 [assembly: System.Runtime.CompilerServices.InternalsVisibleTo("VWorldLod.Tests")]
@@ -12,8 +13,17 @@ namespace UnityEngine
     public class Object
     {
         public string name { get; set; }
-        public static void Destroy(Object obj) { throw new NotSupportedException("stand-in"); }
+        public HideFlags hideFlags { get; set; }
+        internal bool destroyed;
+        public static void Destroy(Object obj) { obj.destroyed = true; }
         public static void DestroyImmediate(Object obj) { throw new NotSupportedException("stand-in"); }
+    }
+
+    [Flags]
+    public enum HideFlags
+    {
+        None = 0,
+        HideInHierarchy = 1,
     }
 
     public class Component : Object
@@ -42,7 +52,8 @@ namespace UnityEngine
             worldRotation = rotation;
             hasChanged = true;
         }
-        public void SetParent(Transform parent, bool worldPositionStays) { throw new NotSupportedException("stand-in"); }
+        internal Transform parent;
+        public void SetParent(Transform parent, bool worldPositionStays) { this.parent = parent; }
     }
 
     public class Camera : Behaviour
@@ -97,7 +108,8 @@ namespace UnityEngine
 
         public T[] GetComponentsInChildren<T>() { throw new NotSupportedException("stand-in"); }
         public T[] GetComponentsInChildren<T>(bool includeInactive) { throw new NotSupportedException("stand-in"); }
-        public void SetActive(bool value) { throw new NotSupportedException("stand-in"); }
+        internal bool active = true;
+        public void SetActive(bool value) { active = value; }
     }
 
     public struct Vector3
@@ -140,8 +152,26 @@ namespace UnityEngine
         public bool animateCrossFading { get; set; }
         internal LOD[] lods;
         internal int boundsRecalculated;
-        public void SetLODs(LOD[] lods) { this.lods = (LOD[])lods.Clone(); }
-        public void RecalculateBounds() { boundsRecalculated++; }
+        // Renderers on inactive GameObjects when the LODs were set / the bounds recalculated.
+        internal int inactiveAtSetLODs, inactiveAtBounds;
+        public void SetLODs(LOD[] lods)
+        {
+            this.lods = (LOD[])lods.Clone();
+            inactiveAtSetLODs = Inactive();
+        }
+        public void RecalculateBounds()
+        {
+            boundsRecalculated++;
+            inactiveAtBounds = Inactive();
+        }
+        int Inactive()
+        {
+            int n = 0;
+            foreach (LOD lod in lods)
+                foreach (Renderer r in lod.given)
+                    if (r.owner != null && !r.owner.active) n++;
+            return n;
+        }
     }
 
     public static class Debug

@@ -182,6 +182,21 @@ namespace VWorldLod
         }
 
         /// <summary>
+        /// Why the tile's LODGroups will not fade as its manifest asks, or null. glTFast's shaders
+        /// (Built-in, and the Shader Graphs for URP and HDRP) are not compiled for LOD cross-fade
+        /// (LOD_FADE_CROSSFADE is commented out in the Built-in ones; the graphs have
+        /// supportLodCrossFade off), so with fade_mode cross_fade both levels draw in full during
+        /// each transition instead of dithering between them.
+        /// </summary>
+        public static string FadeWarning(TilePlan tile)
+        {
+            if (tile.FadeMode != LodFadeKind.CrossFade) return null;
+            return tile.ManifestPath + ": lod_group.fade_mode is cross_fade, but glTFast's shaders do not support LOD cross-fade: "
+                   + "during each transition both levels draw in full. Export with unity.fade_mode: none, or give the buildings "
+                   + "materials whose shaders support LOD cross-fade (LOD_FADE_CROSSFADE)";
+        }
+
+        /// <summary>
         /// Height of level k of a building with levelCount levels. A building with fewer levels than
         /// the tile keeps its last level until the tile's last height (where culling starts), so it
         /// disappears at the same screen size as the others.

@@ -1,11 +1,12 @@
 // Loads one level's glTF with glTFast at run time, the way the streamer and the tile loader need:
 // glTFast's messages go to Unity's console with the file named; cancellation (a tile unloaded, the
 // component destroyed) never throws and leaves nothing behind; an import is only disposed once
-// its own load has finished (disposing one in flight makes glTFast throw).
+// its own load has finished (disposing one in flight makes glTFast throw). Textures get mipmaps as
+// in glTFast's Editor importer (LevelImportSettings).
 //
 // glTFast's API used (present with these signatures from 6.3.0 on; see the package docs):
 //   new GltfImport(IDownloadProvider, IDeferAgent, IMaterialGenerator, ICodeLogger)
-//   Task<bool> Load(Uri, ImportSettings, CancellationToken)
+//   Task<bool> Load(Uri, ImportSettings, CancellationToken); ImportSettings.GenerateMipMaps
 //   Task<bool> InstantiateMainSceneAsync(Transform, CancellationToken)
 //   CollectingLogger.Items / LogItem.Type (a logger of our own would have to follow ICodeLogger,
 //   which gained a member in 6.4 that has a default implementation only from 6.10).
@@ -20,6 +21,17 @@ namespace VWorldLod
 {
     public static class GltfLevelLoader
     {
+        /// <summary>
+        /// glTFast's settings for a level: textures with a mip chain. glTFast builds one only when
+        /// GenerateMipMaps is set (false by default; its Editor importer sets it), and the
+        /// exporter's samplers ask for trilinear filtering (LINEAR_MIPMAP_LINEAR): without mipmaps
+        /// streamed buildings alias at a distance and differ from the Editor prefabs.
+        /// </summary>
+        public static ImportSettings LevelImportSettings()
+        {
+            return new ImportSettings { GenerateMipMaps = true };
+        }
+
         /// <summary>
         /// The level at url instantiated under parent as an inactive GameObject named objectName,
         /// or null when it could not be loaded (reported in the console, naming url) or the load
@@ -36,7 +48,7 @@ namespace VWorldLod
             Exception error = null;
             try
             {
-                ok = await gltf.Load(new Uri(url), null, cancellation)
+                ok = await gltf.Load(new Uri(url), LevelImportSettings(), cancellation)
                      && !cancellation.IsCancellationRequested
                      && await gltf.InstantiateMainSceneAsync(level.transform, cancellation);
             }

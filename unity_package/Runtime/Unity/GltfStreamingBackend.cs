@@ -16,6 +16,7 @@ namespace VWorldLod
         readonly string indexUrl;
         readonly Dictionary<TilePlan, GameObject> tileRoots = new Dictionary<TilePlan, GameObject>();
         readonly Dictionary<BuildingPlan, GameObject> buildingRoots = new Dictionary<BuildingPlan, GameObject>();
+        bool fadeWarned;
 
         /// <summary>Tile roots go under parent; manifests are read beside indexUrl.</summary>
         public GltfStreamingBackend(Transform parent, string indexUrl)
@@ -32,6 +33,7 @@ namespace VWorldLod
                 TilePlan plan = await RuntimeTile.LoadPlanAsync(url, cancellation);
                 if (plan == null || cancellation.IsCancellationRequested) return null;
                 tileRoots[plan] = RuntimeTile.CreateRoot(plan, parent);
+                if (!fadeWarned) fadeWarned = LodGroupAssembly.WarnAboutFade(plan);
                 return plan;
             }
             catch (Exception e)
@@ -60,10 +62,7 @@ namespace VWorldLod
         {
             GameObject root;
             if (!buildingRoots.TryGetValue(building, out root) || root == null) return;
-            var renderers = new Renderer[loaded.Length][];
-            for (int i = 0; i < loaded.Length; i++) renderers[i] = ((LoadedLevel)loaded[i]).Renderers;
-            LodGroupAssembly.ConfigureLoaded(root, building, tile, levels, renderers);
-            foreach (object level in loaded) ((LoadedLevel)level).Root.SetActive(true);
+            LodGroupAssembly.ConfigureLoaded(root, building, tile, levels, Array.ConvertAll(loaded, level => (LoadedLevel)level));
         }
 
         public void ReleaseLevel(object loaded)

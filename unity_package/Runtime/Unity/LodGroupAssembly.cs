@@ -4,6 +4,7 @@
 // Frames: Placement values are in the parent's frame (see LodPlan.cs); Unity stores float, so
 // globe positions (~6.4e6 units for UR = R) keep 0.25-0.5 unit steps: place tile roots relative
 // to a georeference (VWorldLodGeoreference) to keep them small.
+using System.Collections.Generic;
 using UnityEngine;
 
 namespace VWorldLod
@@ -30,10 +31,13 @@ namespace VWorldLod
 
         /// <summary>
         /// The LODGroup of a building of which only `levels` (ascending) are loaded so far:
-        /// renderers[i] are those of levels[i], heights from LodPlanner.LoadedHeights.
+        /// levelObjects[i] holds renderers[i], those of levels[i]; heights from
+        /// LodPlanner.LoadedHeights. The level objects are activated first, so that the LODs and
+        /// the bounds are set from active renderers.
         /// </summary>
-        public static LODGroup ConfigureLoaded(GameObject root, BuildingPlan building, TilePlan tile, int[] levels, Renderer[][] renderers)
+        public static LODGroup ConfigureLoaded(GameObject root, BuildingPlan building, TilePlan tile, int[] levels, GameObject[] levelObjects, Renderer[][] renderers)
         {
+            foreach (GameObject level in levelObjects) level.SetActive(true);
             double[] heights = LodPlanner.LoadedHeights(building, levels);
             LODGroup group = root.GetComponent<LODGroup>();
             if (group == null) group = root.AddComponent<LODGroup>();
@@ -51,14 +55,42 @@ namespace VWorldLod
         }
 
         /// <summary>
-        /// Adds (or reuses) the LODGroup on root and sets one LOD per level: renderers[k] are the
-        /// renderers of level k, heights and fade settings from the plan; bounds recalculated.
+        /// Adds (or reuses) the LODGroup on root and sets one LOD per level: levelObjects[k] (made
+        /// active) holds renderers[k], the renderers of level k; heights and fade settings from
+        /// the plan; bounds recalculated.
         /// </summary>
-        public static LODGroup Configure(GameObject root, BuildingPlan building, TilePlan tile, Renderer[][] renderers)
+        public static LODGroup Configure(GameObject root, BuildingPlan building, TilePlan tile, GameObject[] levelObjects, Renderer[][] renderers)
+        {
+            return ConfigureLoaded(root, building, tile, AllLevels(building), levelObjects, renderers);
+        }
+
+        /// <summary>ConfigureLoaded over levels loaded at run time: loaded[i] is level levels[i].</summary>
+        public static LODGroup ConfigureLoaded(GameObject root, BuildingPlan building, TilePlan tile, int[] levels, IList<LoadedLevel> loaded)
+        {
+            var objects = new GameObject[loaded.Count];
+            var renderers = new Renderer[loaded.Count][];
+            for (int i = 0; i < objects.Length; i++)
+            {
+                objects[i] = loaded[i].Root;
+                renderers[i] = loaded[i].Renderers;
+            }
+            return ConfigureLoaded(root, building, tile, levels, objects, renderers);
+        }
+
+        /// <summary>0, 1, ..., the building's last level.</summary>
+        public static int[] AllLevels(BuildingPlan building)
         {
             var all = new int[building.Levels.Length];
             for (int k = 0; k < all.Length; k++) all[k] = k;
-            return ConfigureLoaded(root, building, tile, all, renderers);
+            return all;
+        }
+
+        /// <summary>Logs why the tile's fade settings will not show as asked (LodPlanner.FadeWarning); true when it did.</summary>
+        public static bool WarnAboutFade(TilePlan tile)
+        {
+            string warning = LodPlanner.FadeWarning(tile);
+            if (warning != null) Debug.LogWarning("VWorld LoD: " + warning);
+            return warning != null;
         }
     }
 }

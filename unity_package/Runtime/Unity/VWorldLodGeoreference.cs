@@ -117,6 +117,12 @@ namespace VWorldLod
             dirty = false;
             GeoOrigin origin = Origin;
             if (origin != null && origin.Note() != null) Debug.LogWarning("VWorld LoD: " + name + ": " + origin.Note());
+            PlaceTilesAndNotify();
+        }
+
+        // Tiles first: listeners (the streamers' cached tile positions) see the new placement.
+        static void PlaceTilesAndNotify()
+        {
             VWorldLodTilePlacement.PlaceAll();
             Action handler = OriginChanged;
             if (handler != null) handler();
@@ -134,7 +140,8 @@ namespace VWorldLod
         {
             bool wasCurrent = Current == this;
             active.Remove(this);
-            if (wasCurrent) VWorldLodTilePlacement.PlaceAll();
+            // The next georeference (or the globe placement) takes over: the origin changed.
+            if (wasCurrent) PlaceTilesAndNotify();
         }
 
         // Inspector edits: re-place on the next Update (Transforms are not changed inside OnValidate).

@@ -56,6 +56,7 @@ namespace VWorldLod
                 return null;
             }
             GameObject tileRoot = RuntimeTile.CreateRoot(plan, transform);
+            LodGroupAssembly.WarnAboutFade(plan);
 
             int built = 0;
             foreach (BuildingPlan building in plan.Buildings)
@@ -93,10 +94,7 @@ namespace VWorldLod
                 levels.Add(level);
             }
             loaded.AddRange(levels);
-            var renderers = new Renderer[levels.Count][];
-            for (int k = 0; k < renderers.Length; k++) renderers[k] = levels[k].Renderers;
-            LodGroupAssembly.Configure(root, building, plan, renderers);
-            foreach (LoadedLevel level in levels) level.Root.SetActive(true);
+            LodGroupAssembly.ConfigureLoaded(root, building, plan, LodGroupAssembly.AllLevels(building), levels);
             return true;
         }
 

@@ -8,6 +8,9 @@
 // .OnSceneDragInternal sets transform.position), and dropping it into the Hierarchy keeps the
 // position saved in the prefab, which may come from another origin. Either way the tile goes back
 // to its place. The root must sit at the scene root or under unscaled parents (world pose set).
+// In the Editor, roots outside the edited scene (Prefab Mode, the Scene view's hidden drag
+// preview) are left where they are (AutoPlaces, PlacementScope).
+using System;
 using System.Collections.Generic;
 using UnityEngine;
 
@@ -27,6 +30,16 @@ namespace VWorldLod
         public bool keepPlaced = true;
 
         static readonly List<VWorldLodTilePlacement> active = new List<VWorldLodTilePlacement>();
+
+        /// <summary>
+        /// Whether a tile root is placed automatically (when enabled, moved, or the origin moves)
+        /// and may get the scene a georeference; null (a player): every root. The Editor
+        /// (TilePlacementHook) sets it to PlacementScope.Places fed by Unity.
+        /// </summary>
+        public static Func<GameObject, bool> AutoPlaces;
+
+        /// <summary>See AutoPlaces.</summary>
+        public bool PlacesAutomatically { get { return AutoPlaces == null || AutoPlaces(gameObject); } }
 
         /// <summary>The active tile roots of all open scenes.</summary>
         public static IList<VWorldLodTilePlacement> All { get { return active.AsReadOnly(); } }
@@ -58,16 +71,17 @@ namespace VWorldLod
             transform.hasChanged = false;
         }
 
-        /// <summary>Re-places every active tile root.</summary>
+        /// <summary>Re-places every active tile root that is placed automatically.</summary>
         public static void PlaceAll()
         {
-            foreach (VWorldLodTilePlacement tile in active) tile.Place();
+            foreach (VWorldLodTilePlacement tile in active)
+                if (tile.PlacesAutomatically) tile.Place();
         }
 
         void OnEnable()
         {
             active.Add(this);
-            Place();
+            if (PlacesAutomatically) Place();
         }
 
         void OnDisable()
@@ -77,7 +91,7 @@ namespace VWorldLod
 
         void Update()
         {
-            if (keepPlaced && transform.hasChanged) Place();
+            if (keepPlaced && transform.hasChanged && PlacesAutomatically) Place();
         }
     }
 }

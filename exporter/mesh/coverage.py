@@ -31,18 +31,16 @@ distance computed at all:
 6. Slivers: a collapse onto a line leaves collinear triangles filling a T-junction (no region
    takes them: their normal is noise). One whose longest edge, or both other edges, are edges of
    settled faces of its side lies within twice its least altitude of those faces, so it is
-   settled with that width added (a fan of them ring by ring, the widths summed). On generated
-   buildings this left 163 level faces open where there were 633 over the guard's 71 candidate
-   certifications of a 100-building tile, and the certification ran 0.83-0.89x its time
-   (``bench_stages.py``, quality and simplify columns, same run).
+   settled with that width added (a fan of them ring by ring, the widths summed), which leaves
+   far fewer faces to the general method.
 
 A region that fails a test (a flipped face, a chain that differs otherwise) and every face not
 placed in a region are returned as *open*: the caller bounds them with the general method
-(:mod:`exporter.hausdorff`), which they then cost alone.
+(:mod:`exporter.mesh.hausdorff`), which they then cost alone.
 
 Sources: the winding-number argument is the one of polygon coverage tests (e.g. Hormann &
 Agathos, "The point in polygon problem for arbitrary polygons", 2001); welding as
-:mod:`exporter.simplify.weld`.
+:mod:`exporter.mesh.weld`.
 """
 
 from __future__ import annotations
@@ -52,8 +50,8 @@ import dataclasses
 import numpy as np
 
 from .geometry import cross_rows
-from .simplify.protect import planar_regions
-from .simplify.weld import weld_positions
+from .topology import planar_regions
+from .weld import weld_positions
 
 WELD_M = 1e-6  # metres: vertices this close are one (the pipeline's noise welding)
 ORIENTED = 1e-9  # projected doubled area below this x the squared longest edge: not trusted
