@@ -341,6 +341,13 @@ class ReaderOptions:
             "CRS of input files that do not declare one, e.g. EPSG:7415 (never guessed)",
         ),
     )
+    citygml_lod: int = field(
+        default=2,
+        metadata=meta(
+            _integer(0, 4),
+            "CityGML: read the highest LoD at or below this one (0-4) a building has, else its lowest",
+        ),
+    )
 
 
 def default_lods() -> list[LodSpec]:

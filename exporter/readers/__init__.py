@@ -11,9 +11,9 @@ Two steps, so the pipeline can plan, skip unchanged work and load in parallel:
    :class:`~exporter.errors.ReadError` (naming the file and the problem), so one broken building
    never stops a tile.
 
-Each format module (``vworld``, ``cityjson``, ``folder``) provides ``detect(folder) -> bool``,
+Each format module (``vworld``, ``cityjson``, ``citygml``, ``folder``) provides ``detect(folder) -> bool``,
 ``scan(path, options) -> Scan`` (``path`` a folder, or one file of the format: a VWorld ``.dat``,
-a CityJSON file, an OBJ/glTF index file) and ``load(entry, options) -> Building``. Entries are
+a CityJSON or CityGML file, an OBJ/glTF index file) and ``load(entry, options) -> Building``. Entries are
 plain picklable data (they cross process boundaries). ``input_paths(paths)`` turns a command
 line's inputs (shell globs expanded: folders and files mixed) into the list to scan.
 """
@@ -31,7 +31,7 @@ from ..model import Building, Skipped, TileId
 
 # Format modules in detection order; each is imported lazily so a broken optional dependency of
 # one reader does not stop the others.
-FORMATS = ("vworld", "cityjson", "folder")
+FORMATS = ("vworld", "cityjson", "citygml", "folder")
 
 
 @dataclass
@@ -65,7 +65,7 @@ def _module(name: str):
 
 EXPECTED = (
     "expected a VWorld .dat index with .xdo files, CityJSON *.city.json / *.json / *.city.jsonl "
-    "files, or OBJ/glTF/GLB files with an index file buildings.csv/.yaml/.json; see README "
+    "files, CityGML *.gml / *.gml.gz / *.xml files, or OBJ/glTF/GLB files with an index file buildings.csv/.yaml/.json; see README "
     "'Input formats'"
 )
 # Files a folder's index refers to: given on their own (e.g. by a shell glob over a tile folder)
@@ -103,6 +103,8 @@ def file_format(path: Path) -> str:
         return "vworld"
     if _module("cityjson").is_cityjson_file(path):
         return "cityjson"
+    if _module("citygml").is_citygml_file(path):
+        return "citygml"
     if name.endswith((".csv", ".yaml", ".yml")) or name == "buildings.json":
         return "folder"
     if name.endswith(".json") and _mentions(path, b'"file"'):  # an index under another name
