@@ -677,22 +677,23 @@ def _plane_basis(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def check_polygon(rings: list[np.ndarray], outward: np.ndarray) -> str | None:
-    """Why the polygon (rings (k, 3) local metres) cannot be used, or None: no area, a ring off
-    its plane by more than 5 cm + 2 % of the polygon's size, or a self-crossing ring."""
-    length = np.linalg.norm(outward)
-    if not length > 1e-12:
-        return "no area"
-    normal = outward / length
+    """Why the polygon (rings (k, 3) local metres, ``outward`` its Newell normal) cannot be used,
+    or None: a ring off its best-fit plane by more than 5 cm + 2 % of the polygon's size, a
+    self-crossing ring (in that plane), or no area."""
     points = np.concatenate(rings)
+    centred = points - points.mean(axis=0)
+    # Best-fit plane (least-squares): its normal is the covariance's smallest eigenvector. Newell's
+    # normal cannot serve here, it vanishes for a bow-tie.
+    normal = np.linalg.eigh(centred.T @ centred)[1][:, 0]
     size = float(np.ptp(points, axis=0).max())
-    offsets = (points - points.mean(axis=0)) @ normal
-    if float(np.ptp(offsets)) > 0.05 + 0.02 * size:
+    if float(np.ptp(centred @ normal)) > 0.05 + 0.02 * size:
         return "non-planar ring"
     u, v = _plane_basis(normal)
     for ring in rings:
-        flat = np.column_stack([(ring - ring[0]) @ u, (ring - ring[0]) @ v])
-        if ring_crossings(flat):
+        if ring_crossings(np.column_stack([ring @ u, ring @ v])):
             return "self-intersecting ring"
+    if not np.linalg.norm(outward) > 1e-12:
+        return "no area"
     return None
 
 
