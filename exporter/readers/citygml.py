@@ -389,9 +389,12 @@ class _Surface:
     colour: tuple | None
 
 
-def _candidates(element, semantic: str | None, out: list) -> None:
+def _candidates(element, semantic: str | None, out: list, depth: int = 0) -> None:
     """(LoD, semantic surface type or None, property element) of every geometry property below
-    ``element`` (its parts, installations and thematic surfaces; interiors left out)."""
+    ``element`` (its parts, installations and thematic surfaces; interiors left out; nothing
+    deeper than MAX_DEPTH)."""
+    if depth > MAX_DEPTH:
+        return
     for child in element:
         name = _local(child.tag)
         if not name or name in INTERIOR:
@@ -400,7 +403,7 @@ def _candidates(element, semantic: str | None, out: list) -> None:
         if match:
             out.append((int(match[1]), semantic, child))
             continue
-        _candidates(child, name if name.endswith("Surface") else semantic, out)
+        _candidates(child, name if name.endswith("Surface") else semantic, out, depth + 1)
 
 
 def choose_lod(present: set[int], cap: int) -> int:
@@ -446,7 +449,7 @@ def _ring(ring, problems: _Problems) -> np.ndarray | None:
         points = np.column_stack([points, np.zeros(len(points))])
     if len(points) > 1 and np.array_equal(points[0], points[-1]):
         points = points[:-1]
-    if len(np.unique(points, axis=0)) < 3:
+    if len(set(map(tuple, points.tolist()))) < 3:
         problems.add("fewer than 3 distinct points", where)
         return None
     return points
@@ -460,6 +463,7 @@ class _Walker:
         self.problems = problems
         self.surfaces: list[_Surface] = []
         self.seen: dict = {}  # (element, flip) -> index in surfaces (elements kept alive here)
+        self.followed: dict = {}  # (element, flip) reached by xlink:href (kept alive here)
         self.crs_cache: dict = {}
 
     def crs(self, element) -> str:
@@ -483,6 +487,9 @@ class _Walker:
             if target is None:
                 self.problems.add("dangling xlink:href", f"{href} on {_local(element.tag)}")
                 return
+            if (target, flip) in self.followed:  # met before: its polygons are known (and no
+                return  # reference cycle or diamond can make the walk exponential)
+            self.followed[(target, flip)] = True
             self.walk(target, semantic, flip, colour, depth + 1)
             return
         gml_id = _gml_id(element)
@@ -662,10 +669,15 @@ def ring_crossings(flat: np.ndarray) -> bool:
 
     # Edge i's endpoints against edge j's line and the reverse: both pairs strictly apart.
     apart = orient(a, b, a) * orient(a, b, b) < 0
-    crossing = apart & apart.T
-    i, j = np.triu_indices(k, 2)
-    keep = ~((i == 0) & (j == k - 1))
-    return bool(crossing[i[keep], j[keep]].any())
+    return bool((apart & apart.T & _non_adjacent(k)).any())
+
+
+@lru_cache(maxsize=64)
+def _non_adjacent(k: int) -> np.ndarray:
+    """(k, k) bool: edge pairs of a closed k-ring that share no corner."""
+    i, j = np.indices((k, k))
+    gap = np.abs(i - j)
+    return (gap > 1) & (gap < k - 1)
 
 
 def _plane_basis(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -682,10 +694,12 @@ def check_polygon(rings: list[np.ndarray], outward: np.ndarray) -> str | None:
     self-crossing ring (in that plane), or no area."""
     points = np.concatenate(rings)
     centred = points - points.mean(axis=0)
-    # Best-fit plane (least-squares): its normal is the covariance's smallest eigenvector. Newell's
-    # normal cannot serve here, it vanishes for a bow-tie.
-    normal = np.linalg.eigh(centred.T @ centred)[1][:, 0]
     size = float(np.ptp(points, axis=0).max())
+    length = float(np.linalg.norm(outward))
+    if length > 1e-3 * size * size:
+        normal = outward / length
+    else:  # Newell's normal vanishes for a bow-tie: the least-squares plane's instead
+        normal = np.linalg.eigh(centred.T @ centred)[1][:, 0]
     if float(np.ptp(centred @ normal)) > 0.05 + 0.02 * size:
         return "non-planar ring"
     u, v = _plane_basis(normal)
@@ -839,6 +853,7 @@ def _scan_file(path: Path, options: ReaderOptions) -> _FileScan:
     theme = themes[0] if themes else None
     pending = []  # (entry, {theme: image URIs}) until the theme is known
     declared = False
+    source = str(path)  # one string shared by every entry (a file may list 10^5 buildings)
     try:
         for ordinal, (_, element, file_srs) in enumerate(stream(path)):
             declared = declared or file_srs is not None
@@ -859,11 +874,12 @@ def _scan_file(path: Path, options: ReaderOptions) -> _FileScan:
                 )
                 _, bounds = geodesy.base_centre(lonlath)
                 tile = building_tile(bounds)
-            except ValueError as error:
+            except Exception as error:  # one broken building never stops the file
+                why = str(error) if isinstance(error, ValueError) else f"unexpected {error!r}"
                 out.skipped.append(
                     Skipped(
-                        source=str(path),
-                        reason=f"building {_gml_id(element) or ordinal}: {error}",
+                        source=source,
+                        reason=f"building {_gml_id(element) or ordinal}: {why}",
                         id=_gml_id(element),
                     )
                 )
@@ -878,9 +894,9 @@ def _scan_file(path: Path, options: ReaderOptions) -> _FileScan:
             entry = Entry(
                 format=FORMAT,
                 id=read.id,
-                source=str(path),
+                source=source,
                 tile=tile,
-                inputs=[str(path)],
+                inputs=[source],
                 key=(ordinal, read.id),
             )
             pending.append((entry, images))
