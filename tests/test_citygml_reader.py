@@ -6,6 +6,7 @@ from __future__ import annotations
 import gzip
 import io
 import json
+import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -174,6 +175,31 @@ def test_same_meshes_and_placement_as_cityjson(tmp_path, version, mode):
         "function": "1000",
         "measured_height": 6.0,
     }
+
+
+def test_citygml_3_building_geometry(tmp_path):
+    """CityGML 3.0's names (core:boundary, con:WallSurface, core:lod2MultiSurface, GML 3.2 ids)
+    read as 2.0's."""
+    v2 = citygml(buildings())
+    v3 = re.sub(r"bldg:(Wall|Roof|Ground)Surface", r"con:\1Surface", v2)
+    v3 = re.sub(
+        r"bldg:(boundedBy|lod2MultiSurface)\b",
+        lambda m: "boundary" if m[1] == "boundedBy" else m[1],
+        v3,
+    )
+    v3 = (
+        v3.replace("citygml/2.0", "citygml/3.0")
+        .replace("building/2.0", "building/3.0")
+        .replace(
+            '"http://www.opengis.net/gml"',
+            '"http://www.opengis.net/gml/3.2" xmlns:con="http://www.opengis.net/citygml/construction/3.0"',
+        )
+    )
+    assert "bldg:boundedBy" not in v3 and "<con:WallSurface>" in v3 and "<lod2MultiSurface>" in v3
+    a = load_all(write(tmp_path / "v2" / "a.gml", v2))
+    b = load_all(write(tmp_path / "v3" / "a.gml", v3))
+    assert [x.id for x in b] == ["B1", "B2"]
+    assert [triangle_set(x) for x in a] == [triangle_set(x) for x in b]
 
 
 def test_latitude_first_crs_gives_the_same_placement(tmp_path):
