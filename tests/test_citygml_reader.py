@@ -18,7 +18,7 @@ from PIL import Image
 from pyproj import Transformer
 
 from exporter.cli import main
-from exporter.config import ConfigError, ReaderOptions, config_from_dict
+from exporter.config import ConfigError, ReaderOptions, config_from_dict, default_config_yaml
 from exporter.errors import InputError, ReadError
 from exporter.readers import citygml as reader
 from exporter.readers import detect_format, input_paths, load_entry, scan_folder
@@ -32,6 +32,8 @@ from tests.citygml_writer import (
     write,
     write_cityjson,
 )
+from tests.conftest import _validator_available as _validator_reason
+from tests.conftest import run_gltf_validator
 
 X0, Y0 = 458870.0, 5438350.0  # EPSG:25832 metres, Karlsruhe (where the SIG 3D example stands)
 
@@ -284,6 +286,7 @@ def test_lod_choice_follows_the_config(tmp_path):
         heights[cap] = max(p.positions[:, 1].max() for p in building.parts)
     assert np.allclose([heights[0], heights[1], heights[2], heights[3]], [4, 4, 6, 9], atol=1e-6)
     assert any("read LoD 1" in p for p in load_all(path, citygml_lod=0)[0].problems)
+    assert "  citygml_lod: 2  # CityGML" in default_config_yaml()
     with pytest.raises(ConfigError, match="citygml_lod"):
         config_from_dict({"readers": {"citygml_lod": 7}})
 
@@ -360,6 +363,11 @@ def test_per_surface_images_packed_into_one_atlas(tmp_path):
     assert any("missing.jpg missing" in p for p in building.problems)
     assert any("do not match its rings" in p for p in building.problems)
     assert building.triangle_count == 10  # roof + 4 walls, ground dropped, none lost
+    # Through the whole export: the atlas goes down the texture LoD chain, the files validate.
+    records, glbs = _export(tmp_path, path)
+    assert len(glbs) == 3 and records[0]["attributes"] == {"gml_id": "B"}
+    if _validator_reason() is None:
+        assert all(r["errors"] == 0 for r in run_gltf_validator(glbs))
 
 
 def test_material_colour(tmp_path):
