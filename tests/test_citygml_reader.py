@@ -146,6 +146,17 @@ def test_shared_file_exports_valid_glb_placed_where_pyproj_says(
         assert record["attributes"]["gml_id"] == record["id"]
     if name.startswith("berlin"):  # its appearance images are not distributed with it
         assert all(any("texture" in p and "missing" in p for p in r["problems"]) for r in records)
+        # With stand-in images beside a link to it, each building's 6 to 8 CityModel-level
+        # textures become one atlas holding every image.
+        (tmp_path / "linked").mkdir()
+        (tmp_path / "linked" / name).symlink_to(path)
+        uris = sorted(set(re.findall(r"<app:imageURI>([^<]+)</app:imageURI>", path.read_text())))
+        for i, uri in enumerate(uris):
+            _image(tmp_path / "linked" / uri, (10 * i, 100, 200), "JPEG", (32 + 4 * i, 16))
+        for building in load_all(tmp_path / "linked" / name):
+            textured = [p for p in building.parts if p.texture is not None]
+            assert len(textured) == 1 and textured[0].texture.mime == "image/jpeg"
+            assert not any("texture" in p for p in building.problems)
     else:
         assert records[0]["attributes"] == {
             "gml_id": "GML_7b1a5a6f-ddad-4c3d-a507-3eb9ee0a8e68",
