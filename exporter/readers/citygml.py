@@ -84,7 +84,7 @@ WATCH = (
     "{*}appearanceMember",
 )
 MAX_DEPTH = 64  # nesting / xlink chains deeper than this are refused (cycles)
-MAX_RING_CHECK = 2048  # rings with more points skip the O(k^2) self-intersection test
+MAX_RING_CHECK = 512  # rings with more points skip the O(k^2) self-intersection test (k^2 arrays)
 _CACHE_SIZE = 4
 _SNIFF_BYTES = 65536
 
@@ -263,6 +263,10 @@ def _read_surface_data(data, appearance: _Appearance) -> None:
                 )
             if rings:
                 appearance.textured.setdefault(_target_id(target.get("uri")), (index, rings))
+            elif any(_local(c.tag) == "TexCoordGen" for c in target):
+                appearance.notes.append(
+                    "TexCoordGen (texture by world-to-texture matrix) not supported"
+                )
     elif name in ("GeoreferencedTexture",) or data.get(XLINK_HREF):
         appearance.notes.append(
             f"{name or 'surfaceDataMember'} (xlink or georeferenced) not supported: ignored"
@@ -811,9 +815,9 @@ def is_citygml_file(path: Path) -> bool:
     """True for ``*.gml`` / ``*.gml.gz`` (by name) and for ``*.xml`` / ``*.xml.gz`` whose first
     64 KiB mention a CityGML namespace."""
     name = path.name.lower()
-    if name.endswith((".gml", ".gml.gz")):
+    if name.endswith(SUFFIXES[:2]):
         return True
-    if not name.endswith((".xml", ".xml.gz")):
+    if not name.endswith(SUFFIXES[2:]):
         return False
     try:
         with _open(path) as handle:
@@ -832,7 +836,7 @@ def detect(folder: Path) -> bool:
     return bool(_candidate_files(Path(folder)))
 
 
-def _syntax(path: Path, error: Exception) -> str:
+def _syntax(error: Exception) -> str:
     line = getattr(error, "lineno", None)
     message = getattr(error, "msg", None) or str(error)
     return f"invalid XML{f' at line {line}' if line else ''}: {message}"
@@ -901,13 +905,15 @@ def _scan_file(path: Path, options: ReaderOptions) -> _FileScan:
             )
             pending.append((entry, images))
     except etree.XMLSyntaxError as error:
-        where = f"{_syntax(path, error)}"
+        where = f"{_syntax(error)}"
         if not pending and not out.skipped:
             raise ReadError(str(path), where) from None
         out.skipped.append(
             Skipped(source=str(path), reason=f"{where}; buildings after it not read")
         )
     theme = themes[0] if themes else None
+    for note in dict.fromkeys(global_app.notes):  # the CityModel's appearances: once per file
+        out.notes.append(f"{path.name}: {note}")
     if len(themes) > 1:
         out.notes.append(
             f"{path.name}: appearance themes {', '.join(map(repr, themes))}; used the first, {theme!r}"
@@ -1005,9 +1011,7 @@ def load(entry: Entry, options: ReaderOptions) -> Building:
             str(path), f"has no building number {ordinal} (changed since it was listed?)"
         ) from None
     except etree.XMLSyntaxError as error:
-        raise ReadError(
-            str(path), f"{_syntax(path, error)} (before building {building_id})"
-        ) from None
+        raise ReadError(str(path), f"{_syntax(error)} (before building {building_id})") from None
     except (OSError, EOFError) as error:
         raise ReadError(str(path), f"cannot be read ({error})") from None
     if (_gml_id(element) or f"building{ordinal}") != building_id:
@@ -1036,7 +1040,7 @@ def load(entry: Entry, options: ReaderOptions) -> Building:
         reference=reference,
         parts=parts,
         tile=None,
-        problems=read.problems.messages() + appearance.notes[:5] + notes,
+        problems=read.problems.messages() + list(dict.fromkeys(local.notes)) + notes,
         lonlat_bounds=bounds,
         attributes=read.attributes,
     )
