@@ -318,6 +318,36 @@ def test_gz_xml_folder_and_glob_inputs(tmp_path):
         detect_format(folder / "notes.xml")
 
 
+def _refs(*ids: str) -> str:
+    members = "".join(f'<gml:surfaceMember xlink:href="#{i}"/>' for i in ids)
+    return f"<bldg:lod2MultiSurface><gml:MultiSurface>{members}</gml:MultiSurface></bldg:lod2MultiSurface>"
+
+
+def test_xlinks_to_polygons_of_other_buildings(tmp_path):
+    """References forward and backward to another building's polygons are followed (the
+    polygon keeps the CRS it inherits where it is defined); a dangling one costs only itself."""
+    b1 = {"id": "B1", "surfaces": box(X0, Y0, 0.0, 8, 6, 5), "extra": _refs("B2_p1")}
+    b2 = {
+        "id": "B2",
+        "surfaces": box(X0 + 20, Y0, 0.0, 8, 6, 5),
+        "extra": _refs("B1_p2", "nowhere"),
+    }
+    b3 = {"id": "B3", "surfaces": [], "extra": _refs("B1_p1")}
+    text = citygml([b1, b2, b3], srs=None).replace(
+        "<gml:MultiSurface>", '<gml:MultiSurface srsName="urn:ogc:def:crs:EPSG::25832">'
+    )
+    one, two, three = load_all(write(tmp_path / "x.gml", text))
+    assert (one.triangle_count, two.triangle_count, three.triangle_count) == (12, 12, 2)
+    assert not any("dangling" in p for p in one.problems + three.problems)
+    assert any("dangling xlink:href (first: #nowhere" in p for p in two.problems)
+    roof_of_b1 = max(p.positions[:, 1].max() for p in three.parts)  # B1's roof, 5 m up
+    assert abs(three.reference.elev - 5.0) < 1e-9 and abs(roof_of_b1) < 1e-5  # sphere: 2 um
+    assert (
+        one.lonlat_bounds[2]
+        > load_all(write(tmp_path / "y.gml", citygml([b1])))[0].lonlat_bounds[2]
+    )
+
+
 def test_loads_in_file_order_parse_the_file_once(tmp_path, monkeypatch):
     path = write(
         tmp_path / "a.gml",

@@ -16,8 +16,9 @@ Sources: OGC CityGML 1.0 (08-007r1) and 2.0 (12-019) encoding standards, GML 3.1
   (``interiorRoom``...) left out. One LoD per building: the highest present at or below
   ``ReaderOptions.citygml_lod`` (default 2), else the lowest present (noted). Solids,
   Composite/MultiSurfaces, ``OrientableSurface`` (``-`` flips it), ``Surface`` patches, triangles
-  and ``xlink:href`` references to polygons elsewhere in the building are followed; a polygon
-  reached twice (a solid referencing its thematic surfaces) counts once.
+  and ``xlink:href`` references to polygons elsewhere in the file are followed (another
+  building's are fetched by one more pass at scan, only when there are some, and travel in the
+  Entry); a polygon reached twice (a solid referencing its thematic surfaces) counts once.
 - **Semantics**: polygons under a ``GroundSurface`` are dropped when
   ``ReaderOptions.drop_ground_surfaces`` (VWorld-style floorless models, as for CityJSON).
 - **Coordinates**: ``srsName`` on the geometry or its nearest ancestor, else the building's or the
@@ -44,6 +45,7 @@ Sources: OGC CityGML 1.0 (08-007r1) and 2.0 (12-019) encoding standards, GML 3.1
 
 from __future__ import annotations
 
+import copy
 import gzip
 import os
 import re
@@ -375,6 +377,30 @@ def global_appearance(path: Path, theme: str | None) -> tuple[_Appearance, list[
     return result, themes
 
 
+def foreign_polygons(path: Path, wanted: set[str]) -> dict[str, bytes]:
+    """The elements of ``wanted`` gml:ids found in any building of the file, each serialised on
+    its own with its inherited ``srsName`` / ``srsDimension`` written on it (references from one
+    building to another's polygons; a pass over the file, made only when there are some)."""
+    found: dict[str, bytes] = {}
+    try:
+        for _, building, file_srs in stream(path):
+            default = _envelope_srs(building) or file_srs
+            for element in building.iter():
+                gml_id = _gml_id(element) if isinstance(element.tag, str) else None
+                if gml_id in wanted and gml_id not in found:
+                    clone = copy.deepcopy(element)
+                    for attribute, fallback in (("srsName", default), ("srsDimension", None)):
+                        value = _inherited(element, attribute) or fallback
+                        if value:
+                            clone.set(attribute, value)
+                    found[gml_id] = etree.tostring(clone)
+            if len(found) == len(wanted):
+                break
+    except etree.XMLSyntaxError:  # the scan has reported it; keep what came before
+        pass
+    return found
+
+
 # --------------------------------------------------------------------------- building geometry
 
 
@@ -468,6 +494,7 @@ class _Walker:
         self.surfaces: list[_Surface] = []
         self.seen: dict = {}  # (element, flip) -> index in surfaces (elements kept alive here)
         self.followed: dict = {}  # (element, flip) reached by xlink:href (kept alive here)
+        self.dangling: list[str] = []  # ids referenced but not in ``ids``
         self.crs_cache: dict = {}
 
     def crs(self, element) -> str:
@@ -490,6 +517,8 @@ class _Walker:
             target = self.ids.get(href[1:]) if href.startswith("#") else None
             if target is None:
                 self.problems.add("dangling xlink:href", f"{href} on {_local(element.tag)}")
+                if href.startswith("#"):
+                    self.dangling.append(href[1:])
                 return
             if (target, flip) in self.followed:  # met before: its polygons are known (and no
                 return  # reference cycle or diamond can make the walk exponential)
@@ -551,7 +580,7 @@ class _Read:
     problems: _Problems
     attributes: dict
     lod: int | None
-    images: dict = field(default_factory=dict)  # theme -> image URIs used
+    dangling: list = field(default_factory=list)  # xlink:href ids not found in the building
 
 
 def _attributes(building, building_id: str) -> dict:
@@ -579,9 +608,15 @@ def _envelope_srs(building) -> str | None:
 
 
 def read_building(
-    building, ordinal: int, file_srs: str | None, options: ReaderOptions, colours: dict
+    building,
+    ordinal: int,
+    file_srs: str | None,
+    options: ReaderOptions,
+    colours: dict,
+    foreign: dict | None = None,
 ) -> _Read:
-    """The surfaces of a top-level building element at its chosen LoD (module doc). Raises
+    """The surfaces of a top-level building element at its chosen LoD (module doc); ``foreign``
+    maps ids to elements it references outside itself (:func:`foreign_polygons`). Raises
     ValueError when its CRS is missing or unknown."""
     building_id = _gml_id(building) or f"building{ordinal}"
     problems = _Problems()
@@ -605,11 +640,14 @@ def read_building(
         gml_id = _gml_id(element)
         if gml_id is not None:
             ids.setdefault(gml_id, element)
+    for gml_id, element in (foreign or {}).items():
+        ids.setdefault(gml_id, element)
     default = _envelope_srs(building) or file_srs or options.crs
     walker = _Walker(ids, colours, default, problems)
     for lod, semantic, prop in found:
         if lod == read.lod:
             walker.walk(prop, semantic, False, None)
+    read.dangling = walker.dangling
     dropped = 0
     for surface in walker.surfaces:
         if surface is None:
@@ -849,6 +887,34 @@ class _FileScan:
     notes: list = field(default_factory=list)
 
 
+_NO_GEOMETRY = "no surface geometry (after dropping ground surfaces, if asked)"
+
+
+def _all_lonlath(surfaces: list[_Surface]) -> np.ndarray:
+    """lonlath (n, 3) of every ring point of ``surfaces`` ((0, 3) for none)."""
+    rings = [r for rings in surface_lonlath(surfaces) for r in rings]
+    return np.concatenate(rings) if rings else np.zeros((0, 3))
+
+
+def _tile(lonlath: np.ndarray):
+    return building_tile(geodesy.base_centre(lonlath)[1])
+
+
+def _skipped(source: str, element, name, error: Exception) -> Skipped:
+    gml_id = _gml_id(element) if element is not None else str(name)
+    why = str(error) if isinstance(error, ValueError) else f"unexpected {error!r}"
+    return Skipped(source=source, reason=f"building {gml_id or name}: {why}", id=gml_id)
+
+
+def _foreign_surfaces(found: tuple, options: ReaderOptions) -> list[_Surface]:
+    """The surfaces of elements referenced from another building (:func:`foreign_polygons`)."""
+    elements = {gml_id: etree.fromstring(data) for gml_id, data in found}
+    walker = _Walker(elements, {}, options.crs, _Problems())
+    for element in elements.values():
+        walker.walk(element, None, False, None)
+    return [s for s in walker.surfaces if s is not None]
+
+
 def _scan_file(path: Path, options: ReaderOptions) -> _FileScan:
     out = _FileScan()
     global_app, themes = (
@@ -867,26 +933,14 @@ def _scan_file(path: Path, options: ReaderOptions) -> _FileScan:
                     themes.append(name)
             try:
                 read = read_building(element, ordinal, file_srs, options, {})
-                if not read.surfaces:
-                    why = "no surface geometry" + (
-                        " (after dropping ground surfaces)" if options.drop_ground_surfaces else ""
-                    )
-                    raise ValueError(why)
+                if not read.surfaces and not read.dangling:
+                    raise ValueError(_NO_GEOMETRY)
                 declared = declared or any(_inherited(s.element, "srsName") for s in read.surfaces)
-                lonlath = np.concatenate(
-                    [r for rings in surface_lonlath(read.surfaces) for r in rings]
-                )
-                _, bounds = geodesy.base_centre(lonlath)
-                tile = building_tile(bounds)
+                lonlath = _all_lonlath(read.surfaces)
+                # A building referencing another's polygons is placed once they are found.
+                tile = None if read.dangling else _tile(lonlath)
             except Exception as error:  # one broken building never stops the file
-                why = str(error) if isinstance(error, ValueError) else f"unexpected {error!r}"
-                out.skipped.append(
-                    Skipped(
-                        source=source,
-                        reason=f"building {_gml_id(element) or ordinal}: {why}",
-                        id=_gml_id(element),
-                    )
-                )
+                out.skipped.append(_skipped(source, element, ordinal, error))
                 continue
             used = {_gml_id(s.element) for s in read.surfaces} - {None}
             images: dict[str, list] = {}
@@ -903,7 +957,7 @@ def _scan_file(path: Path, options: ReaderOptions) -> _FileScan:
                 inputs=[source],
                 key=(ordinal, read.id),
             )
-            pending.append((entry, images))
+            pending.append((entry, images, read.dangling, lonlath if read.dangling else None))
     except etree.XMLSyntaxError as error:
         where = f"{_syntax(error)}"
         if not pending and not out.skipped:
@@ -922,12 +976,24 @@ def _scan_file(path: Path, options: ReaderOptions) -> _FileScan:
         out.notes.append(
             f"{path.name}: declares its CRS; --crs / readers.crs applies only where none is declared"
         )
-    for entry, images in pending:
-        entry.key = (*entry.key, theme)
+    wanted = {gml_id for _, _, dangling, _ in pending for gml_id in dangling}
+    foreign = foreign_polygons(path, wanted) if wanted else {}
+    for entry, images, dangling, placed in pending:
+        found = tuple((i, foreign[i]) for i in dict.fromkeys(dangling) if i in foreign)
+        entry.key = (*entry.key, theme, found)
+        if entry.tile is None:
+            try:
+                extra = _foreign_surfaces(found, options)
+                if not extra and (placed is None or not len(placed)):
+                    raise ValueError(_NO_GEOMETRY)
+                entry.tile = _tile(np.concatenate([placed, _all_lonlath(extra)]))
+            except Exception as error:
+                out.skipped.append(_skipped(source, None, entry.id, error))
+                continue
         for uri in dict.fromkeys(images.get(theme or "", []) if theme is not None else []):
-            found = _resolve_image(path, uri)
-            if found is not None and str(found) not in entry.inputs:
-                entry.inputs.append(str(found))
+            image = _resolve_image(path, uri)
+            if image is not None and str(image) not in entry.inputs:
+                entry.inputs.append(str(image))
         out.entries.append(entry)
     if not out.entries and out.skipped:
         raise ReadError(str(path), f"no building could be read: {out.skipped[0].reason}")
@@ -992,18 +1058,18 @@ def _building_element(path: Path, key: tuple, ordinal: int):
 
 
 def load(entry: Entry, options: ReaderOptions) -> Building:
-    """The building ``entry.key`` = (ordinal, id, theme) of file ``entry.source``; raises only
-    ReadError."""
+    """The building ``entry.key`` = (ordinal, id, theme, polygons of other buildings it
+    references) of file ``entry.source``; raises only ReadError."""
     path = Path(entry.source)
-    ordinal, building_id, theme = entry.key
+    ordinal, building_id, theme, found = entry.key
     try:
         stat = path.stat()
         file_key = (str(path.resolve()), stat.st_mtime_ns, stat.st_size)
         appearance = _Appearance()
         if theme is not None:
             if file_key + (theme,) not in _appearances:
-                found = global_appearance(path, theme)[0] if has_global_appearance(path) else None
-                _remember(_appearances, file_key + (theme,), found or _Appearance())
+                table = global_appearance(path, theme)[0] if has_global_appearance(path) else None
+                _remember(_appearances, file_key + (theme,), table or _Appearance())
             appearance = _appearances[file_key + (theme,)]
         element, file_srs = _building_element(path, file_key, ordinal)
     except StopIteration:
@@ -1021,9 +1087,10 @@ def load(entry: Entry, options: ReaderOptions) -> Building:
     _, local = _local_appearance(element, theme)
     appearance = local.merged(appearance)
     try:
-        read = read_building(element, ordinal, file_srs, options, appearance.colours)
+        foreign = {gml_id: etree.fromstring(data) for gml_id, data in found}
+        read = read_building(element, ordinal, file_srs, options, appearance.colours, foreign)
         if not read.surfaces:
-            raise ValueError("no surface geometry (after dropping ground surfaces)")
+            raise ValueError(_NO_GEOMETRY)
         lonlath = surface_lonlath(read.surfaces)
     except ValueError as error:
         raise ReadError(str(path), f"building {building_id}: {error}") from None
