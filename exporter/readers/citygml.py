@@ -133,8 +133,8 @@ def crs_of_srs_name(srs_name: str) -> str:
     adv = _ADV.search(text) if text.lower().startswith("urn:adv:") else None
     if adv:
         text = f"EPSG:258{adv[1]}"
-    elif _EPSG_XML.search(text):
-        text = f"EPSG:{_EPSG_XML.search(text)[1]}"  # type: ignore[index]
+    elif epsg_xml := _EPSG_XML.search(text):
+        text = f"EPSG:{epsg_xml[1]}"
     elif text.lower().startswith("urn:ogc:def:crs,"):  # compound URN
         parts = _PART.findall(text)
         if not parts or any(auth.upper() != "EPSG" for auth, _ in parts):
