@@ -22,6 +22,7 @@ from exporter.config import ConfigError, ReaderOptions, config_from_dict, defaul
 from exporter.errors import InputError, ReadError
 from exporter.readers import citygml as reader
 from exporter.readers import detect_format, input_paths, load_entry, scan_folder
+from exporter.readers.atlas import shelf_pack
 from tests.citygml_writer import (
     appearance_member,
     box,
@@ -380,6 +381,7 @@ def test_per_surface_images_packed_into_one_atlas(tmp_path):
         + texture_member("tex/blue.jpg", "B_p3", [full])
         + texture_member("tex/missing.jpg", "B_p4", [full])
         + texture_member("tex/red.png", "B_p5", [full[:2]])  # 3 coordinates for 5
+        + texture_member("tex/red.png", "B_p1", [full])  # the same image again: packed once
     )
     _image(tmp_path / "tex" / "red.png", (255, 0, 0), "PNG")
     _image(tmp_path / "tex" / "blue.jpg", (0, 0, 255), "JPEG", (8, 8))
@@ -395,6 +397,7 @@ def test_per_surface_images_packed_into_one_atlas(tmp_path):
         part.texture.width,
         part.texture.height,
     )
+    assert atlas.size == shelf_pack([(16, 8), (8, 8)])[1:]  # red and blue once each
     # Every corner's UV samples its own image's colour; the red wall faces south (-North).
     centre = part.uvs.reshape(-1, 2)[part.triangles].mean(axis=1)
     colours = [atlas.getpixel((int(u * atlas.width), int(v * atlas.height))) for u, v in centre]

@@ -788,7 +788,7 @@ def build_parts(
     local = geodesy.lonlath_to_local(unique, reference)
     uv_pool: list[np.ndarray] = []
     uv_count = 0
-    textures: dict[int, Texture | None] = {}
+    textures: dict[str, Texture | None] = {}  # by image URI: one Texture per image file
     unusable: list[str] = []  # problems of images that could not be used
     groups: dict[tuple, list[np.ndarray]] = {}
     ends = np.cumsum([len(ring) for rings in lonlath for ring in rings])
@@ -807,18 +807,19 @@ def build_parts(
             problems.add("no area", _where(surface.element))
             continue
         vertex_ids = np.concatenate(ids)
-        key: tuple = (-1, surface.colour or (1.0, 1.0, 1.0, 1.0))
+        key: tuple = (1, "", surface.colour or (1.0, 1.0, 1.0, 1.0))  # textured groups first
         uv_ids = np.full(len(vertex_ids), -1)
         textured = _uv_rings(surface, appearance, problems)
         if textured is not None:
             index, uvs = textured
-            if index not in textures:
-                texture, _, problem = _load_texture(path, {"image": appearance.images[index]})
-                textures[index] = texture
+            uri = appearance.images[index]
+            if uri not in textures:
+                texture, _, problem = _load_texture(path, {"image": uri})
+                textures[uri] = texture
                 if problem:
                     unusable.append(problem)
-            if textures[index] is not None:
-                key = (index, (1.0, 1.0, 1.0, 1.0))
+            if textures[uri] is not None:
+                key = (0, uri, (1.0, 1.0, 1.0, 1.0))
                 stacked = np.concatenate(uvs)
                 uv_pool.append(stacked)
                 uv_ids = np.arange(uv_count, uv_count + len(stacked))
@@ -831,8 +832,8 @@ def build_parts(
     problems.notes += unusable
     uv_all = np.concatenate(uv_pool) if uv_pool else None
     parts = []
-    for key in sorted(groups, key=lambda k: (k[0] < 0, k[0], k[1])):
-        texture = textures.get(key[0]) if key[0] >= 0 else None
+    for key in sorted(groups):
+        texture = textures.get(key[1]) if key[0] == 0 else None
         part = _part(
             local,
             uv_all,
@@ -840,7 +841,7 @@ def build_parts(
             texture,
             texture.name if texture else "untextured",
         )
-        part.color = key[1]
+        part.color = key[2]
         parts.append(part)
     parts, problem = pack_parts(parts, f"{read.id}_atlas")
     return parts, [problem] if problem else []
