@@ -479,6 +479,13 @@ def test_bad_polygons_cost_only_themselves(tmp_path):
         assert expected in problems, problems
 
 
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.integers(-3, 3), st.integers(-3, 3)), min_size=4, max_size=12))
+def test_small_ring_crossing_check_matches_the_array_one(points):
+    flat = np.array(points, dtype=np.float64)
+    assert reader.ring_crossings(flat) == reader._crossings_array(flat)
+
+
 def test_bad_building_and_bad_file(tmp_path, capsys):
     good = {"id": "B1", "surfaces": box(X0, Y0, 0.0, 8, 6, 5)}
     unknown = {"id": "B2", "surfaces": box(X0 + 20, Y0, 0.0, 8, 6, 5)}

@@ -62,6 +62,7 @@ from lxml import etree
 from .. import geodesy
 from ..config import ReaderOptions
 from ..errors import InputError, ReadError
+from ..geometry import cross3
 from ..model import Building, Part, Skipped, Texture
 from ..tiles import building_tile
 from . import Entry, Scan
@@ -86,6 +87,7 @@ WATCH = (
     "{*}appearanceMember",
 )
 MAX_DEPTH = 64  # nesting / xlink chains deeper than this are refused (cycles)
+SMALL_RING = 12  # rings up to this many points are checked in plain Python
 MAX_RING_CHECK = 512  # rings with more points skip the O(k^2) self-intersection test (k^2 arrays)
 _CACHE_SIZE = 4
 _SNIFF_BYTES = 65536
@@ -697,10 +699,31 @@ def surface_lonlath(surfaces: list[_Surface]) -> list[list[np.ndarray]]:
 
 
 def ring_crossings(flat: np.ndarray) -> bool:
-    """True when two non-adjacent edges of the closed 2D ring ``flat`` (k, 2) cross properly."""
+    """True when two non-adjacent edges of the closed 2D ring ``flat`` (k, 2) cross properly
+    (each edge's endpoints strictly on both sides of the other's line)."""
     k = len(flat)
     if k < 4 or k > MAX_RING_CHECK:
         return False
+    if k > SMALL_RING:
+        return _crossings_array(flat)
+    points = flat.tolist()  # a few points: plain floats beat numpy's per-call cost
+    edges = [(points[i], points[(i + 1) % k]) for i in range(k)]
+    return any(
+        _apart(*edges[i], *edges[j]) and _apart(*edges[j], *edges[i])
+        for i in range(k)
+        for j in range(i + 2, k if i else k - 1)
+    )
+
+
+def _apart(p: list, q: list, r: list, s: list) -> bool:
+    """True when r and s lie strictly on opposite sides of the line through p and q."""
+    a = (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
+    b = (q[0] - p[0]) * (s[1] - p[1]) - (q[1] - p[1]) * (s[0] - p[0])
+    return a < 0 < b or b < 0 < a
+
+
+def _crossings_array(flat: np.ndarray) -> bool:
+    """:func:`ring_crossings` for every edge pair at once ((k, k) arrays)."""
     a, b = flat, np.roll(flat, -1, axis=0)
 
     def orient(p, q, r):  # sign of (q - p) x (r - p) for every edge pair
@@ -711,7 +734,7 @@ def ring_crossings(flat: np.ndarray) -> bool:
 
     # Edge i's endpoints against edge j's line and the reverse: both pairs strictly apart.
     apart = orient(a, b, a) * orient(a, b, b) < 0
-    return bool((apart & apart.T & _non_adjacent(k)).any())
+    return bool((apart & apart.T & _non_adjacent(len(flat))).any())
 
 
 @lru_cache(maxsize=64)
@@ -723,8 +746,6 @@ def _non_adjacent(k: int) -> np.ndarray:
 
 
 def _plane_basis(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    from ..geometry import cross3
-
     u = cross3(normal, np.eye(3)[int(np.argmin(np.abs(normal)))])
     u /= np.linalg.norm(u)
     return u, cross3(normal, u)
@@ -734,7 +755,7 @@ def check_polygon(rings: list[np.ndarray], outward: np.ndarray) -> str | None:
     """Why the polygon (rings (k, 3) local metres, ``outward`` its Newell normal) cannot be used,
     or None: a ring off its best-fit plane by more than 5 cm + 2 % of the polygon's size, a
     self-crossing ring (in that plane), or no area."""
-    points = np.concatenate(rings)
+    points = rings[0] if len(rings) == 1 else np.concatenate(rings)
     centred = points - points.mean(axis=0)
     size = float(np.ptp(points, axis=0).max())
     length = float(np.linalg.norm(outward))
@@ -924,7 +945,11 @@ def _scan_file(path: Path, options: ReaderOptions) -> _FileScan:
     theme = themes[0] if themes else None
     pending = []  # (entry, {theme: image URIs}) until the theme is known
     declared = False
-    source = str(path)  # one string shared by every entry (a file may list 10^5 buildings)
+    # Shared by the entries (a file may list 10^5 buildings): the path, its one-item inputs
+    # list (replaced, never appended to) and the TileIds.
+    source = str(path)
+    only_source = [source]
+    tiles: dict = {}
     try:
         for ordinal, (_, element, file_srs) in enumerate(stream(path)):
             declared = declared or file_srs is not None
@@ -940,6 +965,7 @@ def _scan_file(path: Path, options: ReaderOptions) -> _FileScan:
                 lonlath = _all_lonlath(read.surfaces)
                 # A building referencing another's polygons is placed once they are found.
                 tile = None if read.dangling else _tile(lonlath)
+                tile = tiles.setdefault(tile, tile)  # one TileId object per tile
             except Exception as error:  # one broken building never stops the file
                 out.skipped.append(_skipped(source, element, ordinal, error))
                 continue
@@ -955,7 +981,7 @@ def _scan_file(path: Path, options: ReaderOptions) -> _FileScan:
                 id=read.id,
                 source=source,
                 tile=tile,
-                inputs=[source],
+                inputs=only_source,
                 key=(ordinal, read.id),
             )
             pending.append((entry, images, read.dangling, lonlath if read.dangling else None))
@@ -994,7 +1020,7 @@ def _scan_file(path: Path, options: ReaderOptions) -> _FileScan:
         for uri in dict.fromkeys(images.get(theme or "", []) if theme is not None else []):
             image = _resolve_image(path, uri)
             if image is not None and str(image) not in entry.inputs:
-                entry.inputs.append(str(image))
+                entry.inputs = [*entry.inputs, str(image)]  # never the shared list
         out.entries.append(entry)
     if not out.entries and out.skipped:
         raise ReadError(str(path), f"no building could be read: {out.skipped[0].reason}")
