@@ -138,6 +138,13 @@ def test_shared_file_exports_valid_glb_placed_where_pyproj_says(
     for report in gltf_validator(glbs):
         assert report["errors"] == 0, report
     expected = _independent_centres(path, epsg)
+    for building in load_all(path):
+        # Floorless and wound outward, the summed area vectors point up by the footprint area.
+        up = sum(
+            np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]).sum(axis=0) / 2
+            for t in (p.positions[p.triangles] for p in building.parts)
+        )
+        assert up[1] > 10.0 and abs(up[0]) < 1e-6 * up[1] + 1e-6, up  # m^2 (local E, U, N)
     for record in records:
         lon, lat, low = expected[record["id"]]
         centre = record["center"]
