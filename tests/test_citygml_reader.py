@@ -6,6 +6,7 @@ from __future__ import annotations
 import gzip
 import io
 import json
+import os
 import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -370,6 +371,26 @@ def test_loads_in_file_order_parse_the_file_once(tmp_path, monkeypatch):
     assert [load_entry(e, opts).id for e in entries] == ["B1", "B2", "B3"]
     assert len(calls) == 1
     assert load_entry(entries[0], opts).id == "B1" and len(calls) == 2  # backwards: restarts
+
+
+def test_a_file_many_buildings_share_is_hashed_once_per_process(tmp_path, monkeypatch):
+    """Export hashes every building's inputs; one 100 MB CityGML file of 30,000 buildings must not
+    be read 30,000 times (the same trust rule as across runs: not modified in the last 2 s)."""
+    from exporter import pipeline
+
+    calls: list[str] = []
+    monkeypatch.setattr(pipeline, "_sha256_file", lambda name: calls.append(name) or "digest")
+    monkeypatch.setattr(pipeline, "_hashed", {})
+    old = write(tmp_path / "old.gml", citygml(buildings()))
+    an_hour_ago = os.stat(old).st_mtime_ns - 3600 * 10**9
+    os.utime(old, ns=(an_hour_ago, an_hour_ago))
+    for _ in range(5):
+        assert pipeline.input_fingerprints([str(old)], {})[0]["sha256"] == "digest"
+    assert len(calls) == 1
+    fresh = write(tmp_path / "fresh.gml", citygml(buildings()))  # may still be changing
+    for _ in range(3):
+        pipeline.input_fingerprints([str(fresh)], {})
+    assert len(calls) == 4
 
 
 # --------------------------------------------------------------------------- appearance
