@@ -11,11 +11,12 @@ Two steps, so the pipeline can plan, skip unchanged work and load in parallel:
    :class:`~exporter.errors.ReadError` (naming the file and the problem), so one broken building
    never stops a tile.
 
-Each format module (``vworld``, ``cityjson``, ``citygml``, ``folder``) provides ``detect(folder) -> bool``,
-``scan(path, options) -> Scan`` (``path`` a folder, or one file of the format: a VWorld ``.dat``,
-a CityJSON or CityGML file, an OBJ/glTF index file) and ``load(entry, options) -> Building``. Entries are
-plain picklable data (they cross process boundaries). ``input_paths(paths)`` turns a command
-line's inputs (shell globs expanded: folders and files mixed) into the list to scan.
+Each format module (``vworld``, ``cityjson``, ``citygml``, ``folder``) provides
+``detect(folder) -> bool``, ``scan(path, options) -> Scan`` (``path`` a folder, or one file of the
+format: a VWorld ``.dat``, a CityJSON or CityGML file, an OBJ/glTF index file) and
+``load(entry, options) -> Building``. Entries are plain picklable data (they cross process
+boundaries). ``input_paths(paths)`` turns a command line's inputs (shell globs expanded: folders
+and files mixed) into the list to scan.
 """
 
 from __future__ import annotations
@@ -65,8 +66,8 @@ def _module(name: str):
 
 EXPECTED = (
     "expected a VWorld .dat index with .xdo files, CityJSON *.city.json / *.json / *.city.jsonl "
-    "files, CityGML *.gml / *.gml.gz / *.xml files, or OBJ/glTF/GLB files with an index file buildings.csv/.yaml/.json; see README "
-    "'Input formats'"
+    "files, CityGML *.gml / *.gml.gz / *.xml files, or OBJ/glTF/GLB files with an index file "
+    "buildings.csv/.yaml/.json; see README 'Input formats'"
 )
 # Files a folder's index refers to: given on their own (e.g. by a shell glob over a tile folder)
 # they are read through their index, never alone.
