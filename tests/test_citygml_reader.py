@@ -323,6 +323,9 @@ def test_gz_xml_folder_and_glob_inputs(tmp_path):
     assert ids == ["B1", "B2", "C1", "C2", "D1", "D2"]
     files = input_paths(sorted(folder.glob("*.gml*")))
     assert [p.name for p in files] == ["a.gml", "b.gml.gz"]
+    _image(folder / "a_appearance" / "t.jpg", (1, 2, 3), "JPEG")  # CityGML's image folder
+    files = input_paths(sorted(folder.glob("*")))  # tiles/*
+    assert [p.name for p in files] == ["a.gml", "b.gml.gz", "c.xml", "notes.xml"]
     with pytest.raises(InputError, match="notes.xml"):
         detect_format(folder / "notes.xml")
 

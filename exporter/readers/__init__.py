@@ -154,7 +154,8 @@ def input_paths(paths: list[str | Path]) -> list[Path]:
 
     A file inside a folder also given is left to that folder when the folder reads it (same
     format); a companion file (``.xdo``, image, model) is left out when its folder or another file
-    of its folder is given (``vworld-lod export tile/*``), else refused naming the file. Raises
+    of its folder is given (``vworld-lod export tile/*``), else refused naming the file. A folder
+    holding only such files beside a given file (CityGML's appearance folder) is left out too. Raises
     InputError for a path that does not exist.
     """
     given = [Path(p) for p in paths]
@@ -165,6 +166,7 @@ def input_paths(paths: list[str | Path]) -> list[Path]:
     parents = {
         p.resolve().parent for p in given if p.is_file() and p.suffix.lower() not in COMPANIONS
     }
+    beside = {p.absolute().parent for p in given if p.is_file()}  # as given: links not followed
     kept: list[Path] = []
     seen: set[Path] = set()
     for path in given:
@@ -178,8 +180,20 @@ def input_paths(paths: list[str | Path]) -> list[Path]:
                 continue
             if parent in folders and _read_by_folder(path, parent):
                 continue
+        elif path.absolute().parent in beside and _images_only(path):
+            continue  # e.g. a CityGML file's <name>_appearance/ folder matched by tile/*
         kept.append(path)
     return kept
+
+
+def _images_only(folder: Path) -> bool:
+    """True when every file directly in ``folder`` is a companion (image, model part), so the
+    folder is a sibling file's appearance store, not an input."""
+    try:
+        files = [p for p in folder.iterdir() if p.is_file()]
+    except OSError:
+        return False
+    return bool(files) and all(p.suffix.lower() in COMPANIONS for p in files)
 
 
 def _read_by_folder(path: Path, folder: Path) -> bool:
