@@ -6,8 +6,9 @@ textureless LoD2 boxes (6 thematic polygons, ground included, CityGML 2.0, EPSG:
 into a temporary folder; each size is read in a fresh process (scan, then every building loaded
 in file order, as one pipeline worker does) reporting its wall seconds and ``ru_maxrss``, after
 timing the bare XML parse (the reader's own ``stream``, nothing built) as the floor. Prints
-MB/s per size and the ratio to that floor, peak RSS, its growth over the interpreter with the reader imported, and the ratio
-of the large file's peak to the small one's (the issue asks for <= 1.5 at 10 x the size).
+MB/s per size and the ratio to that floor, peak RSS, its growth over the interpreter with the
+reader imported, and the ratio of the large file's peak to the small one's (the issue asks for
+<= 1.5 at 10 x the size).
 """
 
 from __future__ import annotations

@@ -155,8 +155,8 @@ def input_paths(paths: list[str | Path]) -> list[Path]:
     A file inside a folder also given is left to that folder when the folder reads it (same
     format); a companion file (``.xdo``, image, model) is left out when its folder or another file
     of its folder is given (``vworld-lod export tile/*``), else refused naming the file. A folder
-    holding only such files beside a given file (CityGML's appearance folder) is left out too. Raises
-    InputError for a path that does not exist.
+    holding only such files beside a given file (CityGML's appearance folder) is left out too.
+    Raises InputError for a path that does not exist.
     """
     given = [Path(p) for p in paths]
     for path in given:
