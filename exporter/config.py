@@ -366,6 +366,13 @@ class ReaderOptions:
             "metres: a building with a vertex farther than this from the median of its vertices is refused and listed in skipped (a stray vertex would move and stretch it); a vertex that is not a finite number refuses its building only",
         ),
     )
+    citygml_lod: int = field(
+        default=2,
+        metadata=meta(
+            _integer(0, 4),
+            "CityGML: read the highest LoD at or below this one (0-4) a building has, else its lowest",
+        ),
+    )
 
 
 def default_lods() -> list[LodSpec]:

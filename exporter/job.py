@@ -232,6 +232,8 @@ def process_entry(
             "lods": lods,
             "problems": problems,
         }
+        if building.attributes:
+            record["attributes"] = building.attributes
         if centre_tile is not None:
             record["tile_from_center"] = {
                 "level": centre_tile.level,

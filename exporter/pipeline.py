@@ -92,17 +92,35 @@ def input_fingerprints(names: list[str], known: dict[str, dict]) -> list[dict]:
         ):
             out.append(previous)
             continue
-        hashed_ns = time.time_ns()
+        sha256, hashed_ns = _sha256_once(name, stat.st_size, stat.st_mtime_ns)
         out.append(
             {
                 "path": name,
                 "size": stat.st_size,
                 "mtime_ns": stat.st_mtime_ns,
-                "sha256": _sha256_file(name),
+                "sha256": sha256,
                 "hashed_ns": hashed_ns,
             }
         )
     return out
+
+
+_hashed: dict[tuple, tuple] = {}  # (path, size, mtime_ns) -> (sha256, hashed_ns), this process
+
+
+def _sha256_once(name: str, size: int, mtime_ns: int) -> tuple[str | None, int]:
+    """(sha256, when hashed) of a file whose stat is (size, mtime_ns). A file many buildings share
+    (CityGML, CityJSON) is hashed once, not once per building, under the same trust rule as a
+    previous run's record (not modified within RACY_NS of that hashing)."""
+    key = (name, size, mtime_ns)
+    known = _hashed.get(key)
+    if known is not None and mtime_ns < known[1] - RACY_NS:
+        return known
+    hashed_ns = time.time_ns()
+    if len(_hashed) >= 64:
+        _hashed.clear()
+    _hashed[key] = (_sha256_file(name), hashed_ns)
+    return _hashed[key]
 
 
 def input_hash(entry: Entry, config_hash: str, fingerprints: list[dict]) -> str:

@@ -11,11 +11,12 @@ Two steps, so the pipeline can plan, skip unchanged work and load in parallel:
    :class:`~exporter.errors.ReadError` (naming the file and the problem), so one broken building
    never stops a tile.
 
-Each format module (``vworld``, ``cityjson``, ``folder``) provides ``detect(folder) -> bool``,
-``scan(path, options) -> Scan`` (``path`` a folder, or one file of the format: a VWorld ``.dat``,
-a CityJSON file, an OBJ/glTF index file) and ``load(entry, options) -> Building``. Entries are
-plain picklable data (they cross process boundaries). ``input_paths(paths)`` turns a command
-line's inputs (shell globs expanded: folders and files mixed) into the list to scan.
+Each format module (``vworld``, ``cityjson``, ``citygml``, ``folder``) provides
+``detect(folder) -> bool``, ``scan(path, options) -> Scan`` (``path`` a folder, or one file of the
+format: a VWorld ``.dat``, a CityJSON or CityGML file, an OBJ/glTF index file) and
+``load(entry, options) -> Building``. Entries are plain picklable data (they cross process
+boundaries). ``input_paths(paths)`` turns a command line's inputs (shell globs expanded: folders
+and files mixed) into the list to scan.
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ from ..model import Building, Skipped, TileId
 
 # Format modules in detection order; each is imported lazily so a broken optional dependency of
 # one reader does not stop the others.
-FORMATS = ("vworld", "cityjson", "folder")
+FORMATS = ("vworld", "cityjson", "citygml", "folder")
 
 
 @dataclass
@@ -69,8 +70,8 @@ def _module(name: str):
 
 EXPECTED = (
     "expected a VWorld .dat index with .xdo files, CityJSON *.city.json / *.json / *.city.jsonl "
-    "files, or OBJ/glTF/GLB files with an index file buildings.csv/.yaml/.json; see README "
-    "'Input'"
+    "files, CityGML *.gml / *.gml.gz / *.xml files, or OBJ/glTF/GLB files with an index file "
+    "buildings.csv/.yaml/.json; see README 'Input'"
 )
 # Files a folder's index refers to: given on their own (e.g. by a shell glob over a tile folder)
 # they are read through their index, never alone.
@@ -107,6 +108,8 @@ def file_format(path: Path) -> str:
         return "vworld"
     if _module("cityjson").is_cityjson_file(path):
         return "cityjson"
+    if _module("citygml").is_citygml_file(path):
+        return "citygml"
     if name.endswith((".csv", ".yaml", ".yml")) or name == "buildings.json":
         return "folder"
     if name.endswith(".json") and _mentions(path, b'"file"'):  # an index under another name
@@ -169,8 +172,9 @@ def input_paths(paths: list[str | Path]) -> list[Path]:
 
     A file inside a folder also given is left to that folder when the folder reads it (same
     format); a companion file (``.xdo``, image, model) is left out when its folder or another file
-    of its folder is given (``vworld-lod export tile/*``), else refused naming the file. Raises
-    InputError for a path that does not exist.
+    of its folder is given (``vworld-lod export tile/*``), else refused naming the file. A folder
+    holding only such files beside a given file (CityGML's appearance folder) is left out too.
+    Raises InputError for a path that does not exist.
     """
     given = [Path(p) for p in paths]
     for path in given:
@@ -180,6 +184,7 @@ def input_paths(paths: list[str | Path]) -> list[Path]:
     parents = {
         p.resolve().parent for p in given if p.is_file() and p.suffix.lower() not in COMPANIONS
     }
+    beside = {p.absolute().parent for p in given if p.is_file()}  # as given: links not followed
     kept: list[Path] = []
     seen: set[Path] = set()
     for path in given:
@@ -193,8 +198,20 @@ def input_paths(paths: list[str | Path]) -> list[Path]:
                 continue
             if parent in folders and _read_by_folder(path, parent):
                 continue
+        elif path.absolute().parent in beside and _images_only(path):
+            continue  # e.g. a CityGML file's <name>_appearance/ folder matched by tile/*
         kept.append(path)
     return kept
+
+
+def _images_only(folder: Path) -> bool:
+    """True when every file directly in ``folder`` is a companion (image, model part), so the
+    folder is a sibling file's appearance store, not an input."""
+    try:
+        files = [p for p in folder.iterdir() if p.is_file()]
+    except OSError:
+        return False
+    return bool(files) and all(p.suffix.lower() in COMPANIONS for p in files)
 
 
 def _read_by_folder(path: Path, folder: Path) -> bool:
