@@ -1,0 +1,297 @@
+"""HLOD proxies: per quadtree tile, the content below it merged into one mesh with one atlas,
+simplified, with a certified error against the LOD0 surfaces of the buildings it stands for.
+
+Data form: meshes in the proxy tile's **glTF frame** (+X = West, +Y = Up, +Z = North, metres, at
+the tile centre, height 0; :func:`.tree.tile_world`), positions (n, 3) float64, triangles (m, 3)
+int64, uvs (n, 2) (origin top-left).
+
+A tile holding buildings merges their coarsest chain levels; a tile above merges its child
+tiles' proxies (so a tile without a proxy has no proxied ancestor). Each input's textures (or
+base colours) get a cell of one atlas (``proxy_atlas_size`` pixels, box-filtered down), the
+merged mesh is simplified by meshoptimizer towards ``proxy_error_ratio`` x the tile's size, and
+its error is certified by the triangle inequality:
+``H(proxy, LOD0s) <= H(proxy, inputs) + max over inputs of H(input, its LOD0s)``, the first term
+the certified upper bound of :func:`exporter.hausdorff.hausdorff_bounds` (union of pairs: the
+Hausdorff distance of unions is at most the largest of the pairs'), plus float32 rounding.
+A proxy with more than ``proxy_max_triangles`` is not written (nor are its ancestors').
+
+Files: ``OUT/tileset_proxies/<tile>.glb`` and ``<tile>.json`` (its inputs' hash, error, bounds).
+A proxy is rebuilt only when that hash changes; files of tiles no longer proxied are removed.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+
+from ..atomic import write_bytes_atomic, write_text_atomic
+from ..config import TilesetOptions
+from ..gltf_writer import glb_bytes
+from ..hausdorff import Surface, hausdorff_bounds
+from ..model import Part, Texture, TileId
+from ..simplify.meshopt import SIMPLIFY_ERROR_ABSOLUTE, simplify
+from ..tiles import tile_size_deg
+from . import frames
+from .glb import GlbPrimitive, read_primitives
+from .tree import Node, rounding_slack
+
+PROXY_DIR = "tileset_proxies"
+PROXY_FORMAT = "vworld-lod-proxy 1"
+TRANSFORM_SLACK_M = 1e-6  # float64 rounding of the frame changes (ECEF-sized numbers), metres
+METRES_PER_DEGREE = math.pi / 180.0 * 6378137.0
+CERTIFY_RTOL = 0.05  # the proxy's bound is refined to 5 % of its certified lower bound
+
+
+@dataclass
+class ProxyInput:
+    world: np.ndarray  # 4 x 4: the input's tile frame -> ECEF
+    file: Path
+    error: float  # metres: certified bound of the input against its buildings' LOD0
+    key: str  # what identifies its content (hash)
+
+
+@dataclass
+class Proxy:
+    hash: str
+    error: float  # metres, certified against the LOD0 surfaces below
+    low: list[float]  # glTF-frame bounds, metres
+    high: list[float]
+    triangles: int
+
+
+def budget_m(tile: TileId, options: TilesetOptions) -> float:
+    """The simplification target (metres) of ``tile``'s proxy."""
+    return options.proxy_error_ratio * tile_size_deg(tile.level) * METRES_PER_DEGREE
+
+
+def atlas_cells(count: int, size: int) -> tuple[int, int]:
+    """(cells per side, pixels per cell) of a square grid of ``count`` cells in ``size`` pixels."""
+    side = max(1, math.ceil(math.sqrt(count)))
+    return side, max(1, size // side)
+
+
+def pack_atlas(primitives: list[GlbPrimitive], size: int) -> tuple[Image.Image, list[np.ndarray]]:
+    """One RGB atlas (``size`` x ``size``) with a cell per primitive (its image box-filtered, or
+    its base colour), and each primitive's uvs (n, 2) moved into its cell (clamped to it: the
+    files' uvs are in [0, 1], a repeat would bleed into a neighbour)."""
+    side, cell = atlas_cells(len(primitives), size)
+    atlas = Image.new("RGB", (size, size), (255, 255, 255))
+    uvs = []
+    inset = 0.5 / cell  # half a texel: bilinear filtering stays inside the cell
+    for index, primitive in enumerate(primitives):
+        row, col = divmod(index, side)
+        if primitive.image is not None and primitive.uvs is not None:
+            with Image.open(io.BytesIO(primitive.image)) as image:
+                tile = image.convert("RGB").resize((cell, cell), Image.Resampling.BOX)
+            local = np.clip(primitive.uvs.astype(np.float64), 0.0, 1.0)
+        else:
+            colour = tuple(int(round(255 * min(max(c, 0.0), 1.0))) for c in primitive.color[:3])
+            tile = Image.new("RGB", (cell, cell), colour)
+            local = np.full((len(primitive.positions), 2), 0.5)
+        atlas.paste(tile, (col * cell, row * cell))
+        scaled = inset + local * (1.0 - 2.0 * inset)
+        uvs.append(((scaled + [col, row]) * cell / size).astype(np.float32))
+    return atlas, uvs
+
+
+def merged_inputs(
+    inputs: list[ProxyInput], world: np.ndarray
+) -> tuple[list[GlbPrimitive], np.ndarray, np.ndarray]:
+    """Every input primitive moved into the proxy's glTF frame (``world`` its tile frame ->
+    ECEF), and their union as one mesh (positions (n, 3), triangles (m, 3))."""
+    to_proxy = frames.inverse_rigid(frames.Y_UP) @ frames.inverse_rigid(world)
+    primitives = []
+    for item in inputs:
+        matrix = to_proxy @ item.world @ frames.Y_UP
+        for primitive in read_primitives(item.file):
+            primitive.positions = frames.apply(matrix, primitive.positions)
+            primitives.append(primitive)
+    offsets = np.cumsum([0] + [len(p.positions) for p in primitives])
+    positions = np.concatenate([p.positions for p in primitives])
+    triangles = np.concatenate([p.triangles + offsets[i] for i, p in enumerate(primitives)])
+    return primitives, positions, triangles
+
+
+def simplified(
+    positions: np.ndarray, triangles: np.ndarray, budget: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """meshoptimizer's collapse of the merged mesh towards ``budget`` metres (attribute seams kept,
+    borders free), unused vertices dropped: (kept vertex indices (k,), triangles (m', 3))."""
+    kept, _ = simplify(triangles, positions, 0, budget, SIMPLIFY_ERROR_ABSOLUTE)
+    faces = kept.astype(np.int64).reshape(-1, 3)
+    used, inverse = np.unique(faces, return_inverse=True)
+    return used, inverse.reshape(-1, 3)
+
+
+def build_proxy(
+    inputs: list[ProxyInput],
+    tile: TileId,
+    world: np.ndarray,
+    options: TilesetOptions,
+    jpeg_quality: int,
+    key: str,
+) -> tuple[Proxy, bytes] | None:
+    """The proxy of ``inputs`` for ``tile`` and its ``.glb`` bytes; None when it has more than
+    ``options.proxy_max_triangles`` triangles."""
+    primitives, positions, triangles = merged_inputs(inputs, world)
+    budget = budget_m(tile, options)
+    used, faces = simplified(positions, triangles, budget)
+    if len(faces) > options.proxy_max_triangles or not len(faces):
+        return None
+    atlas, uvs = pack_atlas(primitives, options.proxy_atlas_size)
+    proxy_positions = positions[used].astype(np.float32).astype(np.float64)  # as the file stores
+    certified = hausdorff_bounds(
+        Surface(positions, triangles),
+        (proxy_positions, faces),
+        rtol=CERTIFY_RTOL,
+        atol=0.01 * budget,
+    )[1]
+    low, high = proxy_positions.min(axis=0), proxy_positions.max(axis=0)
+    error = (
+        certified
+        + max(item.error for item in inputs)
+        + rounding_slack(low, high)
+        + TRANSFORM_SLACK_M
+    )
+    buffer = io.BytesIO()
+    atlas.save(buffer, "JPEG", quality=jpeg_quality)
+    texture = Texture(
+        buffer.getvalue(), "image/jpeg", atlas.width, atlas.height, f"{tile.name}_atlas"
+    )
+    local = proxy_positions * [
+        -1.0,
+        1.0,
+        1.0,
+    ]  # glTF frame -> local East/Up/North (the writer's input)
+    part = Part(local, faces[:, [0, 2, 1]], uvs=np.concatenate(uvs)[used], texture=texture)
+    data = glb_bytes([part], f"{tile.name}_proxy")
+    proxy = Proxy(key, error, [float(v) for v in low], [float(v) for v in high], len(faces))
+    return proxy, data
+
+
+def input_key(
+    tile: TileId, inputs: list[ProxyInput], options: TilesetOptions, jpeg_quality: int
+) -> str:
+    """Hash of everything a proxy is made from (its inputs' own keys, errors and the options)."""
+    text = json.dumps(
+        [
+            PROXY_FORMAT,
+            tile.name,
+            options.proxy_error_ratio,
+            options.proxy_max_triangles,
+            options.proxy_atlas_size,
+            jpeg_quality,
+            [[item.key, repr(item.error)] for item in inputs],
+        ]
+    )
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def _cached(folder: Path, name: str, key: str) -> tuple[bool, Proxy | None]:
+    """(found, proxy): the recorded proxy of tile ``name`` when it was built from ``key`` (None
+    when it was too large); found is False when it must be built."""
+    try:
+        data = json.loads((folder / f"{name}.json").read_text(encoding="utf-8"))
+        if data.get("hash") != key:
+            return False, None
+        if data.get("too_large"):
+            return True, None
+        if not (folder / f"{name}.glb").is_file():
+            return False, None
+        proxy = Proxy(key, float(data["error"]), data["low"], data["high"], int(data["triangles"]))
+        return True, proxy
+    except (OSError, ValueError, KeyError, TypeError):
+        return False, None
+
+
+def _inputs(out_dir: Path, node: Node) -> list[ProxyInput] | None:
+    """What ``node``'s proxy merges, or None when a child tile has no proxy."""
+    inputs = []
+    for child in node.children:
+        if child.building is not None:
+            top = child.building.levels[0]
+            key = f"{child.building.input_hash}:{top.file}"
+            inputs.append(ProxyInput(child.building.world, out_dir / top.file, top.error, key))
+        elif child.proxy_hash is not None and child.content is not None:
+            assert child.world is not None
+            inputs.append(
+                ProxyInput(child.world, out_dir / child.content, child.error, child.proxy_hash)
+            )
+        else:
+            return None
+    return inputs
+
+
+def add_proxies(
+    out_dir: Path, tops: list[Node], options: TilesetOptions, jpeg_quality: int
+) -> tuple[int, int]:
+    """Give every tile node of ``tops`` that can have one its proxy (content, error, corners);
+    returns (proxies in the tree, proxies built this time). Stale proxy files are removed."""
+    folder = out_dir / PROXY_DIR
+    kept: set[str] = set()
+    counts = [0, 0]
+
+    def visit(node: Node) -> None:
+        for child in node.children:
+            if child.tile is not None:
+                visit(child)
+        if node.tile is None or node.world is None:
+            return
+        inputs = _inputs(out_dir, node)
+        if inputs is None:
+            return
+        name = node.tile.name
+        key = input_key(node.tile, inputs, options, jpeg_quality)
+        kept.update({f"{name}.json", f"{name}.glb"})
+        found, proxy = _cached(folder, name, key)
+        if not found:
+            built = build_proxy(inputs, node.tile, node.world, options, jpeg_quality, key)
+            counts[1] += 1
+            if built is None:
+                write_text_atomic(
+                    folder / f"{name}.json", json.dumps({"hash": key, "too_large": True})
+                )
+                (folder / f"{name}.glb").unlink(missing_ok=True)
+                return
+            proxy, data = built
+            write_bytes_atomic(folder / f"{name}.glb", data)
+            record = {
+                "hash": key,
+                "error": proxy.error,
+                "low": proxy.low,
+                "high": proxy.high,
+                "triangles": proxy.triangles,
+            }
+            write_text_atomic(
+                folder / f"{name}.json", json.dumps(record)
+            )  # last: the glb is complete
+        if proxy is None:
+            return
+        counts[0] += 1
+        node.content = f"{PROXY_DIR}/{name}.glb"
+        node.proxy_hash = key
+        node.error = max([proxy.error] + [child.error for child in node.children])
+        node.corners = frames.apply(
+            node.world, frames.gltf_corners(np.array(proxy.low), np.array(proxy.high))
+        )
+
+    for top in tops:
+        visit(top)
+    remove_stale(folder, kept)
+    return counts[0], counts[1]
+
+
+def remove_stale(folder: Path, kept: set[str]) -> None:
+    """Delete proxy files of tiles that no longer have one (``kept``: file names to keep)."""
+    if not folder.is_dir():
+        return
+    for path in folder.iterdir():
+        if path.is_file() and path.name not in kept:
+            path.unlink(missing_ok=True)
