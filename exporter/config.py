@@ -362,13 +362,6 @@ class TilesetOptions:
             "a tile gets no proxy (nor do its ancestors) when its proxy would be larger",
         ),
     )
-    proxy_error_ratio: float = field(
-        default=0.01,
-        metadata=meta(
-            _number(0.0, inclusive=False, maximum=1.0),
-            "simplification target of a tile's proxy: this x the tile's north-south size (metres)",
-        ),
-    )
     proxy_atlas_size: int = field(
         default=2048,
         metadata=meta(_integer(16, 16384), "pixels per side of a proxy's one texture atlas"),

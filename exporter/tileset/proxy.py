@@ -1,21 +1,25 @@
 """HLOD proxies: per quadtree tile, the content below it merged into one mesh with one atlas,
-simplified, with a certified error against the LOD0 surfaces of the buildings it stands for.
+with a certified error against the LOD0 surfaces of the buildings it stands for.
 
 Data form: meshes in the proxy tile's **glTF frame** (+X = West, +Y = Up, +Z = North, metres, at
 the tile centre, height 0; :func:`.tree.tile_world`), positions (n, 3) float64, triangles (m, 3)
 int64, uvs (n, 2) (origin top-left).
 
 A tile holding buildings merges their coarsest chain levels; a tile above merges its child
-tiles' proxies (so a tile without a proxy has no proxied ancestor). Each input's textures (or
-base colours) get a cell of one atlas (``proxy_atlas_size`` pixels, box-filtered down), the
-merged mesh is simplified by meshoptimizer towards ``proxy_error_ratio`` x the tile's size, and
-its error is certified by the triangle inequality:
-``H(proxy, LOD0s) <= H(proxy, inputs) + max over inputs of H(input, its LOD0s)``, the first term
-the certified upper bound of :func:`exporter.hausdorff.hausdorff_bounds` (union of pairs: the
-Hausdorff distance of unions is at most the largest of the pairs'), plus float32 rounding.
-A proxy with more than ``proxy_max_triangles`` is not written (nor are its ancestors').
+tiles' proxies (so a tile without a proxy has no proxied ancestor). Each input's texture (or base
+colour) gets a cell of one atlas (``proxy_atlas_size`` pixels, box-filtered down): one mesh, one
+material, one draw call. A proxy with more than ``proxy_max_triangles`` is not written (nor are
+its ancestors').
 
-Files: ``OUT/tileset_proxies/<tile>.glb`` and ``<tile>.json`` (its inputs' hash, error, bounds).
+Its error (metres) is the larger of
+- the geometric bound: the merged inputs' own certified bounds against their LOD0 (the Hausdorff
+  distance of unions is at most the largest of the pairs'), plus float32 rounding of the proxy;
+- the texel size: a building's coarsest texture spans its LOD0 diagonal, and each merge shrinks
+  it into a smaller atlas cell (a tile's texels are its inputs' times their shrink factor).
+The merged meshes are not simplified: certifying a meshoptimizer collapse of them cost ~25 ms a
+building (as much as exporting it) and the certified bound on a whole merged tile did not run.
+
+Files: ``OUT/tileset_proxies/<tile>.glb`` and ``<tile>.json`` (its inputs' hash, bounds, sizes).
 A proxy is rebuilt only when that hash changes; files of tiles no longer proxied are removed.
 """
 
@@ -34,10 +38,7 @@ from PIL import Image
 from ..atomic import write_bytes_atomic, write_text_atomic
 from ..config import TilesetOptions
 from ..gltf_writer import glb_bytes
-from ..hausdorff import Surface, hausdorff_bounds
 from ..model import Part, Texture, TileId
-from ..simplify.meshopt import SIMPLIFY_ERROR_ABSOLUTE, simplify
-from ..tiles import tile_size_deg
 from . import frames
 from .glb import GlbPrimitive, read_primitives
 from .tree import Node, rounding_slack
@@ -45,30 +46,29 @@ from .tree import Node, rounding_slack
 PROXY_DIR = "tileset_proxies"
 PROXY_FORMAT = "vworld-lod-proxy 1"
 TRANSFORM_SLACK_M = 1e-6  # float64 rounding of the frame changes (ECEF-sized numbers), metres
-METRES_PER_DEGREE = math.pi / 180.0 * 6378137.0
-CERTIFY_RTOL = 0.05  # the proxy's bound is refined to 5 % of its certified lower bound
 
 
 @dataclass
 class ProxyInput:
     world: np.ndarray  # 4 x 4: the input's tile frame -> ECEF
     file: Path
-    error: float  # metres: certified bound of the input against its buildings' LOD0
+    geometric: float  # metres: certified bound of the input against its buildings' LOD0
+    texel: float  # metres per texel of its texture (0 when untextured)
     key: str  # what identifies its content (hash)
 
 
 @dataclass
 class Proxy:
     hash: str
-    error: float  # metres, certified against the LOD0 surfaces below
+    geometric: float  # metres, certified against the LOD0 surfaces below
+    texel: float  # metres per texel of its atlas
     low: list[float]  # glTF-frame bounds, metres
     high: list[float]
     triangles: int
 
-
-def budget_m(tile: TileId, options: TilesetOptions) -> float:
-    """The simplification target (metres) of ``tile``'s proxy."""
-    return options.proxy_error_ratio * tile_size_deg(tile.level) * METRES_PER_DEGREE
+    @property
+    def error(self) -> float:
+        return max(self.geometric, self.texel)
 
 
 def atlas_cells(count: int, size: int) -> tuple[int, int]:
@@ -77,57 +77,49 @@ def atlas_cells(count: int, size: int) -> tuple[int, int]:
     return side, max(1, size // side)
 
 
-def pack_atlas(primitives: list[GlbPrimitive], size: int) -> tuple[Image.Image, list[np.ndarray]]:
+def pack_atlas(
+    primitives: list[GlbPrimitive], size: int
+) -> tuple[Image.Image, list[np.ndarray], list[float]]:
     """One RGB atlas (``size`` x ``size``) with a cell per primitive (its image box-filtered, or
-    its base colour), and each primitive's uvs (n, 2) moved into its cell (clamped to it: the
-    files' uvs are in [0, 1], a repeat would bleed into a neighbour)."""
+    its base colour), each primitive's uvs (n, 2) moved into its cell (clamped to it: the files'
+    uvs are in [0, 1], a repeat would bleed into a neighbour), and each primitive's shrink factor
+    (its image's larger side / the cell's; 0 without image)."""
     side, cell = atlas_cells(len(primitives), size)
     atlas = Image.new("RGB", (size, size), (255, 255, 255))
-    uvs = []
+    uvs, shrink = [], []
     inset = 0.5 / cell  # half a texel: bilinear filtering stays inside the cell
     for index, primitive in enumerate(primitives):
         row, col = divmod(index, side)
         if primitive.image is not None and primitive.uvs is not None:
             with Image.open(io.BytesIO(primitive.image)) as image:
+                shrink.append(max(image.size) / cell)
                 tile = image.convert("RGB").resize((cell, cell), Image.Resampling.BOX)
             local = np.clip(primitive.uvs.astype(np.float64), 0.0, 1.0)
         else:
             colour = tuple(int(round(255 * min(max(c, 0.0), 1.0))) for c in primitive.color[:3])
             tile = Image.new("RGB", (cell, cell), colour)
             local = np.full((len(primitive.positions), 2), 0.5)
+            shrink.append(0.0)
         atlas.paste(tile, (col * cell, row * cell))
         scaled = inset + local * (1.0 - 2.0 * inset)
         uvs.append(((scaled + [col, row]) * cell / size).astype(np.float32))
-    return atlas, uvs
+    return atlas, uvs, shrink
 
 
 def merged_inputs(
     inputs: list[ProxyInput], world: np.ndarray
-) -> tuple[list[GlbPrimitive], np.ndarray, np.ndarray]:
-    """Every input primitive moved into the proxy's glTF frame (``world`` its tile frame ->
-    ECEF), and their union as one mesh (positions (n, 3), triangles (m, 3))."""
+) -> tuple[list[GlbPrimitive], list[ProxyInput]]:
+    """Every input primitive moved into the proxy's glTF frame (``world``: its tile frame ->
+    ECEF), and the input each came from."""
     to_proxy = frames.inverse_rigid(frames.Y_UP) @ frames.inverse_rigid(world)
-    primitives = []
+    primitives, owners = [], []
     for item in inputs:
         matrix = to_proxy @ item.world @ frames.Y_UP
         for primitive in read_primitives(item.file):
             primitive.positions = frames.apply(matrix, primitive.positions)
             primitives.append(primitive)
-    offsets = np.cumsum([0] + [len(p.positions) for p in primitives])
-    positions = np.concatenate([p.positions for p in primitives])
-    triangles = np.concatenate([p.triangles + offsets[i] for i, p in enumerate(primitives)])
-    return primitives, positions, triangles
-
-
-def simplified(
-    positions: np.ndarray, triangles: np.ndarray, budget: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """meshoptimizer's collapse of the merged mesh towards ``budget`` metres (attribute seams kept,
-    borders free), unused vertices dropped: (kept vertex indices (k,), triangles (m', 3))."""
-    kept, _ = simplify(triangles, positions, 0, budget, SIMPLIFY_ERROR_ABSOLUTE)
-    faces = kept.astype(np.int64).reshape(-1, 3)
-    used, inverse = np.unique(faces, return_inverse=True)
-    return used, inverse.reshape(-1, 3)
+            owners.append(item)
+    return primitives, owners
 
 
 def build_proxy(
@@ -140,40 +132,29 @@ def build_proxy(
 ) -> tuple[Proxy, bytes] | None:
     """The proxy of ``inputs`` for ``tile`` and its ``.glb`` bytes; None when it has more than
     ``options.proxy_max_triangles`` triangles."""
-    primitives, positions, triangles = merged_inputs(inputs, world)
-    budget = budget_m(tile, options)
-    used, faces = simplified(positions, triangles, budget)
-    if len(faces) > options.proxy_max_triangles or not len(faces):
+    primitives, owners = merged_inputs(inputs, world)
+    if sum(len(p.triangles) for p in primitives) > options.proxy_max_triangles:
         return None
-    atlas, uvs = pack_atlas(primitives, options.proxy_atlas_size)
-    proxy_positions = positions[used].astype(np.float32).astype(np.float64)  # as the file stores
-    certified = hausdorff_bounds(
-        Surface(positions, triangles),
-        (proxy_positions, faces),
-        rtol=CERTIFY_RTOL,
-        atol=0.01 * budget,
-    )[1]
-    low, high = proxy_positions.min(axis=0), proxy_positions.max(axis=0)
-    error = (
-        certified
-        + max(item.error for item in inputs)
-        + rounding_slack(low, high)
-        + TRANSFORM_SLACK_M
+    atlas, uvs, shrink = pack_atlas(primitives, options.proxy_atlas_size)
+    offsets = np.cumsum([0] + [len(p.positions) for p in primitives])
+    positions = np.concatenate([p.positions for p in primitives]).astype(np.float32)
+    faces = np.concatenate([p.triangles + offsets[i] for i, p in enumerate(primitives)])
+    low, high = positions.min(axis=0).astype(np.float64), positions.max(axis=0).astype(np.float64)
+    geometric = (
+        max(item.geometric for item in inputs) + rounding_slack(low, high) + TRANSFORM_SLACK_M
     )
+    texel = max(owner.texel * factor for owner, factor in zip(owners, shrink))
     buffer = io.BytesIO()
     atlas.save(buffer, "JPEG", quality=jpeg_quality)
     texture = Texture(
         buffer.getvalue(), "image/jpeg", atlas.width, atlas.height, f"{tile.name}_atlas"
     )
-    local = proxy_positions * [
-        -1.0,
-        1.0,
-        1.0,
-    ]  # glTF frame -> local East/Up/North (the writer's input)
-    part = Part(local, faces[:, [0, 2, 1]], uvs=np.concatenate(uvs)[used], texture=texture)
+    # glTF frame -> local East/Up/North with outward winding (what the writer takes)
+    local = positions.astype(np.float64) * [-1.0, 1.0, 1.0]
+    part = Part(local, faces[:, [0, 2, 1]], uvs=np.concatenate(uvs), texture=texture)
     data = glb_bytes([part], f"{tile.name}_proxy")
-    proxy = Proxy(key, error, [float(v) for v in low], [float(v) for v in high], len(faces))
-    return proxy, data
+    low_list, high_list = [float(v) for v in low], [float(v) for v in high]
+    return Proxy(key, geometric, texel, low_list, high_list, len(faces)), data
 
 
 def input_key(
@@ -184,11 +165,10 @@ def input_key(
         [
             PROXY_FORMAT,
             tile.name,
-            options.proxy_error_ratio,
             options.proxy_max_triangles,
             options.proxy_atlas_size,
             jpeg_quality,
-            [[item.key, repr(item.error)] for item in inputs],
+            [[item.key, repr(item.geometric), repr(item.texel)] for item in inputs],
         ]
     )
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
@@ -205,7 +185,14 @@ def _cached(folder: Path, name: str, key: str) -> tuple[bool, Proxy | None]:
             return True, None
         if not (folder / f"{name}.glb").is_file():
             return False, None
-        proxy = Proxy(key, float(data["error"]), data["low"], data["high"], int(data["triangles"]))
+        proxy = Proxy(
+            key,
+            float(data["geometric"]),
+            float(data["texel"]),
+            data["low"],
+            data["high"],
+            int(data["triangles"]),
+        )
         return True, proxy
     except (OSError, ValueError, KeyError, TypeError):
         return False, None
@@ -218,11 +205,20 @@ def _inputs(out_dir: Path, node: Node) -> list[ProxyInput] | None:
         if child.building is not None:
             top = child.building.levels[0]
             key = f"{child.building.input_hash}:{top.file}"
-            inputs.append(ProxyInput(child.building.world, out_dir / top.file, top.error, key))
+            building = child.building
+            inputs.append(
+                ProxyInput(building.world, out_dir / top.file, top.error, building.texel, key)
+            )
         elif child.proxy_hash is not None and child.content is not None:
             assert child.world is not None
             inputs.append(
-                ProxyInput(child.world, out_dir / child.content, child.error, child.proxy_hash)
+                ProxyInput(
+                    child.world,
+                    out_dir / child.content,
+                    child.geometric,
+                    child.texel,
+                    child.proxy_hash,
+                )
             )
         else:
             return None
@@ -264,7 +260,8 @@ def add_proxies(
             write_bytes_atomic(folder / f"{name}.glb", data)
             record = {
                 "hash": key,
-                "error": proxy.error,
+                "geometric": proxy.geometric,
+                "texel": proxy.texel,
                 "low": proxy.low,
                 "high": proxy.high,
                 "triangles": proxy.triangles,
@@ -277,6 +274,7 @@ def add_proxies(
         counts[0] += 1
         node.content = f"{PROXY_DIR}/{name}.glb"
         node.proxy_hash = key
+        node.geometric, node.texel = proxy.geometric, proxy.texel
         node.error = max([proxy.error] + [child.error for child in node.children])
         node.corners = frames.apply(
             node.world, frames.gltf_corners(np.array(proxy.low), np.array(proxy.high))

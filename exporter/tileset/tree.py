@@ -48,6 +48,13 @@ class BuildingChain:
     center: tuple[float, float, float]  # lon, lat degrees; elev metres
     input_hash: str
     levels: list[Level]  # coarsest first; the last is LOD0 (error 0)
+    diagonal: float = 0.0  # metres: LOD0's bounding-box diagonal
+    texture_px: int = 0  # larger side of the coarsest level's texture (0: untextured)
+
+    @property
+    def texel(self) -> float:
+        """Metres per texel of the coarsest level's texture (it spans at most the diagonal)."""
+        return self.diagonal / self.texture_px if self.texture_px else 0.0
 
     @property
     def world(self) -> np.ndarray:
@@ -65,6 +72,8 @@ class Node:
     tile: TileId | None = None
     building: BuildingChain | None = None
     proxy_hash: str | None = None
+    geometric: float = 0.0  # a proxy's certified geometric bound, metres
+    texel: float = 0.0  # a proxy's metres per atlas texel
 
 
 def rounding_slack(low: np.ndarray, high: np.ndarray) -> float:
@@ -92,6 +101,7 @@ def read_chain(
     diagonal = float(np.linalg.norm(bounds[0][1] - bounds[0][0]))
     slack0 = rounding_slack(*bounds[0])
     levels: list[Level] = []
+    texture_px = 0
     for level in sorted(lods, reverse=True):
         if level == 0:
             error = 0.0
@@ -106,6 +116,9 @@ def read_chain(
         if levels and error >= levels[-1].error:
             continue  # no better than a coarser level: never worth refining to
         levels.append(Level(f"{tile.name}/{lods[level]['file']}", error, *bounds[level]))
+        coarsest = levels[0].file == f"{tile.name}/{lods[level]['file']}"
+        if coarsest:
+            texture_px = max(int(v) for v in lods[level].get("texture_size", [0, 0]))
     centre = record["center"]
     return BuildingChain(
         tile,
@@ -113,6 +126,8 @@ def read_chain(
         (float(centre["lon"]), float(centre["lat"]), float(centre["elev"])),
         str(record.get("input_hash", "")),
         levels,
+        diagonal,
+        texture_px,
     )
 
 
