@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..config import TilesetOptions
+from ..config import TextureOptions, TilesetOptions
 from .tree import quadtree, read_buildings
 from .write import TILESET_NAME, tileset_json, write_tileset_json
 
@@ -45,7 +45,7 @@ class TilesetResult:
 
 
 def write_tileset(
-    out_dir: str | Path, options: TilesetOptions, jpeg_quality: int = 85
+    out_dir: str | Path, options: TilesetOptions, jpeg_quality: int = TextureOptions.jpeg_quality
 ) -> TilesetResult:
     """Write ``OUT/tileset.json`` for every building of ``out_dir``; see the module doc."""
     out_dir = Path(out_dir)
