@@ -15,7 +15,8 @@ Its error (metres) is the larger of
 - the geometric bound: the merged inputs' own certified bounds against their LOD0 (the Hausdorff
   distance of unions is at most the largest of the pairs'), plus float32 rounding of the proxy;
 - the texel size: a building's coarsest texture spans its LOD0 diagonal, and each merge shrinks
-  it into a smaller atlas cell (a tile's texels are its inputs' times their shrink factor).
+  it into a smaller atlas cell (a tile's texels are its inputs' times their shrink factor, never
+  finer than the inputs').
 The merged meshes are not simplified: certifying a meshoptimizer collapse of them cost ~25 ms a
 building (as much as exporting it) and the certified bound on a whole merged tile did not run.
 
@@ -44,7 +45,7 @@ from .glb import GlbPrimitive, read_primitives
 from .tree import Node, rounding_slack
 
 PROXY_DIR = "tileset_proxies"
-PROXY_FORMAT = "vworld-lod-proxy 1"
+PROXY_FORMAT = "vworld-lod-proxy 2"
 TRANSFORM_SLACK_M = 1e-6  # float64 rounding of the frame changes (ECEF-sized numbers), metres
 
 
@@ -143,7 +144,10 @@ def build_proxy(
     geometric = (
         max(item.geometric for item in inputs) + rounding_slack(low, high) + TRANSFORM_SLACK_M
     )
-    texel = max(owner.texel * factor for owner, factor in zip(owners, shrink))
+    # Never finer than the source: an upscaled cell has its source's texels.
+    texel = max(
+        [0.0] + [owner.texel * max(factor, 1.0) for owner, factor in zip(owners, shrink) if factor]
+    )
     buffer = io.BytesIO()
     atlas.save(buffer, "JPEG", quality=jpeg_quality)
     texture = Texture(

@@ -4,7 +4,9 @@ Bounding volumes are boxes in each node's tile frame, axis-aligned there, around
 its content's box and of its children's boxes (so they contain both); a node's ``transform`` is
 its frame relative to its parent's (3D Tiles composes them from the root down). A node without
 content gets ``geometricError`` = the larger of its box's diagonal and its children's errors
-(refined as soon as it is in view); every error is at least its children's. The bytes depend
+(refined as soon as it is in view); every error is at least its children's. The tileset's own
+``geometricError`` (the error of drawing nothing: clients draw nothing while it is small on
+screen) is at least the root's box diagonal. The bytes depend
 only on the tree (sorted, no times), written atomically after everything it references.
 """
 
@@ -35,11 +37,15 @@ def finish(node: Node, parent_world: np.ndarray) -> np.ndarray:
     node.box = box  # type: ignore[attr-defined]
     most = max((child.error for child in node.children), default=0.0)
     if node.content is None:
-        half = np.asarray(box[3:]).reshape(3, 3)
-        node.error = max(most, 2.0 * float(np.linalg.norm(half.sum(axis=0))))
+        node.error = max(most, box_diagonal(box))
     else:
         node.error = max(node.error, most)
     return frames.apply(frame, frames.box_corners(box))
+
+
+def box_diagonal(box: list[float]) -> float:
+    """Metres: the diagonal of a 3D Tiles box whose half-axes are orthogonal."""
+    return 2.0 * float(np.linalg.norm(np.linalg.norm(np.asarray(box[3:]).reshape(3, 3), axis=1)))
 
 
 def tile_json(node: Node, parent_world: np.ndarray) -> dict:
@@ -67,7 +73,8 @@ def tileset_json(tops: list[Node], left_out: list[str]) -> dict:
     finish(root, identity)
     tileset: dict = {
         "asset": {"version": "1.1", "tilesetVersion": f"vworld-lod {__version__}"},
-        "geometricError": root.error,
+        # The error of drawing nothing (clients draw nothing below it): the whole box's size.
+        "geometricError": max(root.error, box_diagonal(root.box)),  # type: ignore[attr-defined]
         "root": tile_json(root, identity),
     }
     if left_out:
