@@ -72,3 +72,18 @@ def test_cesium_renders_the_city_from_3_km_to_street_level_without_errors(tmp_pa
     # Coming down, the client refines below the root into several tiles and draw calls.
     assert max(v["visited"] for v in views[1:]) > views[0]["visited"]
     assert max(v["commands"] for v in views[1:]) > 1
+
+
+def test_cesium_renders_the_sample_tile_without_errors(tmp_path):
+    sample = Path(__file__).resolve().parents[1] / "samples" / "15_279418_116113"
+    out = tmp_path / "out"
+    export_tiles([sample], out, Config(), jobs=1)
+    manifest = json.loads((out / sample.name / "lod_manifest.json").read_text())
+    ground = min(b["center"]["elev"] for b in manifest["buildings"])
+    lon, lat = manifest["tile"]["center"]["lon"], manifest["tile"]["center"]["lat"]
+    views = render(out, lon, lat, [ground + 1000, ground + 80])
+    for view in views:
+        assert view["errors"] == [] and view["loaded"], view
+        assert view["selected"] >= 1 and view["triangles"] > 0, view
+    assert views[0]["commands"] == 1  # the tile's proxy: 12 buildings, one draw call
+    assert views[1]["commands"] > 1  # close in: the buildings themselves
