@@ -271,3 +271,13 @@ def test_a_proxy_over_the_size_cap_is_left_out_with_its_ancestors(city, tmp_path
     assert structural_problems(out, tileset) == []
     uris = {v.uri for v in walk(tileset) if v.uri and "proxies" in v.uri}
     assert uris == {f"tileset_proxies/{n[:-5]}.glb" for n, t in sizes.items() if t <= cap}
+
+
+def test_tiles_of_earlier_runs_stay_in_the_tileset(tmp_path):
+    out = tmp_path / "out"
+    export([make_tile(tmp_path / "in", SEOUL, 1, 7)], out)
+    export([make_tile(tmp_path / "in", EAST_OF_SEOUL, 1, 8)], out)  # a second run, another tile
+    tileset = load(out)
+    assert structural_problems(out, tileset) == []
+    uris = [chain[-1].uri for chain in chains(walk(tileset))]
+    assert sorted(uri.split("/")[0] for uri in uris) == [SEOUL.name, EAST_OF_SEOUL.name]
