@@ -7,6 +7,7 @@ the specification says): placements against pyproj, errors against a dense sampl
 
 from __future__ import annotations
 
+import io
 import json
 import shutil
 from pathlib import Path
@@ -14,6 +15,7 @@ from urllib.parse import unquote
 
 import numpy as np
 import pytest
+from PIL import Image
 from pyproj import Transformer
 
 from exporter.config import Config, TilesetOptions
@@ -281,3 +283,25 @@ def test_tiles_of_earlier_runs_stay_in_the_tileset(tmp_path):
     assert structural_problems(out, tileset) == []
     uris = [chain[-1].uri for chain in chains(walk(tileset))]
     assert sorted(uri.split("/")[0] for uri in uris) == [SEOUL.name, EAST_OF_SEOUL.name]
+
+
+def test_the_atlas_gives_each_primitive_a_cell_and_a_broken_texture_its_colour():
+    from exporter.tileset.glb import GlbPrimitive
+    from exporter.tileset.proxy import pack_atlas
+
+    square = np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0]])
+    uvs = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]], np.float32)
+    good = io.BytesIO()
+    Image.new("RGB", (64, 64), (0, 0, 255)).save(good, "PNG")
+    primitives = [
+        GlbPrimitive(
+            square, np.array([[0, 1, 2]]), uvs, good.getvalue(), "image/png", (1, 1, 1, 1)
+        ),
+        GlbPrimitive(
+            square, np.array([[0, 1, 2]]), uvs, b"not an image", "image/jpeg", (1, 0, 0, 1)
+        ),
+    ]
+    atlas, cell_uvs, shrink = pack_atlas(primitives, 64)
+    assert shrink == [2.0, 0.0]  # 64 px into a 32 px cell; the broken one has no texture
+    assert atlas.getpixel((10, 10)) == (0, 0, 255) and atlas.getpixel((42, 10)) == (255, 0, 0)
+    assert (cell_uvs[0] <= 0.5).all() and (cell_uvs[1][:, 0] > 0.5).all()

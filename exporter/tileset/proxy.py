@@ -78,6 +78,21 @@ def atlas_cells(count: int, size: int) -> tuple[int, int]:
     return side, max(1, size // side)
 
 
+def _cell_image(primitive: GlbPrimitive, cell: int) -> Image.Image | None:
+    """The primitive's texture box-filtered to ``cell`` x ``cell`` RGB (its source size in
+    ``info["source_size"]``), or None without a usable one (then its base colour is used)."""
+    if primitive.image is None:
+        return None
+    try:
+        with Image.open(io.BytesIO(primitive.image)) as image:
+            size = image.size
+            tile = image.convert("RGB").resize((cell, cell), Image.Resampling.BOX)
+    except (OSError, ValueError, Image.DecompressionBombError):
+        return None
+    tile.info["source_size"] = size
+    return tile
+
+
 def pack_atlas(
     primitives: list[GlbPrimitive], size: int
 ) -> tuple[Image.Image, list[np.ndarray], list[float]]:
@@ -91,10 +106,9 @@ def pack_atlas(
     inset = 0.5 / cell  # half a texel: bilinear filtering stays inside the cell
     for index, primitive in enumerate(primitives):
         row, col = divmod(index, side)
-        if primitive.image is not None and primitive.uvs is not None:
-            with Image.open(io.BytesIO(primitive.image)) as image:
-                shrink.append(max(image.size) / cell)
-                tile = image.convert("RGB").resize((cell, cell), Image.Resampling.BOX)
+        tile = _cell_image(primitive, cell)
+        if tile is not None and primitive.uvs is not None:
+            shrink.append(max(tile.info["source_size"]) / cell)
             local = np.clip(primitive.uvs.astype(np.float64), 0.0, 1.0)
         else:
             colour = tuple(int(round(255 * min(max(c, 0.0), 1.0))) for c in primitive.color[:3])

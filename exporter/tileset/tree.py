@@ -144,7 +144,12 @@ def read_buildings(out_dir: Path) -> tuple[dict[TileId, list[BuildingChain]], li
         except (OSError, ValueError, KeyError, TypeError) as error:
             left_out.append(f"{entry['manifest']}: unreadable ({error}); tile left out")
             continue
-        chains = [read_chain(out_dir, tile, record, left_out) for record in records]
+        chains = []
+        for record in records:
+            try:
+                chains.append(read_chain(out_dir, tile, record, left_out))
+            except (KeyError, TypeError, ValueError, AttributeError) as problem:
+                left_out.append(f"{tile.name}: a building record unusable ({problem!r}); left out")
         kept = sorted((c for c in chains if c is not None), key=lambda c: c.id)
         if kept:
             by_tile[tile] = kept
