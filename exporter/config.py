@@ -362,6 +362,13 @@ class TilesetOptions:
             "a tile gets no proxy (nor do its ancestors) when its proxy would be larger",
         ),
     )
+    proxy_error_ratio: float = field(
+        default=0.01,
+        metadata=meta(
+            _number(0.0, maximum=1.0),
+            "above the building tiles, each building's piece of a proxy is simplified (meshoptimizer, certified) towards this x the tile's north-south size in metres (0 = merge only)",
+        ),
+    )
     proxy_atlas_size: int = field(
         default=2048,
         metadata=meta(_integer(16, 16384), "pixels per side of a proxy's one texture atlas"),

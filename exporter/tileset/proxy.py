@@ -5,23 +5,27 @@ Data form: meshes in the proxy tile's **glTF frame** (+X = West, +Y = Up, +Z = N
 the tile centre, height 0; :func:`.tree.tile_world`), positions (n, 3) float64, triangles (m, 3)
 int64, uvs (n, 2) (origin top-left).
 
-A tile holding buildings merges their coarsest chain levels; a tile above merges its child
-tiles' proxies (so a tile without a proxy has no proxied ancestor). Each input's texture (or base
-colour) gets a cell of one atlas (``proxy_atlas_size`` pixels, box-filtered down): one mesh, one
-material, one draw call. A proxy with more than ``proxy_max_triangles`` is not written (nor are
-its ancestors').
+A tile holding buildings merges their coarsest chain levels as they are; a tile above merges its
+child tiles' proxies, each building's piece of them collapsed by meshoptimizer towards
+``proxy_error_ratio`` x the tile's north-south size (so a tile without a proxy has no proxied
+ancestor). Each input's texture (or base colour) gets a cell of one atlas (``proxy_atlas_size``
+pixels, box-filtered down): one mesh, one material, one draw call. A proxy with more than
+``proxy_max_triangles`` is not written (nor are its ancestors').
 
 Its error (metres) is the larger of
-- the geometric bound: the merged inputs' own certified bounds against their LOD0 (the Hausdorff
-  distance of unions is at most the largest of the pairs'), plus float32 rounding of the proxy;
+- the geometric bound, kept per building piece: a building's coarsest level starts with its
+  certified bound against LOD0; a collapse adds the certified upper bound of
+  :func:`exporter.hausdorff.hausdorff_bounds` between the piece and the collapse (triangle
+  inequality), every written file adds its float32 rounding; the proxy's is the largest piece's
+  (the Hausdorff distance of unions is at most the largest of the pairs'). Pieces are certified
+  one by one: the bound on a whole merged tile (1,248 buildings) crashed the process;
 - the texel size: a building's coarsest texture spans its LOD0 diagonal, and each merge shrinks
   it into a smaller atlas cell (a tile's texels are its inputs' times their shrink factor, never
   finer than the inputs').
-The merged meshes are not simplified: certifying a meshoptimizer collapse of them cost ~25 ms a
-building (as much as exporting it) and the certified bound on a whole merged tile did not run.
 
-Files: ``OUT/tileset_proxies/<tile>.glb`` and ``<tile>.json`` (its inputs' hash, bounds, sizes).
-A proxy is rebuilt only when that hash changes; files of tiles no longer proxied are removed.
+Files: ``OUT/tileset_proxies/<tile>.glb`` and ``<tile>.json`` (its inputs' hash, bounds, sizes,
+pieces). A proxy is rebuilt only when that hash changes; files of tiles no longer proxied are
+removed.
 """
 
 from __future__ import annotations
@@ -30,7 +34,7 @@ import hashlib
 import io
 import json
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -39,13 +43,18 @@ from PIL import Image
 from ..atomic import write_bytes_atomic, write_text_atomic
 from ..config import TilesetOptions
 from ..gltf_writer import glb_bytes
+from ..hausdorff import Surface, hausdorff_bounds
 from ..model import Part, Texture, TileId
+from ..simplify.meshopt import SIMPLIFY_ERROR_ABSOLUTE, simplify
+from ..tiles import tile_size_deg
 from . import frames
 from .glb import GlbPrimitive, read_primitives
 from .tree import Node, rounding_slack
 
 PROXY_DIR = "tileset_proxies"
-PROXY_FORMAT = "vworld-lod-proxy 2"
+PROXY_FORMAT = "vworld-lod-proxy 3"
+METRES_PER_DEGREE = math.pi / 180.0 * 6378137.0  # along a meridian, on the sphere
+CERTIFY_RTOL = 0.05  # a piece's bound is refined to 5 % of its certified lower bound
 TRANSFORM_SLACK_M = 1e-6  # float64 rounding of the frame changes (ECEF-sized numbers), metres
 
 
@@ -56,6 +65,7 @@ class ProxyInput:
     geometric: float  # metres: certified bound of the input against its buildings' LOD0
     texel: float  # metres per texel of its texture (0 when untextured)
     key: str  # what identifies its content (hash)
+    pieces: list | None = None  # a child proxy's pieces (see Proxy.pieces); None: a building
 
 
 @dataclass
@@ -66,6 +76,9 @@ class Proxy:
     low: list[float]  # glTF-frame bounds, metres
     high: list[float]
     triangles: int
+    # One per building: [first vertex, vertices, first face, faces, certified bound (m) of that
+    # piece against the building's LOD0 as the file stores it]
+    pieces: list = field(default_factory=list)
 
     @property
     def error(self) -> float:
@@ -137,6 +150,51 @@ def merged_inputs(
     return primitives, owners
 
 
+def budget_m(tile: TileId, options: TilesetOptions) -> float:
+    """Metres: the simplification target of a piece of ``tile``'s proxy."""
+    return options.proxy_error_ratio * tile_size_deg(tile.level) * METRES_PER_DEGREE
+
+
+def simplified_piece(
+    positions: np.ndarray, faces: np.ndarray, budget: float
+) -> tuple[np.ndarray, np.ndarray, float] | None:
+    """meshoptimizer's collapse of one building's piece towards ``budget`` metres (attribute seams
+    kept, borders free): (kept vertex indices (k,), faces (m', 3) into them, certified Hausdorff
+    bound in metres against the piece), or None when it removes nothing or its bound is not
+    finite."""
+    kept, _ = simplify(faces, positions, 0, budget, SIMPLIFY_ERROR_ABSOLUTE)
+    if not 0 < len(kept) < faces.size:
+        return None
+    used, inverse = np.unique(kept.astype(np.int64), return_inverse=True)
+    new_faces = inverse.reshape(-1, 3)
+    rounded = positions[used].astype(np.float32).astype(np.float64)  # as the file stores them
+    bound = hausdorff_bounds(
+        Surface(positions, faces), (rounded, new_faces), rtol=CERTIFY_RTOL, atol=0.01 * budget
+    )[1]
+    return (used, new_faces, bound) if math.isfinite(bound) else None
+
+
+def _pieces(primitives, owners, uvs, budget: float) -> list[tuple]:
+    """(positions, faces, uvs, bound) per building piece; pieces of child proxies simplified
+    towards ``budget`` metres when that is certified (the bounds add: triangle inequality)."""
+    pieces = []
+    for primitive, owner, uv in zip(primitives, owners, uvs):
+        if owner.pieces is None:  # a building's level: one piece, its certified bound
+            pieces.append((primitive.positions, primitive.triangles, uv, owner.geometric))
+            continue
+        for v0, vn, f0, fn, bound in owner.pieces:
+            v0, vn, f0, fn = int(v0), int(vn), int(f0), int(fn)
+            positions = primitive.positions[v0 : v0 + vn]
+            faces = primitive.triangles[f0 : f0 + fn] - v0
+            done = simplified_piece(positions, faces, budget) if budget > 0 else None
+            if done is None:
+                pieces.append((positions, faces, uv[v0 : v0 + vn], bound))
+            else:
+                used, new_faces, extra = done
+                pieces.append((positions[used], new_faces, uv[v0 : v0 + vn][used], bound + extra))
+    return pieces
+
+
 def build_proxy(
     inputs: list[ProxyInput],
     tile: TileId,
@@ -148,16 +206,21 @@ def build_proxy(
     """The proxy of ``inputs`` for ``tile`` and its ``.glb`` bytes; None when it has more than
     ``options.proxy_max_triangles`` triangles."""
     primitives, owners = merged_inputs(inputs, world)
-    if sum(len(p.triangles) for p in primitives) > options.proxy_max_triangles:
-        return None
     atlas, uvs, shrink = pack_atlas(primitives, options.proxy_atlas_size)
-    offsets = np.cumsum([0] + [len(p.positions) for p in primitives])
-    positions = np.concatenate([p.positions for p in primitives]).astype(np.float32)
-    faces = np.concatenate([p.triangles + offsets[i] for i, p in enumerate(primitives)])
+    pieces = _pieces(primitives, owners, uvs, budget_m(tile, options))
+    if sum(len(faces) for _, faces, _, _ in pieces) > options.proxy_max_triangles:
+        return None
+    offsets = np.cumsum([0] + [len(p[0]) for p in pieces])
+    face_offsets = np.cumsum([0] + [len(p[1]) for p in pieces])
+    positions = np.concatenate([p[0] for p in pieces]).astype(np.float32)
+    faces = np.concatenate([p[1] + offsets[i] for i, p in enumerate(pieces)])
     low, high = positions.min(axis=0).astype(np.float64), positions.max(axis=0).astype(np.float64)
-    geometric = (
-        max(item.geometric for item in inputs) + rounding_slack(low, high) + TRANSFORM_SLACK_M
-    )
+    slack = rounding_slack(low, high) + TRANSFORM_SLACK_M
+    table = [
+        [int(offsets[i]), len(p[0]), int(face_offsets[i]), len(p[1]), float(p[3]) + slack]
+        for i, p in enumerate(pieces)
+    ]
+    geometric = max(row[4] for row in table)
     # Never finer than the source: an upscaled cell has its source's texels.
     texel = max(
         [0.0] + [owner.texel * max(factor, 1.0) for owner, factor in zip(owners, shrink) if factor]
@@ -169,10 +232,12 @@ def build_proxy(
     )
     # glTF frame -> local East/Up/North with outward winding (what the writer takes)
     local = positions.astype(np.float64) * [-1.0, 1.0, 1.0]
-    part = Part(local, faces[:, [0, 2, 1]], uvs=np.concatenate(uvs), texture=texture)
+    part = Part(
+        local, faces[:, [0, 2, 1]], uvs=np.concatenate([p[2] for p in pieces]), texture=texture
+    )
     data = glb_bytes([part], f"{tile.name}_proxy")
     low_list, high_list = [float(v) for v in low], [float(v) for v in high]
-    return Proxy(key, geometric, texel, low_list, high_list, len(faces)), data
+    return Proxy(key, geometric, texel, low_list, high_list, len(faces), table), data
 
 
 def input_key(
@@ -185,6 +250,7 @@ def input_key(
             tile.name,
             options.proxy_max_triangles,
             options.proxy_atlas_size,
+            options.proxy_error_ratio,
             jpeg_quality,
             [[item.key, repr(item.geometric), repr(item.texel)] for item in inputs],
         ]
@@ -210,6 +276,7 @@ def _cached(folder: Path, name: str, key: str) -> tuple[bool, Proxy | None]:
             data["low"],
             data["high"],
             int(data["triangles"]),
+            data["pieces"],
         )
         return True, proxy
     except (OSError, ValueError, KeyError, TypeError):
@@ -236,6 +303,7 @@ def _inputs(out_dir: Path, node: Node) -> list[ProxyInput] | None:
                     child.geometric,
                     child.texel,
                     child.proxy_hash,
+                    child.pieces,
                 )
             )
         else:
@@ -283,6 +351,7 @@ def add_proxies(
                 "low": proxy.low,
                 "high": proxy.high,
                 "triangles": proxy.triangles,
+                "pieces": proxy.pieces,
             }
             write_text_atomic(
                 folder / f"{name}.json", json.dumps(record)
@@ -292,7 +361,7 @@ def add_proxies(
         counts[0] += 1
         node.content = f"{PROXY_DIR}/{name}.glb"
         node.proxy_hash = key
-        node.geometric, node.texel = proxy.geometric, proxy.texel
+        node.geometric, node.texel, node.pieces = proxy.geometric, proxy.texel, proxy.pieces
         node.error = max([proxy.error] + [child.error for child in node.children])
         node.corners = frames.apply(
             node.world, frames.gltf_corners(np.array(proxy.low), np.array(proxy.high))

@@ -74,6 +74,7 @@ class Node:
     proxy_hash: str | None = None
     geometric: float = 0.0  # a proxy's certified geometric bound, metres
     texel: float = 0.0  # a proxy's metres per atlas texel
+    pieces: list | None = None  # a proxy's [first vertex, vertices, first face, faces, bound m]
 
 
 def rounding_slack(low: np.ndarray, high: np.ndarray) -> float:
