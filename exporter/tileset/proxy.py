@@ -15,8 +15,8 @@ pixels, box-filtered down): one mesh, one material, one draw call. A proxy with 
 Its error (metres) is the larger of
 - the geometric bound, kept per building piece: a building's coarsest level starts with its
   certified bound against LOD0; a collapse adds the certified upper bound of
-  :func:`exporter.hausdorff.hausdorff_bounds` between the piece and the collapse (triangle
-  inequality), every written file adds its float32 rounding; the proxy's is the largest piece's
+  :func:`exporter.hausdorff.bounds_within` between the piece and the collapse, which is kept only
+  when that is within the budget (triangle inequality), every written file adds its float32 rounding; the proxy's is the largest piece's
   (the Hausdorff distance of unions is at most the largest of the pairs'). Pieces are certified
   one by one: the bound on a whole merged tile (1,248 buildings) crashed the process;
 - the texel size: a building's coarsest texture spans its LOD0 diagonal, and each merge shrinks
@@ -43,7 +43,7 @@ from PIL import Image
 from ..atomic import write_bytes_atomic, write_text_atomic
 from ..config import TilesetOptions
 from ..gltf_writer import glb_bytes
-from ..hausdorff import Surface, hausdorff_bounds
+from ..hausdorff import Surface, bounds_within
 from ..model import Part, Texture, TileId
 from ..simplify.meshopt import SIMPLIFY_ERROR_ABSOLUTE, simplify
 from ..tiles import tile_size_deg
@@ -52,7 +52,7 @@ from .glb import GlbPrimitive, read_primitives
 from .tree import Node, rounding_slack
 
 PROXY_DIR = "tileset_proxies"
-PROXY_FORMAT = "vworld-lod-proxy 3"
+PROXY_FORMAT = "vworld-lod-proxy 4"
 METRES_PER_DEGREE = math.pi / 180.0 * 6378137.0  # along a meridian, on the sphere
 CERTIFY_RTOL = 0.05  # a piece's bound is refined to 5 % of its certified lower bound
 TRANSFORM_SLACK_M = 1e-6  # float64 rounding of the frame changes (ECEF-sized numbers), metres
@@ -160,18 +160,24 @@ def simplified_piece(
 ) -> tuple[np.ndarray, np.ndarray, float] | None:
     """meshoptimizer's collapse of one building's piece towards ``budget`` metres (attribute seams
     kept, borders free): (kept vertex indices (k,), faces (m', 3) into them, certified Hausdorff
-    bound in metres against the piece), or None when it removes nothing or its bound is not
-    finite."""
+    bound in metres against the piece), or None when it removes nothing or is not certified
+    within ``budget``."""
     kept, _ = simplify(faces, positions, 0, budget, SIMPLIFY_ERROR_ABSOLUTE)
     if not 0 < len(kept) < faces.size:
         return None
     used, inverse = np.unique(kept.astype(np.int64), return_inverse=True)
     new_faces = inverse.reshape(-1, 3)
     rounded = positions[used].astype(np.float32).astype(np.float64)  # as the file stores them
-    bound = hausdorff_bounds(
-        Surface(positions, faces), (rounded, new_faces), rtol=CERTIFY_RTOL, atol=0.01 * budget
-    )[1]
-    return (used, new_faces, bound) if math.isfinite(bound) else None
+    # meshoptimizer's own error is an estimate: the collapse is kept only when certified within
+    # the budget (the check stops as soon as a lower bound exceeds it).
+    bounds = bounds_within(
+        Surface(positions, faces),
+        (rounded, new_faces),
+        budget,
+        rtol=CERTIFY_RTOL,
+        atol=0.01 * budget,
+    )
+    return None if bounds is None else (used, new_faces, bounds[1])
 
 
 def _pieces(primitives, owners, uvs, budget: float) -> list[tuple]:
