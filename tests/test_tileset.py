@@ -314,3 +314,26 @@ def test_the_atlas_gives_each_primitive_a_cell_and_a_broken_texture_its_colour()
     assert shrink == [2.0, 0.0]  # 64 px into a 32 px cell; the broken one has no texture
     assert atlas.getpixel((10, 10)) == (0, 0, 255) and atlas.getpixel((42, 10)) == (255, 0, 0)
     assert (cell_uvs[0] <= 0.5).all() and (cell_uvs[1][:, 0] > 0.5).all()
+
+
+def test_a_proxy_input_broken_after_it_was_read_leaves_that_proxy_out(city, tmp_path, monkeypatch):
+    from exporter.tileset import proxy
+
+    out = tmp_path / "out"
+    shutil.copytree(city, out)
+    shutil.rmtree(out / "tileset_proxies")
+    real = proxy.read_primitives
+
+    def broken(path):
+        if EAST_OF_SEOUL.name in str(path):
+            raise ValueError(f"{path}: not a complete glTF 2.0 binary file")
+        return real(path)
+
+    monkeypatch.setattr(proxy, "read_primitives", broken)
+    result = write_tileset(out, TilesetOptions())
+    tileset = load(out)
+    assert structural_problems(out, tileset) == []
+    uris = {v.uri for v in walk(tileset) if v.uri and "proxies" in v.uri}
+    assert uris == {f"tileset_proxies/{SEOUL.name}.glb"}  # neither the east one nor the one above
+    assert any(EAST_OF_SEOUL.name in line for line in result.left_out)
+    assert len(chains(walk(tileset))) == 10

@@ -62,7 +62,7 @@ def write_tileset(
     if options.proxies:
         from .proxy import add_proxies
 
-        proxies, built = add_proxies(out_dir, tops, options, jpeg_quality)
+        proxies, built = add_proxies(out_dir, tops, options, jpeg_quality, left_out)
     path = write_tileset_json(out_dir, tileset_json(tops, left_out))
     count = sum(len(chains) for chains in by_tile.values())
     return TilesetResult(path, count, proxies, built, left_out)

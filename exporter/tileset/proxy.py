@@ -318,10 +318,15 @@ def _inputs(out_dir: Path, node: Node) -> list[ProxyInput] | None:
 
 
 def add_proxies(
-    out_dir: Path, tops: list[Node], options: TilesetOptions, jpeg_quality: int
+    out_dir: Path,
+    tops: list[Node],
+    options: TilesetOptions,
+    jpeg_quality: int,
+    problems: list[str],
 ) -> tuple[int, int]:
     """Give every tile node of ``tops`` that can have one its proxy (content, error, corners);
-    returns (proxies in the tree, proxies built this time). Stale proxy files are removed."""
+    returns (proxies in the tree, proxies built this time); a proxy that cannot be built is
+    appended to ``problems``. Stale proxy files are removed."""
     folder = out_dir / PROXY_DIR
     kept: set[str] = set()
     counts = [0, 0]
@@ -340,8 +345,15 @@ def add_proxies(
         kept.update({f"{name}.json", f"{name}.glb"})
         found, proxy = _cached(folder, name, key)
         if not found:
-            built = build_proxy(inputs, node.tile, node.world, options, jpeg_quality, key)
             counts[1] += 1
+            try:
+                built = build_proxy(inputs, node.tile, node.world, options, jpeg_quality, key)
+            except (OSError, ValueError, KeyError, IndexError) as problem:
+                # An input changed or broke since it was read: no proxy here (nor above), said so.
+                problems.append(
+                    f"{PROXY_DIR}/{name}.glb: not built ({problem!r}); tile shown without"
+                )
+                return
             if built is None:
                 write_text_atomic(
                     folder / f"{name}.json", json.dumps({"hash": key, "too_large": True})
