@@ -114,6 +114,8 @@ def cmd_export(args) -> int:
             print(
                 f"{tile.tile.name}: {tile.buildings} buildings ({tile.reused} unchanged), {tile.skipped} skipped -> {tile.manifest_path}"
             )
+        if stats.tileset is not None:
+            print(stats.tileset.summary())
         print(f"done in {stats.wall_seconds:.1f} s")
     if args.report:
         from .report import write_reports

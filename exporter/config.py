@@ -375,6 +375,38 @@ class ReaderOptions:
     )
 
 
+@dataclass
+class TilesetOptions:
+    """OUT/tileset.json (3D Tiles 1.1) and its HLOD proxies (exporter/tileset/)."""
+
+    enabled: bool = field(
+        default=True,
+        metadata=meta(parse_bool, "write OUT/tileset.json after the manifests and tiles.json"),
+    )
+    proxies: bool = field(
+        default=True,
+        metadata=meta(parse_bool, "merged, simplified proxies for the tiles above the buildings"),
+    )
+    proxy_max_triangles: int = field(
+        default=300_000,
+        metadata=meta(
+            _integer(1),
+            "a tile gets no proxy (nor do its ancestors) when its proxy would be larger",
+        ),
+    )
+    proxy_error_ratio: float = field(
+        default=0.01,
+        metadata=meta(
+            _number(0.0, maximum=1.0),
+            "above the building tiles, each building's piece of a proxy is simplified (meshoptimizer, certified) towards this x the tile's north-south size in metres (0 = merge only)",
+        ),
+    )
+    proxy_atlas_size: int = field(
+        default=2048,
+        metadata=meta(_integer(16, 16384), "pixels per side of a proxy's one texture atlas"),
+    )
+
+
 def default_lods() -> list[LodSpec]:
     # The paper's Fig. 12 transitions and texture quarters; mesh ratios at least as strong as its
     # Table III result (67.46 %, 48.07 % of LOD0).
@@ -393,6 +425,7 @@ class Config:
     unity: UnityOptions = field(default_factory=UnityOptions)
     textures: TextureOptions = field(default_factory=TextureOptions)
     readers: ReaderOptions = field(default_factory=ReaderOptions)
+    tileset: TilesetOptions = field(default_factory=TilesetOptions)
 
     def terrain_levels(self) -> list[int]:
         """Terrain tile level hint per LoD (the paper pairs building LoDs with terrain 15/14/13)."""
@@ -415,6 +448,7 @@ SECTIONS = {
     "unity": UnityOptions,
     "textures": TextureOptions,
     "readers": ReaderOptions,
+    "tileset": TilesetOptions,
 }
 
 

@@ -26,6 +26,7 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from . import __version__
 from .atomic import remove_stale_temporaries, write_text_atomic
@@ -43,12 +44,16 @@ from .tile_index import write_tile_index
 from .tiles import tile_bounds, tile_center
 from .workers import start_worker
 
+if TYPE_CHECKING:
+    from .tileset import TilesetResult
+
 # --------------------------------------------------------------------------- small pure helpers
 
 
 def config_fingerprint(config: Config) -> str:
     """Hash of everything in the config that changes a building's output."""
     data = config.to_dict()
+    data.pop("tileset")  # the tileset is made after the buildings, from their files
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode("utf-8")).hexdigest()
 
 
@@ -216,6 +221,7 @@ class RunStats:
     seconds: dict = field(default_factory=lambda: {stage: 0.0 for stage in STAGES})
     wall_seconds: float = 0.0
     tiles: list[TileResult] = field(default_factory=list)
+    tileset: TilesetResult | None = None  # OUT/tileset.json (exporter.tileset), when enabled
 
 
 Progress = Callable[[int, int], None]
@@ -387,6 +393,10 @@ def export_tiles(
             )
         )
     write_tile_index(out_dir, stats.tiles, config.globe)  # after the manifests: only complete tiles
+    if config.tileset.enabled:  # last: it references only files that are complete
+        from .tileset import write_tileset
+
+        stats.tileset = write_tileset(out_dir, config.tileset, config.textures.jpeg_quality)
     stats.wall_seconds = time.perf_counter() - started
     return stats
 

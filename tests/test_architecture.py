@@ -50,6 +50,7 @@ LAYERS: list[tuple[str, int, tuple[str, ...]]] = [
             "exporter.gltf_writer",
             "exporter.manifest",
             "exporter.tile_index",
+            "exporter.tileset",
             "exporter.report",
             "exporter.samplegen",
         ),
