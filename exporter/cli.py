@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import NoReturn, TextIO
 
 from . import __version__
-from .config import default_config_yaml, load_config
+from .config import default_config_yaml, load_config, parse_crs_option
 from .errors import InputError, ReadError, VWorldLodError
 
 DEBUG_FLAG = "--debug"
@@ -58,10 +58,24 @@ class ProgressPrinter:
         self.stream.flush()
 
 
+CRS_OPTIONS = {"crs": "--crs", "override_crs": "--override-crs"}
+
+
 def _effective_config(args):
+    """The config file's settings with the command line's CRS options, each checked before any
+    input is read (a typo is named as the option's, never blamed on an input file)."""
     config = load_config(args.config)
-    if getattr(args, "crs", None):
-        config.readers = dataclasses.replace(config.readers, crs=args.crs)
+    for key, option in CRS_OPTIONS.items():
+        value = getattr(args, key, None)
+        if value is None:
+            continue
+        try:
+            parse_crs_option(value)
+        except ValueError as error:
+            raise InputError(
+                f"{option} {value}: {error}; give one PROJ knows, e.g. EPSG:7415"
+            ) from None
+        config.readers = dataclasses.replace(config.readers, **{key: value})
     return config
 
 
@@ -100,6 +114,8 @@ def cmd_export(args) -> int:
             print(
                 f"{tile.tile.name}: {tile.buildings} buildings ({tile.reused} unchanged), {tile.skipped} skipped -> {tile.manifest_path}"
             )
+        if stats.tileset is not None:
+            print(stats.tileset.summary())
         print(f"done in {stats.wall_seconds:.1f} s")
     if args.report:
         from .report import write_reports
@@ -129,13 +145,14 @@ def cmd_init_config(args) -> int:
 
 
 def cmd_inspect(args) -> int:
-    from .readers import input_paths, load_entry, scan_folder
+    from .readers import check_crs_option, input_paths, load_entry, scan_folder
 
     args.tile_dirs = input_paths(args.tile_dirs)
     config = _effective_config(args)
     out = sys.stdout
-    for folder in args.tile_dirs:
-        scan = scan_folder(folder, config.readers)
+    scans = [scan_folder(folder, config.readers) for folder in args.tile_dirs]
+    check_crs_option(scans, config.readers)
+    for folder, scan in zip(args.tile_dirs, scans):
         out.write(f"{folder}: format {scan.format}, {len(scan.entries)} buildings listed\n")
         for note in scan.notes:
             out.write(f"  note: {note}\n")
@@ -220,6 +237,20 @@ class _Parser(argparse.ArgumentParser):
         return sorted(set(found))
 
 
+def _crs_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--crs",
+        help="CRS of input files that do not declare one, e.g. EPSG:7415 (never overrides a "
+        "declared one; refused when no input lacks one)",
+    )
+    parser.add_argument(
+        "--override-crs",
+        metavar="CRS",
+        help="CRS that replaces the one every input file declares (noted in each building's "
+        "problems and in the manifest's config)",
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="vworld-lod",
@@ -234,7 +265,7 @@ def build_parser() -> argparse.ArgumentParser:
     export.add_argument("tile_dirs", nargs="+", metavar="INPUT")
     export.add_argument("--out", required=True, help="output folder (one subfolder per tile)")
     export.add_argument("--config", help="YAML config (see init-config); defaults from the paper")
-    export.add_argument("--crs", help="CRS of input files that do not declare one, e.g. EPSG:7415")
+    _crs_options(export)
     export.add_argument(
         "--jobs", type=int, default=None, help="worker processes (default: all cores)"
     )
@@ -261,7 +292,7 @@ def build_parser() -> argparse.ArgumentParser:
     inspect = commands.add_parser("inspect", help="print what tile folders hold, writing nothing")
     inspect.add_argument("tile_dirs", nargs="+", metavar="INPUT")
     inspect.add_argument("--config", help="YAML config (reader options)")
-    inspect.add_argument("--crs", help="CRS of input files that do not declare one, e.g. EPSG:7415")
+    _crs_options(inspect)
     inspect.set_defaults(run=cmd_inspect)
 
     report = commands.add_parser("report", help="write an HTML report of an export's LoD chains")

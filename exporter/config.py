@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -44,7 +45,7 @@ def parse_ratio(value: Any) -> float:
         number = float(value)
     else:
         raise ValueError(f"got {value!r}; allowed: {allowed}")
-    if not (0.0 < number <= 1.0):
+    if not (0.0 < number <= 1.0):  # NaN fails here too
         raise ValueError(f"got {value!r}; allowed: {allowed}")
     return number
 
@@ -67,18 +68,17 @@ def parse_bool(value: Any) -> bool:
     raise ValueError(f"got {value!r}; allowed: true or false")
 
 
-def _number(
-    minimum: float, inclusive: bool = True, maximum: float | None = None
-) -> Callable[[Any], float]:
+def _number(minimum: float, inclusive: bool = True, maximum: float = 1e9) -> Callable[[Any], float]:
+    """A finite number in [minimum, maximum] (or (minimum, maximum]): ``.inf`` and ``.nan`` are
+    refused before any work (an infinite radius only fails when the manifest is written)."""
     low = ">=" if inclusive else ">"
-    text = f"a number {low} {minimum:g}" + (f" and <= {maximum:g}" if maximum is not None else "")
+    text = f"a finite number {low} {minimum:g} and <= {maximum:g}"
 
     def parse(value: Any) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise ValueError(f"got {value!r}; allowed: {text}")
-        ok = value >= minimum if inclusive else value > minimum
-        if maximum is not None:
-            ok = ok and value <= maximum
+        ok = math.isfinite(value) and (value >= minimum if inclusive else value > minimum)
+        ok = ok and value <= maximum
         if not ok:
             raise ValueError(f"got {value!r}; allowed: {text}")
         return float(value)
@@ -108,10 +108,17 @@ def _choice(*choices: str) -> Callable[[Any], str]:
     return parse
 
 
-def _optional_string(value: Any) -> str | None:
-    if value is None or isinstance(value, str):
-        return value
-    raise ValueError(f"got {value!r}; allowed: a string or null")
+def parse_crs_option(value: Any) -> str | None:
+    """A coordinate reference system PROJ knows (``EPSG:7415``, an OGC URL or URN) or null;
+    checked here so that a typo is named as the option's, not blamed on an input file."""
+    if value is None:
+        return None
+    if not isinstance(value, str) or not value.strip():
+        raise ValueError(f"got {value!r}; allowed: a CRS such as EPSG:7415, or null")
+    from .geodesy import check_crs  # pyproj: imported only when a CRS is given
+
+    check_crs(value)
+    return value
 
 
 # --------------------------------------------------------------------------- sections
@@ -196,7 +203,7 @@ class SimplifyOptions:
     vertex_link_distance: float = field(
         default=0.0,
         metadata=meta(
-            _number(0.0),
+            _number(0.0, maximum=1000.0),
             "metres: weld vertices closer than this before simplifying (0 = only float noise, closer than 1 micrometre)",
         ),
     )
@@ -206,14 +213,14 @@ class SimplifyOptions:
     max_screen_error_px: float = field(
         default=2.0,
         metadata=meta(
-            _number(0.0),
+            _number(0.0, maximum=1e6),
             "largest allowed deviation of a level from LOD0 in pixels, when the level is shown at the largest size the LODGroup shows it (lods[k-1].transition x reference_screen_height_px for level k); converted per building to metres with LODGroup.size = the largest side of the bounds (certified by the error guard; 0 = no limit: every level goes to its mesh cap)",
         ),
     )
     reference_screen_height_px: int = field(
         default=1080,
         metadata=meta(
-            _integer(1),
+            _integer(1, 1_000_000),
             "screen height in pixels that max_screen_error_px refers to (1080 = Full HD)",
         ),
     )
@@ -254,7 +261,7 @@ class GlobeOptions:
     unity_radius: float = field(
         default=6378137.0,
         metadata=meta(
-            _number(0.0, inclusive=False),
+            _number(0.0, inclusive=False, maximum=1e12),
             "UR: the Earth's radius in Unity units (6378137 = 1 unit per metre)",
         ),
     )
@@ -322,7 +329,8 @@ class TextureOptions:
     max_pixels: int = field(
         default=16384 * 16384,
         metadata=meta(
-            _integer(1), "refuse a source atlas with more pixels than this (bounded memory)"
+            _integer(1, 1 << 40),
+            "refuse a source atlas with more pixels than this, from its header before decoding (bounded memory; Pillow's own smaller limit is not applied)",
         ),
     )
 
@@ -340,9 +348,62 @@ class ReaderOptions:
     crs: str | None = field(
         default=None,
         metadata=meta(
-            _optional_string,
-            "CRS of input files that do not declare one, e.g. EPSG:7415 (never guessed)",
+            parse_crs_option,
+            "CRS of input files that do not declare one, e.g. EPSG:7415 (never guessed; files declaring one keep theirs, and a run where none lacks one is refused)",
         ),
+    )
+    override_crs: str | None = field(
+        default=None,
+        metadata=meta(
+            parse_crs_option,
+            "CRS that replaces what every input file declares (for files declaring a wrong one; each building notes it in its problems)",
+        ),
+    )
+    max_vertex_distance_m: float = field(
+        default=2000.0,
+        metadata=meta(
+            _number(0.0, inclusive=False),
+            "metres: a building with a vertex farther than this from the median of its vertices is refused and listed in skipped (a stray vertex would move and stretch it); a vertex that is not a finite number refuses its building only",
+        ),
+    )
+    citygml_lod: int = field(
+        default=2,
+        metadata=meta(
+            _integer(0, 4),
+            "CityGML: read the highest LoD at or below this one (0-4) a building has, else its lowest",
+        ),
+    )
+
+
+@dataclass
+class TilesetOptions:
+    """OUT/tileset.json (3D Tiles 1.1) and its HLOD proxies (exporter/tileset/)."""
+
+    enabled: bool = field(
+        default=True,
+        metadata=meta(parse_bool, "write OUT/tileset.json after the manifests and tiles.json"),
+    )
+    proxies: bool = field(
+        default=True,
+        metadata=meta(parse_bool, "merged, simplified proxies for the tiles above the buildings"),
+    )
+    proxy_max_triangles: int = field(
+        default=300_000,
+        metadata=meta(
+            _integer(1),
+            "a tile gets no proxy (nor do its ancestors) when its proxy would be larger",
+        ),
+    )
+    proxy_error_ratio: float = field(
+        default=0.01,
+        metadata=meta(
+            _number(0.0, maximum=1.0),
+            "above the building tiles, each building's piece of a proxy is simplified (meshoptimizer, certified) towards this x the tile's north-south size in metres (0 = merge only)",
+        ),
+    )
+    proxy_atlas_size: int = field(
+        default=2048,
+        metadata=meta(_integer(16, 16384), "pixels per side of a proxy's one texture atlas"),
     )
 
 
@@ -364,6 +425,7 @@ class Config:
     unity: UnityOptions = field(default_factory=UnityOptions)
     textures: TextureOptions = field(default_factory=TextureOptions)
     readers: ReaderOptions = field(default_factory=ReaderOptions)
+    tileset: TilesetOptions = field(default_factory=TilesetOptions)
 
     def terrain_levels(self) -> list[int]:
         """Terrain tile level hint per LoD (the paper pairs building LoDs with terrain 15/14/13)."""
@@ -386,6 +448,7 @@ SECTIONS = {
     "unity": UnityOptions,
     "textures": TextureOptions,
     "readers": ReaderOptions,
+    "tileset": TilesetOptions,
 }
 
 
@@ -509,12 +572,42 @@ def load_config(path: str | Path | None) -> Config:
         raise ConfigError(str(path), "<file>", "not UTF-8 text (expected YAML)") from None
 
     try:
+        duplicate = duplicate_key(yaml.compose(text, Loader=yaml.SafeLoader))
         raw = yaml.safe_load(text)
     except yaml.YAMLError as error:
         raise ConfigError(
             str(path), "<yaml>", f"not valid YAML ({str(error).splitlines()[0]})"
         ) from None
+    if duplicate is not None:
+        key, lines = duplicate
+        raise ConfigError(
+            str(path),
+            key,
+            f"given more than once (lines {', '.join(map(str, lines))}); allowed: each key once",
+        )
     return config_from_dict(raw, str(path))
+
+
+def duplicate_key(node: yaml.Node | None, where: str = "") -> tuple[str, list[int]] | None:
+    """The first key given twice in one mapping of a composed YAML document, as (dotted key,
+    1-based line numbers), or None. PyYAML itself keeps the last value silently."""
+    if isinstance(node, yaml.MappingNode):
+        lines: dict[str, list[int]] = {}
+        for key, _ in node.value:
+            lines.setdefault(str(key.value), []).append(key.start_mark.line + 1)
+        for name, found in lines.items():
+            if len(found) > 1:
+                return (f"{where}.{name}" if where else name), found
+        children = [(f"{where}.{k.value}" if where else str(k.value), v) for k, v in node.value]
+    elif isinstance(node, yaml.SequenceNode):
+        children = [(f"{where}[{i}]", v) for i, v in enumerate(node.value)]
+    else:
+        return None
+    for child_where, child in children:
+        found_child = duplicate_key(child, child_where)
+        if found_child is not None:
+            return found_child
+    return None
 
 
 # --------------------------------------------------------------------------- writing

@@ -2,6 +2,22 @@
 
 from __future__ import annotations
 
+import re
+
+# ``<_io.BytesIO object at 0x7f...>``: an address differs from run to run (and says nothing to a
+# user); problem texts go into manifests, which must be the same for the same input.
+_ADDRESS = re.compile(r"<([\w.]+) object at 0x[0-9a-fA-F]+>")
+
+
+def stable_text(text: str) -> str:
+    """``text`` without object addresses (``<_io.BytesIO object at 0x…>`` -> ``<_io.BytesIO>``)."""
+    return _ADDRESS.sub(r"<\1>", text)
+
+
+def error_text(error: BaseException) -> str:
+    """``"Type: message"`` of an unexpected error, run-independent (:func:`stable_text`)."""
+    return stable_text(f"{type(error).__name__}: {error}")
+
 
 class VWorldLodError(Exception):
     """Base class: anything the CLI reports as a one-line reason and a non-zero exit."""

@@ -88,18 +88,25 @@ def _to_lonlat_transformer(text: str) -> Transformer:
     return Transformer.from_crs(crs, "EPSG:4326", always_xy=True)
 
 
-def to_lonlath(xyz: np.ndarray, crs_text: str) -> np.ndarray:
+def check_crs(text: str) -> None:
+    """Raise ValueError (with the reason) unless ``text`` names a CRS the readers can convert to
+    lon/lat (known to PROJ, projected or geographic)."""
+    _to_lonlat_transformer(text)
+
+
+def to_lonlath(xyz: np.ndarray, crs_text: str, strict: bool = True) -> np.ndarray:
     """Source coordinates (n, 3) (easting, northing metres, height metres) -> lonlath (n, 3).
 
-    Heights are returned unchanged (see module doc). Raises ValueError for an unknown CRS or
-    coordinates PROJ cannot transform (infinite results).
+    Heights are returned unchanged (see module doc). Raises ValueError for an unknown CRS or,
+    when ``strict``, coordinates PROJ cannot transform (infinite results); otherwise those rows
+    stay non-finite for the caller to refuse per building.
     """
     xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
     lon, lat = _to_lonlat_transformer(crs_text).transform(xyz[:, 0], xyz[:, 1])
     out = np.column_stack(
         [np.asarray(lon, dtype=np.float64), np.asarray(lat, dtype=np.float64), xyz[:, 2]]
     )
-    if not np.all(np.isfinite(out)):
+    if strict and not np.all(np.isfinite(out)):
         raise ValueError(
             f"coordinates outside the area {crs_text!r} can transform (PROJ returned inf)"
         )

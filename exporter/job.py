@@ -11,23 +11,25 @@ the reason.
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
+import shutil
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from .atomic import write_bytes_atomic, write_text_atomic
+from .atomic import write_bytes_atomic
 from .config import Config
-from .errors import ProcessError, ReadError
+from .errors import ProcessError, ReadError, error_text
 from .gltf_writer import glb_bytes
-from .manifest import safe_folder_name
 from .model import Building, Part, Skipped, Texture, TileId
+from .names import name_error, safe_folder_name
 from .placement import building_placement, relative_placement
+from .plausible import vertex_problem
 from .quality import LevelQuality, boundary_quality, exact_quality, measure_lod
 from .readers import Entry, load_entry
+from .records import file_entry, write_record
 from .simplify import build_mesh_chain, degenerate_only
 from .textures import build_texture_lods
 from .tiles import building_tile as tile_of_bounds
@@ -161,7 +163,14 @@ def process_entry(
             seconds=seconds,
         )
     lap("read")
+    building_dir = None
     try:
+        implausible = vertex_problem(
+            np.concatenate([part.positions for part in building.parts] or [np.zeros((0, 3))]),
+            config.readers.max_vertex_distance_m,
+        )
+        if implausible:
+            raise ProcessError(implausible)
         tile, centre_tile, tile_message = building_tile(building)
         problems = list(building.problems)
         if tile_message:
@@ -193,11 +202,12 @@ def process_entry(
         # The entry's id, not the reader's: the run made entry ids unique across folders and files.
         folder = safe_folder_name(entry.id)
         building_dir = Path(out_dir) / tile.name / folder
-        lods = []
+        lods, files = [], []
         for level, parts in enumerate(parts_by_level):
             data = glb_bytes(parts, f"{entry.id}_LOD{level}")
             file_name = f"{folder}/lod{level}.glb"
             write_bytes_atomic(building_dir / f"lod{level}.glb", data)
+            files.append(file_entry(f"lod{level}.glb", data))
             lods.append(lod_record(level, parts, file_name, data, qualities[level]))
             if level:
                 lods[-1].update(level_fields(chain[level], lods[-2]))
@@ -222,27 +232,39 @@ def process_entry(
             "lods": lods,
             "problems": problems,
         }
+        if building.attributes:
+            record["attributes"] = building.attributes
         if centre_tile is not None:
             record["tile_from_center"] = {
                 "level": centre_tile.level,
                 "idx": centre_tile.idx,
                 "idy": centre_tile.idy,
             }
-        write_text_atomic(
+        write_record(
             building_dir / RECORD_NAME,
-            json.dumps(
-                {"tile": dataclasses.asdict(tile), "record": record, "inputs": list(fingerprints)},
-                allow_nan=False,
-            ),
+            {"tile": dataclasses.asdict(tile), "record": record, "files": files},
+            list(fingerprints),
         )
         lap("write")
         return EntryResult(tile=tile, record=record, seconds=seconds)
-    except OSError:  # the output cannot be written (disk full, read-only, denied): stop the run
-        raise
-    except Exception as error:  # one broken building never stops the tile
-        reason = (
-            error.problem if isinstance(error, ReadError) else f"{type(error).__name__}: {error}"
+    except OSError as error:
+        if not name_error(error):  # the output cannot be written (disk full, read-only, denied)
+            raise  # stop the run
+        # One building's file name the file system refuses: costs this building only.
+        if building_dir is not None:
+            shutil.rmtree(building_dir, ignore_errors=True)
+        return EntryResult(
+            tile=entry.tile,
+            skipped=Skipped(
+                entry.source,
+                f"cannot be written: {Path(error.filename or '?').name}: {error.strerror}",
+                entry.id,
+                entry.tile,
+            ),
+            seconds=seconds,
         )
+    except Exception as error:  # one broken building never stops the tile
+        reason = error.problem if isinstance(error, ReadError) else error_text(error)
         return EntryResult(
             tile=entry.tile,
             skipped=Skipped(entry.source, f"processing failed: {reason}", entry.id, entry.tile),

@@ -10,10 +10,8 @@ Frames: ``tile.placement`` and ``buildings[].placement`` are in the paper's Unit
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
-import re
 from collections.abc import Iterable
 from importlib import resources
 from typing import Any
@@ -21,24 +19,13 @@ from typing import Any
 from . import __version__
 from .config import Config
 from .model import Skipped, TileId
+from .names import printable, safe_folder_name, slug
+
+__all__ = ["safe_folder_name", "slug"]  # kept importable from here (report, older callers)
 
 FORMAT = "vworld-lod-manifest"
 VERSION = "1.0"
 MANIFEST_NAME = "lod_manifest.json"
-
-
-def slug(text: str) -> str:
-    """``text`` with every run of characters other than ASCII letters, digits, ``.``, ``_``, ``-``
-    replaced by ``_`` (never empty)."""
-    return re.sub(r"[^0-9A-Za-z._-]+", "_", text).strip("._") or "building"
-
-
-def safe_folder_name(building_id: str) -> str:
-    """A file-system-safe, still readable folder name for a building id (stable across runs)."""
-    name = slug(building_id)
-    if name != building_id:  # keep distinct ids distinct after replacement
-        name = f"{name[:80]}_{hashlib.sha1(building_id.encode('utf-8')).hexdigest()[:8]}"
-    return name
 
 
 def load_schema(name: str = "lod_manifest.schema.json") -> dict:
@@ -179,4 +166,9 @@ def dumps(manifest: dict) -> str:
             lines.append(f"{compact(key)}: [\n  {items}\n ]")
         else:
             lines.append(f"{compact(key)}: {compact(value)}")
-    return "{\n " + ",\n ".join(lines) + "\n}\n"
+    text = "{\n " + ",\n ".join(lines) + "\n}\n"
+    try:  # source paths from file names that are not UTF-8: written \xNN (names.printable)
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        return dumps(printable(manifest))
+    return text

@@ -26,6 +26,7 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from . import __version__
 from .atomic import remove_stale_temporaries, write_text_atomic
@@ -35,10 +36,16 @@ from .errors import InputError
 from .job import RECORD_NAME, STAGES, EntryResult, process_entry
 from .manifest import MANIFEST_NAME, build_manifest, dumps
 from .model import Skipped, TileId
+from .names import unique_ids
 from .placement import tile_placement
-from .readers import Entry, scan_folder
+from .readers import Entry, check_crs_option, scan_folder
+from .records import files_intact, stamped, write_record
 from .tile_index import write_tile_index
 from .tiles import tile_bounds, tile_center
+from .workers import start_worker
+
+if TYPE_CHECKING:
+    from .tileset import TilesetResult
 
 # --------------------------------------------------------------------------- small pure helpers
 
@@ -46,6 +53,7 @@ from .tiles import tile_bounds, tile_center
 def config_fingerprint(config: Config) -> str:
     """Hash of everything in the config that changes a building's output."""
     data = config.to_dict()
+    data.pop("tileset")  # the tileset is made after the buildings, from their files
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode("utf-8")).hexdigest()
 
 
@@ -65,17 +73,13 @@ def _sha256_file(name: str) -> str | None:
     return digest.hexdigest()
 
 
-def input_fingerprints(
-    names: list[str], known: dict[str, dict], hashed: dict[str, dict] | None = None
-) -> list[dict]:
+def input_fingerprints(names: list[str], known: dict[str, dict]) -> list[dict]:
     """``[{"path", "size", "mtime_ns", "sha256", "hashed_ns"}]`` of every input file.
 
     A file whose size and mtime equal what ``known`` (a previous run's fingerprints by path)
     recorded, and that was not modified within ``RACY_NS`` of being hashed then, keeps its recorded
     sha256 without being read again (as make, rsync and git trust stat data); any other file is
-    hashed. A missing file has ``sha256`` None. ``hashed`` (by path) holds the files this run has
-    hashed already, reused while their stat is unchanged: a file shared by many buildings (a
-    VWorld ``.dat``) is read once per run, not once per building."""
+    hashed. A missing file has ``sha256`` None."""
     out: list[dict] = []
     for name in names:
         try:
@@ -93,26 +97,35 @@ def input_fingerprints(
         ):
             out.append(previous)
             continue
-        earlier = hashed.get(name) if hashed is not None else None
-        if (
-            earlier is not None
-            and earlier["size"] == stat.st_size
-            and earlier["mtime_ns"] == stat.st_mtime_ns
-        ):
-            out.append(earlier)
-            continue
-        hashed_ns = time.time_ns()
-        fingerprint = {
-            "path": name,
-            "size": stat.st_size,
-            "mtime_ns": stat.st_mtime_ns,
-            "sha256": _sha256_file(name),
-            "hashed_ns": hashed_ns,
-        }
-        if hashed is not None and fingerprint["sha256"] is not None:
-            hashed[name] = fingerprint
-        out.append(fingerprint)
+        sha256, hashed_ns = _sha256_once(name, stat.st_size, stat.st_mtime_ns)
+        out.append(
+            {
+                "path": name,
+                "size": stat.st_size,
+                "mtime_ns": stat.st_mtime_ns,
+                "sha256": sha256,
+                "hashed_ns": hashed_ns,
+            }
+        )
     return out
+
+
+_hashed: dict[tuple, tuple] = {}  # (path, size, mtime_ns) -> (sha256, hashed_ns), this process
+
+
+def _sha256_once(name: str, size: int, mtime_ns: int) -> tuple[str | None, int]:
+    """(sha256, when hashed) of a file whose stat is (size, mtime_ns). A file many buildings share
+    (CityGML, CityJSON) is hashed once, not once per building, under the same trust rule as a
+    previous run's record (not modified within RACY_NS of that hashing)."""
+    key = (name, size, mtime_ns)
+    known = _hashed.get(key)
+    if known is not None and mtime_ns < known[1] - RACY_NS:
+        return known
+    hashed_ns = time.time_ns()
+    if len(_hashed) >= 64:
+        _hashed.clear()
+    _hashed[key] = (_sha256_file(name), hashed_ns)
+    return _hashed[key]
 
 
 def input_hash(entry: Entry, config_hash: str, fingerprints: list[dict]) -> str:
@@ -131,27 +144,34 @@ def input_hash(entry: Entry, config_hash: str, fingerprints: list[dict]) -> str:
 
 
 def reusable_record(previous: dict | None, digest: str, out_dir: Path) -> dict | None:
-    """A previous run's record when its input hash matches and all its files are still there."""
+    """A previous run's record when its input hash matches and all its files are still there,
+    intact (size and CRC-32, ``exporter.records``)."""
     if previous is None or previous["record"].get("input_hash") != digest:
         return None
     tile_dir = out_dir / previous["tile"].name
-    if all((tile_dir / lod["file"]).is_file() for lod in previous["record"]["lods"]):
-        return previous
-    return None
+    files = previous["files"] or [  # a record of 0.3.4 or older: sizes only
+        {"file": Path(lod["file"]).name, "bytes": lod.get("file_bytes")}
+        for lod in previous["record"]["lods"]
+    ]
+    return previous if files_intact(tile_dir / previous["record"]["folder"], files) else None
 
 
 # --------------------------------------------------------------------------- previous runs
 
 
 def read_record(path: Path) -> dict | None:
-    """A building's record file: ``{"tile", "record", "inputs"}`` (inputs: the input fingerprints
-    of the run that wrote it), or None when it cannot be read (such leftovers are simply redone)."""
+    """A building's record file: ``{"tile", "record", "inputs", "files"}`` (inputs: the input
+    fingerprints of the run that wrote it; files: its written files, ``exporter.records``), or None
+    when it cannot be read (such leftovers are simply redone)."""
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
-        inputs = [
-            item for item in data.get("inputs", []) if isinstance(item, dict) and "path" in item
-        ]
-        return {"tile": TileId(**data["tile"]), "record": data["record"], "inputs": inputs}
+        files = [item for item in data.get("files", []) if isinstance(item, dict)]
+        return {
+            "tile": TileId(**data["tile"]),
+            "record": data["record"],
+            "inputs": stamped(data.get("inputs", []), path),
+            "files": files,
+        }
     except (OSError, ValueError, KeyError, TypeError):
         return None
 
@@ -174,9 +194,9 @@ def _refresh_fingerprints(out_dir: Path, previous: dict, fingerprints: list[dict
     data = {
         "tile": dataclasses.asdict(previous["tile"]),
         "record": previous["record"],
-        "inputs": fingerprints,
+        "files": previous["files"],
     }
-    write_text_atomic(path, json.dumps(data, allow_nan=False))
+    write_record(path, data, fingerprints)
 
 
 # --------------------------------------------------------------------------- the run
@@ -201,6 +221,7 @@ class RunStats:
     seconds: dict = field(default_factory=lambda: {stage: 0.0 for stage in STAGES})
     wall_seconds: float = 0.0
     tiles: list[TileResult] = field(default_factory=list)
+    tileset: TilesetResult | None = None  # OUT/tileset.json (exporter.tileset), when enabled
 
 
 Progress = Callable[[int, int], None]
@@ -229,7 +250,10 @@ def _results(
         for item in work:
             yield item if isinstance(item, EntryResult) else process_entry(*item)
         return
-    with ProcessPoolExecutor(max_workers=jobs) as pool:
+    # Workers end with this process even when it is killed outright (exporter.workers).
+    with ProcessPoolExecutor(
+        max_workers=jobs, initializer=start_worker, initargs=(os.getpid(),)
+    ) as pool:
         pending = set()
         batch: list[tuple] = []
         size = taken = 0
@@ -305,6 +329,7 @@ def export_tiles(
     started = time.perf_counter()
     out_dir = Path(out)
     scans = [scan_folder(folder, config.readers) for folder in folders]  # all folders checked first
+    check_crs_option(scans, config.readers)
     out_dir.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(out_dir)
     previous = {} if force else previous_records(out_dir)
@@ -312,23 +337,19 @@ def export_tiles(
     jobs = max(1, jobs or os.cpu_count() or 1)
 
     entries = [entry for scan in scans for entry in scan.entries]
-    seen_ids: dict[str, int] = {}
-    for entry in entries:  # ids must be unique in a run: they name the output folders
-        count = seen_ids.get(entry.id, 0)
-        seen_ids[entry.id] = count + 1
-        if count:
-            entry.id = f"{entry.id}~{count}"
+    # Ids must be unique in a run (also their folders, ignoring case): they name the output folders.
+    for entry, unique in zip(entries, unique_ids(entry.id for entry in entries)):
+        entry.id = unique
 
     # Unchanged buildings are recognised here, in the main process, entry by entry as the pool
     # takes work: hashing is cheap I/O (and skipped for files whose stat is unchanged), and a
     # re-run that changes nothing starts no worker at all.
     def work() -> Iterable[tuple | EntryResult]:
-        hashed: dict[str, dict] = {}
         for entry in entries:
             before_path = previous.get((entry.source, entry.id))
             before = read_record(before_path) if before_path is not None else None
             fingerprints = input_fingerprints(
-                entry.inputs, {f["path"]: f for f in before["inputs"]} if before else {}, hashed
+                entry.inputs, {f["path"]: f for f in before["inputs"]} if before else {}
             )
             digest = input_hash(entry, config_hash, fingerprints)
             previous_run = reusable_record(before, digest, out_dir)
@@ -397,6 +418,10 @@ def export_tiles(
             )
         )
     write_tile_index(out_dir, stats.tiles, config.globe)  # after the manifests: only complete tiles
+    if config.tileset.enabled:  # last: it references only files that are complete
+        from .tileset import write_tileset
+
+        stats.tileset = write_tileset(out_dir, config.tileset, config.textures.jpeg_quality)
     stats.wall_seconds = time.perf_counter() - started
     return stats
 

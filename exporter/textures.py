@@ -55,7 +55,8 @@ import math
 import threading
 import warnings
 from collections import OrderedDict
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 
 import numpy as np
 from PIL import Image, ImageChops, ImageStat, UnidentifiedImageError
@@ -165,30 +166,35 @@ def _problem_of_bytes(data: bytes) -> str:
     return f"not a readable image ({len(data)} bytes starting {data[:8].hex()})"
 
 
-def open_header(data: bytes, where: str, max_pixels: int) -> Image.Image:
-    """Open encoded ``data`` lazily (header only) and refuse it if its declared size exceeds
-    ``max_pixels``; raises ReadError naming ``where``. No pixel is decoded here."""
-    if not data:
-        raise ReadError(where, "texture is missing or empty (0 bytes)")
-    # Pillow's own bomb guard uses a process-wide limit; make it agree with ours for this open
-    # (the lock keeps concurrent opens from seeing each other's value) and report its refusal
-    # in our words. Its warning duplicates the check just below.
+@contextmanager
+def pillow_pixel_limit(max_pixels: int | None) -> Iterator[None]:
+    """Pillow's own decompression-bomb guard set to ``max_pixels`` (None: off) while the block
+    opens images: its default (refusing above about 179 MP) would otherwise refuse atlases that
+    ``textures.max_pixels`` (268 MP) accepts, in its own words. The limit is process-wide, so the
+    lock keeps concurrent opens from seeing each other's value."""
     with _pillow_limit_lock:
         saved = Image.MAX_IMAGE_PIXELS
         Image.MAX_IMAGE_PIXELS = max_pixels
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", Image.DecompressionBombWarning)
-                image = Image.open(io.BytesIO(data), formats=ALLOWED_FORMATS)
-        except Image.DecompressionBombError:
-            raise ReadError(
-                where,
-                f"image declares more than 2 x {max_pixels} pixels (textures.max_pixels); refused before decoding",
-            ) from None
-        except (UnidentifiedImageError, OSError, ValueError, SyntaxError):
-            raise ReadError(where, _problem_of_bytes(data)) from None
+                yield
         finally:
             Image.MAX_IMAGE_PIXELS = saved
+
+
+def open_header(data: bytes, where: str, max_pixels: int) -> Image.Image:
+    """Open encoded ``data`` lazily (header only) and refuse it if its declared size exceeds
+    ``max_pixels``; raises ReadError naming ``where``. No pixel is decoded here."""
+    if not data:
+        raise ReadError(where, "texture is missing or empty (0 bytes)")
+    # Pillow's own guard off for this header-only open: the check below, on the header's size,
+    # is the one users read about (it names the size and textures.max_pixels).
+    with pillow_pixel_limit(None):
+        try:
+            image = Image.open(io.BytesIO(data), formats=ALLOWED_FORMATS)
+        except (UnidentifiedImageError, OSError, ValueError, SyntaxError):
+            raise ReadError(where, _problem_of_bytes(data)) from None
     width, height = image.size
     if width <= 0 or height <= 0:
         raise ReadError(where, f"image declares an empty size {width}x{height}")

@@ -33,6 +33,8 @@ LAYERS: list[tuple[str, int, tuple[str, ...]]] = [
             "exporter.atomic",
             "exporter.geodesy",
             "exporter.tiles",
+            "exporter.names",
+            "exporter.plausible",
         ),
     ),
     (
@@ -48,11 +50,22 @@ LAYERS: list[tuple[str, int, tuple[str, ...]]] = [
             "exporter.gltf_writer",
             "exporter.manifest",
             "exporter.tile_index",
+            "exporter.tileset",
             "exporter.report",
             "exporter.samplegen",
         ),
     ),
-    ("run", 2, ("exporter.job", "exporter.distributed", "exporter.pipeline")),
+    (
+        "run",
+        2,
+        (
+            "exporter.job",
+            "exporter.distributed",
+            "exporter.pipeline",
+            "exporter.records",
+            "exporter.workers",
+        ),
+    ),
     ("cli", 3, ("exporter.cli", "exporter.__main__")),
 ]
 

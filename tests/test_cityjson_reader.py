@@ -17,7 +17,14 @@ from pyproj import Transformer
 from exporter import geodesy
 from exporter.config import ReaderOptions
 from exporter.errors import InputError, ReadError
-from exporter.readers import Entry, cityjson, detect_format, load_entry, scan_folder
+from exporter.readers import (
+    Entry,
+    check_crs_option,
+    cityjson,
+    detect_format,
+    load_entry,
+    scan_folder,
+)
 
 REAL = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "real"
 ZURICH = REAL / "zurich_lod2.city.json"
@@ -606,8 +613,27 @@ def test_degenerate_polygon_left_out_and_declared_crs_override_noted(tmp_path):
     assert not scan.notes
     scan = scan_folder(tmp_path, ReaderOptions(crs="EPSG:2056"))
     assert not scan.notes  # same CRS written another way
-    scan = scan_folder(tmp_path, ReaderOptions(crs="EPSG:21781"))  # LV03: overriding is noted
+    # --crs is for files that declare none: the declared one is kept (noted), and a run where no
+    # file lacks a CRS refuses the contradiction (issue 26) ...
+    options = ReaderOptions(crs="EPSG:21781")
+    scan = scan_folder(tmp_path, options)
+    assert any("read in it" in note for note in scan.notes)
+    assert load_entry(scan.entries[0], options).reference == building.reference
+    with pytest.raises(InputError, match="declares .*2056, not EPSG:21781.*--override-crs"):
+        check_crs_option([scan], options)
+    # ... unless a file of the run lacks one: the option is for that file.
+    write(
+        tmp_path,
+        "nocrs.city.json",
+        city({"C": {"type": "Building", "geometry": [unit_box()]}}, BOX_VERTICES, crs=None),
+    )
+    check_crs_option([scan_folder(tmp_path, options)], options)
+    # ... and replacing the declared one takes override_crs, noted in the scan and per building.
+    options = ReaderOptions(override_crs="EPSG:21781")  # LV03
+    scan = scan_folder(tmp_path, options)
     assert any("declares" in note and "EPSG:21781" in note for note in scan.notes)
+    building = load_entry(scan.entries[0], options)
+    assert any("in place of the declared" in p for p in building.problems)
 
 
 @pytest.mark.parametrize("sign", [1.0, -1.0])

@@ -93,3 +93,29 @@ def test_unreadable_and_invalid_yaml_files(tmp_path):
     broken.write_text("lods: [\n")
     with pytest.raises(ConfigError, match="not valid YAML"):
         load_config(broken)
+
+
+@pytest.mark.parametrize(
+    "key", ["globe.earth_radius", "globe.unity_radius", "simplify.vertex_link_distance",
+            "simplify.max_screen_error_px", "readers.max_vertex_distance_m"],
+)  # fmt: skip
+@pytest.mark.parametrize("value", [".inf", "-.inf", ".nan", "1e300"])
+def test_numbers_must_be_finite_and_in_range(tmp_path, key, value):
+    section, name = key.split(".")
+    path = tmp_path / "lod.yaml"
+    path.write_text(f"{section}:\n  {name}: {value}\n")
+    with pytest.raises(ConfigError) as error:
+        load_config(path)
+    assert error.value.key == key and "finite" in error.value.problem
+
+
+def test_duplicate_keys_are_refused_with_their_lines(tmp_path):
+    path = tmp_path / "lod.yaml"
+    path.write_text("lods:\n  - {transition: 50%, mesh: 1, mesh: 0.5}\nglobe: {}\nglobe: {}\n")
+    with pytest.raises(ConfigError) as error:
+        load_config(path)
+    assert error.value.key == "globe" and "lines 3, 4" in error.value.problem
+    path.write_text("lods:\n  - {transition: 50%, mesh: 1, mesh: 0.5}\n")
+    with pytest.raises(ConfigError) as error:
+        load_config(path)
+    assert error.value.key == "lods[0].mesh" and "lines 2, 2" in error.value.problem

@@ -455,24 +455,6 @@ def test_levels_report_their_error_budget_and_whether_they_shrank(tmp_path, smal
     )
 
 
-def test_a_file_shared_by_many_buildings_is_hashed_once_per_run(tmp_path, small_tile, monkeypatch):
-    import exporter.pipeline as pipeline
-    from exporter.config import Config
-
-    hashed: list[str] = []
-    real_sha = pipeline._sha256_file
-    monkeypatch.setattr(
-        pipeline, "_sha256_file", lambda name: hashed.append(name) or real_sha(name)
-    )
-    pipeline.export_tiles([small_tile], tmp_path / "out", Config(), jobs=1)
-    (dat,) = small_tile.glob("*.dat")
-    assert hashed.count(str(dat)) == 1 and len(hashed) == len(set(hashed))
-    records = [json.loads(p.read_text()) for p in (tmp_path / "out").glob("*/*/building.json")]
-    assert len(records) == 6
-    assert all(r["inputs"][0]["path"] == str(dat) for r in records)
-    assert len({r["inputs"][0]["sha256"] for r in records}) == 1
-
-
 def test_the_local_pool_takes_buildings_in_batches(monkeypatch):
     import exporter.pipeline as pipeline
     from exporter.job import EntryResult

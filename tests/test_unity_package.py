@@ -369,7 +369,7 @@ def placement_cases(path: Path) -> Path:
 
 def name_cases(path: Path) -> Path:
     """Building ids and the exporter's safe folder names for them (prefab names must match)."""
-    from exporter.manifest import safe_folder_name
+    from exporter.names import safe_folder_name
 
     ids = [
         "B1",
@@ -384,6 +384,11 @@ def name_cases(path: Path) -> Path:
         "a..b",
         "-",
         "\u5efa\u7269 3",
+        "y" * 400,  # safe but over-long: bounded
+        "CON",  # reserved on Windows
+        "nul.txt",
+        "report",  # the report's folder in every tile
+        "Lod_Manifest.JSON",
     ]
     path.write_text(
         json.dumps({"names": [{"id": i, "safe": safe_folder_name(i)} for i in ids]}),

@@ -11,11 +11,12 @@ Two steps, so the pipeline can plan, skip unchanged work and load in parallel:
    :class:`~exporter.errors.ReadError` (naming the file and the problem), so one broken building
    never stops a tile.
 
-Each format module (``vworld``, ``cityjson``, ``folder``) provides ``detect(folder) -> bool``,
-``scan(path, options) -> Scan`` (``path`` a folder, or one file of the format: a VWorld ``.dat``,
-a CityJSON file, an OBJ/glTF index file) and ``load(entry, options) -> Building``. Entries are
-plain picklable data (they cross process boundaries). ``input_paths(paths)`` turns a command
-line's inputs (shell globs expanded: folders and files mixed) into the list to scan.
+Each format module (``vworld``, ``cityjson``, ``citygml``, ``folder``) provides
+``detect(folder) -> bool``, ``scan(path, options) -> Scan`` (``path`` a folder, or one file of the
+format: a VWorld ``.dat``, a CityJSON or CityGML file, an OBJ/glTF index file) and
+``load(entry, options) -> Building``. Entries are plain picklable data (they cross process
+boundaries). ``input_paths(paths)`` turns a command line's inputs (shell globs expanded: folders
+and files mixed) into the list to scan.
 """
 
 from __future__ import annotations
@@ -26,12 +27,12 @@ from pathlib import Path
 from typing import Any
 
 from ..config import ReaderOptions
-from ..errors import InputError, ReadError
+from ..errors import InputError, ReadError, error_text
 from ..model import Building, Skipped, TileId
 
 # Format modules in detection order; each is imported lazily so a broken optional dependency of
 # one reader does not stop the others.
-FORMATS = ("vworld", "cityjson", "folder")
+FORMATS = ("vworld", "cityjson", "citygml", "folder")
 
 
 @dataclass
@@ -57,6 +58,10 @@ class Scan:
     entries: list[Entry] = field(default_factory=list)
     skipped: list[Skipped] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    # ReaderOptions.crs: whether a file declaring no CRS was read in it, and the files declaring
+    # another one (read in theirs; see check_crs_option).
+    crs_option_used: bool = False
+    crs_conflicts: list[str] = field(default_factory=list)
 
 
 def _module(name: str):
@@ -65,8 +70,8 @@ def _module(name: str):
 
 EXPECTED = (
     "expected a VWorld .dat index with .xdo files, CityJSON *.city.json / *.json / *.city.jsonl "
-    "files, or OBJ/glTF/GLB files with an index file buildings.csv/.yaml/.json; see README "
-    "'Input'"
+    "files, CityGML *.gml / *.gml.gz / *.xml files, or OBJ/glTF/GLB files with an index file "
+    "buildings.csv/.yaml/.json; see README 'Input'"
 )
 # Files a folder's index refers to: given on their own (e.g. by a shell glob over a tile folder)
 # they are read through their index, never alone.
@@ -103,6 +108,8 @@ def file_format(path: Path) -> str:
         return "vworld"
     if _module("cityjson").is_cityjson_file(path):
         return "cityjson"
+    if _module("citygml").is_citygml_file(path):
+        return "citygml"
     if name.endswith((".csv", ".yaml", ".yml")) or name == "buildings.json":
         return "folder"
     if name.endswith(".json") and _mentions(path, b'"file"'):  # an index under another name
@@ -146,13 +153,28 @@ def scan_folder(folder: str | Path, options: ReaderOptions | None = None) -> Sca
         raise InputError(f"{where}: cannot be read ({error.strerror or error})") from None
 
 
+def check_crs_option(scans: list[Scan], options: ReaderOptions) -> None:
+    """Refuse ``options.crs`` (``--crs``) when it contradicts what files declare and no file of
+    the run lacks a CRS: it then could only have been meant to override, which it never does
+    silently (``override_crs`` does, noted). With a file lacking one, the option is for that file
+    and the declaring files keep their own CRS (noted)."""
+    conflicts = [text for scan in scans for text in scan.crs_conflicts]
+    if conflicts and not any(scan.crs_option_used for scan in scans):
+        raise InputError(
+            f"{conflicts[0]}, and no input lacks a CRS (--crs / readers.crs applies only to files "
+            "that declare none); drop --crs, or replace the declared CRS with --override-crs "
+            "EPSG:<code> or readers.override_crs"
+        )
+
+
 def input_paths(paths: list[str | Path]) -> list[Path]:
     """The inputs of one command line (shell globs expanded: folders and files mixed), each once.
 
     A file inside a folder also given is left to that folder when the folder reads it (same
     format); a companion file (``.xdo``, image, model) is left out when its folder or another file
-    of its folder is given (``vworld-lod export tile/*``), else refused naming the file. Raises
-    InputError for a path that does not exist.
+    of its folder is given (``vworld-lod export tile/*``), else refused naming the file. A folder
+    holding only such files beside a given file (CityGML's appearance folder) is left out too.
+    Raises InputError for a path that does not exist.
     """
     given = [Path(p) for p in paths]
     for path in given:
@@ -162,6 +184,7 @@ def input_paths(paths: list[str | Path]) -> list[Path]:
     parents = {
         p.resolve().parent for p in given if p.is_file() and p.suffix.lower() not in COMPANIONS
     }
+    beside = {p.absolute().parent for p in given if p.is_file()}  # as given: links not followed
     kept: list[Path] = []
     seen: set[Path] = set()
     for path in given:
@@ -175,8 +198,20 @@ def input_paths(paths: list[str | Path]) -> list[Path]:
                 continue
             if parent in folders and _read_by_folder(path, parent):
                 continue
+        elif path.absolute().parent in beside and _images_only(path):
+            continue  # e.g. a CityGML file's <name>_appearance/ folder matched by tile/*
         kept.append(path)
     return kept
+
+
+def _images_only(folder: Path) -> bool:
+    """True when every file directly in ``folder`` is a companion (image, model part), so the
+    folder is a sibling file's appearance store, not an input."""
+    try:
+        files = [p for p in folder.iterdir() if p.is_file()]
+    except OSError:
+        return False
+    return bool(files) and all(p.suffix.lower() in COMPANIONS for p in files)
 
 
 def _read_by_folder(path: Path, folder: Path) -> bool:
@@ -197,7 +232,7 @@ def load_entry(entry: Entry, options: ReaderOptions | None = None) -> Building:
     except MemoryError:
         raise ReadError(entry.source, "too large to read into memory") from None
     except Exception as error:  # a reader bug must not stop the tile; report it as this building's
-        raise ReadError(entry.source, f"unexpected {type(error).__name__}: {error}") from error
+        raise ReadError(entry.source, f"unexpected {error_text(error)}") from error
 
 
 def _mentions(path: Path, text: bytes) -> bool:

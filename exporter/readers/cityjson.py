@@ -16,9 +16,13 @@ Data form and the choices made:
   ``"2"`` > ``"1.3"``); objects without geometry at that LoD contribute nothing (noted).
 - **Semantics**: ``GroundSurface`` polygons are dropped when ``ReaderOptions.drop_ground_surfaces``
   (VWorld-style floorless models).
-- **Coordinates**: vertices ``v * transform.scale + transform.translate`` are in the file's CRS
-  (``metadata.referenceSystem``, or ``ReaderOptions.crs`` which overrides it; a file with neither
-  is refused, never guessed). They go to lon/lat with pyproj (heights unchanged, see
+- **Coordinates**: vertices ``v * transform.scale + transform.translate`` are in the file's CRS:
+  ``metadata.referenceSystem``; ``ReaderOptions.crs`` only for a file that declares none (a file
+  declaring another CRS keeps it, noted; ``readers.check_crs_option`` refuses a run where no file
+  lacks one), ``ReaderOptions.override_crs`` in place of any declared one
+  (noted in each building's problems); a file with none is refused, never guessed. A building
+  with a vertex that is not finite, or far from its other vertices (:mod:`exporter.plausible`),
+  is skipped alone. They go to lon/lat with pyproj (heights unchanged, see
   :mod:`exporter.geodesy`) and then to the building's local East/Up/North metres on the
   6378137 m sphere around the reference point: centre of the building's lon/lat box at its
   lowest height.
@@ -56,6 +60,7 @@ from ..config import ReaderOptions
 from ..errors import InputError, ReadError
 from ..mesh.geometry import cross3
 from ..model import Building, Part, Skipped, Texture
+from ..plausible import vertex_problem
 from ..tiles import building_tile
 from . import Entry, Scan
 from .images import TextureFileError, read_texture_file
@@ -73,6 +78,7 @@ SURFACE_DEPTH = {
 }
 GROUND = "GroundSurface"
 CRS_HINT = "pass --crs EPSG:<code> (e.g. --crs EPSG:7415) or set readers.crs in the config"
+OVERRIDE_HINT = "replace it with --override-crs EPSG:<code> or readers.override_crs"
 _CACHE_SIZE = 4
 _SNIFF_BYTES = 65536
 
@@ -119,6 +125,10 @@ def _fail(path: Path, problem: str) -> ReadError:
     return ReadError(str(path), problem)
 
 
+class CrsError(ReadError):
+    """A file's CRS is missing, unknown or contradicts the options: the whole run is refused."""
+
+
 def _read_json_lines(path: Path) -> list[dict]:
     try:
         text = path.read_text(encoding="utf-8")
@@ -144,18 +154,26 @@ def _check_version(path: Path, header: dict) -> None:
         raise _fail(path, f"CityJSON version {version!r} is not supported; allowed: 1.0, 1.1, 2.0")
 
 
-def _crs_of(path: Path, header: dict, override: str | None) -> str:
+def _crs_of(path: Path, header: dict, options: ReaderOptions) -> str:
+    """The CRS to read the file in (module doc); CrsError naming the file when there is none or
+    it is unknown. A declared one always wins over ``options.crs`` (see ``Scan.crs_conflicts``)."""
     declared = (header.get("metadata") or {}).get("referenceSystem")
-    crs = override or declared
-    if not crs:
-        raise _fail(
-            path, f"declares no coordinate reference system (metadata.referenceSystem); {CRS_HINT}"
-        )
+    if options.override_crs:
+        crs, hint = str(options.override_crs), "check --override-crs / readers.override_crs"
+    elif not declared:
+        if not options.crs:
+            raise CrsError(
+                str(path),
+                f"declares no coordinate reference system (metadata.referenceSystem); {CRS_HINT}",
+            )
+        crs, hint = str(options.crs), CRS_HINT
+    else:
+        crs, hint = str(declared), OVERRIDE_HINT
     try:
-        geodesy.parse_crs(crs)
+        geodesy.check_crs(crs)
     except ValueError as error:
-        raise _fail(path, f"{error}; {CRS_HINT}") from None
-    return str(crs)
+        raise CrsError(str(path), f"{error}; {hint}") from None
+    return crs
 
 
 def _vertices(path: Path, raw: Any, transform: dict | None) -> np.ndarray:
@@ -174,10 +192,14 @@ def _vertices(path: Path, raw: Any, transform: dict | None) -> np.ndarray:
 def _chunk(path: Path, body: dict, transform: dict | None, crs: str, appearance: dict) -> _Chunk:
     xyz = _vertices(path, body.get("vertices"), transform)
     try:
-        lonlath = geodesy.to_lonlath(xyz, crs) if len(xyz) else np.zeros((0, 3))
+        # Rows PROJ cannot convert (or NaN in the file) stay non-finite: they cost their
+        # buildings only (_plan); a file none of whose vertices converts has the wrong CRS.
+        lonlath = geodesy.to_lonlath(xyz, crs, strict=False) if len(xyz) else np.zeros((0, 3))
+        if len(xyz) and not np.isfinite(lonlath).all(axis=1).any():
+            raise ValueError(f"coordinates outside the area {crs!r} can transform")
     except ValueError as error:
-        raise _fail(
-            path, f"coordinates cannot be converted to lon/lat: {error}; {CRS_HINT}"
+        raise CrsError(
+            str(path), f"coordinates cannot be converted to lon/lat: {error}; {CRS_HINT}"
         ) from None
     appearance = body.get("appearance") or appearance or {}
     uv = appearance.get("vertices-texture")
@@ -188,13 +210,13 @@ def _chunk(path: Path, body: dict, transform: dict | None, crs: str, appearance:
     return _Chunk(xyz, lonlath, uv, list(appearance.get("textures") or []))
 
 
-def _parse(path: Path, crs_override: str | None) -> _Document:
+def _parse(path: Path, options: ReaderOptions) -> _Document:
     records = _read_json_lines(path)
     if not records:
         raise _fail(path, "is empty")
     header = records[0]
     _check_version(path, header)
-    crs = _crs_of(path, header, crs_override)
+    crs = _crs_of(path, header, options)
     transform = header.get("transform")
     bodies = [header] if not path.name.endswith(".jsonl") else records[1:]
     document = _Document(
@@ -225,17 +247,17 @@ def _parse(path: Path, crs_override: str | None) -> _Document:
     return document
 
 
-def _document(path: Path, crs_override: str | None) -> _Document:
+def _document(path: Path, options: ReaderOptions) -> _Document:
     """The parsed file, from the per-process cache when the file has not changed."""
     try:
         stat = path.stat()
     except OSError as error:
         raise _fail(path, f"cannot be read ({error.strerror or error})") from None
-    key = (str(path.resolve()), stat.st_mtime_ns, stat.st_size, crs_override)
+    key = (str(path.resolve()), stat.st_mtime_ns, stat.st_size, options.crs, options.override_crs)
     if key in _documents:
         _documents.move_to_end(key)
         return _documents[key]
-    document = _parse(path, crs_override)
+    document = _parse(path, options)
     _documents[key] = document
     while len(_documents) > _CACHE_SIZE:
         _documents.popitem(last=False)
@@ -536,6 +558,11 @@ def _plan(
                 document.path,
                 f"building {building_id}: vertex index out of range (file has {count} vertices)",
             )
+    if polygons:
+        used = _used_vertices(document, polygons)
+        problem = vertex_problem(geodesy.sphere_ecef(used), options.max_vertex_distance_m)
+        if problem:
+            raise _fail(document.path, f"building {building_id}: {problem}")
     return polygons, notes + more
 
 
@@ -552,19 +579,26 @@ def scan(folder: Path, options: ReaderOptions) -> Scan:
     single = folder.is_file()
     for path in [folder] if single else _candidate_files(folder):
         try:
-            document = _document(path, options.crs)
+            document = _document(path, options)
         except ReadError as error:
-            if single or CRS_HINT in error.problem:
+            if single or isinstance(error, CrsError):
                 raise InputError(str(error)) from None
 
             result.skipped.append(Skipped(source=str(path), reason=error.problem))
             continue
         declared = document.declared_crs
-        if declared and geodesy.normalise_crs_text(declared) != geodesy.normalise_crs_text(
-            document.crs
-        ):
+        if not declared:
+            result.crs_option_used = True
+        elif geodesy.normalise_crs_text(declared) != geodesy.normalise_crs_text(document.crs):
             result.notes.append(
-                f"{path.name}: declares {declared}; read as {document.crs} (readers.crs / --crs overrides it)"
+                f"{path.name}: declares {declared}; read as {document.crs} (readers.override_crs / --override-crs)"
+            )
+        elif options.crs and geodesy.normalise_crs_text(declared) != geodesy.normalise_crs_text(
+            options.crs
+        ):
+            result.crs_conflicts.append(f"{path}: declares {declared}, not {options.crs}")
+            result.notes.append(
+                f"{path.name}: declares {declared}; read in it (--crs / readers.crs is for files that declare none)"
             )
         if len(document.themes) > 1:
             result.notes.append(
@@ -627,7 +661,7 @@ def scan(folder: Path, options: ReaderOptions) -> Scan:
 def load(entry: Entry, options: ReaderOptions) -> Building:
     """The building ``entry.key`` of file ``entry.source``; raises only ReadError."""
     path = Path(entry.source)
-    document = _document(path, options.crs)
+    document = _document(path, options)
     building_id = str(entry.key)
     if (
         building_id not in document.objects
@@ -640,6 +674,13 @@ def load(entry: Entry, options: ReaderOptions) -> Building:
             path, f"building {building_id}: no surface geometry (after dropping ground surfaces)"
         )
     reference, bounds = geodesy.base_centre(_used_vertices(document, polygons))
+    declared = document.declared_crs
+    if declared and geodesy.normalise_crs_text(declared) != geodesy.normalise_crs_text(
+        document.crs
+    ):
+        problems.append(
+            f"read in {document.crs} in place of the declared {declared} (override_crs)"
+        )
     if document.theme and len(document.themes) > 1:
         problems.append(
             f"texture themes {', '.join(document.themes)}; used the first, {document.theme}"

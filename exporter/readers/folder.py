@@ -64,7 +64,7 @@ from PIL import Image
 
 from .. import geodesy
 from ..config import ReaderOptions
-from ..errors import InputError, ReadError
+from ..errors import InputError, ReadError, error_text
 from ..model import Building, GeoPoint, Part, Skipped, Texture
 from ..tiles import tile_of
 from . import Entry, Scan
@@ -371,7 +371,7 @@ def _load_scene(model: Path):
     except Exception as error:  # trimesh raises many types on malformed files
         raise ReadError(
             str(model),
-            f"cannot be read as {model.suffix[1:].upper()} ({type(error).__name__}: {error})",
+            f"cannot be read as {model.suffix[1:].upper()} ({error_text(error)})",
         ) from None
 
 

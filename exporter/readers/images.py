@@ -11,10 +11,12 @@ from __future__ import annotations
 import io
 from pathlib import Path
 
-from PIL import Image
+from PIL import Image, UnidentifiedImageError
 
+from ..errors import error_text
 from ..formats.vworld_binary import xml_error
 from ..model import Texture
+from ..textures import pillow_pixel_limit
 
 
 class TextureFileError(Exception):
@@ -41,12 +43,16 @@ def read_texture_file(path: Path, name: str) -> Texture:
     if code is not None:
         raise TextureFileError(f"is an XML error page ({code}), not an image")
     try:
-        with Image.open(io.BytesIO(data)) as image:  # reads the header only
+        # Header only, so no size limit here: the texture stage applies textures.max_pixels
+        # (Pillow's smaller default would refuse atlases the config accepts).
+        with pillow_pixel_limit(None), Image.open(io.BytesIO(data)) as image:
             fmt, (width, height) = image.format, image.size
-    except Exception as error:  # Pillow raises many types for bad headers
+    except UnidentifiedImageError:
         raise TextureFileError(
-            f"is not a readable image ({type(error).__name__}: {error})"
+            f"is not a readable image (no image format recognised in {len(data)} bytes)"
         ) from None
+    except Exception as error:  # Pillow raises many types for bad headers
+        raise TextureFileError(f"is not a readable image ({error_text(error)})") from None
     if is_truncated(data, fmt):
         raise TextureFileError(f"is truncated ({len(data)} bytes)")
     mime = Image.MIME.get(fmt or "", "") or "application/octet-stream"

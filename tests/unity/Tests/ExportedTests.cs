@@ -169,7 +169,7 @@ namespace VWorldLod.Tests
             }
         }
 
-        /// <summary>{"names": [{"id", "safe"}]} from exporter.manifest.safe_folder_name.</summary>
+        /// <summary>{"names": [{"id", "safe"}]} from exporter.names.safe_folder_name.</summary>
         public static void RunNames(TestRunner t, string path)
         {
             var root = (Dictionary<string, object>)PlainJson.Parse(File.ReadAllText(path));

@@ -281,7 +281,7 @@ namespace VWorldLod.Tests
                 var e = Assert.Throws<ManifestException>(() => LodPlanner.Load(missing, new PlainJsonManifestParser(), File.Exists), "missing file");
                 Assert.Contains(missing + ": cannot read the manifest", e.Message, "message");
             });
-            t.Check("safe names match exporter.manifest.safe_folder_name", () =>
+            t.Check("safe names match exporter.names.safe_folder_name", () =>
             {
                 Assert.Equal("B1", LodPlanner.SafeName("B1"), "kept");
                 Assert.Equal("a_b_3ec69c85", LodPlanner.SafeName("a/b"), "slash");

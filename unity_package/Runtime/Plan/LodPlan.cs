@@ -225,16 +225,22 @@ namespace VWorldLod
         }
 
         /// <summary>
-        /// The exporter's file-system-safe name of a building id (exporter.manifest.safe_folder_name):
+        /// The exporter's file-system-safe name of a building id (exporter.names.safe_folder_name):
         /// runs of characters other than ASCII letters, digits, '.', '_' and '-' become '_', leading
-        /// and trailing '.'/'_' go ("building" if nothing is left), and a changed name gets the first
-        /// 8 hex digits of the id's SHA-1 (after at most 80 characters) so distinct ids stay distinct.
+        /// and trailing '.'/'_' go ("building" if nothing is left), and a changed, over-long (more
+        /// than 80 characters) or reserved name (a Windows device name, or a tile folder's own file)
+        /// gets the first 8 hex digits of the id's SHA-1 (after at most 80 characters) so distinct
+        /// ids stay distinct.
         /// </summary>
+        static readonly string[] TileFiles = { "lod_manifest.json", "report.html", "report", "tiles.json", "index.html" };
+
         public static string SafeName(string id)
         {
             string name = Regex.Replace(id, "[^0-9A-Za-z._-]+", "_").Trim('.', '_');
             if (name.Length == 0) name = "building";
-            if (name == id) return name;
+            bool reserved = Regex.IsMatch(name, "^(con|prn|aux|nul|com[0-9]|lpt[0-9])(\\..*)?$", RegexOptions.IgnoreCase)
+                || Array.IndexOf(TileFiles, name.ToLowerInvariant()) >= 0;
+            if (name == id && name.Length <= 80 && !reserved) return name;
             using (SHA1 sha1 = SHA1.Create())
             {
                 byte[] digest = sha1.ComputeHash(Encoding.UTF8.GetBytes(id));

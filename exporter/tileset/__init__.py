@@ -1,0 +1,68 @@
+"""``OUT/tileset.json``: the export as one 3D Tiles 1.1 tileset (glTF content, the existing files).
+
+Entry point: :func:`write_tileset` (``export_tiles`` calls it after the manifests and
+``tiles.json``). It reads every tile manifest under ``OUT`` (this run's and earlier runs', as
+``tiles.json`` lists them), builds the tree (:mod:`.tree`: buildings as LoD chains with their
+certified errors, under the VWorld quadtree), adds the tiles' merged proxies (:mod:`.proxy`) and
+writes the JSON (:mod:`.write`). Frames: :mod:`.frames`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..config import TextureOptions, TilesetOptions
+from .tree import quadtree, read_buildings
+from .write import TILESET_NAME, tileset_json, write_tileset_json
+
+__all__ = ["TILESET_NAME", "TilesetResult", "write_tileset"]
+
+
+@dataclass
+class TilesetResult:
+    path: Path | None  # None: nothing to show (and no tileset.json left behind)
+    buildings: int = 0
+    proxies: int = 0
+    proxies_built: int = 0
+    left_out: list[str] = field(default_factory=list)
+
+    def summary(self) -> str:
+        """One line for the command line."""
+        if self.path is None:
+            return "tileset: no building to show, no tileset.json written"
+        text = (
+            f"tileset: {self.buildings} buildings, {self.proxies} tile proxies "
+            f"({self.proxies_built} built) -> {self.path}"
+        )
+        if self.left_out:
+            text += f"; left out: {self.left_out[0]}" + (
+                f" (and {len(self.left_out) - 1} more, see its extras)"
+                if len(self.left_out) > 1
+                else ""
+            )
+        return text
+
+
+def write_tileset(
+    out_dir: str | Path, options: TilesetOptions, jpeg_quality: int = TextureOptions.jpeg_quality
+) -> TilesetResult:
+    """Write ``OUT/tileset.json`` for every building of ``out_dir``; see the module doc."""
+    out_dir = Path(out_dir)
+    by_tile, left_out = read_buildings(out_dir)
+    tops = quadtree(by_tile)
+    if not options.proxies or not tops:
+        from .proxy import PROXY_DIR, remove_stale
+
+        remove_stale(out_dir / PROXY_DIR, set())
+    if not tops:
+        (out_dir / TILESET_NAME).unlink(missing_ok=True)  # it would name files no longer shown
+        return TilesetResult(None, 0, left_out=left_out)
+    proxies = built = 0
+    if options.proxies:
+        from .proxy import add_proxies
+
+        proxies, built = add_proxies(out_dir, tops, options, jpeg_quality, left_out)
+    path = write_tileset_json(out_dir, tileset_json(tops, left_out))
+    count = sum(len(chains) for chains in by_tile.values())
+    return TilesetResult(path, count, proxies, built, left_out)

@@ -1,0 +1,218 @@
+"""The tileset's tree, from the manifests on disk: buildings as LoD chains under the VWorld quadtree.
+
+Data form: :class:`Node` (one 3D Tiles tile). ``world`` is the node's tile frame -> ECEF matrix
+(4 x 4 float64, :mod:`.frames`) or None when it shares its parent's frame; ``corners`` are the
+(8, 3) ECEF corners of its content's box (None without content); ``error`` is its
+``geometricError`` in metres.
+
+- A building is a chain, coarsest level first, each level the only child of the one above
+  (``REPLACE``); a level's error is its certified Hausdorff bound against LOD0 in metres: the
+  manifest's ``hausdorff_rel`` (relative to LOD0's bounding-box diagonal, exporter/quality.py)
+  times that diagonal, read from LOD0's file, plus the float32 rounding of both files. A level no
+  better than a coarser one is left out (the errors then strictly decrease to LOD0's 0).
+- Tiles holding buildings have the buildings as children; above them the quadtree, compressed: a
+  tile with one child is that child. Several top tiles hang under one root without content.
+- Buildings or levels whose files are missing are left out and listed (never referenced).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..model import TileId
+from ..tile_index import build_index
+from ..tiles import tile_center
+from . import frames
+from .glb import position_bounds, read_header
+
+FLOAT32_ULP = 2.0**-24  # relative rounding of a float32 coordinate (half an ulp)
+
+
+@dataclass
+class Level:
+    file: str  # relative to OUT, '/'-separated
+    error: float  # metres: certified bound against LOD0
+    low: np.ndarray  # (3,) glTF-frame metres
+    high: np.ndarray
+
+
+@dataclass
+class BuildingChain:
+    tile: TileId
+    id: str
+    center: tuple[float, float, float]  # lon, lat degrees; elev metres
+    input_hash: str
+    levels: list[Level]  # coarsest first; the last is LOD0 (error 0)
+    diagonal: float = 0.0  # metres: LOD0's bounding-box diagonal
+    texture_px: int = 0  # larger side of the coarsest level's texture (0: untextured)
+
+    @property
+    def texel(self) -> float:
+        """Metres per texel of the coarsest level's texture (it spans at most the diagonal)."""
+        return self.diagonal / self.texture_px if self.texture_px else 0.0
+
+    @property
+    def world(self) -> np.ndarray:
+        return frames.world_matrix(*self.center)
+
+
+@dataclass
+class Node:
+    key: str
+    world: np.ndarray | None
+    error: float = 0.0
+    content: str | None = None
+    corners: np.ndarray | None = None
+    children: list[Node] = field(default_factory=list)
+    tile: TileId | None = None
+    building: BuildingChain | None = None
+    proxy_hash: str | None = None
+    geometric: float = 0.0  # a proxy's certified geometric bound, metres
+    texel: float = 0.0  # a proxy's metres per atlas texel
+    pieces: list | None = None  # a proxy's [first vertex, vertices, first face, faces, bound m]
+
+
+def rounding_slack(low: np.ndarray, high: np.ndarray) -> float:
+    """Metres: the largest float32 rounding of a point of a file with glTF bounds ``low``/``high``."""
+    return float(np.abs(np.concatenate([low, high])).max()) * FLOAT32_ULP * math.sqrt(3.0)
+
+
+def read_chain(
+    out_dir: Path, tile: TileId, record: dict, left_out: list[str]
+) -> BuildingChain | None:
+    """The building of manifest ``record`` as a chain, or None (reason appended to ``left_out``)."""
+    name = f"{tile.name}/{record.get('folder') or record.get('id')}"
+    bounds: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    for lod in record.get("lods", []):
+        try:
+            bounds[lod["level"]] = position_bounds(read_header(out_dir / tile.name / lod["file"]))
+        except (OSError, ValueError, KeyError, TypeError) as problem:
+            left_out.append(
+                f"{name}: LOD{lod.get('level')} file {lod.get('file')} unusable ({problem})"
+            )
+    lods = {lod["level"]: lod for lod in record.get("lods", []) if lod.get("level") in bounds}
+    if 0 not in lods:
+        left_out.append(f"{name}: no readable LOD0 file; building left out")
+        return None
+    diagonal = float(np.linalg.norm(bounds[0][1] - bounds[0][0]))
+    slack0 = rounding_slack(*bounds[0])
+    levels: list[Level] = []
+    texture_px = 0
+    for level in sorted(lods, reverse=True):
+        if level == 0:
+            error = 0.0
+        else:
+            rel = lods[level].get("quality", {}).get("hausdorff_rel")
+            if not isinstance(rel, (int, float)) or not math.isfinite(rel):
+                left_out.append(f"{name}: LOD{level} has no certified bound; level left out")
+                continue
+            error = (
+                rel * diagonal * (1.0 + 4 * FLOAT32_ULP) + slack0 + rounding_slack(*bounds[level])
+            )
+        if levels and error >= levels[-1].error:
+            continue  # no better than a coarser level: never worth refining to
+        levels.append(Level(f"{tile.name}/{lods[level]['file']}", error, *bounds[level]))
+        coarsest = levels[0].file == f"{tile.name}/{lods[level]['file']}"
+        if coarsest:
+            texture_px = max(int(v) for v in lods[level].get("texture_size", [0, 0]))
+    centre = record["center"]
+    return BuildingChain(
+        tile,
+        str(record["id"]),
+        (float(centre["lon"]), float(centre["lat"]), float(centre["elev"])),
+        str(record.get("input_hash", "")),
+        levels,
+        diagonal,
+        texture_px,
+    )
+
+
+def read_buildings(out_dir: Path) -> tuple[dict[TileId, list[BuildingChain]], list[str]]:
+    """Every building of every tile manifest under ``out_dir`` (also earlier runs'), by tile, and
+    the reasons for what was left out."""
+    left_out: list[str] = []
+    by_tile: dict[TileId, list[BuildingChain]] = {}
+    for entry in build_index(out_dir)["tiles"]:
+        tile = TileId(entry["level"], entry["idx"], entry["idy"])
+        try:
+            manifest = json.loads((out_dir / entry["manifest"]).read_text(encoding="utf-8"))
+            records = manifest["buildings"]
+        except (OSError, ValueError, KeyError, TypeError) as error:
+            left_out.append(f"{entry['manifest']}: unreadable ({error}); tile left out")
+            continue
+        chains = []
+        for record in records:
+            try:
+                chains.append(read_chain(out_dir, tile, record, left_out))
+            except (KeyError, TypeError, ValueError, AttributeError) as problem:
+                left_out.append(f"{tile.name}: a building record unusable ({problem!r}); left out")
+        kept = sorted((c for c in chains if c is not None), key=lambda c: c.id)
+        if kept:
+            by_tile[tile] = kept
+        else:
+            left_out.append(f"{tile.name}: no building to show; tile left out")
+    return by_tile, left_out
+
+
+def building_node(chain: BuildingChain) -> Node:
+    """The chain as nested nodes (coarsest on top, one transform at the top)."""
+    world = chain.world
+    nodes = []
+    for level in chain.levels:
+        corners = frames.apply(world, frames.gltf_corners(level.low, level.high))
+        nodes.append(Node(f"{chain.id}/{level.file}", None, level.error, level.file, corners))
+    for parent, child in zip(nodes, nodes[1:]):
+        parent.children = [child]
+    nodes[0].world = world
+    nodes[0].building = chain
+    return nodes[0]
+
+
+def tile_world(tile: TileId) -> np.ndarray:
+    lon, lat = tile_center(tile)
+    return frames.world_matrix(lon, lat, 0.0)
+
+
+def _ancestor(tile: TileId, level: int) -> TileId:
+    shift = tile.level - level
+    return TileId(level, tile.idx >> shift, tile.idy >> shift)
+
+
+def quadtree(by_tile: dict[TileId, list[BuildingChain]]) -> list[Node]:
+    """The compressed quadtree over the building tiles: its top nodes (level-0 tiles in idx, idy
+    order).
+
+    A tile node's children: its buildings' chains (by id), then its child tiles' nodes (SW, SE,
+    NW, NE); a tile without buildings and with one child tile is replaced by that child."""
+
+    def build(tile: TileId, leaves: list[TileId]) -> Node | None:
+        own = by_tile.get(tile, [])
+        below = [t for t in leaves if t.level > tile.level]
+        subtiles: list[Node] = []
+        level, i, j = tile.level + 1, 2 * tile.idx, 2 * tile.idy
+        for child in (
+            TileId(level, i, j),
+            TileId(level, i + 1, j),
+            TileId(level, i, j + 1),
+            TileId(level, i + 1, j + 1),
+        ):
+            inside = [t for t in below if _ancestor(t, level) == child]
+            node = build(child, inside) if inside else None
+            if node is not None:
+                subtiles.append(node)
+        if not own and not subtiles:
+            return None
+        if not own and len(subtiles) == 1:
+            return subtiles[0]
+        children = [building_node(chain) for chain in own] + subtiles
+        return Node(tile.name, tile_world(tile), children=children, tile=tile)
+
+    leaves = sorted(by_tile, key=lambda t: (t.level, t.idx, t.idy))
+    tops = sorted({_ancestor(t, 0) for t in leaves}, key=lambda t: (t.idx, t.idy))
+    nodes = [build(top, [t for t in leaves if _ancestor(t, 0) == top]) for top in tops]
+    return [node for node in nodes if node is not None]

@@ -1,0 +1,87 @@
+"""Write ``OUT/tileset.json`` (3D Tiles 1.1, glTF content) from a finished :mod:`.tree`.
+
+Bounding volumes are boxes in each node's tile frame, axis-aligned there, around the corners of
+its content's box and of its children's boxes (so they contain both); a node's ``transform`` is
+its frame relative to its parent's (3D Tiles composes them from the root down). A node without
+content gets ``geometricError`` = the larger of its box's diagonal and its children's errors
+(refined as soon as it is in view); every error is at least its children's. The tileset's own
+``geometricError`` (the error of drawing nothing: clients draw nothing while it is small on
+screen) is at least the root's box diagonal. The bytes depend
+only on the tree (sorted, no times), written atomically after everything it references.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from urllib.parse import quote
+
+import numpy as np
+
+from .. import __version__
+from ..atomic import write_text_atomic
+from . import frames
+from .tree import Node
+
+TILESET_NAME = "tileset.json"
+
+
+def finish(node: Node, parent_world: np.ndarray) -> np.ndarray:
+    """Fill ``node.box`` (in its frame) and ``node.error`` bottom-up; returns the (8, 3) ECEF
+    corners of its box."""
+    frame = node.world if node.world is not None else parent_world
+    to_frame = frames.inverse_rigid(frame)
+    points = [] if node.corners is None else [node.corners]
+    points += [finish(child, frame) for child in node.children]
+    box = frames.box_around(frames.apply(to_frame, np.vstack(points)))
+    node.box = box  # type: ignore[attr-defined]
+    most = max((child.error for child in node.children), default=0.0)
+    if node.content is None:
+        node.error = max(most, box_diagonal(box))
+    else:
+        node.error = max(node.error, most)
+    return frames.apply(frame, frames.box_corners(box))
+
+
+def box_diagonal(box: list[float]) -> float:
+    """Metres: the diagonal of a 3D Tiles box whose half-axes are orthogonal."""
+    return 2.0 * float(np.linalg.norm(np.linalg.norm(np.asarray(box[3:]).reshape(3, 3), axis=1)))
+
+
+def tile_json(node: Node, parent_world: np.ndarray) -> dict:
+    """The 3D Tiles ``tile`` object of ``node`` (recursively)."""
+    out: dict = {
+        "boundingVolume": {"box": node.box},  # type: ignore[attr-defined]
+        "geometricError": node.error,
+        "refine": "REPLACE",
+    }
+    frame = parent_world
+    if node.world is not None:
+        out["transform"] = frames.column_major(frames.inverse_rigid(parent_world) @ node.world)
+        frame = node.world
+    if node.content is not None:
+        out["content"] = {"uri": quote(node.content)}
+    if node.children:
+        out["children"] = [tile_json(child, frame) for child in node.children]
+    return out
+
+
+def tileset_json(tops: list[Node], left_out: list[str]) -> dict:
+    """The whole tileset: one top node is the root, several hang under a root without content."""
+    root = tops[0] if len(tops) == 1 else Node("root", None, children=tops)
+    identity = np.eye(4)
+    finish(root, identity)
+    tileset: dict = {
+        "asset": {"version": "1.1", "tilesetVersion": f"vworld-lod {__version__}"},
+        # The error of drawing nothing (clients draw nothing below it): the whole box's size.
+        "geometricError": max(root.error, box_diagonal(root.box)),  # type: ignore[attr-defined]
+        "root": tile_json(root, identity),
+    }
+    if left_out:
+        tileset["extras"] = {"left_out": sorted(left_out)}
+    return tileset
+
+
+def write_tileset_json(out_dir: Path, tileset: dict) -> Path:
+    text = json.dumps(tileset, ensure_ascii=False, allow_nan=False, separators=(",", ":"))
+    return write_text_atomic(Path(out_dir) / TILESET_NAME, text + "\n", durable=True)

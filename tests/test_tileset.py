@@ -1,0 +1,339 @@
+"""OUT/tileset.json (3D Tiles 1.1): structure, placement, certified errors, bad input, re-runs.
+
+Checked independently of the exporter's tileset code (tests/tileset_check.py walks the JSON as
+the specification says): placements against pyproj, errors against a dense sampled measure
+(tests/hausdorff_check.py) of each content against the LOD0 of the buildings it stands for.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import shutil
+from pathlib import Path
+from urllib.parse import unquote
+
+import numpy as np
+import pytest
+from PIL import Image
+from pyproj import Transformer
+
+from exporter.config import Config, TilesetOptions
+from exporter.model import TileId
+from exporter.pipeline import export_tiles
+from exporter.samplegen import generate_tile
+from exporter.tiles import tile_of
+from exporter.tileset import write_tileset
+from exporter.tileset.glb import read_primitives
+from tests.hausdorff_check import dense_hausdorff
+from tests.tileset_check import (
+    Y_UP,
+    content_mesh,
+    load,
+    structural_problems,
+    to_world,
+    walk,
+)
+
+SEOUL = TileId(15, 279418, 116113)
+EAST_OF_SEOUL = TileId(15, 279419, 116113)  # shares SEOUL's east border
+BUSAN = tile_of(129.0756, 35.1796)
+
+
+def make_tile(root: Path, tile: TileId, count: int, seed: int = 0) -> Path:
+    return generate_tile(root / tile.name, count, seed=seed, tile=tile, atlas_size=64)
+
+
+def export(folders: list[Path], out: Path, config: Config | None = None):
+    return export_tiles(folders, out, config or Config(), jobs=1)
+
+
+@pytest.fixture(scope="module")
+def city(tmp_path_factory) -> Path:
+    """Two tiles side by side (buildings on both sides of their border), 5 buildings each."""
+    root = tmp_path_factory.mktemp("tileset")
+    folders = [make_tile(root / "in", SEOUL, 5, 1), make_tile(root / "in", EAST_OF_SEOUL, 5, 2)]
+    out = root / "out"
+    export(folders, out)
+    return out
+
+
+def chains(visits) -> list[list]:
+    """Each building's chain of visits (its coarsest level first), from their content URIs."""
+    found = []
+    for visit in visits:
+        uri = visit.uri or ""
+        parent_uri = (visit.parent.uri or "") if visit.parent else ""
+        if uri.endswith(".glb") and "/lod" in uri and "/lod" not in parent_uri:
+            chain = [visit]
+            while chain[-1].children:
+                chain.append(chain[-1].children[0])
+            found.append(chain)
+    return found
+
+
+def manifest_buildings(out: Path) -> dict[str, dict]:
+    """Manifest building records by their LOD0 file's path relative to OUT."""
+    records = {}
+    for path in out.glob("*/lod_manifest.json"):
+        for record in json.loads(path.read_text())["buildings"]:
+            records[f"{path.parent.name}/{record['lods'][0]['file']}"] = record
+    return records
+
+
+def test_the_tileset_follows_the_structural_rules_of_3d_tiles_1_1(city):
+    tileset = load(city)
+    assert structural_problems(city, tileset) == []
+    visits = walk(tileset)
+    # Drawing nothing is at least as wrong as the root's box is large (clients skip the whole
+    # tileset while this error is small on screen).
+    half_axes = np.array(tileset["root"]["boundingVolume"]["box"][3:]).reshape(3, 3)
+    assert tileset["geometricError"] >= 2 * np.linalg.norm(half_axes).max()
+    assert all(len(chain) >= 2 for chain in chains(visits))  # LOD0 under a coarser level
+    proxies = [v for v in visits if v.uri and v.uri.startswith("tileset_proxies/")]
+    # Two level-15 tiles and the level-14 tile above both (the quadtree, compressed).
+    assert sorted(v.uri for v in proxies) == [
+        "tileset_proxies/14_139709_58056.glb",
+        "tileset_proxies/15_279418_116113.glb",
+        "tileset_proxies/15_279419_116113.glb",
+    ]
+    assert len(chains(visits)) == 10
+
+
+def test_every_building_stands_where_its_manifest_places_it(city):
+    """The origin of every level's content, through the tileset's transforms, is within 1 cm of
+    pyproj's EPSG:4979 -> EPSG:4978 position of the manifest's centre; glTF +X points West."""
+    to_ecef = Transformer.from_crs("EPSG:4979", "EPSG:4978", always_xy=True)
+    records = manifest_buildings(city)
+    found = 0
+    for chain in chains(walk(load(city))):
+        centre = records[unquote(chain[-1].uri)]["center"]
+        expected = np.array(to_ecef.transform(centre["lon"], centre["lat"], centre["elev"]))
+        lon, lat = np.radians(centre["lon"]), np.radians(centre["lat"])
+        east = np.array([-np.sin(lon), np.cos(lon), 0.0])
+        up = np.array([np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)])
+        for visit in chain:
+            matrix = visit.world @ Y_UP
+            assert np.linalg.norm(to_world(matrix, np.zeros((1, 3)))[0] - expected) < 0.01
+            assert matrix[:3, 0] @ east == pytest.approx(-1.0, abs=1e-9)  # glTF +X = West
+            assert matrix[:3, 1] @ up == pytest.approx(1.0, abs=1e-9)  # glTF +Y = Up
+        found += 1
+    assert found == 10
+
+
+def _local(points: np.ndarray, origin: np.ndarray) -> np.ndarray:
+    return points - origin  # ECEF differences: small numbers for the distance queries
+
+
+def test_building_levels_carry_the_manifest_bound_and_it_holds_densely(city):
+    records = manifest_buildings(city)
+    for chain in chains(walk(load(city))):
+        lod0 = content_mesh(city, chain[-1])
+        origin = lod0[0].mean(axis=0)
+        reference = (_local(lod0[0], origin), lod0[1])
+        # hausdorff_rel is relative to LOD0's box diagonal in the building's own (East/Up/North,
+        # or the file's West/Up/North) axes, not ECEF's.
+        own = np.concatenate([p.positions for p in read_primitives(city / unquote(chain[-1].uri))])
+        diagonal = np.linalg.norm(own.max(axis=0) - own.min(axis=0))
+        record = records[unquote(chain[-1].uri)]
+        by_file = {
+            f"{unquote(chain[-1].uri).split('/')[0]}/{lod['file']}": lod for lod in record["lods"]
+        }
+        assert chain[-1].tile["geometricError"] == 0.0
+        for visit in chain[:-1]:
+            error = visit.tile["geometricError"]
+            certified = by_file[unquote(visit.uri)]["quality"]["hausdorff_rel"] * diagonal
+            assert certified <= error <= certified * (1 + 1e-5) + 1e-4  # + float32 rounding
+            positions, faces = content_mesh(city, visit)
+            assert dense_hausdorff((_local(positions, origin), faces), reference, 4) <= error
+
+
+def test_every_proxy_error_bounds_its_distance_to_the_lod0_below_it(city):
+    for visit in walk(load(city)):
+        if not (visit.uri or "").startswith("tileset_proxies/"):
+            continue
+        below, stack = [], list(visit.children)
+        while stack:
+            node = stack.pop()
+            if node.uri and not node.children and "/lod" in node.uri:
+                below.append(content_mesh(city, node))
+            stack += node.children
+        offsets = np.cumsum([0] + [len(p) for p, _ in below])
+        union_positions = np.concatenate([p for p, _ in below])
+        origin = union_positions.mean(axis=0)
+        union = (
+            _local(union_positions, origin),
+            np.concatenate([f + offsets[i] for i, (_, f) in enumerate(below)]),
+        )
+        positions, faces = content_mesh(city, visit)
+        measured = dense_hausdorff((_local(positions, origin), faces), union, 3)
+        assert measured <= visit.tile["geometricError"]
+        assert visit.tile["geometricError"] >= max(c.tile["geometricError"] for c in visit.children)
+
+
+def test_the_proxy_above_the_building_tiles_is_simplified(city):
+    """Its pieces are meshoptimizer collapses of the level-15 proxies' (the dense check above
+    holds for them); the level-15 proxies are the buildings' coarsest levels merged as they are."""
+    records = {p.stem: json.loads(p.read_text()) for p in (city / "tileset_proxies").glob("*.json")}
+    below = sum(r["triangles"] for name, r in records.items() if name.startswith("15_"))
+    assert records["14_139709_58056"]["triangles"] < below
+    assert len(records["14_139709_58056"]["pieces"]) == 10  # one per building
+
+
+def test_proxies_pass_the_khronos_validator(city, gltf_validator):
+    proxies = sorted((city / "tileset_proxies").glob("*.glb"))
+    assert proxies
+    for report in gltf_validator(proxies):
+        assert report["errors"] == 0, report
+
+
+def test_the_same_input_gives_the_same_bytes_and_a_rerun_rebuilds_nothing(city, tmp_path):
+    again = tmp_path / "out"
+    shutil.copytree(city.parent / "in", tmp_path / "in")
+    stats = export(sorted((tmp_path / "in").iterdir()), again)
+    assert (again / "tileset.json").read_bytes() == (city / "tileset.json").read_bytes()
+    for proxy in (city / "tileset_proxies").iterdir():
+        assert (again / "tileset_proxies" / proxy.name).read_bytes() == proxy.read_bytes()
+    assert stats.tileset is not None and stats.tileset.proxies_built == 3
+    rerun = export(sorted((tmp_path / "in").iterdir()), again)
+    assert rerun.tileset is not None and rerun.tileset.proxies_built == 0
+    # One building's files gone from the east tile (its .dat still lists it: skipped): that
+    # tile's proxy and the one above are rebuilt, the west tile's is kept.
+    for path in (tmp_path / "in" / EAST_OF_SEOUL.name).glob("B0000.*"):
+        path.unlink()
+    rerun = export(sorted((tmp_path / "in").iterdir()), again)
+    assert rerun.skipped == 1
+    assert rerun.tileset is not None and rerun.tileset.proxies_built == 2
+    assert structural_problems(again, load(again)) == []
+    assert len(chains(walk(load(again)))) == 9
+
+
+def test_one_building_gives_a_valid_tileset(tmp_path):
+    export([make_tile(tmp_path / "in", SEOUL, 1)], tmp_path / "out")
+    tileset = load(tmp_path / "out")
+    assert structural_problems(tmp_path / "out", tileset) == []
+    assert len(chains(walk(tileset))) == 1
+
+
+def test_two_cities_far_apart_hang_under_one_root(tmp_path):
+    folders = [make_tile(tmp_path / "in", SEOUL, 2, 3), make_tile(tmp_path / "in", BUSAN, 2, 4)]
+    export(folders, tmp_path / "out")
+    tileset = load(tmp_path / "out")
+    assert structural_problems(tmp_path / "out", tileset) == []
+    assert len(chains(walk(tileset))) == 4
+    assert {v.uri for v in walk(tileset) if v.uri and "proxies" in v.uri} >= {
+        f"tileset_proxies/{SEOUL.name}.glb",
+        f"tileset_proxies/{BUSAN.name}.glb",
+    }
+
+
+def test_a_tile_whose_buildings_all_failed_is_left_out_and_said_so(tmp_path):
+    broken = make_tile(tmp_path / "in", EAST_OF_SEOUL, 2, 5)
+    for xdo in broken.glob("*.xdo"):
+        xdo.write_bytes(b"not an xdo file")
+    export([make_tile(tmp_path / "in", SEOUL, 2, 6), broken], tmp_path / "out")
+    tileset = load(tmp_path / "out")
+    assert structural_problems(tmp_path / "out", tileset) == []
+    assert not any(EAST_OF_SEOUL.name in (v.uri or "") for v in walk(tileset))
+    assert any(EAST_OF_SEOUL.name in line for line in tileset["extras"]["left_out"])
+
+
+def test_deleted_building_files_are_never_referenced(city, tmp_path):
+    out = tmp_path / "out"
+    shutil.copytree(city, out)
+    gone = sorted((out / SEOUL.name).glob("*/lod0.glb"))[0].parent
+    shutil.rmtree(gone)
+    result = write_tileset(out, TilesetOptions())
+    tileset = load(out)
+    assert structural_problems(out, tileset) == []
+    assert not any(f"{SEOUL.name}/{gone.name}/" in (v.uri or "") for v in walk(tileset))
+    assert any(gone.name in line for line in result.left_out)
+    assert result.proxies_built == 2  # the west tile's proxy and the one above
+
+
+def test_the_switch_turns_the_tileset_off_and_removes_nothing_else(tmp_path):
+    config = Config(tileset=TilesetOptions(enabled=False))
+    stats = export([make_tile(tmp_path / "in", SEOUL, 1)], tmp_path / "out", config)
+    assert stats.tileset is None
+    assert not (tmp_path / "out" / "tileset.json").exists()
+    assert (tmp_path / "out" / "tiles.json").is_file()
+
+
+def test_without_proxies_the_tiles_have_no_content_and_no_proxy_files(city, tmp_path):
+    out = tmp_path / "out"
+    shutil.copytree(city, out)
+    write_tileset(out, TilesetOptions(proxies=False))
+    tileset = load(out)
+    assert structural_problems(out, tileset) == []
+    assert not any("proxies" in (v.uri or "") for v in walk(tileset))
+    assert not list((out / "tileset_proxies").glob("*"))
+
+
+def test_a_proxy_over_the_size_cap_is_left_out_with_its_ancestors(city, tmp_path):
+    out = tmp_path / "out"
+    shutil.copytree(city, out)
+    sizes = {
+        p.name: json.loads(p.read_text())["triangles"]
+        for p in (out / "tileset_proxies").glob("15_*.json")
+    }
+    cap = max(sizes.values()) - 1  # the larger level-15 proxy is too large
+    write_tileset(out, TilesetOptions(proxy_max_triangles=cap))
+    tileset = load(out)
+    assert structural_problems(out, tileset) == []
+    uris = {v.uri for v in walk(tileset) if v.uri and "proxies" in v.uri}
+    assert uris == {f"tileset_proxies/{n[:-5]}.glb" for n, t in sizes.items() if t <= cap}
+
+
+def test_tiles_of_earlier_runs_stay_in_the_tileset(tmp_path):
+    out = tmp_path / "out"
+    export([make_tile(tmp_path / "in", SEOUL, 1, 7)], out)
+    export([make_tile(tmp_path / "in", EAST_OF_SEOUL, 1, 8)], out)  # a second run, another tile
+    tileset = load(out)
+    assert structural_problems(out, tileset) == []
+    uris = [chain[-1].uri for chain in chains(walk(tileset))]
+    assert sorted(uri.split("/")[0] for uri in uris) == [SEOUL.name, EAST_OF_SEOUL.name]
+
+
+def test_the_atlas_gives_each_primitive_a_cell_and_a_broken_texture_its_colour():
+    from exporter.tileset.glb import GlbPrimitive
+    from exporter.tileset.proxy import pack_atlas
+
+    square = np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0]])
+    uvs = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]], np.float32)
+    good = io.BytesIO()
+    Image.new("RGB", (64, 64), (0, 0, 255)).save(good, "PNG")
+    primitives = [
+        GlbPrimitive(
+            square, np.array([[0, 1, 2]]), uvs, good.getvalue(), "image/png", (1, 1, 1, 1)
+        ),
+        GlbPrimitive(
+            square, np.array([[0, 1, 2]]), uvs, b"not an image", "image/jpeg", (1, 0, 0, 1)
+        ),
+    ]
+    atlas, cell_uvs, shrink = pack_atlas(primitives, 64)
+    assert shrink == [2.0, 0.0]  # 64 px into a 32 px cell; the broken one has no texture
+    assert atlas.getpixel((10, 10)) == (0, 0, 255) and atlas.getpixel((42, 10)) == (255, 0, 0)
+    assert (cell_uvs[0] <= 0.5).all() and (cell_uvs[1][:, 0] > 0.5).all()
+
+
+def test_a_proxy_input_broken_after_it_was_read_leaves_that_proxy_out(city, tmp_path, monkeypatch):
+    from exporter.tileset import proxy
+
+    out = tmp_path / "out"
+    shutil.copytree(city, out)
+    shutil.rmtree(out / "tileset_proxies")
+    real = proxy.read_primitives
+
+    def broken(path):
+        if EAST_OF_SEOUL.name in str(path):
+            raise ValueError(f"{path}: not a complete glTF 2.0 binary file")
+        return real(path)
+
+    monkeypatch.setattr(proxy, "read_primitives", broken)
+    result = write_tileset(out, TilesetOptions())
+    tileset = load(out)
+    assert structural_problems(out, tileset) == []
+    uris = {v.uri for v in walk(tileset) if v.uri and "proxies" in v.uri}
+    assert uris == {f"tileset_proxies/{SEOUL.name}.glb"}  # neither the east one nor the one above
+    assert any(EAST_OF_SEOUL.name in line for line in result.left_out)
+    assert len(chains(walk(tileset))) == 10

@@ -1,0 +1,89 @@
+"""A real 3D Tiles client renders OUT/tileset.json: CesiumJS (npm ``cesium``) in headless Chromium
+(puppeteer-core, Debian's ``chromium``), served from 127.0.0.1 with every other request blocked
+(tests/tileset_client/render.js). The views from 3 km down to street level are checked on the
+tileset's own statistics and on the page's console errors and failed requests."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from exporter.config import Config
+from exporter.model import TileId
+from exporter.pipeline import export_tiles
+from exporter.samplegen import generate_tile
+from exporter.tiles import tile_center
+
+CLIENT = Path(__file__).resolve().parent / "tileset_client"
+CHROMIUM = Path("/usr/bin/chromium")
+TILES = [TileId(15, 279418, 116113), TileId(15, 279419, 116113)]
+
+
+def _missing() -> str | None:
+    if shutil.which("node") is None:
+        return "node is not installed (needed to drive the CesiumJS client)"
+    if not CHROMIUM.is_file():
+        return f"{CHROMIUM} not installed (Debian package 'chromium'; .ci/run installs it)"
+    for package in ("cesium", "puppeteer-core"):
+        if not (CLIENT / "node_modules" / package).is_dir():
+            return f"{package} not installed: run `npm ci --prefix tests/tileset_client` (.ci/run does)"
+    return None
+
+
+pytestmark = [pytest.mark.slow, pytest.mark.skipif(_missing() is not None, reason=str(_missing()))]
+
+
+def render(out: Path, lon: float, lat: float, heights: list[float]) -> list[dict]:
+    result = subprocess.run(
+        ["node", str(CLIENT / "render.js"), str(out), str(lon), str(lat), *map(str, heights)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    lines = [json.loads(line) for line in result.stdout.splitlines() if line.startswith("{")]
+    assert lines and "fatal" not in lines[0], (result.stdout[-2000:], result.stderr[-2000:])
+    return lines
+
+
+def test_cesium_renders_the_city_from_3_km_to_street_level_without_errors(tmp_path):
+    folders = [
+        generate_tile(tmp_path / "in" / t.name, 12, seed=i, tile=t, atlas_size=64)
+        for i, t in enumerate(TILES)
+    ]
+    out = tmp_path / "out"
+    export_tiles(folders, out, Config(), jobs=1)
+    lon = (tile_center(TILES[0])[0] + tile_center(TILES[1])[0]) / 2
+    lat = tile_center(TILES[0])[1]
+    manifest = json.loads((out / TILES[0].name / "lod_manifest.json").read_text())
+    ground = min(b["center"]["elev"] for b in manifest["buildings"])  # metres above the ellipsoid
+    heights = [ground + above for above in (3000, 1000, 300, 60)]
+    views = render(out, lon, lat, heights)
+    assert [v["height"] for v in views] == heights
+    for view in views:
+        assert view["errors"] == [], view
+        assert view["loaded"], view
+        assert view["selected"] >= 1 and view["commands"] >= 1 and view["triangles"] > 0, view
+    # From 3 km the whole city is the root proxy: one tile, one draw call.
+    assert views[0]["selected"] == 1 and views[0]["commands"] == 1
+    # Coming down, the client refines below the root into several tiles and draw calls.
+    assert max(v["visited"] for v in views[1:]) > views[0]["visited"]
+    assert max(v["commands"] for v in views[1:]) > 1
+
+
+def test_cesium_renders_the_sample_tile_without_errors(tmp_path):
+    sample = Path(__file__).resolve().parents[1] / "samples" / "15_279418_116113"
+    out = tmp_path / "out"
+    export_tiles([sample], out, Config(), jobs=1)
+    manifest = json.loads((out / sample.name / "lod_manifest.json").read_text())
+    ground = min(b["center"]["elev"] for b in manifest["buildings"])
+    lon, lat = manifest["tile"]["center"]["lon"], manifest["tile"]["center"]["lat"]
+    views = render(out, lon, lat, [ground + 1000, ground + 80])
+    for view in views:
+        assert view["errors"] == [] and view["loaded"], view
+        assert view["selected"] >= 1 and view["triangles"] > 0, view
+    assert views[0]["commands"] == 1  # the tile's proxy: 12 buildings, one draw call
+    assert views[1]["commands"] > 1  # close in: the buildings themselves

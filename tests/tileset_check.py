@@ -1,0 +1,124 @@
+"""Independent checks of an ``OUT/tileset.json`` (3D Tiles 1.1) for the tests and the benchmark.
+
+Frames: ``world`` matrices map a tile's frame to ECEF (EPSG:4978) metres, composed from the root
+down from the column-major ``transform``s; glTF content is turned y-up -> z-up first, as the
+specification says ((x, y, z) -> (x, -z, y)). Written from the specification, not from the
+exporter's code.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from urllib.parse import unquote, urlparse
+
+import numpy as np
+
+from exporter.tileset.glb import read_primitives
+
+Y_UP = np.array([[1.0, 0, 0, 0], [0, 0, -1.0, 0], [0, 1.0, 0, 0], [0, 0, 0, 1.0]])
+
+
+@dataclass
+class Visit:
+    tile: dict
+    world: np.ndarray  # 4 x 4: tile frame -> ECEF
+    depth: int
+    parent: Visit | None
+    children: list[Visit] = field(default_factory=list)
+
+    @property
+    def uri(self) -> str | None:
+        content = self.tile.get("content")
+        return None if content is None else content["uri"]
+
+
+def load(out: Path) -> dict:
+    return json.loads((out / "tileset.json").read_text(encoding="utf-8"))
+
+
+def walk(tileset: dict) -> list[Visit]:
+    """Every tile, parents before children, with its world matrix."""
+    out: list[Visit] = []
+
+    def visit(tile: dict, parent: Visit | None, depth: int) -> None:
+        world = np.eye(4) if parent is None else parent.world
+        if "transform" in tile:
+            world = world @ np.array(tile["transform"], dtype=np.float64).reshape(4, 4).T
+        node = Visit(tile, world, depth, parent)
+        if parent is not None:
+            parent.children.append(node)
+        out.append(node)
+        for child in tile.get("children", []):
+            visit(child, node, depth + 1)
+
+    visit(tileset["root"], None, 0)
+    return out
+
+
+def to_world(matrix: np.ndarray, points: np.ndarray) -> np.ndarray:
+    return points @ matrix[:3, :3].T + matrix[:3, 3]
+
+
+def box_corners(box: list[float]) -> np.ndarray:
+    centre, axes = np.asarray(box[:3]), np.asarray(box[3:]).reshape(3, 3)
+    signs = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], float)
+    return centre + signs @ axes
+
+
+def inside_box(box: list[float], points: np.ndarray, slack: float = 1e-6) -> bool:
+    """Whether ``points`` (n, 3, in the box's frame) lie in the oriented box (``slack`` metres)."""
+    centre, axes = np.asarray(box[:3]), np.asarray(box[3:]).reshape(3, 3)
+    offsets = points - centre
+    coefficients = offsets @ np.linalg.pinv(axes)  # offsets = coefficients @ axes
+    residual = np.linalg.norm(offsets - coefficients @ axes, axis=1)
+    lengths = np.maximum(np.linalg.norm(axes, axis=1), 1e-12)
+    excess = (np.abs(coefficients) - 1.0) * lengths
+    return bool(residual.max() <= slack and excess.max() <= slack)
+
+
+def content_mesh(out: Path, visit: Visit) -> tuple[np.ndarray, np.ndarray]:
+    """The tile's content as one mesh in ECEF metres: positions (n, 3), triangles (m, 3)."""
+    assert visit.uri is not None
+    prims = read_primitives(out / unquote(visit.uri))
+    offsets = np.cumsum([0] + [len(p.positions) for p in prims])
+    matrix = visit.world @ Y_UP
+    positions = np.concatenate([to_world(matrix, p.positions) for p in prims])
+    faces = np.concatenate([p.triangles + offsets[i] for i, p in enumerate(prims)])
+    return positions, faces
+
+
+def structural_problems(out: Path, tileset: dict) -> list[str]:
+    """The 3D Tiles 1.1 rules the tests check; [] when all hold."""
+    problems = []
+    if tileset.get("asset", {}).get("version") != "1.1":
+        problems.append(f"asset.version {tileset.get('asset')}")
+    if "geometricError" not in tileset:
+        problems.append("no top-level geometricError")
+    for visit in walk(tileset):
+        tile = visit.tile
+        box = tile["boundingVolume"]["box"]
+        error = tile["geometricError"]
+        if visit.parent is not None and error > visit.parent.tile["geometricError"]:
+            problems.append(
+                f"geometricError grows {visit.parent.tile['geometricError']} -> {error}"
+            )
+        if tile.get("refine", "REPLACE") not in ("REPLACE", "ADD"):
+            problems.append(f"refine {tile.get('refine')}")
+        to_local = np.linalg.inv(visit.world)
+        if visit.uri is not None:
+            parsed = urlparse(visit.uri)
+            if parsed.scheme or visit.uri.startswith("/") or ".." in visit.uri.split("/"):
+                problems.append(f"not a relative URI inside OUT: {visit.uri}")
+            elif not (out / unquote(visit.uri)).is_file():
+                problems.append(f"content missing: {visit.uri}")
+            else:
+                positions, _ = content_mesh(out, visit)
+                if not inside_box(box, to_world(to_local, positions), slack=1e-4):
+                    problems.append(f"content of {visit.uri} outside its box")
+        for child in visit.children:
+            corners = to_world(child.world, box_corners(child.tile["boundingVolume"]["box"]))
+            if not inside_box(box, to_world(to_local, corners), slack=1e-4):
+                problems.append(f"a child box of {visit.uri or 'a tile'} outside its box")
+    return problems

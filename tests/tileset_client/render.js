@@ -1,0 +1,109 @@
+// CesiumJS (npm `cesium`) in headless Chromium (Debian's /usr/bin/chromium via puppeteer-core)
+// loads OUT/tileset.json from a 127.0.0.1 server, with no network and no Cesium ion, renders one
+// view per requested height and prints one JSON line per view: the tileset's statistics once
+// every tile of the view is loaded, plus the page's console errors and failed requests.
+//
+// usage: node render.js OUT LON LAT HEIGHT [HEIGHT ...]   (degrees, metres above the ellipsoid)
+// SCREENSHOTS=folder also saves view_<height>m.png per view.
+"use strict";
+const http = require("http");
+const fs = require("fs");
+const path = require("path");
+const puppeteer = require("puppeteer-core");
+
+const [out, lon, lat, ...heights] = process.argv.slice(2);
+const CESIUM = path.join(__dirname, "node_modules", "cesium", "Build", "Cesium");
+const TYPES = { ".js": "text/javascript", ".json": "application/json", ".glb": "model/gltf-binary",
+  ".css": "text/css", ".html": "text/html", ".png": "image/png", ".jpg": "image/jpeg",
+  ".wasm": "application/wasm", ".xml": "text/xml", ".svg": "image/svg+xml" };
+
+const PAGE = `<!doctype html><html><head><meta charset="utf-8">
+<script src="/cesium/Cesium.js"></script>
+<link rel="stylesheet" href="/cesium/Widgets/widgets.css">
+<style>html,body,#view{margin:0;width:100%;height:100%;overflow:hidden}</style></head>
+<body><div id="view"></div><script>
+window.CESIUM_BASE_URL = "/cesium/";
+Cesium.Ion.defaultAccessToken = undefined;
+const widget = new Cesium.CesiumWidget("view", { baseLayer: false, skyBox: false,
+  skyAtmosphere: false, requestRenderMode: false, shadows: false });
+widget.scene.globe.baseColor = Cesium.Color.DARKGREY;
+widget.scene.fog.enabled = false; // fog culls tiles a few km away: every view sees the tileset
+window.ready = Cesium.Cesium3DTileset.fromUrl("/out/tileset.json").then((tileset) => {
+  widget.scene.primitives.add(tileset); window.tileset = tileset; return true; });
+window.view = async (lon, lat, height) => {
+  const scene = widget.scene, tileset = window.tileset;
+  // Look north, 60 degrees down, at the point: the camera stands south of it.
+  const pitch = Cesium.Math.toRadians(-60);
+  const back = height / Math.tan(-pitch) / 111320;
+  scene.camera.setView({ destination: Cesium.Cartesian3.fromDegrees(lon, lat - back, height),
+    orientation: { heading: 0, pitch, roll: 0 } });
+  for (let frame = 0, quiet = 0; frame < 600 && quiet < 5; frame++) {
+    widget.render();
+    await new Promise((r) => setTimeout(r, 20));
+    quiet = tileset.tilesLoaded ? quiet + 1 : 0;
+  }
+  widget.render();
+  const s = tileset.statistics;
+  return { height, selected: s.selected, commands: s.numberOfCommands,
+    triangles: s.numberOfTrianglesSelected, visited: s.visited,
+    contentReady: s.numberOfTilesWithContentReady, loaded: tileset.tilesLoaded,
+    geometryBytes: s.geometryByteLength, textureBytes: s.texturesByteLength };
+};
+</script></body></html>`;
+
+function serve(request, response) {
+  const url = decodeURIComponent(new URL(request.url, "http://127.0.0.1").pathname);
+  let file = null;
+  if (url === "/favicon.ico") {
+    response.writeHead(204);
+    return response.end();
+  }
+  if (url === "/" || url === "/index.html") {
+    response.writeHead(200, { "Content-Type": "text/html" });
+    return response.end(PAGE);
+  }
+  if (url.startsWith("/cesium/")) file = path.join(CESIUM, url.slice(8));
+  if (url.startsWith("/out/")) file = path.join(out, url.slice(5));
+  fs.readFile(file || "/nonexistent", (error, data) => {
+    if (error) { response.writeHead(404); return response.end(); }
+    response.writeHead(200, { "Content-Type": TYPES[path.extname(file)] || "application/octet-stream" });
+    response.end(data);
+  });
+}
+
+(async () => {
+  const server = http.createServer(serve).listen(0, "127.0.0.1");
+  await new Promise((r) => server.once("listening", r));
+  const port = server.address().port;
+  const browser = await puppeteer.launch({
+    executablePath: process.env.CHROMIUM || "/usr/bin/chromium", headless: true,
+    args: ["--no-sandbox", "--enable-unsafe-swiftshader", "--use-angle=swiftshader",
+      "--disable-background-networking", "--disable-component-update", "--no-first-run",
+      "--window-size=1280,720"],
+    defaultViewport: { width: 1280, height: 720 },
+  });
+  const errors = [];
+  try {
+    const page = await browser.newPage();
+    page.on("console", (m) => { if (m.type() === "error") errors.push(m.text()); });
+    page.on("pageerror", (e) => errors.push(String(e)));
+    page.on("requestfailed", (r) => errors.push(`request failed: ${r.url()}`));
+    page.on("response", (r) => { if (r.status() >= 400) errors.push(`HTTP ${r.status()}: ${r.url()}`); });
+    await page.setRequestInterception(true);
+    page.on("request", (r) => (r.url().startsWith(`http://127.0.0.1:${port}/`) ? r.continue() : r.abort()));
+    await page.goto(`http://127.0.0.1:${port}/index.html`, { waitUntil: "load" });
+    await page.evaluate(() => window.ready);
+    for (const height of heights) {
+      const stats = await page.evaluate((a, b, c) => window.view(a, b, c), +lon, +lat, +height);
+      if (process.env.SCREENSHOTS) {
+        await page.screenshot({ path: path.join(process.env.SCREENSHOTS, `view_${height}m.png`) });
+      }
+      console.log(JSON.stringify({ ...stats, errors: errors.splice(0) }));
+    }
+  } catch (error) {
+    console.log(JSON.stringify({ fatal: String(error), errors }));
+  } finally {
+    await browser.close();
+    server.close();
+  }
+})();
