@@ -96,7 +96,7 @@ def _export(tmp_path: Path, source: Path) -> tuple[list[dict], list[Path]]:
         for m in sorted(out.glob("*/lod_manifest.json"))
         for b in json.loads(m.read_text())["buildings"]
     ]
-    return records, sorted(out.rglob("*.glb"))
+    return records, sorted(out.glob("*/*/lod*.glb"))  # the levels (not the tileset's proxies)
 
 
 def _independent_centres(path: Path, epsg: str) -> dict:
