@@ -52,6 +52,7 @@ import dataclasses
 import numpy as np
 
 from .geometry import cross_rows
+from .mesh.band_kernels import region_bands
 from .simplify.protect import planar_regions
 from .simplify.weld import weld_positions
 
@@ -298,47 +299,6 @@ def _slivers(points: np.ndarray, faces: np.ndarray, done: np.ndarray, budget: fl
     return (float(width[ok].max()) if ok.any() else 0.0), settled
 
 
-def _cycles(rows: list) -> list | None:
-    """The cycles of one region's chain difference (``(region, a, b, side)`` rows), walked so
-    that at a vertex where several edges leave, the walk turns onto the other side's edge (two
-    bands meeting at a corner); None when that is ambiguous or a walk does not close."""
-    leaving: dict[int, list[int]] = {}
-    for i, row in enumerate(rows):
-        leaving.setdefault(row[1], []).append(i)
-    used = [False] * len(rows)
-    cycles = []
-    for first in range(len(rows)):
-        if used[first]:
-            continue
-        cycle, i = [], first
-        while True:
-            used[i] = True
-            cycle.append(i)
-            if len(cycle) > MAX_BAND_EDGES:
-                return None
-            row = rows[i]
-            out = leaving.get(row[2], ())
-            if len(out) == 1:
-                # One edge leaves (most vertices): the general rule below, without its lists.
-                j = out[0]
-                if j == first:
-                    break
-                if used[j]:
-                    return None
-                i = j
-                continue
-            options = [j for j in out if not used[j] or j == first]
-            if first in options:
-                break
-            if len(options) > 1:
-                options = [j for j in options if rows[j][3] != row[3]]
-            if len(options) != 1:
-                return None
-            i = options[0]
-        cycles.append(cycle)
-    return cycles
-
-
 def _bands(diff: np.ndarray, points: np.ndarray, normals: np.ndarray, good, width) -> None:
     """Step 4: the cycles of the chain difference ``diff`` (:func:`_chain_difference` rows) per
     region; a region whose cycles are not all bands is marked not ``good``; ``width`` (r,) gets
@@ -353,87 +313,4 @@ def _bands(diff: np.ndarray, points: np.ndarray, normals: np.ndarray, good, widt
     v = cross_rows(n, u)
     start = points[diff[:, 1]]
     xy = np.column_stack([(start * u).sum(1), (start * v).sum(1)])
-    starts = np.flatnonzero(np.r_[True, diff[1:, 0] != diff[:-1, 0]])
-    ends = np.r_[starts[1:], len(diff)]
-    # Walk every region's cycles (plain Python: a handful of edges each), then measure all the
-    # cycles at once (:func:`_band_widths`).
-    edges: list[int] = []
-    lengths: list[int] = []
-    owners: list[int] = []
-    every = diff.tolist()
-    for s, e in zip(starts.tolist(), ends.tolist()):
-        g = every[s][0]
-        if not good[g]:
-            continue
-        rows = every[s:e]
-        cycles = _cycles(rows)
-        if cycles is None or any(row[3] == 0 for row in rows):
-            good[g] = False
-            continue
-        for cycle in cycles:
-            edges.extend(s + i for i in cycle)
-            lengths.append(len(cycle))
-            owners.append(g)
-    if not lengths:
-        return
-    band = _band_widths(xy[edges], diff[edges, 3], np.array(lengths))
-    owner = np.array(owners)
-    bad = np.isnan(band)
-    good[owner[bad]] = False
-    np.maximum.at(width, owner[~bad], band[~bad])
-
-
-def _band_widths(xy: np.ndarray, sides: np.ndarray, lengths: np.ndarray) -> np.ndarray:
-    """Width (metres) across the chord of each cycle of the chain difference that is a band: a
-    cycle (vertices ``xy`` (sum lengths, 2) in-plane metres, edge e from vertex e to e + 1, the
-    cycles' ``lengths`` (c,) one after the other) splits at its two farthest-apart vertices into
-    two runs, each monotone along the chord, one of the level's boundary edges and the other of
-    the source's (``sides`` (sum lengths,) +1 / -1 per edge); (c,) metres, NaN otherwise.
-
-    All cycles at once on (c, L, L) padded arrays (a loop per cycle cost ~60 us of Python); the
-    same float operations in the same order as the former loop, so the same bits (checked
-    against it in tests/test_coverage.py)."""
-    c, most = len(lengths), int(lengths.max())
-    first = np.cumsum(lengths) - lengths
-    owner = np.repeat(np.arange(c), lengths)
-    pos = np.arange(len(owner)) - first[owner]
-    x = np.zeros((c, most))
-    y = np.zeros((c, most))
-    side = np.zeros((c, most), np.int64)
-    x[owner, pos], y[owner, pos], side[owner, pos] = xy[:, 0], xy[:, 1], sides
-    valid = np.arange(most)[None] < lengths[:, None]  # (c, L)
-    # Farthest pair p < q, the first in (p, q) order among equals (as the loop's strict '>').
-    dx = x[:, None, :] - x[:, :, None]  # [p, q] = x_q - x_p
-    dy = y[:, None, :] - y[:, :, None]
-    d = dx * dx + dy * dy
-    pair = np.triu(np.ones((most, most), bool), 1)[None] & valid[:, None, :]
-    d = np.where(pair, d, -1.0)
-    flat = d.reshape(c, -1).argmax(axis=1)
-    i, j = flat // most, flat % most
-    best = d.reshape(c, -1)[np.arange(c), flat]
-    rows = np.arange(c)
-    # Python's '** 0.5' (the loop's) rather than np.sqrt: the same last bit.
-    length = np.array([b**0.5 if b > 0.0 else 1.0 for b in best.tolist()])
-    xi, yi = x[rows, i][:, None], y[rows, i][:, None]
-    ax = ((x[rows, j] - x[rows, i]) / length)[:, None]
-    ay = ((y[rows, j] - y[rows, i]) / length)[:, None]
-    t = (x - xi) * ax + (y - yi) * ay
-    h = (y - yi) * ax - (x - xi) * ay
-    # Edge e runs from vertex e to e + 1 (cyclically); the first run is i <= e < j.
-    nxt = np.where(np.arange(most)[None] + 1 < lengths[:, None], np.arange(most)[None] + 1, 0)
-    step = t[rows[:, None], nxt] - t  # (c, L) t[e + 1] - t[e]
-    e = np.arange(most)[None]
-    in_first = (e >= i[:, None]) & (e < j[:, None]) & valid
-    in_second = ~in_first & valid
-    slack = (1e-12 * length)[:, None]
-    ok = ~(in_first & (step < -slack)).any(axis=1) & ~(in_second & (-step < -slack)).any(axis=1)
-    # One side's edges on each run: all +1 then all -1, or the reverse.
-    first_pos = ((side == 1) | ~in_first).all(axis=1)
-    first_neg = ((side == -1) | ~in_first).all(axis=1)
-    second_pos = ((side == 1) | ~in_second).all(axis=1)
-    second_neg = ((side == -1) | ~in_second).all(axis=1)
-    ok &= (first_pos & second_neg) | (first_neg & second_pos)
-    ok &= best > 0.0
-    high = np.where(valid, h, -np.inf).max(axis=1)
-    low = np.where(valid, h, np.inf).min(axis=1)
-    return np.where(ok, high - low, np.nan)
+    region_bands(diff, xy, good, width, MAX_BAND_EDGES)
