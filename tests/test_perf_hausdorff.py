@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from exporter import coverage, hausdorff, quality
-from exporter.coverage import SLIVER, _band_widths, _cycles
+from exporter.coverage import SLIVER
 from exporter.geometry import cross_rows
 from exporter.hausdorff import (
     CANDIDATES,
@@ -30,6 +30,7 @@ from exporter.hausdorff import (
     _Regions,
     _sides_in,
 )
+from exporter.mesh.band_kernels import _band_width, _walk
 
 # --------------------------------------------------------------------------- reference formulations
 
@@ -482,12 +483,9 @@ def test_band_widths_of_many_cycles_equal_the_loop(seed):
     rng = np.random.default_rng(seed)
     cycles = [_cycle(rng, int(rng.integers(1, 40)), rng.random() < 0.8) for _ in range(300)]
     cycles.append((np.zeros((4, 2)), np.array([1, 1, -1, -1])))  # all vertices at one point
-    xy = np.concatenate([c[0] for c in cycles])
-    sides = np.concatenate([c[1] for c in cycles])
-    lengths = np.array([len(c[0]) for c in cycles])
-    fast = _band_widths(xy, sides, lengths)
+    fast = [_band_width(xy[:, 0].copy(), xy[:, 1].copy(), sides, 0.5) for xy, sides in cycles]
     accepted = 0
-    for (points, side), value in zip(cycles, fast.tolist()):
+    for (points, side), value in zip(cycles, fast):
         expected = reference_band_width(points.tolist(), side.tolist())
         if expected is None:
             assert np.isnan(value)
@@ -565,6 +563,29 @@ def test_the_former_bounds_on_random_soups(monkeypatch):
         assert fast == former
 
 
+def compiled_cycles(rows: list) -> list | None:
+    """The compiled walk's cycles as lists of row numbers in walk order (None: refused)."""
+    table = np.array(rows, np.int64).reshape(-1, 4)
+    cycle_of = np.empty(len(rows), np.int64)
+    order = np.empty(len(rows), np.int64)
+    count = _walk(
+        table[:, 1].copy(),
+        table[:, 2].copy(),
+        table[:, 3].copy(),
+        0,
+        len(rows),
+        coverage.MAX_BAND_EDGES,
+        cycle_of,
+        order,
+    )
+    if count < 0:
+        return None
+    cycles: list[list[int]] = [[] for _ in range(count)]
+    for row in np.lexsort((order, cycle_of)).tolist():
+        cycles[cycle_of[row]].append(row)
+    return cycles
+
+
 @pytest.mark.parametrize("seed", range(3))
 def test_cycles_equal_the_former_walk(seed):
     # Random chain differences: closed loops (one edge leaving each vertex), loops meeting at a
@@ -584,6 +605,6 @@ def test_cycles_equal_the_former_walk(seed):
             )
         rng.shuffle(rows)
         expected = reference_cycles(rows)
-        assert _cycles(rows) == expected
+        assert compiled_cycles(rows) == expected
         closed += expected is not None
     assert closed > 100
