@@ -19,13 +19,17 @@ from .jit import kernel
 @kernel
 def _rasterise(xy, faces, size, out):  # pragma: no cover - compiled
     top = size - 1
+    # Row spans as differences (+1 at a span's first column, -1 past its last), summed per row
+    # at the end: each triangle costs its rows, not its pixels.
+    spans = np.zeros((size, size + 1), np.int32)
+    px = np.empty(3)
+    py = np.empty(3)
+    qx = np.empty(3)
+    qy = np.empty(3)
+    slope = np.empty(3)
     for view in range(xy.shape[0]):
+        spans[:] = 0
         for f in range(faces.shape[0]):
-            px = np.empty(3)
-            py = np.empty(3)
-            qx = np.empty(3)
-            qy = np.empty(3)
-            slope = np.empty(3)
             y_min, y_max = np.inf, -np.inf
             for k in range(3):
                 x0, y0 = xy[view, faces[f, k], 0], xy[view, faces[f, k], 1]
@@ -56,8 +60,13 @@ def _rasterise(xy, faces, size, out):  # pragma: no cover - compiled
                 if lo <= hi:
                     c0 = int(min(max(np.ceil(lo - 0.5), 0.0), top))
                     c1 = int(min(max(np.floor(hi + 0.5), 0.0), top))
-                    for c in range(c0, c1 + 1):
-                        out[view, r, c] = True
+                    spans[r, c0] += 1
+                    spans[r, c1 + 1] -= 1
+        for r in range(size):
+            total = 0
+            for c in range(size):
+                total += spans[r, c]
+                out[view, r, c] = total > 0
 
 
 def rasterise_views(xy: np.ndarray, faces: np.ndarray, size: int) -> np.ndarray:
