@@ -51,6 +51,7 @@ import numpy as np
 from . import coverage
 from . import quality as _quality
 from .geometry import cross_rows, longest_edges, unique_float_rows
+from .mesh.straight_run_kernels import straight_runs
 
 MAX_DEPTH = 7  # 4-splits per triangle at most (edges down to 1/128 of the triangle's)
 MAX_OPEN = 4096  # sub-triangles bounded per round at most (the worst split first)
@@ -308,68 +309,7 @@ class _Regions:
         orientation."""
         if len(seg) < 2:
             return seg_region, seg
-        outgoing: dict[tuple[int, int], list[int]] = {}
-        incoming: dict[tuple[int, int], list[int]] = {}
-        # Plain lists: the walk below looks items up one at a time (numpy scalars cost more).
-        region_of, ends_of, oriented_of = seg_region.tolist(), ends.tolist(), oriented.tolist()
-        for i, (g, (va, vb), ok) in enumerate(zip(region_of, ends_of, oriented_of)):
-            if ok:
-                outgoing.setdefault((g, va), []).append(i)
-                incoming.setdefault((g, vb), []).append(i)
-
-        def through(g, v):
-            out, into = outgoing.get((g, v), ()), incoming.get((g, v), ())
-            return out[0] if len(out) == 1 and len(into) == 1 else None
-
-        points = seg.tolist()
-        used = [False] * len(seg)
-        merged_region, merged = [], []
-        order = sorted(
-            range(len(seg)), key=lambda i: through(region_of[i], ends_of[i][0]) is not None
-        )
-        for i in order:
-            if used[i]:
-                continue
-            used[i] = True
-            g = region_of[i]
-            if not oriented_of[i]:
-                merged_region.append(g)
-                merged.append(points[i])
-                continue
-            start, end = points[i][0], points[i][1]
-            inner: list[list[float]] = []
-            j = i
-            while True:
-                nxt = through(g, ends_of[j][1])
-                if nxt is None or used[nxt]:
-                    break
-                candidate = points[nxt][1]
-                cx, cy = candidate[0] - start[0], candidate[1] - start[1]
-                length = (cx * cx + cy * cy) ** 0.5
-                offsets = [
-                    (cx * (q[1] - start[1]) - cy * (q[0] - start[0])) / length
-                    if length > 0
-                    else 1e300
-                    for q in inner + [end]
-                ]
-                # Inward (left, the region's side) only: the new region then contains the old
-                # one, and is within the largest offset of it.
-                if max(offsets) > T_JUNCTION * length or min(offsets) < -1e-9 * length:
-                    break
-                inner.append(end)
-                end = candidate
-                used[nxt] = True
-                j = nxt
-            if inner:
-                cx, cy = end[0] - start[0], end[1] - start[1]
-                length = (cx * cx + cy * cy) ** 0.5
-                offset = max(
-                    abs(cx * (q[1] - start[1]) - cy * (q[0] - start[0])) / length for q in inner
-                )
-                self.gap[g] = max(self.gap[g], offset)
-            merged_region.append(g)
-            merged.append([start, end])
-        return np.array(merged_region, np.int64), np.array(merged, np.float64).reshape(-1, 2, 2)
+        return straight_runs(seg_region, seg, ends, oriented, self.gap, T_JUNCTION)
 
     def _store(self, seg_region: np.ndarray, seg: np.ndarray, r: int) -> None:
         order = np.argsort(seg_region, kind="stable")

@@ -568,10 +568,13 @@ def compiled_cycles(rows: list) -> list | None:
     table = np.array(rows, np.int64).reshape(-1, 4)
     cycle_of = np.empty(len(rows), np.int64)
     order = np.empty(len(rows), np.int64)
+    by_start = np.argsort(table[:, 1], kind="stable")
     count = _walk(
         table[:, 1].copy(),
         table[:, 2].copy(),
         table[:, 3].copy(),
+        by_start,
+        table[by_start, 1].copy(),
         0,
         len(rows),
         coverage.MAX_BAND_EDGES,

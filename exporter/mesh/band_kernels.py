@@ -19,17 +19,17 @@ from __future__ import annotations
 import numpy as np
 
 from .jit import kernel
+from .sorted_kernels import lower_bound, upper_bound
 
 
 @kernel
-def _walk(a, b, side, lo, hi, max_edges, cycle_of, order_in_cycle):  # pragma: no cover - compiled
-    """Cycles of rows lo..hi-1 (edge a -> b, side +1/-1/0): fills ``cycle_of`` (cycle number per
-    row) and ``order_in_cycle``; returns the cycle count, or -1 when a walk fails."""
+def _walk(a, b, side, by_start, a_sorted, lo, hi, max_edges, cycle_of, order_in_cycle):
+    # pragma: no cover - compiled
+    """Cycles of rows lo..hi-1 (edge a -> b, side +1/-1/0; ``by_start`` the rows lo..hi-1 sorted
+    by (a, row), so the rows leaving a vertex are a range in row order): fills ``cycle_of``
+    (cycle number per row) and ``order_in_cycle``; returns the cycle count, or -1 when a walk
+    fails."""
     n = hi - lo
-    # Rows leaving each vertex, in row order: rows sorted by (a, row).
-    keys = a[lo:hi]
-    by_start = np.argsort(keys, kind="mergesort")
-    sorted_keys = keys[by_start]
     used = np.zeros(n, np.bool_)
     options = np.empty(n, np.int64)
     cycles = 0
@@ -46,10 +46,10 @@ def _walk(a, b, side, lo, hi, max_edges, cycle_of, order_in_cycle):  # pragma: n
             if count > max_edges:
                 return -1
             end = b[lo + i]
-            s = np.searchsorted(sorted_keys, end, side="left")
-            e = np.searchsorted(sorted_keys, end, side="right")
+            s = lower_bound(a_sorted, lo, hi, end)
+            e = upper_bound(a_sorted, lo, hi, end)
             if e - s == 1:
-                j = by_start[s]
+                j = by_start[s] - lo
                 if j == first:
                     break
                 if used[j]:
@@ -60,7 +60,7 @@ def _walk(a, b, side, lo, hi, max_edges, cycle_of, order_in_cycle):  # pragma: n
             found_first = False
             k = 0
             for t in range(s, e):
-                j = by_start[t]
+                j = by_start[t] - lo
                 if j == first:
                     found_first = True
                 if not used[j] or j == first:
@@ -128,8 +128,12 @@ def _band_width(x, y, side, half):  # pragma: no cover - compiled
 
 
 @kernel
-def _region_bands(region, a, b, side, xy, good, width, max_edges, half):  # pragma: no cover
+def _region_bands(region, a, b, side, by_start, xy, good, width, max_edges, half):
+    # pragma: no cover - compiled
     d = region.shape[0]
+    a_sorted = np.empty(d, np.int64)
+    for r in range(d):
+        a_sorted[r] = a[by_start[r]]
     cycle_of = np.empty(d, np.int64)
     order_in_cycle = np.empty(d, np.int64)
     s = 0
@@ -139,7 +143,9 @@ def _region_bands(region, a, b, side, xy, good, width, max_edges, half):  # prag
         while e < d and region[e] == g:
             e += 1
         if good[g]:
-            cycles = _walk(a, b, side, s, e, max_edges, cycle_of, order_in_cycle)
+            cycles = _walk(
+                a, b, side, by_start, a_sorted, s, e, max_edges, cycle_of, order_in_cycle
+            )
             zero = False
             for r in range(s, e):
                 zero |= side[r] == 0
@@ -158,7 +164,7 @@ def _region_bands(region, a, b, side, xy, good, width, max_edges, half):  # prag
                             k = order_in_cycle[r]
                             x[k], y[k], sides[k] = xy[r, 0], xy[r, 1], side[r]
                     band = _band_width(x, y, sides, half)
-                    if np.isnan(band):
+                    if band != band:  # NaN: not a band
                         good[g] = False
                     elif band > width[g]:
                         width[g] = band
@@ -177,11 +183,14 @@ def region_bands(
     rows = np.ascontiguousarray(diff, np.int64)
     if rows[:, 0].min() < 0 or rows[:, 0].max() >= len(good) or len(width) != len(good):
         raise ValueError("region_bands: region index out of range")
+    # Rows by (region, start vertex), stable: each region's rows leaving a vertex in row order.
+    by_start = np.lexsort((rows[:, 1], rows[:, 0]))
     _region_bands(
         rows[:, 0].copy(),
         rows[:, 1].copy(),
         rows[:, 2].copy(),
         rows[:, 3].copy(),
+        by_start,
         np.ascontiguousarray(xy, np.float64),
         good,
         width,
