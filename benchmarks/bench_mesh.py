@@ -16,6 +16,7 @@ count=300, seed=3, atlas_size=256)``; a CityJSON file or folder works too.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import time
 from pathlib import Path
 
@@ -30,13 +31,13 @@ def mesh_stage(modules: dict, parts: list, config) -> tuple[list, list]:
     quality = modules["quality"]
     chain = modules["simplify"].build_mesh_chain(parts, config.lods, config.simplify)
     levels = [level.parts for level in chain]
-    qualities: list[dict] = [{"triangle_ratio": 1.0}]
+    qualities: list = [{"triangle_ratio": 1.0}]
     for k in range(1, len(levels)):
         same = [(p.positions.tobytes(), p.triangles.tobytes()) for p in levels[k]] == [
             (p.positions.tobytes(), p.triangles.tobytes()) for p in levels[k - 1]
         ]
         if k > 1 and same:
-            qualities.append(dict(qualities[-1]))
+            qualities.append(qualities[-1])
         elif chain[k].exact:
             qualities.append(quality.exact_quality(levels[0], levels[k]))
         elif chain[k].surface_exact:
@@ -46,7 +47,12 @@ def mesh_stage(modules: dict, parts: list, config) -> tuple[list, list]:
     return chain, qualities
 
 
-def _summary(chain: list, qualities: list) -> list:
+def _plain(quality) -> dict:
+    """A level's quality as a dict (a dict before issue 24, a ``LevelQuality`` after)."""
+    return quality if isinstance(quality, dict) else dataclasses.asdict(quality)
+
+
+def _summary(chain: list) -> list:
     return [
         (
             tuple((p.positions.tobytes(), p.triangles.tobytes()) for p in level.parts),
@@ -104,11 +110,12 @@ def main() -> None:
     )
     same_mesh = same_quality = tighter = looser = 0
     for (chain_t, q_t), (chain_b, q_b) in zip(results["this"], results["baseline"]):
-        same_mesh += _summary(chain_t, q_t) == _summary(chain_b, q_b)
+        same_mesh += _summary(chain_t) == _summary(chain_b)
+        q_t, q_b = [_plain(q) for q in q_t[1:]], [_plain(q) for q in q_b[1:]]
         same_quality += q_t == q_b
-        for a, b in zip(q_t[1:], q_b[1:]):
-            tighter += a.get("hausdorff_rel", 0) < b.get("hausdorff_rel", 0)
-            looser += a.get("hausdorff_rel", 0) > b.get("hausdorff_rel", 0)
+        for a, b in zip(q_t, q_b):
+            tighter += a["hausdorff_rel"] < b["hausdorff_rel"]
+            looser += a["hausdorff_rel"] > b["hausdorff_rel"]
     print(
         f"same levels (triangles, flags) {same_mesh}/{len(buildings)}  same quality "
         f"{same_quality}/{len(buildings)}  levels with a tighter bound {tighter}, looser {looser}"

@@ -48,7 +48,7 @@ def joined(parts) -> tuple:
 
 
 # The dense check's own rounding, as a share of the building's diagonal: Ericson's point-triangle
-# distance (quality.point_triangle_distance) returned 3.2e-10 m for a grid point lying inside a
+# distance (exporter.mesh.distance.point_triangle_distance) returned 3.2e-10 m for a grid point lying inside a
 # 35.6 x 2.4 m sliver 1.8e-15 m off its plane (50-digit arithmetic; seed 977, building 57, a
 # 60 m diagonal: 5e-12 of it). A dense value within this of the certified bound is no failure.
 ROUNDING = 1e-10

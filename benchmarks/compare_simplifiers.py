@@ -191,7 +191,7 @@ def run(
                     seconds["gltfpack -si"] += time.perf_counter() - start
                 for name, parts in outputs.items():
                     start = time.perf_counter()
-                    metrics = measure_lod(source, parts)
+                    metrics = measure_lod(source, parts).to_manifest()
                     measure_seconds += time.perf_counter() - start
                     measure_calls += 1
                     metrics["budget_reached"] = float(count(parts) <= budget)
@@ -347,7 +347,7 @@ def equal_error(buildings: list, where: str) -> None:
                     seconds[name] += time.perf_counter() - start
                     outputs[name] = [Part(positions, faces)]
                 for name, parts in outputs.items():
-                    metrics = measure_lod(source, parts)
+                    metrics = measure_lod(source, parts).to_manifest()
                     metrics["within"] = float(not exceeds(reference, *joined(parts), tolerance))
                     # Independent of the guard: measure_lod's own sampled distance over the budget.
                     metrics["over"] = (

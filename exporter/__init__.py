@@ -2,7 +2,8 @@
 
 Pipeline (one module per stage, see docs/ARCHITECTURE.md):
 read (``readers``) -> simplify (``simplify``) -> textures (``textures``) -> place (``placement``,
-``tiles``) -> write (``gltf_writer``) -> manifest (``manifest``), driven by ``pipeline`` and ``cli``.
+``tiles``) -> write (``gltf_writer``) -> manifest (``manifest``), on the mesh layer (``mesh``),
+one building at a time by ``job``, driven by ``pipeline`` (or ``distributed``) and ``cli``.
 """
 
 __version__ = "0.3.4"

@@ -1,9 +1,9 @@
 """The export's per-building work on a Dask cluster (``vworld-lod export … --scheduler ADDRESS``).
 
 Data form: the same work items as the local pool (``(entry, config, out_dir, digest,
-fingerprints)`` tuples for :func:`exporter.pipeline.process_entry`) go to the cluster in batches
+fingerprints)`` tuples for :func:`exporter.job.process_entry`) go to the cluster in batches
 (:func:`process_batch`, one Dask task each); each task returns the batch's
-:class:`~exporter.pipeline.EntryResult` list. Workers write every building's files themselves
+:class:`~exporter.job.EntryResult` list. Workers write every building's files themselves
 (atomically, record last), so the client only collects results and writes the manifests, exactly as
 with the local pool: the output is byte-identical to a local run.
 
@@ -41,7 +41,9 @@ from functools import cache
 from importlib import metadata
 from pathlib import Path
 
+from . import __version__
 from .errors import VWorldLodError
+from .job import process_entry
 
 DASK_MISSING = (
     "--scheduler needs dask and distributed, which are not installed: "
@@ -116,8 +118,6 @@ def code_hash() -> str:
 def identity() -> dict[str, str]:
     """What must match between the client and every worker: ``{name: version}``, with
     ``"-"`` for a distribution that is not installed."""
-    from . import __version__
-
     versions = {
         "python": platform.python_version(),
         "vworld-lod": __version__,
@@ -209,13 +209,11 @@ class StorageLost(Exception):
 
 
 def process_batch(items: list[tuple], cwd: str) -> list:
-    """Run on a worker: :func:`exporter.pipeline.process_entry` for every item, from the client's
+    """Run on a worker: :func:`exporter.job.process_entry` for every item, from the client's
     working folder ``cwd``, after checking that the shared folders are still there (a worker that
     lost its mount must fail loudly, not report every building as missing). Workers are meant to
     run one thread each (the work is CPU-bound); with more, all of this export's tasks set the
     same folder."""
-    from .pipeline import process_entry
-
     try:
         enter_client_folder(cwd)
     except OSError:
@@ -408,7 +406,7 @@ def batch_size_for(total: int, workers: int, largest: int) -> int:
 def cluster_results(client, work: Iterable, total: int, options: ClusterOptions) -> Iterator:
     """Run the work items of ``work`` (tuples, or finished results passed through) on the
     cluster in batches, a bounded number in flight; yields each
-    :class:`~exporter.pipeline.EntryResult` as its batch finishes."""
+    :class:`~exporter.job.EntryResult` as its batch finishes."""
     from distributed import KilledWorker, as_completed
     from distributed.utils import CancelledError
 

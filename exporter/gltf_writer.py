@@ -30,7 +30,7 @@ import numpy as np
 import pygltflib
 from pygltflib import GLTF2
 
-from .geometry import unit_vectors, vertex_normals
+from .mesh.geometry import unit_vectors, vertex_normals
 from .model import Part
 
 GLTF_MIMES = ("image/jpeg", "image/png")

@@ -1,10 +1,8 @@
 """The export pipeline: tile folders in, per-tile glTF LoD chains and manifests out.
 
-Per building (``process_entry``, run in worker processes: the local pool, or a Dask cluster's
-workers with ``scheduler``, see ``exporter.distributed``): read -> mesh LoDs -> texture LoDs ->
-quality -> placement -> write ``lod<k>.glb`` files -> write the building's record
-(``building.json``) last. A record's presence therefore means the building's files are complete;
-its ``input_hash`` (input files' sha256 + effective config + generator version) lets a re-run skip
+Per building: :func:`exporter.job.process_entry`, run in worker processes (the local pool here,
+or a Dask cluster's workers with ``scheduler``, see ``exporter.distributed``). Its
+``input_hash`` (input files' sha256 + effective config + generator version) lets a re-run skip
 unchanged buildings, and an interrupted run resume where it stopped.
 
 Per tile (``export_tiles``): collect the records, remove what a previous run left that this run no
@@ -20,7 +18,6 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-import math
 import os
 import shutil
 import time
@@ -29,25 +26,19 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
-
-import numpy as np
 
 from . import __version__
-from .atomic import remove_stale_temporaries, write_bytes_atomic, write_text_atomic
+from .atomic import remove_stale_temporaries, write_text_atomic
 from .config import Config
-from .errors import InputError, ProcessError, ReadError
-from .manifest import MANIFEST_NAME, build_manifest, dumps, safe_folder_name
-from .model import Building, Part, Skipped, Texture, TileId
-from .readers import Entry, load_entry, scan_folder
+from .distributed import ClusterOptions, cluster_results, cluster_session
+from .errors import InputError
+from .job import RECORD_NAME, STAGES, EntryResult, process_entry
+from .manifest import MANIFEST_NAME, build_manifest, dumps
+from .model import Skipped, TileId
+from .placement import tile_placement
+from .readers import Entry, scan_folder
 from .tile_index import write_tile_index
-
-if TYPE_CHECKING:
-    from .distributed import ClusterOptions
-
-RECORD_NAME = "building.json"
-STAGES = ("read", "simplify", "textures", "quality", "write")
-
+from .tiles import tile_bounds, tile_center
 
 # --------------------------------------------------------------------------- small pure helpers
 
@@ -126,107 +117,6 @@ def input_hash(entry: Entry, config_hash: str, fingerprints: list[dict]) -> str:
     return digest.hexdigest()
 
 
-def building_tile(building: Building, level: int = 15) -> tuple[TileId, TileId | None, str | None]:
-    """(tile to write into, tile holding the centre if it differs from the data's, message).
-
-    The data's own tile wins when it has one; the disagreement is reported (tiles.check_tile)."""
-    from .tiles import building_tile as tile_of_bounds
-    from .tiles import check_tile
-
-    bounds = building.lonlat_bounds or (
-        building.reference.lon,
-        building.reference.lat,
-        building.reference.lon,
-        building.reference.lat,
-    )
-    data_level = building.tile.level if building.tile is not None else level
-    tile, message = check_tile(building.tile, bounds, data_level)
-    centre = tile_of_bounds(bounds, data_level)
-    return tile, (centre if centre != tile else None), message
-
-
-# --------------------------------------------------------------------------- per-building stages
-
-
-def texture_levels(
-    parts_by_level: list[list[Part]], config: Config, problems: list[str]
-) -> list[list[Part]]:
-    """Give every level's parts their level's atlas; a texture that cannot be processed leaves its
-    parts untextured (with a problem listed), never failing the building."""
-    from .textures import build_texture_lods
-
-    scales = [spec.texture for spec in config.lods]
-    reduced: dict[int, list[Texture] | None] = {}
-    for part in parts_by_level[0]:
-        texture = part.texture
-        if texture is None or id(texture) in reduced:
-            continue
-        try:
-            reduced[id(texture)] = build_texture_lods(texture, scales, config.textures)
-        except ReadError as error:
-            problems.append(
-                f"texture {texture.name or texture.source or '?'}: {error.problem}; exported untextured"
-            )
-            reduced[id(texture)] = None
-    out = []
-    for level, parts in enumerate(parts_by_level):
-        level_parts = []
-        for part in parts:
-            textures = reduced.get(id(part.texture)) if part.texture is not None else None
-            level_parts.append(
-                dataclasses.replace(part, texture=textures[level] if textures else None)
-            )
-        out.append(level_parts)
-    return out
-
-
-def same_geometry(parts: list[Part], other: list[Part]) -> bool:
-    """True when two levels have identical meshes (then their quality metrics are identical too)."""
-    return len(parts) == len(other) and all(
-        np.array_equal(a.triangles, b.triangles) and np.array_equal(a.positions, b.positions)
-        for a, b in zip(parts, other)
-    )
-
-
-def lod_record(level: int, parts: list[Part], file_name: str, data: bytes, quality: dict) -> dict:
-    textures = [p.texture for p in parts if p.texture is not None and p.triangle_count]
-    largest = max(textures, key=lambda t: t.width * t.height, default=None)
-    return {
-        "level": level,
-        "file": file_name,
-        "triangles": sum(p.triangle_count for p in parts),
-        "vertices": sum(p.vertex_count for p in parts if p.triangle_count),
-        "texture_size": [largest.width, largest.height] if largest else [0, 0],
-        "texture_bytes": sum(len(t.data) for t in {id(t): t for t in textures}.values()),
-        "file_bytes": len(data),
-        "quality": quality,
-    }
-
-
-def level_fields(level, above: dict) -> dict:
-    """A level's error budget (metres, when it has one) and whether its mesh is no smaller than
-    the level above's record ``above``."""
-    fields = {"no_smaller_than_above": level_triangles(level) >= above["triangles"]}
-    if math.isfinite(level.tolerance):
-        fields["error_budget_m"] = round(level.tolerance, 6)
-    return fields
-
-
-def level_triangles(level) -> int:
-    return sum(p.triangle_count for p in level.parts)
-
-
-@dataclass
-class EntryResult:
-    """What a worker returns for one entry: a manifest record or a skip, plus stage times (s)."""
-
-    tile: TileId | None
-    record: dict | None = None
-    skipped: Skipped | None = None
-    reused: bool = False
-    seconds: dict = field(default_factory=dict)
-
-
 def reusable_record(previous: dict | None, digest: str, out_dir: Path) -> dict | None:
     """A previous run's record when its input hash matches and all its files are still there."""
     if previous is None or previous["record"].get("input_hash") != digest:
@@ -235,125 +125,6 @@ def reusable_record(previous: dict | None, digest: str, out_dir: Path) -> dict |
     if all((tile_dir / lod["file"]).is_file() for lod in previous["record"]["lods"]):
         return previous
     return None
-
-
-def process_entry(
-    entry: Entry, config: Config, out_dir: str, digest: str, fingerprints: tuple = ()
-) -> EntryResult:
-    """Run the whole per-building pipeline for one entry (see module doc); ``digest`` is its input
-    hash and ``fingerprints`` its input files' (:func:`input_fingerprints`), recorded for the next
-    run. Never raises for a bad building: returns it as skipped with
-    the reason."""
-    from .gltf_writer import glb_bytes
-    from .placement import building_placement, relative_placement
-    from .quality import boundary_quality, exact_quality, measure_lod
-    from .simplify import build_mesh_chain, degenerate_only
-
-    seconds = {stage: 0.0 for stage in STAGES}
-    clock = time.perf_counter()
-
-    def lap(stage: str) -> None:
-        nonlocal clock
-        now = time.perf_counter()
-        seconds[stage] += now - clock
-        clock = now
-
-    try:
-        building = load_entry(entry, config.readers)
-    except ReadError as error:
-        return EntryResult(
-            tile=entry.tile,
-            skipped=Skipped(entry.source, error.problem, entry.id, entry.tile),
-            seconds=seconds,
-        )
-    lap("read")
-    try:
-        tile, centre_tile, tile_message = building_tile(building)
-        problems = list(building.problems)
-        if tile_message:
-            problems.append(tile_message)
-        if building.triangle_count == 0:
-            raise ProcessError("no triangles to export")
-        if degenerate_only(building.parts):
-            raise ProcessError("every triangle is degenerate (narrower than 1 micrometre)")
-        chain = build_mesh_chain(building.parts, config.lods, config.simplify)
-        parts_by_level = [level.parts for level in chain]
-        lap("simplify")
-        parts_by_level = texture_levels(parts_by_level, config, problems)
-        lap("textures")
-        qualities = [{"triangle_ratio": 1.0}]
-        for level in range(1, len(parts_by_level)):
-            if level > 1 and same_geometry(parts_by_level[level], parts_by_level[level - 1]):
-                # The level above's mesh (no_smaller_than_above): its metrics, certified once.
-                qualities.append(dict(qualities[-1]))
-            elif chain[level].exact:  # a lossless re-triangulation: only the bound to certify
-                qualities.append(exact_quality(parts_by_level[0], parts_by_level[level]))
-            elif chain[level].surface_exact:  # same surface, outline changed (a closed slit)
-                qualities.append(boundary_quality(parts_by_level[0], parts_by_level[level]))
-            else:
-                # The guard's certified bound when it measured this level: not certified again.
-                qualities.append(
-                    measure_lod(parts_by_level[0], parts_by_level[level], chain[level].deviation)
-                )
-        lap("quality")
-        # The entry's id, not the reader's: the run made entry ids unique across folders and files.
-        folder = safe_folder_name(entry.id)
-        building_dir = Path(out_dir) / tile.name / folder
-        lods = []
-        for level, parts in enumerate(parts_by_level):
-            data = glb_bytes(parts, f"{entry.id}_LOD{level}")
-            file_name = f"{folder}/lod{level}.glb"
-            write_bytes_atomic(building_dir / f"lod{level}.glb", data)
-            lods.append(lod_record(level, parts, file_name, data, qualities[level]))
-            if level:
-                lods[-1].update(level_fields(chain[level], lods[-2]))
-        written = {f"lod{level}.glb" for level in range(len(lods))}
-        for stale in building_dir.glob(
-            "lod*.glb"
-        ):  # levels a previous config had and this one has not
-            if stale.name not in written:
-                stale.unlink(missing_ok=True)
-        record = {
-            "id": entry.id,
-            "folder": folder,
-            "source": entry.source,
-            "input_hash": digest,
-            "center": {
-                "lon": building.reference.lon,
-                "lat": building.reference.lat,
-                "elev": building.reference.elev,
-            },
-            "placement": building_placement(building.reference, config.globe),
-            "relative_placement": relative_placement(building.reference, tile, config.globe),
-            "lods": lods,
-            "problems": problems,
-        }
-        if centre_tile is not None:
-            record["tile_from_center"] = {
-                "level": centre_tile.level,
-                "idx": centre_tile.idx,
-                "idy": centre_tile.idy,
-            }
-        write_text_atomic(
-            building_dir / RECORD_NAME,
-            json.dumps(
-                {"tile": dataclasses.asdict(tile), "record": record, "inputs": list(fingerprints)},
-                allow_nan=False,
-            ),
-        )
-        lap("write")
-        return EntryResult(tile=tile, record=record, seconds=seconds)
-    except OSError:  # the output cannot be written (disk full, read-only, denied): stop the run
-        raise
-    except Exception as error:  # one broken building never stops the tile
-        reason = (
-            error.problem if isinstance(error, ReadError) else f"{type(error).__name__}: {error}"
-        )
-        return EntryResult(
-            tile=entry.tile,
-            skipped=Skipped(entry.source, f"processing failed: {reason}", entry.id, entry.tile),
-            seconds=seconds,
-        )
 
 
 # --------------------------------------------------------------------------- previous runs
@@ -468,8 +239,6 @@ def _result_stream(
     if scheduler is None:
         yield _results(work, min(jobs, max(1, total)))
         return
-    from .distributed import ClusterOptions, cluster_results, cluster_session
-
     options = scheduler if isinstance(scheduler, ClusterOptions) else ClusterOptions(scheduler)
     if options.address == "local" and options.local_workers is None:
         options = dataclasses.replace(options, local_workers=jobs)
@@ -604,9 +373,6 @@ def write_tile_output(
     """Read the records of the tile's buildings (``folders``, in result order), remove building
     folders of earlier runs that this run did not produce, then write the manifest (last,
     atomically)."""
-    from .placement import tile_placement
-    from .tiles import tile_bounds, tile_center
-
     tile_dir = out_dir / tile.name
     tile_dir.mkdir(parents=True, exist_ok=True)
     records = []

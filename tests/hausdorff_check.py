@@ -3,7 +3,7 @@
 Data form: meshes ``(positions (k, 3) metres, faces (m, 3))``. Every triangle of each side is
 sampled on a barycentric grid of ``steps`` intervals per edge (corners, edge points and inner
 points; ``(steps + 1)(steps + 2)/2`` points per triangle whatever its size), and each point's exact
-distance to the other side is taken (:class:`exporter.quality.SurfaceIndex`), so the result never
+distance to the other side is taken (:class:`exporter.mesh.distance.SurfaceIndex`), so the result never
 exceeds the true distance and approaches it as ``steps`` grows.
 """
 
@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from exporter.quality import SurfaceIndex
+from exporter.mesh.distance import SurfaceIndex
 
 
 def grid_points(positions: np.ndarray, faces: np.ndarray, steps: int) -> np.ndarray:
@@ -40,9 +40,9 @@ def dense_hausdorff(a, b, steps: int = 8) -> float:
 
 
 def count_rounds(monkeypatch) -> list[int]:
-    """Record every call of the certified bound's per-round step (``exporter.hausdorff._bound``)
+    """Record every call of the certified bound's per-round step (``exporter.mesh.hausdorff._bound``)
     from now on: the returned list gets each call's number of triangles (one entry a round)."""
-    from exporter import hausdorff
+    from exporter.mesh import hausdorff
 
     calls: list[int] = []
     real = hausdorff._bound

@@ -8,8 +8,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from exporter.coverage import MAX_BAND_EDGES
 from exporter.mesh.band_kernels import region_bands
+from exporter.mesh.coverage import MAX_BAND_EDGES
 from tests.test_perf_hausdorff import reference_band_width, reference_cycles
 
 

@@ -1,4 +1,4 @@
-"""The region certificate (exporter/coverage.py): re-triangulated flat polygons settled by
+"""The region certificate (exporter/mesh/coverage.py): re-triangulated flat polygons settled by
 counting, and everything it cannot vouch for left open. Soundness is checked against the
 independent dense sampling of tests/hausdorff_check.py."""
 
@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from exporter.coverage import region_certificate
+from exporter.mesh.coverage import region_certificate
 from tests.hausdorff_check import directed_dense
 from tests.test_hausdorff import notch, wall
 

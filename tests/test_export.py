@@ -285,7 +285,7 @@ def test_exact_levels_carry_identity_metrics_and_changed_levels_are_measured(tmp
     level of this tile since slits are closed first, see tests/test_quality.py); a level the
     quadric collapse changed is measured in full."""
     from exporter.config import Config, config_from_dict
-    from exporter.pipeline import process_entry
+    from exporter.job import process_entry
     from exporter.quality import measure_lod
     from exporter.readers import load_entry, scan_folder
     from exporter.samplegen import generate_tile
@@ -302,7 +302,7 @@ def test_exact_levels_carry_identity_metrics_and_changed_levels_are_measured(tmp
             )
             for level in range(1, len(chain)):
                 quality = record["lods"][level]["quality"]
-                measured = measure_lod(chain[0].parts, chain[level].parts)
+                measured = measure_lod(chain[0].parts, chain[level].parts).to_manifest()
                 surface = {
                     key: quality[key]
                     for key in ("hausdorff_rel", "silhouette_iou", "wall_coverage")

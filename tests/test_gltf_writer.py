@@ -7,8 +7,8 @@ import pygltflib
 import pytest
 from PIL import Image
 
-from exporter.geometry import vertex_normals
 from exporter.gltf_writer import glb_bytes, unit_normals_or_up
+from exporter.mesh.geometry import vertex_normals
 from exporter.model import Part, Texture
 
 

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 from exporter.config import Config
+from exporter.mesh.slits import close_slits
+from exporter.mesh.topology import nonmanifold_vertices
 from exporter.quality import joined
 from exporter.samplegen import generate_buildings, generate_samples
 from exporter.simplify import _join, build_mesh_chain, guard
 from exporter.simplify.planar import retriangulate_planar_checked
-from exporter.simplify.protect import nonmanifold_vertices
-from exporter.slits import close_slits
 from tests.hausdorff_check import dense_hausdorff
 from tests.test_hausdorff import wall
 

@@ -1,4 +1,4 @@
-"""The certified Hausdorff distance (exporter/hausdorff.py): hand-built cases with known values,
+"""The certified Hausdorff distance (exporter/mesh/hausdorff.py): hand-built cases with known values,
 random meshes against a dense sampling, degenerate input, and the guard never accepting a level
 that a dense check finds above its budget."""
 
@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from exporter.hausdorff import Surface, directed_bounds, exceeds, hausdorff_bounds
+from exporter.mesh.hausdorff import Surface, directed_bounds, exceeds, hausdorff_bounds
 from tests.hausdorff_check import count_rounds, dense_hausdorff, directed_dense
 
 
@@ -174,7 +174,7 @@ def test_a_corner_beyond_give_up_returns_before_any_triangle_is_bounded(monkeypa
     """The guard's rejection: the notch's apex lies 1 m under the level, so with ``give_up``
     0.5 m the directed bound returns (1 m, inf) from the corners alone (a refused candidate
     used to pay a full round of triangle bounds first)."""
-    import exporter.hausdorff as hausdorff_module
+    import exporter.mesh.hausdorff as hausdorff_module
 
     source, level = notch()
 

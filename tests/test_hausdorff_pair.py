@@ -1,4 +1,4 @@
-"""The pair step of the certified bound (``exporter.hausdorff._pair_bound``): a triangle bridging
+"""The pair step of the certified bound (``exporter.mesh.hausdorff._pair_bound``): a triangle bridging
 two faces of the target (a chord across the facets of a dome, a piece of a facet across a ridge)
 is bounded by splitting it where the two faces' planes are equally far.
 
@@ -11,8 +11,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from exporter import hausdorff
-from exporter.hausdorff import Surface, _nearest_face, _pair_bound, directed_bounds
+from exporter.mesh import hausdorff
+from exporter.mesh.hausdorff import Surface, _nearest_face, _pair_bound, directed_bounds
 from tests.hausdorff_check import count_rounds, grid_points
 
 

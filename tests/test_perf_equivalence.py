@@ -14,10 +14,11 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 import exporter.gltf_writer as gltf_writer
+from exporter.mesh.distance import SurfaceIndex, point_triangle_distance
+from exporter.mesh.geometry import cross_rows
+from exporter.mesh.topology import unique_rows
 from exporter.model import Part, Texture
-from exporter.quality import SurfaceIndex, point_triangle_distance
 from exporter.simplify import uv_charts
-from exporter.simplify.protect import cross_rows, unique_rows
 
 
 def reference_point_triangle_distance(points, tri):
@@ -169,7 +170,7 @@ def test_glb_bytes_are_pygltflib_bytes(monkeypatch, mime, mode):
 
 
 def test_unique_points_matches_numpy_unique_axis_0():
-    from exporter.geometry import unique_float_rows
+    from exporter.mesh.geometry import unique_float_rows
 
     rng = np.random.default_rng(6)
     keys = np.round(rng.integers(-20, 20, size=(2000, 3)) * 1.37 / 1e-6)

@@ -1,7 +1,7 @@
 """The error guard's fast paths give exactly what their former formulations gave.
 
-The certified Hausdorff bound (``exporter.hausdorff``) and the region certificate
-(``exporter.coverage``) were made faster (branch speed-hausdorff): the nearest face skips faces
+The certified Hausdorff bound (``exporter.mesh.hausdorff``) and the region certificate
+(``exporter.mesh.coverage``) were made faster (branch speed-hausdorff): the nearest face skips faces
 whose plane is beyond the bound, the last containment tries of the in-plane bound run in one test
 on the segments that crossed the first, band widths are measured for all cycles at once, sliver
 edges are looked up in one sorted search, sums and extremes over three corners are written out. The former functions are copied here from commit
@@ -15,10 +15,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from exporter import coverage, hausdorff, quality
-from exporter.coverage import SLIVER
-from exporter.geometry import cross_rows
-from exporter.hausdorff import (
+from exporter.mesh import coverage, hausdorff
+from exporter.mesh.band_kernels import _band_width, _walk
+from exporter.mesh.coverage import SLIVER
+from exporter.mesh.distance import SurfaceIndex, point_triangle_distance
+from exporter.mesh.geometry import cross_rows
+from exporter.mesh.hausdorff import (
     CANDIDATES,
     LOOSE,
     PLANE_SLACK_MAX,
@@ -30,12 +32,11 @@ from exporter.hausdorff import (
     _Regions,
     _sides_in,
 )
-from exporter.mesh.band_kernels import _band_width, _walk
 
 # --------------------------------------------------------------------------- reference formulations
 
 
-def reference_nearest_face(index: quality.SurfaceIndex, points: np.ndarray) -> np.ndarray:
+def reference_nearest_face(index: SurfaceIndex, points: np.ndarray) -> np.ndarray:
     """(p,) int64: a face of ``index`` at the least distance from each point (p, 3) metres (the
     faces whose bounding sphere comes within the probes' upper bound are all checked)."""
     upper = index.upper(points)
@@ -45,7 +46,7 @@ def reference_nearest_face(index: quality.SurfaceIndex, points: np.ndarray) -> n
     rows, cols = np.nonzero(
         np.sqrt(squared) - index.radii[None] <= upper[:, None] * (1 + 1e-9) + 1e-12
     )
-    distance = quality.point_triangle_distance(points[rows], index.tri[cols])
+    distance = point_triangle_distance(points[rows], index.tri[cols])
     order = np.lexsort((distance, rows))
     first = np.ones(len(order), bool)
     first[1:] = rows[order][1:] != rows[order][:-1]
@@ -343,7 +344,7 @@ def reference_single_triangle_bound(
     cand = owners[fresh]
     # (pairs, 3): each vertex's distance to the candidate triangle; slivers, whose distances
     # lose digits (Ericson's barycentric products cancel), are no candidates.
-    d = quality.point_triangle_distance(tri[row], index.tri[cand][:, None])
+    d = point_triangle_distance(tri[row], index.tri[cand][:, None])
     d[~target.trusted[cand]] = np.inf
     starts = np.concatenate([[0], np.cumsum(fresh.sum(axis=1))[:-1]])
     return np.minimum.reduceat(d.max(axis=1), starts)

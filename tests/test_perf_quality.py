@@ -16,21 +16,14 @@ from test_simplify_shapes import box_building, crafted_building
 
 from exporter import quality
 from exporter.config import Config
-from exporter.hausdorff import hausdorff_bounds
-from exporter.quality import (
-    SurfaceIndex,
-    boundary_loops,
-    boundary_quality,
-    face_normals,
-    joined,
-    measure_lod,
-    point_triangle_distance,
-    rasterise,
-    row_lengths,
-    silhouettes,
-)
+from exporter.mesh import slits
+from exporter.mesh.distance import SurfaceIndex, face_normals, point_triangle_distance, row_lengths
+from exporter.mesh.hausdorff import hausdorff_bounds
+from exporter.mesh.raster import rasterise, silhouettes
+from exporter.mesh.slits import close_slits
+from exporter.mesh.topology import boundary_loops
+from exporter.quality import boundary_quality, joined, measure_lod
 from exporter.simplify import build_mesh_lods
-from exporter.slits import close_slits
 
 # --------------------------------------------------------------------------- reference formulations
 
@@ -254,7 +247,7 @@ def test_measure_lod_hausdorff_bounds_the_sampled_two_way_maximum(seed):
         lower, upper = hausdorff_bounds(
             (source_pos, source_faces), (lod_pos, lod_faces), rtol=0.02, atol=1e-5 * diagonal
         )
-        reported = measure_lod(chain[0], level)["hausdorff_rel"] * diagonal
+        reported = measure_lod(chain[0], level).hausdorff_rel * diagonal
         # Both are certified upper bounds (measure_lod's own refinement order may end at another
         # one): each above every lower bound and within the requested gap of the lower bound.
         for bound in (upper, reported):
@@ -264,7 +257,8 @@ def test_measure_lod_hausdorff_bounds_the_sampled_two_way_maximum(seed):
 
 def measure_points(positions, faces, seed):
     """The points measure_lod measures from: vertices + SAMPLES samples, seeded as it does."""
-    from exporter.quality import SAMPLES, SEED, sample_surface
+    from exporter.mesh.distance import SEED, sample_surface
+    from exporter.quality import SAMPLES
 
     return np.vstack(
         [positions, sample_surface(positions, faces, SAMPLES, np.random.default_rng(SEED + seed))]
@@ -287,8 +281,8 @@ def test_moved_level_keeps_its_values_through_the_floor():
     assert backward > forward  # the level's raised roof is far from the source, not the reverse
     diagonal = float(np.linalg.norm(source_pos.max(0) - source_pos.min(0)))
     # The certified bound (issue 13): the sampled value (the roof's top, exact) from below.
-    assert backward / diagonal <= measure_lod(box, moved)["hausdorff_rel"]
-    assert measure_lod(box, moved)["hausdorff_rel"] <= backward / diagonal * 1.02 + 1e-5
+    assert backward / diagonal <= measure_lod(box, moved).hausdorff_rel
+    assert measure_lod(box, moved).hausdorff_rel <= backward / diagonal * 1.02 + 1e-5
 
 
 def tricky_pixels(rng, count, size):
@@ -426,7 +420,8 @@ def test_boundary_quality_keys_are_measure_lods_bit_for_bit(boundary_first):
                 measured, bounded = measure_lod(source, level), boundary_quality(source, level)
             expected = reference_boundary_keys(source, level)
             for key, value in expected.items():
-                assert bounded[key] == measured[key] == value and type(bounded[key]) is type(value)
+                ours = getattr(bounded, key)
+                assert ours == getattr(measured, key) == value and type(ours) is type(value)
             checked += keep < 1.0 and expected["boundary_length_change"] != 0.0
     assert checked >= 6  # the subsets did change the boundary
 
@@ -434,7 +429,8 @@ def test_boundary_quality_keys_are_measure_lods_bit_for_bit(boundary_first):
 def reference_wall_points(parts):
     """The source's wall samples as af57811 drew them: after SAMPLES samples of the whole
     surface (for the sampled Hausdorff distance) from the same stream."""
-    from exporter.quality import SAMPLES, SEED, WALL_MAX_UP, WALL_SAMPLES, sample_surface
+    from exporter.mesh.distance import SEED, sample_surface
+    from exporter.quality import SAMPLES, WALL_MAX_UP, WALL_SAMPLES
 
     positions, faces = joined(parts)
     rng = np.random.default_rng(SEED)
@@ -464,8 +460,8 @@ def test_wall_coverage_is_the_exact_share_whichever_path_gives_it():
             lod_pos, lod_faces = joined(level)
             inside = reference_within(SurfaceIndex(lod_pos, lod_faces), side.wall_points, tolerance)
             measured = measure_lod(source, level)
-            assert measured["wall_coverage"] == float(inside.mean())
-            shortcut += measured["hausdorff_rel"] < quality.COVER_TOLERANCE
+            assert measured.wall_coverage == float(inside.mean())
+            shortcut += measured.hausdorff_rel < quality.COVER_TOLERANCE
     assert 0 < shortcut < 12  # both paths were taken
 
 
@@ -474,7 +470,7 @@ def former_quality(source, level, kind, deviation, monkeypatch):
     prepared afresh (no weld shared between the caches), the level welded again for the
     certification and the loops counted by scipy's connected_components."""
     with monkeypatch.context() as patch:
-        patch.setattr(quality, "boundary_loops", reference_boundary_loops)
+        patch.setattr(slits, "boundary_loops", reference_boundary_loops)
         patch.setattr(
             quality,
             "certified_hausdorff_rel",

@@ -19,8 +19,16 @@ from scipy.spatial import cKDTree
 from test_simplify_shapes import Atlas, Builder, add_dome, box_building, crafted_building
 
 from exporter.config import LodSpec, SimplifyOptions, default_lods
-from exporter.geometry import unique_float_rows
-from exporter.quality import boundary_loops, joined, measure_lod
+from exporter.mesh.geometry import cross_rows, unique_float_rows
+from exporter.mesh.topology import (
+    COPLANAR_COS,
+    PLANE_M,
+    border_vertices,
+    boundary_loops,
+    planar_regions,
+)
+from exporter.mesh.weld import lowest_member, weld_positions
+from exporter.quality import joined, measure_lod
 from exporter.simplify import NOISE_M, MeshLevel, build_mesh_chain, build_mesh_lods, uv_charts
 from exporter.simplify.planar import (
     _loops,
@@ -30,15 +38,7 @@ from exporter.simplify.planar import (
     _retriangulate_many,
     _row_dots,
 )
-from exporter.simplify.protect import (
-    COPLANAR_COS,
-    PLANE_M,
-    border_vertices,
-    cross_rows,
-    planar_regions,
-)
 from exporter.simplify.quadric import assign_uvs, closest_barycentric
-from exporter.simplify.weld import lowest_member, weld_positions
 
 
 def same(a, b) -> bool:
@@ -293,7 +293,7 @@ def test_exact_when_the_planar_pass_alone_meets_the_target():
     assert count(lod1.parts) <= round(0.5 * count(box)) and lod1.exact and lod1.surface_exact
     assert lod0.exact and lod0.surface_exact
     metrics = measure_lod(lod0.parts, lod1.parts)
-    assert metrics["hausdorff_rel"] <= 5e-4 and metrics["silhouette_iou"] == 1.0
+    assert metrics.hausdorff_rel <= 5e-4 and metrics.silhouette_iou == 1.0
 
 
 def test_not_exact_when_the_collapse_removed_faces():
@@ -305,7 +305,7 @@ def test_not_exact_when_the_collapse_removed_faces():
     )
     assert count(lod1.parts) < count(lod0.parts)
     assert not lod1.exact and not lod1.surface_exact
-    assert measure_lod(lod0.parts, lod1.parts)["hausdorff_rel"] > 0
+    assert measure_lod(lod0.parts, lod1.parts).hausdorff_rel > 0
     # The flag is passed down: a level built from an inexact one is inexact even when unchanged.
     levels = build_mesh_chain(
         dome,
@@ -346,7 +346,7 @@ def test_slit_closed_by_the_planar_pass_is_surface_exact_not_exact():
     )
     assert count(levels[1].parts) == 5 < count(gable)  # the fan's 5 faces became earcut's 3
     metrics = measure_lod(levels[0].parts, levels[1].parts)
-    assert metrics["hausdorff_rel"] <= 5e-4 and metrics["boundary_length_change"] < -0.1, metrics
+    assert metrics.hausdorff_rel <= 5e-4 and metrics.boundary_length_change < -0.1, metrics
     assert [(level.exact, level.surface_exact) for level in levels] == [
         (True, True),
         (False, True),
@@ -481,12 +481,12 @@ def test_exact_levels_measure_as_identity_slits_closed_or_not(tmp_path):
             assert level.surface_exact or not level.exact
             assert above.surface_exact or not level.surface_exact
             if level.surface_exact:
-                assert metrics["hausdorff_rel"] <= 5e-4, metrics
+                assert metrics.hausdorff_rel <= 5e-4, metrics
             if level.exact:
                 exact += 1
-                assert metrics["hausdorff_rel"] <= 5e-4 and metrics["new_holes"] == 0, metrics
-                assert abs(metrics["boundary_length_change"]) < 1e-9, metrics
-                assert metrics["silhouette_iou"] == 1.0 and metrics["wall_coverage"] == 1.0, metrics
+                assert metrics.hausdorff_rel <= 5e-4 and metrics.new_holes == 0, metrics
+                assert abs(metrics.boundary_length_change) < 1e-9, metrics
+                assert metrics.silhouette_iou == 1.0 and metrics.wall_coverage == 1.0, metrics
                 # Fewer open edges than LOD0, yet no boundary change: slits closed.
                 slit_closed += open_edges(level.parts) < open_edges(levels[0].parts)
     # Levels go as far as their error budget allows, so only some stay exact.

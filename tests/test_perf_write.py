@@ -17,7 +17,7 @@ import pytest
 import exporter.gltf_writer as gltf_writer
 from exporter.config import ReaderOptions
 from exporter.formats.vworld_binary import parse_xdo, serialise_xdo
-from exporter.geometry import unit_vectors
+from exporter.mesh.geometry import unit_vectors
 from exporter.readers import vworld
 from exporter.samplegen import generate_tile
 

@@ -2,7 +2,7 @@
 straightforward formulation it replaced gives: the reference below is the stage as it was before
 issue 14's speed-up (planar regions, straight vertices, the border passes), with every region
 re-triangulated one at a time by the one-region :func:`_retriangulate` and no caching, after
-the source's slits are closed (:func:`exporter.slits.close_slits`).
+the source's slits are closed (:func:`exporter.mesh.slits.close_slits`).
 
 Meshes are welded as the simplifier welds them; positions are building-local East/Up/North metres.
 """
@@ -14,7 +14,9 @@ import pytest
 from test_perf_simplify import planar_cases, reference_planar_regions, same, welded_mesh
 from test_simplify_shapes import crafted_building
 
-from exporter.geometry import cross_rows
+from exporter.mesh.geometry import cross_rows, row_norms
+from exporter.mesh.slits import close_slits, slit_vertices
+from exporter.mesh.topology import border_vertices, edge_use, nonmanifold_vertices, unique_rows
 from exporter.samplegen import generate_buildings
 from exporter.simplify.planar import (
     _region_sums,
@@ -23,14 +25,6 @@ from exporter.simplify.planar import (
     retriangulate_planar_checked,
     straight_vertices,
 )
-from exporter.simplify.protect import (
-    border_vertices,
-    edge_use,
-    nonmanifold_vertices,
-    row_norms,
-    unique_rows,
-)
-from exporter.slits import close_slits, slit_vertices
 
 
 def reference_straight_vertices(positions, faces, regions, locked, tolerance=1e-6, on_border=True):

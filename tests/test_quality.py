@@ -12,17 +12,11 @@ import numpy as np
 import pytest
 from test_simplify_shapes import box_building, crafted_building
 
+from exporter.mesh.distance import distance_to_surface, point_triangle_distance
+from exporter.mesh.raster import rasterise
+from exporter.mesh.topology import boundary_loops
 from exporter.model import Part
-from exporter.quality import (
-    boundary_loops,
-    boundary_quality,
-    distance_to_surface,
-    exact_quality,
-    joined,
-    measure_lod,
-    point_triangle_distance,
-    rasterise,
-)
+from exporter.quality import boundary_quality, exact_quality, joined, measure_lod
 
 KEYS = {
     "triangle_ratio",
@@ -48,11 +42,11 @@ def without(parts, mask):
 def test_identical_mesh_scores_perfectly(box):
     for parts in (box, crafted_building(2)):
         metrics = measure_lod(parts, parts)
-        assert set(metrics) == KEYS
-        assert metrics["triangle_ratio"] == 1.0
-        assert metrics["hausdorff_rel"] < 1e-12
-        assert metrics["silhouette_iou"] == 1.0 and metrics["wall_coverage"] == 1.0
-        assert metrics["boundary_length_change"] == 0.0 and metrics["new_holes"] == 0
+        assert set(metrics.to_manifest()) == KEYS
+        assert metrics.triangle_ratio == 1.0
+        assert metrics.hausdorff_rel < 1e-12
+        assert metrics.silhouette_iou == 1.0 and metrics.wall_coverage == 1.0
+        assert metrics.boundary_length_change == 0.0 and metrics.new_holes == 0
 
 
 def test_removed_wall_drops_coverage_and_opens_the_boundary(box):
@@ -61,14 +55,12 @@ def test_removed_wall_drops_coverage_and_opens_the_boundary(box):
     wall = centres[:, 0] > 4.99  # the whole east wall (x = +5 m)
     metrics = measure_lod(box, without(box, wall))
     # The east wall is 6 x 20 of 2 x (10 + 6) x 20 = 19 % of the wall area.
-    assert 0.7 < metrics["wall_coverage"] < 0.9
+    assert 0.7 < metrics.wall_coverage < 0.9
+    assert metrics.boundary_length_change > 1.0  # 40 m of sides and top added to 32 m of footprint
     assert (
-        metrics["boundary_length_change"] > 1.0
-    )  # 40 m of sides and top added to 32 m of footprint
-    assert (
-        metrics["silhouette_iou"] == 1.0 or metrics["silhouette_iou"] > 0.9
+        metrics.silhouette_iou == 1.0 or metrics.silhouette_iou > 0.9
     )  # seen edge-on from the side views
-    assert metrics["triangle_ratio"] == pytest.approx(1 - wall.sum() / len(wall))
+    assert metrics.triangle_ratio == pytest.approx(1 - wall.sum() / len(wall))
 
 
 def test_hole_in_the_roof_is_a_new_hole(box):
@@ -80,8 +72,8 @@ def test_hole_in_the_roof_is_a_new_hole(box):
     mask = np.zeros(len(part.triangles), dtype=bool)
     mask[roof[np.argmin(centres[roof, 0] ** 2 + centres[roof, 2] ** 2)]] = True
     metrics = measure_lod(box, without(box, mask))
-    assert metrics["new_holes"] == 1
-    assert metrics["silhouette_iou"] < 1.0
+    assert metrics.new_holes == 1
+    assert metrics.silhouette_iou < 1.0
 
 
 def test_shifted_mesh_has_the_shift_as_hausdorff(box):
@@ -89,8 +81,8 @@ def test_shifted_mesh_has_the_shift_as_hausdorff(box):
     moved = [dataclasses.replace(box[0], positions=box[0].positions + [0.5, 0.0, 0.0])]
     metrics = measure_lod(box, moved)
     # Seen from the sampled points: the east wall's points are 0.5 m from the moved surface.
-    assert metrics["hausdorff_rel"] == pytest.approx(0.5 / diagonal, rel=1e-6)
-    assert metrics["silhouette_iou"] < 1.0
+    assert metrics.hausdorff_rel == pytest.approx(0.5 / diagonal, rel=1e-6)
+    assert metrics.silhouette_iou < 1.0
 
 
 def test_point_triangle_distance_against_a_dense_barycentric_grid():
@@ -141,9 +133,9 @@ def test_empty_level_scores_zero(box):
     empty = [Part(np.zeros((0, 3)), np.zeros((0, 3), np.int64))]
     metrics = measure_lod(box, empty)
     assert (
-        metrics["triangle_ratio"] == 0.0
-        and metrics["wall_coverage"] == 0.0
-        and metrics["silhouette_iou"] == 0.0
+        metrics.triangle_ratio == 0.0
+        and metrics.wall_coverage == 0.0
+        and metrics.silhouette_iou == 0.0
     )
 
 
@@ -183,19 +175,16 @@ def test_exact_quality_agrees_with_measure_lod_on_lossless_levels(box, tmp_path)
             p.triangle_count for p in lod0
         )  # it did change
         measured, exact = measure_lod(lod0, level), exact_quality(lod0, level)
-        assert set(exact) == KEYS
-        assert exact["triangle_ratio"] == measured["triangle_ratio"]
+        assert set(exact.to_manifest()) == KEYS
+        assert exact.triangle_ratio == measured.triangle_ratio
         # Both certified upper bounds (flatness of the polygons): the same function, same value.
-        assert exact["hausdorff_rel"] == measured["hausdorff_rel"] <= 5e-4
-        assert exact["silhouette_iou"] == 1.0 and measured["silhouette_iou"] >= 0.999
-        assert exact["wall_coverage"] == measured["wall_coverage"] == 1.0
-        assert (
-            exact["boundary_length_change"] == 0.0
-            and abs(measured["boundary_length_change"]) < 1e-9
-        )
-        assert exact["new_holes"] == measured["new_holes"] == 0
-        assert type(exact["new_holes"]) is int and all(
-            type(exact[k]) is float for k in KEYS - {"new_holes"}
+        assert exact.hausdorff_rel == measured.hausdorff_rel <= 5e-4
+        assert exact.silhouette_iou == 1.0 and measured.silhouette_iou >= 0.999
+        assert exact.wall_coverage == measured.wall_coverage == 1.0
+        assert exact.boundary_length_change == 0.0 and abs(measured.boundary_length_change) < 1e-9
+        assert exact.new_holes == measured.new_holes == 0
+        assert type(exact.new_holes) is int and all(
+            type(getattr(exact, k)) is float for k in KEYS - {"new_holes"}
         )
 
 
@@ -209,10 +198,10 @@ def test_exact_quality_differs_from_measure_lod_on_a_changed_level():
     options = dataclasses.replace(Config().simplify, max_screen_error_px=8.0)
     chain = build_mesh_lods(crafted_building(2), Config().lods, options)
     measured, exact = measure_lod(chain[0], chain[2]), exact_quality(chain[0], chain[2])
-    assert exact["triangle_ratio"] == measured["triangle_ratio"] < 1.0
+    assert exact.triangle_ratio == measured.triangle_ratio < 1.0
     # The dome was collapsed: exact_quality's certificate fails and it reports the true bound.
-    assert measured["hausdorff_rel"] == exact["hausdorff_rel"] > 1e-3
-    assert measured["silhouette_iou"] < 1.0 == exact["silhouette_iou"]
+    assert measured.hausdorff_rel == exact.hausdorff_rel > 1e-3
+    assert measured.silhouette_iou < 1.0 == exact.silhouette_iou
 
 
 def test_exact_quality_of_an_empty_source_is_measure_lods(box):
@@ -254,12 +243,10 @@ def test_exact_quality_agrees_with_measure_lod_on_real_exact_levels(tmp_path):
                 measure_lod(chain[0].parts, level.parts),
                 exact_quality(chain[0].parts, level.parts),
             )
-            assert exact["triangle_ratio"] == measured["triangle_ratio"]
-            assert measured["hausdorff_rel"] < 1e-4 and measured["silhouette_iou"] >= 0.999
-            assert (
-                measured["wall_coverage"] == 1.0 and abs(measured["boundary_length_change"]) < 1e-9
-            )
-            assert measured["new_holes"] == 0
+            assert exact.triangle_ratio == measured.triangle_ratio
+            assert measured.hausdorff_rel < 1e-4 and measured.silhouette_iou >= 0.999
+            assert measured.wall_coverage == 1.0 and abs(measured.boundary_length_change) < 1e-9
+            assert measured.new_holes == 0
     assert exact_levels > 0
 
 
@@ -284,12 +271,13 @@ def t_junction_roof():
 def assert_boundary_quality_is_measure_lods(source, level):
     """Boundary keys bit for bit, surface keys within measure_lod's rounding on a same surface."""
     measured, bounded = measure_lod(source, level), boundary_quality(source, level)
-    assert set(bounded) == KEYS
+    assert set(bounded.to_manifest()) == KEYS
+    ours, theirs = bounded.to_manifest(), measured.to_manifest()
     for key in BOUNDARY_KEYS:
-        assert bounded[key] == measured[key] and type(bounded[key]) is type(measured[key])
-    assert bounded["hausdorff_rel"] == measured["hausdorff_rel"] <= 5e-4  # certified, both
-    assert bounded["silhouette_iou"] == 1.0 and measured["silhouette_iou"] >= 0.999
-    assert bounded["wall_coverage"] == measured["wall_coverage"] == 1.0
+        assert ours[key] == theirs[key] and type(ours[key]) is type(theirs[key])
+    assert bounded.hausdorff_rel == measured.hausdorff_rel <= 5e-4  # certified, both
+    assert bounded.silhouette_iou == 1.0 and measured.silhouette_iou >= 0.999
+    assert bounded.wall_coverage == measured.wall_coverage == 1.0
     return bounded
 
 
@@ -309,11 +297,11 @@ def test_a_closed_t_junction_is_no_boundary_change():
     ) == pytest.approx(8.0)
     bounded = assert_boundary_quality_is_measure_lods(source, closed)
     assert (
-        bounded["boundary_length_change"]
+        bounded.boundary_length_change
         == 0.0
-        == exact_quality(source, closed)["boundary_length_change"]
+        == exact_quality(source, closed).boundary_length_change
     )
-    assert bounded["triangle_ratio"] == 2 / 5 and bounded["new_holes"] == 0
+    assert bounded.triangle_ratio == 2 / 5 and bounded.new_holes == 0
 
 
 def square_roof():
@@ -341,10 +329,10 @@ def test_boundary_quality_counts_a_new_hole():
         and (np.sign(cross[:, 1]) == np.sign(cross[0, 1])).all()
     )
     bounded = boundary_quality(source, holed)
-    assert bounded["new_holes"] == measure_lod(source, holed)["new_holes"] == 1
+    assert bounded.new_holes == measure_lod(source, holed).new_holes == 1
     hole = 1.0 + 2.0 * np.sqrt(1.25)
-    assert bounded["boundary_length_change"] == pytest.approx(hole / 12.0, abs=1e-12)
-    assert bounded["boundary_length_change"] == measure_lod(source, holed)["boundary_length_change"]
+    assert bounded.boundary_length_change == pytest.approx(hole / 12.0, abs=1e-12)
+    assert bounded.boundary_length_change == measure_lod(source, holed).boundary_length_change
 
 
 def test_a_crack_of_zero_width_is_no_new_hole():
@@ -361,7 +349,7 @@ def test_a_crack_of_zero_width_is_no_new_hole():
     ]
     assert raw_border_length(slit) == pytest.approx(12.0 + 2.0)
     bounded = assert_boundary_quality_is_measure_lods(source, slit)
-    assert bounded["new_holes"] == 0 and bounded["boundary_length_change"] == 0.0
+    assert bounded.new_holes == 0 and bounded.boundary_length_change == 0.0
 
 
 def test_levels_that_closed_the_source_s_slits_are_exact_and_measure_so(tmp_path):
@@ -387,9 +375,9 @@ def test_levels_that_closed_the_source_s_slits_are_exact_and_measure_so(tmp_path
             continue
         closed += 1
         measured = measure_lod(lod0, level.parts)
-        assert level.exact and measured["new_holes"] == 0, measured
-        assert abs(measured["boundary_length_change"]) < 1e-9, measured
-        assert measured["silhouette_iou"] == 1.0 and measured["wall_coverage"] == 1.0, measured
+        assert level.exact and measured.new_holes == 0, measured
+        assert abs(measured.boundary_length_change) < 1e-9, measured
+        assert measured.silhouette_iou == 1.0 and measured.wall_coverage == 1.0, measured
     assert closed >= 3
 
 

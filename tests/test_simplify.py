@@ -67,10 +67,10 @@ def test_quality_on_crafted_buildings(buildings, chains):
     for parts, levels in zip(buildings, chains):
         for level in levels[1:]:
             metrics = measure_lod(parts, level)
-            assert metrics["silhouette_iou"] >= 0.97, metrics
-            assert metrics["wall_coverage"] >= 0.98, metrics
-            assert metrics["boundary_length_change"] == pytest.approx(0.0, abs=1e-9), metrics
-            assert metrics["new_holes"] == 0, metrics
+            assert metrics.silhouette_iou >= 0.97, metrics
+            assert metrics.wall_coverage >= 0.98, metrics
+            assert metrics.boundary_length_change == pytest.approx(0.0, abs=1e-9), metrics
+            assert metrics.new_holes == 0, metrics
 
 
 def test_paper_targets_on_sample_generator_buildings():
@@ -83,13 +83,13 @@ def test_paper_targets_on_sample_generator_buildings():
         levels = build_mesh_lods(building.parts, default_lods(), OPTIONS)
         for level in levels[1:]:
             metrics = measure_lod(building.parts, level)
-            assert metrics["silhouette_iou"] >= 0.97 and metrics["wall_coverage"] >= 0.98, (
+            assert metrics.silhouette_iou >= 0.97 and metrics.wall_coverage >= 0.98, (
                 building.id,
                 metrics,
             )
             assert (
-                metrics["boundary_length_change"] == pytest.approx(0.0, abs=1e-9)
-                and metrics["new_holes"] == 0
+                metrics.boundary_length_change == pytest.approx(0.0, abs=1e-9)
+                and metrics.new_holes == 0
             )
         totals.append([count(level) for level in levels])
     mean = np.mean(totals, axis=0)
@@ -97,7 +97,7 @@ def test_paper_targets_on_sample_generator_buildings():
 
 
 def test_uvs_stay_inside_their_source_islands(buildings, chains):
-    from exporter.quality import point_triangle_distance
+    from exporter.mesh.distance import point_triangle_distance
 
     # Every output UV lies in the UV box of the source part (no UV from another part or nowhere),
     # and the winding stays outward: each face's normal agrees with its nearest source face's.
@@ -129,7 +129,7 @@ def test_no_cracks_between_parts():
     for level in build_mesh_lods(parts, default_lods(), OPTIONS)[1:]:
         for part in level:
             assert ring <= {tuple(p) for p in np.round(part.positions, 9)}
-        assert measure_lod(parts, level)["new_holes"] == 0
+        assert measure_lod(parts, level).new_holes == 0
 
 
 def plain_qec(parts, ratio):
@@ -158,9 +158,9 @@ def test_plain_quadric_collapse_loses_walls_where_this_method_keeps_them():
         theirs = plain_qec(parts, target / len(joined(parts)[1]))
     assert count(theirs) - count(ours) <= 4
     ours_m, theirs_m = measure_lod(parts, ours), measure_lod(parts, theirs)
-    assert ours_m["wall_coverage"] >= 0.98 and ours_m["silhouette_iou"] >= 0.97
-    assert ours_m["boundary_length_change"] == pytest.approx(0.0, abs=1e-9)
-    assert abs(theirs_m["boundary_length_change"]) > 0.01
+    assert ours_m.wall_coverage >= 0.98 and ours_m.silhouette_iou >= 0.97
+    assert ours_m.boundary_length_change == pytest.approx(0.0, abs=1e-9)
+    assert abs(theirs_m.boundary_length_change) > 0.01
 
 
 def test_bad_input_raises_process_error_naming_the_part():
@@ -241,11 +241,11 @@ def test_real_cityjson_buildings(folder, crs, limit):
         assert all(b <= a for a, b in zip(counts, counts[1:])), (building.id, counts)
         for level in levels[1:]:
             metrics = measure_lod(building.parts, level)
-            assert metrics["silhouette_iou"] >= 0.97 and metrics["wall_coverage"] >= 0.98, (
+            assert metrics.silhouette_iou >= 0.97 and metrics.wall_coverage >= 0.98, (
                 building.id,
                 metrics,
             )
-            assert metrics["new_holes"] == 0 and abs(metrics["boundary_length_change"]) < 1e-9, (
+            assert metrics.new_holes == 0 and abs(metrics.boundary_length_change) < 1e-9, (
                 building.id,
                 metrics,
             )
@@ -271,11 +271,8 @@ def test_untextured_parts_collapse_to_the_quadric_optimum(engine):
     output = [tuple(p) for p in np.round(level[0].positions, 9)]
     assert any(p not in source for p in output) == (engine == "pymeshlab")
     metrics = measure_lod(parts, level)
-    assert (
-        metrics["boundary_length_change"] == pytest.approx(0.0, abs=1e-9)
-        and metrics["new_holes"] == 0
-    )
-    assert metrics["hausdorff_rel"] <= 0.0055
+    assert metrics.boundary_length_change == pytest.approx(0.0, abs=1e-9) and metrics.new_holes == 0
+    assert metrics.hausdorff_rel <= 0.0055
 
 
 def _bad_inputs():

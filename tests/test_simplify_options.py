@@ -16,8 +16,9 @@ from hypothesis import strategies as st
 from test_simplify_shapes import Atlas, Builder, add_dome, box_building
 
 from exporter.config import LodSpec, SimplifyOptions
+from exporter.mesh.topology import boundary_loops
 from exporter.model import Part
-from exporter.quality import boundary_loops, joined, measure_lod
+from exporter.quality import joined, measure_lod
 from exporter.simplify import build_mesh_chain, build_mesh_lods, clean_part
 from exporter.simplify.protect import face_areas, largest_faces
 
@@ -96,7 +97,7 @@ def test_preserve_border_edges_keeps_the_open_bottom(grid_box):
     free_bottom = {tuple(p) for p in np.round(joined(free)[0], 9) if p[1] == 0.0}
     assert kept_bottom == bottom
     assert free_bottom != bottom
-    assert measure_lod(grid_box, kept)["boundary_length_change"] == pytest.approx(0.0, abs=1e-12)
+    assert measure_lod(grid_box, kept).boundary_length_change == pytest.approx(0.0, abs=1e-12)
 
 
 def test_preserve_uv_seam_edges_keeps_the_texture_unstretched(two_chart_plane):
@@ -158,7 +159,7 @@ def test_preserve_surface_curvature_changes_the_collapse(dome):
         tuple(sorted(map(tuple, np.round(ps[0].positions[t], 9)))) for t in ps[0].triangles
     }
     assert faces(curved) != faces(plain)
-    assert measure_lod(dome, curved)["hausdorff_rel"] <= measure_lod(dome, plain)["hausdorff_rel"]
+    assert measure_lod(dome, curved).hausdorff_rel <= measure_lod(dome, plain).hausdorff_rel
 
 
 def test_vertex_link_distance_closes_a_crack():
@@ -187,8 +188,8 @@ def test_max_screen_error_px_bounds_the_deviation(dome):
     bounded = lod(dome, 0.3, max_screen_error_px=2.0)
     budget = 2.0 * size / (0.5 * 1080)
     diagonal = float(np.linalg.norm(np.ptp(dome[0].positions, axis=0)))
-    assert measure_lod(dome, free)["hausdorff_rel"] * diagonal > 2 * budget
-    assert measure_lod(dome, bounded)["hausdorff_rel"] * diagonal <= budget
+    assert measure_lod(dome, free).hausdorff_rel * diagonal > 2 * budget
+    assert measure_lod(dome, bounded).hausdorff_rel * diagonal <= budget
     assert count(bounded) > count(free)
     # Error-driven: without the cap's help (mesh 1.0) the budget alone shrinks the level.
     uncapped = lod(dome, 1.0, max_screen_error_px=2.0)
@@ -234,11 +235,10 @@ def test_planar_retriangulation_is_lossless_and_reduces(grid_box):
     )[1]
     assert count(flat) < count(off)
     metrics = measure_lod(grid_box, flat)
-    assert metrics["hausdorff_rel"] <= 5e-4  # certified bound: flat up to rounding
-    assert metrics["silhouette_iou"] == 1.0 and metrics["wall_coverage"] == 1.0
+    assert metrics.hausdorff_rel <= 5e-4  # certified bound: flat up to rounding
+    assert metrics.silhouette_iou == 1.0 and metrics.wall_coverage == 1.0
     assert (
-        metrics["boundary_length_change"] == pytest.approx(0.0, abs=1e-12)
-        and metrics["new_holes"] == 0
+        metrics.boundary_length_change == pytest.approx(0.0, abs=1e-12) and metrics.new_holes == 0
     )
     # Four walls and a roof, each one rectangle: 5 x 2 triangles.
     assert count(flat) == 10
@@ -259,8 +259,8 @@ def test_min_silhouette_iou_keeps_a_thin_tower_s_outline(engine):
     options = dataclasses.replace(SimplifyOptions(), protect_largest=0.0, engine=engine)
     free = build_mesh_lods(building.parts, lods, dataclasses.replace(options, min_silhouette_iou=0))
     kept = build_mesh_lods(building.parts, lods, options)
-    iou_free = min(measure_lod(free[0], level)["silhouette_iou"] for level in free[1:])
-    iou_kept = min(measure_lod(kept[0], level)["silhouette_iou"] for level in kept[1:])
+    iou_free = min(measure_lod(free[0], level).silhouette_iou for level in free[1:])
+    iou_kept = min(measure_lod(kept[0], level).silhouette_iou for level in kept[1:])
     assert iou_kept >= 0.97
     if engine == "meshoptimizer":  # the floor acted: without it the outline went
         assert iou_free < 0.97

@@ -1,4 +1,4 @@
-"""Slits (T-junction cracks) closed without changing the surface: exporter/slits.py.
+"""Slits (T-junction cracks) closed without changing the surface: exporter/mesh/slits.py.
 
 Meshes are welded, positions building-local East/Up/North metres (y = Up); roofs lie at y = 5.
 """
@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 from test_quality import t_junction_roof
 
-from exporter.hausdorff import hausdorff_bounds
-from exporter.quality import boundary_loops, joined
+from exporter.mesh.hausdorff import hausdorff_bounds
+from exporter.mesh.slits import close_slits, closed_surface, slit_points
+from exporter.mesh.topology import boundary_loops, nonmanifold_vertices
+from exporter.quality import joined
 from exporter.samplegen import generate_samples
 from exporter.simplify import _join
 from exporter.simplify.planar import _retriangulate_keeping_boundary, retriangulate_planar_checked
-from exporter.simplify.protect import nonmanifold_vertices
-from exporter.slits import close_slits, closed_surface, slit_points
 
 
 def roof(points, faces):

@@ -10,7 +10,7 @@ import types
 import numpy as np
 import pytest
 
-from exporter.hausdorff import T_JUNCTION
+from exporter.mesh.hausdorff import T_JUNCTION
 from exporter.mesh.straight_run_kernels import straight_runs
 from tests.test_perf_hausdorff import reference_straight_runs
 

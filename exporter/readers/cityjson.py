@@ -54,7 +54,7 @@ import numpy as np
 from .. import geodesy
 from ..config import ReaderOptions
 from ..errors import InputError, ReadError
-from ..geometry import cross3
+from ..mesh.geometry import cross3
 from ..model import Building, Part, Skipped, Texture
 from ..tiles import building_tile
 from . import Entry, Scan

@@ -53,7 +53,7 @@ from ..formats.vworld_binary import (
     version_bytes,
 )
 from ..geodesy import EARTH_RADIUS_M, east_up_north, sphere_ecef, sphere_lonlath
-from ..geometry import cross_rows, unit_vectors, vertex_normals
+from ..mesh.geometry import cross_rows, unit_vectors, vertex_normals
 from ..model import Building, GeoPoint, Part, Skipped, Texture, TileId
 from . import Entry, Scan
 from .images import TextureFileError, read_texture_file

@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..geometry import vertex_normals
+from ..mesh.geometry import vertex_normals
 from ..model import Building, GeoPoint, Part, Texture, TileId
 from . import atlas, layout
 from . import kinds as kind_lib

@@ -20,7 +20,7 @@ from functools import lru_cache
 import mapbox_earcut
 import numpy as np
 
-from ..geometry import cross_rows
+from ..mesh.geometry import cross_rows
 
 UP = np.array([0.0, 1.0, 0.0])
 

@@ -34,21 +34,15 @@ from scipy.spatial import cKDTree
 
 from ..config import LodSpec, SimplifyOptions
 from ..errors import ProcessError
-from ..geometry import longest_edges, triangle_cross, unique_float_rows
+from ..mesh.geometry import longest_edges, triangle_cross, unique_float_rows
+from ..mesh.topology import border_vertices, nonmanifold_vertices
+from ..mesh.weld import weld_positions
 from ..model import Part
 from . import meshopt
 from .guard import Reference, certify, exceeds, silhouette_iou
 from .planar import retriangulate_planar_checked
-from .protect import (
-    border_vertices,
-    face_areas,
-    footprint_wall_faces,
-    largest_faces,
-    nonmanifold_vertices,
-    part_border_vertices,
-)
+from .protect import face_areas, footprint_wall_faces, largest_faces, part_border_vertices
 from .quadric import Collapsed, collapse
-from .weld import weld_positions
 
 __all__ = ["MeshLevel", "build_mesh_chain", "build_mesh_lods", "clean_part", "degenerate_only"]
 

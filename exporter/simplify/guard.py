@@ -8,7 +8,7 @@ Quadric collapse ranks collapses by error but has no error bound; the guard adds
 accepted only when its symmetric Hausdorff distance to LOD0 stays below the level's budget in
 metres (``simplify.max_screen_error_px`` converted per building and level), otherwise the level
 keeps more triangles. The distance is
-certified (:mod:`exporter.hausdorff`): :func:`exceeds` never accepts a level whose true distance
+certified (:mod:`exporter.mesh.hausdorff`): :func:`exceeds` never accepts a level whose true distance
 is above the tolerance (it may refuse one whose bound it cannot bring below the tolerance), and
 :func:`deviation` is an upper bound of the true distance, within ``hausdorff.RTOL`` of it (plus
 ``hausdorff.ATOL`` x the diagonal) unless the refinement depth ran out first. :func:`certify`
@@ -34,9 +34,11 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .. import coverage, hausdorff, quality
-from ..geometry import compact_vertices
-from ..slits import closed_surface
+from .. import quality
+from ..mesh import coverage, hausdorff
+from ..mesh.geometry import compact_vertices
+from ..mesh.raster import min_iou, silhouettes
+from ..mesh.slits import closed_surface
 
 BUDGET_SHARE = 0.05  # certified bounds are refined to within this share of the budget at least
 TWIN_SLACK = 1e-6  # the twin stands in for LOD0 only within this x LOD0's diagonal (metres)
@@ -54,11 +56,11 @@ def lossless_twin(
     positions, LOD0's flat polygons re-triangulated from their outlines (the planar stage's
     output, :func:`~.planar.retriangulate_planar_checked`), as the twin ``(positions (k', 3),
     faces (m', 3), delta)`` on its own vertices: ``delta`` metres certifies the symmetric
-    Hausdorff distance between LOD0 and the twin: :func:`exporter.coverage.region_certificate`
-    against LOD0 with its slits closed (:func:`exporter.slits.closed_surface`, whose offset is
+    Hausdorff distance between LOD0 and the twin: :func:`exporter.mesh.coverage.region_certificate`
+    against LOD0 with its slits closed (:func:`exporter.mesh.slits.closed_surface`, whose offset is
     added); faces it leaves open are bounded by the general method,
-    :func:`exporter.hausdorff.directed_bounds`, when ``surface`` gives LOD0 as a
-    :class:`~exporter.hausdorff.Surface`. None when the twin has more than ``TWIN_SHARE`` of
+    :func:`exporter.mesh.hausdorff.directed_bounds`, when ``surface`` gives LOD0 as a
+    :class:`~exporter.mesh.hausdorff.Surface`. None when the twin has more than ``TWIN_SHARE`` of
     LOD0's faces or is not certified within ``slack`` metres."""
     if len(faces) == 0 or len(twin_faces) == 0 or len(twin_faces) > TWIN_SHARE * len(faces):
         return None
@@ -142,9 +144,9 @@ class Reference:
     @property
     def silhouettes(self) -> np.ndarray:
         """(3, RESOLUTION, RESOLUTION) bool: the reference's top, front and side silhouettes on
-        its own box (:func:`exporter.quality.silhouettes`)."""
+        its own box (:func:`exporter.mesh.raster.silhouettes`)."""
         if self._silhouettes is None:
-            self._silhouettes = quality.silhouettes(self.positions, self.faces, *self.box)
+            self._silhouettes = silhouettes(self.positions, self.faces, *self.box)
         return self._silhouettes
 
     @property
@@ -202,7 +204,7 @@ def exceeds(
 ) -> bool:
     """Whether the level ``(positions, faces)`` may be farther than ``tolerance`` (metres) from
     ``reference`` (symmetric Hausdorff distance): False only when it certainly is not; True for
-    an empty level. Decided with early exits (:func:`exporter.hausdorff.exceeds`), much cheaper
+    an empty level. Decided with early exits (:func:`exporter.mesh.hausdorff.exceeds`), much cheaper
     than :func:`deviation`."""
     if len(faces) == 0:
         return True
@@ -221,9 +223,9 @@ def diagonal(positions: np.ndarray) -> float:
 
 def silhouette_iou(reference: Reference, positions: np.ndarray, faces: np.ndarray) -> float:
     """The smallest IoU of the level's top, front and side silhouettes with the reference's, on
-    a raster of the reference's box (``quality.RESOLUTION`` pixels a side; what the manifest's
+    a raster of the reference's box (``exporter.mesh.raster.RESOLUTION`` pixels a side; what the manifest's
     ``silhouette_iou`` measures, there on LOD0 as given rather than welded)."""
     if len(reference.faces) == 0:
         return 1.0
     low, high = reference.box
-    return quality.min_iou(reference.silhouettes, quality.silhouettes(positions, faces, low, high))
+    return min_iou(reference.silhouettes, silhouettes(positions, faces, low, high))

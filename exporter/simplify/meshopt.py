@@ -52,7 +52,7 @@ import meshoptimizer._loader as _binding
 import numpy as np
 from numpy.ctypeslib import ndpointer
 
-from ..geometry import compact_vertices, unique_float_rows, vertex_normals
+from ..mesh.geometry import compact_vertices, unique_float_rows, vertex_normals
 from .protect import face_areas
 from .quadric import Collapsed, assign_uvs, uv_signs
 

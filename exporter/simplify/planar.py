@@ -5,7 +5,7 @@ Data form: a welded mesh, ``positions`` (k, 3) float64 metres (building-local Ea
 ``faces`` (m, 3) int64 wound outward, ``corner_uvs`` (m, 3, 2) float32 or None, ``face_chart``
 (m,) int64 UV chart per face, ``locked`` (k,) bool vertices that must stay.
 
-A planar region (edge-connected, coplanar, one chart: :func:`protect.planar_regions`) is one
+A planar region (edge-connected, coplanar, one chart: :func:`~exporter.mesh.topology.planar_regions`) is one
 polygon of the source model, possibly with holes, that the source happened to cut into many
 triangles (VWorld walls cut into floors x window bays, earcut-triangulated CityJSON polygons).
 Its outline loops are kept vertex for vertex (so neighbours never see a T-junction) and
@@ -35,15 +35,9 @@ from typing import NamedTuple
 import mapbox_earcut
 import numpy as np
 
-from ..geometry import cross3, cross_rows
-from ..slits import close_slits, slit_vertices
-from .protect import (
-    border_vertices,
-    edge_use,
-    planar_regions,
-    row_norms,
-    sorted_edge_keys,
-)
+from ..mesh.geometry import cross3, cross_rows, row_norms, sorted_edge_keys
+from ..mesh.slits import close_slits, slit_vertices
+from ..mesh.topology import border_vertices, edge_use, planar_regions
 
 
 def _loops(region_faces: np.ndarray) -> list[list[int]] | None:
@@ -94,7 +88,7 @@ def straight_vertices(
     """(k,) bool: unlocked vertices on exactly two outline edges (edges on the open border or
     between two regions) that run straight through them (collinear within ``tolerance``
     metres): dropping such a vertex from every region that has it changes no outline.
-    ``edge_keys``: :func:`protect.sorted_edge_keys` of ``faces`` and k when the caller has them."""
+    ``edge_keys``: :func:`~exporter.mesh.geometry.sorted_edge_keys` of ``faces`` and k when the caller has them."""
     k = len(positions)
     keys, order = edge_keys if edge_keys is not None else sorted_edge_keys(faces, k)
     # Unique edges (ascending keys), how many sides use each and the lowest / highest region
@@ -562,8 +556,8 @@ def retriangulate_planar_checked(
     :func:`.slits.close_slits` leaves open (same surface, but edges that were open are shared
     now), so the result is not LOD0's mesh in every metric.
 
-    Slits are closed first (:func:`exporter.slits.close_slits`; a slit is no part of the open
-    boundary of the surface, see :func:`exporter.quality.open_boundary`): their vertices then lie
+    Slits are closed first (:func:`exporter.mesh.slits.close_slits`; a slit is no part of the open
+    boundary of the surface, see :func:`exporter.mesh.slits.open_boundary`): their vertices then lie
     on outlines between two regions, where the planar stage can drop them from both. ``close``
     False skips that (a level collapsed from one whose slits were closed has none: an edge
     collapse moves no vertex into another's edge)."""

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 import pymeshlab
 
-from ..geometry import compact_vertices
+from ..mesh.geometry import compact_vertices
 
 # Offsets (metres) of an anchor's two extra corners; odd values so they never hit a real vertex.
 PRESERVE_TOPOLOGY = True

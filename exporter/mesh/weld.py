@@ -6,13 +6,43 @@ position of its lowest-index member, so welding never invents a coordinate.
 
 Clusters are the connected components of the "closer than ``distance`` metres" graph
 (``scipy.spatial.cKDTree.query_pairs``, components by :func:`lowest_member`);
-``distance == 0`` merges exact duplicates only.
+``distance == 0`` merges exact duplicates only. :func:`join_meshes` joins meshes into one
+:class:`WeldedMesh` by exact position (rounded to ``WELD_M``), as the quality metrics see them.
 """
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from scipy.spatial import cKDTree
+
+from .geometry import unique_float_rows
+
+WELD_M = 1e-6  # metres: positions equal to this are one vertex in a joined mesh
+
+
+class WeldedMesh(NamedTuple):
+    """One triangle mesh whose equal positions are one vertex: ``positions`` (k, 3) float64
+    metres, ``faces`` (m, 3) int64 into them. Unpacks as ``(positions, faces)``, the pair every
+    mesh function takes."""
+
+    positions: np.ndarray
+    faces: np.ndarray
+
+
+def join_meshes(meshes: list[tuple[np.ndarray, np.ndarray]], weld: float = WELD_M) -> WeldedMesh:
+    """Meshes ``(positions (n_i, 3) metres, triangles (m_i, 3))`` in one frame as one
+    :class:`WeldedMesh`: positions equal on a ``weld`` metre grid (rounded) become one vertex,
+    the first one met keeping its coordinates, so texture seams and part junctions are no
+    open boundary."""
+    if not meshes:
+        return WeldedMesh(np.zeros((0, 3)), np.zeros((0, 3), np.int64))
+    offsets = np.cumsum([0] + [len(positions) for positions, _ in meshes])
+    positions = np.concatenate([positions for positions, _ in meshes])
+    faces = np.concatenate([triangles + offsets[i] for i, (_, triangles) in enumerate(meshes)])
+    first, inverse = unique_float_rows(np.round(positions / weld))
+    return WeldedMesh(positions[first], inverse[faces])
 
 
 def weld_positions(positions: np.ndarray, distance: float = 0.0) -> tuple[np.ndarray, np.ndarray]:

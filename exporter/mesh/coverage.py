@@ -38,11 +38,11 @@ distance computed at all:
 
 A region that fails a test (a flipped face, a chain that differs otherwise) and every face not
 placed in a region are returned as *open*: the caller bounds them with the general method
-(:mod:`exporter.hausdorff`), which they then cost alone.
+(:mod:`exporter.mesh.hausdorff`), which they then cost alone.
 
 Sources: the winding-number argument is the one of polygon coverage tests (e.g. Hormann &
 Agathos, "The point in polygon problem for arbitrary polygons", 2001); welding as
-:mod:`exporter.simplify.weld`.
+:mod:`exporter.mesh.weld`.
 """
 
 from __future__ import annotations
@@ -51,10 +51,10 @@ import dataclasses
 
 import numpy as np
 
+from .band_kernels import region_bands
 from .geometry import cross_rows
-from .mesh.band_kernels import region_bands
-from .simplify.protect import planar_regions
-from .simplify.weld import weld_positions
+from .topology import planar_regions
+from .weld import weld_positions
 
 WELD_M = 1e-6  # metres: vertices this close are one (the pipeline's noise welding)
 ORIENTED = 1e-9  # projected doubled area below this x the squared longest edge: not trusted

@@ -1,6 +1,6 @@
 """Slits of a mesh closed without changing its surface: the T-junction repair before the planar
 stage (:mod:`exporter.simplify.planar`), and what the open boundary of a surface is for the
-quality metrics (:func:`exporter.quality.open_boundary`: a slit is no outline).
+quality metrics (:func:`open_boundary`: a slit is no outline).
 
 Data form: a welded mesh, ``positions`` (k, 3) float64 metres (building-local East/Up/North),
 ``faces`` (m, 3) int64 wound outward, ``corner_uvs`` (m, 3, 2) float32 (glTF UV convention) or
@@ -37,7 +37,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from .distance import row_lengths
 from .geometry import cross_rows, row_norms, sorted_edge_keys
+from .topology import boundary_loops
 
 SLIT_M = 1e-5  # metres: a vertex this close to a border side lies on it (float32 input rounding)
 MAX_ROUNDS = 4  # a face is split on one side per round; three sides at most, plus slack
@@ -261,10 +263,22 @@ def _close_uncached(positions, faces, corner_uvs):
             out_faces, out_uvs, side, vertex, t
         )
         source = source[step]
-    # quality imports this package (through hausdorff and coverage): imported when needed.
-    from .quality import boundary_loops
-
     k = len(positions)
     if boundary_loops(out_faces, k)[1] > boundary_loops(faces, k)[1]:
         return identity
     return out_faces, out_uvs, source, offset
+
+
+def open_boundary(positions: np.ndarray, faces: np.ndarray) -> tuple[float, int]:
+    """Length of the open boundary (metres) of a welded mesh's surface and its number of loops:
+    the border edges once its slits are closed (:func:`close_slits`), since a
+    zero-width crack along which the surface goes on is no outline."""
+    faces = close_slits(positions, faces, None)[0]
+    border, loops = boundary_loops(faces, len(positions))
+    # The same sum as np.linalg.norm(np.diff(positions[border], axis=1), axis=-1).sum().
+    length = (
+        float(row_lengths(positions[border[:, 1]] - positions[border[:, 0]]).sum())
+        if len(border)
+        else 0.0
+    )
+    return length, loops

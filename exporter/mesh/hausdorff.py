@@ -25,7 +25,7 @@ The bound (one direction, triangle T of A against surface B):
    bound ``max(max_{cell_i corners} d(., t_i), max_{cell_j corners} d(., t_j))`` is again taken
    at corners (:func:`_pair_bound`).
 2. Coplanar source triangles (a wall of 50 becomes 2 at a coarser level): B's faces are grouped
-   in planar regions (:func:`~exporter.simplify.protect.planar_regions`); the region R of plane
+   in planar regions (:func:`~exporter.mesh.topology.planar_regions`); the region R of plane
    P (its vertices within ``slack`` of P) projected on P is a polygon ``R_P``. If T projected on
    P lies inside ``R_P``, every p in T is within ``sqrt(h^2 + rho^2) + slack`` of R, h the largest
    distance of T's vertices to P (affine, so at a vertex), rho the in-plane margin below. The
@@ -37,7 +37,7 @@ The bound (one direction, triangle T of A against surface B):
    lower bound by more than the requested gap for :func:`hausdorff_bounds`) is split in four at
    its edge midpoints and its children bounded again, up to ``MAX_DEPTH`` times; a triangle still
    open at the last depth keeps its (valid) bound. Lower bounds are exact point-to-surface
-   distances of the vertices met (:class:`~exporter.quality.SurfaceIndex`); :func:`exceeds`
+   distances of the vertices met (:class:`~exporter.mesh.distance.SurfaceIndex`); :func:`exceeds`
    stops at the first vertex certainly above the tolerance.
 
 The symmetric distance is the larger of the two directions (A to B, B to A); an empty side
@@ -49,9 +49,10 @@ from __future__ import annotations
 import numpy as np
 
 from . import coverage
-from . import quality as _quality
+from .distance import SurfaceIndex, point_triangle_distance
 from .geometry import cross_rows, longest_edges, unique_float_rows
-from .mesh.straight_run_kernels import straight_runs
+from .straight_run_kernels import straight_runs
+from .topology import planar_regions
 
 MAX_DEPTH = 7  # 4-splits per triangle at most (edges down to 1/128 of the triangle's)
 MAX_OPEN = 4096  # sub-triangles bounded per round at most (the worst split first)
@@ -88,7 +89,7 @@ class Surface:
         # outline runs merged, 2 probe samples per face; a level (prepared per call) the quick one.
         self.reference = reference
         self.tri = positions[faces]  # (m, 3, 3) metres
-        self._index: _quality.SurfaceIndex | None = None
+        self._index: SurfaceIndex | None = None
         self._regions: _Regions | None = None
         self._chains: _Chains | None = None
         self._trusted: np.ndarray | None = None
@@ -99,11 +100,9 @@ class Surface:
         return len(self.faces) == 0
 
     @property
-    def index(self) -> _quality.SurfaceIndex:
+    def index(self) -> SurfaceIndex:
         if self._index is None:
-            self._index = _quality.SurfaceIndex(
-                self.positions, self.faces, 2 if self.reference else 0
-            )
+            self._index = SurfaceIndex(self.positions, self.faces, 2 if self.reference else 0)
         return self._index
 
     @property
@@ -158,8 +157,6 @@ class _Regions:
     ``face_order`` (m,) the faces of each region (CSR)."""
 
     def __init__(self, positions: np.ndarray, faces: np.ndarray, straighten: bool = True) -> None:
-        from .simplify.protect import planar_regions
-
         self.straighten = straighten
         m = len(faces)
         region = planar_regions(positions, faces) if m else np.zeros(0, np.int64)
@@ -477,7 +474,7 @@ def _single_triangle_bound(tri: np.ndarray, target: Surface, nearest: np.ndarray
     cand = owners[fresh]
     # (pairs, 3): each vertex's distance to the candidate triangle; slivers, whose distances
     # lose digits (Ericson's barycentric products cancel), are no candidates.
-    d = _quality.point_triangle_distance(tri[row], index.tri[cand][:, None])
+    d = point_triangle_distance(tri[row], index.tri[cand][:, None])
     d[~target.trusted[cand]] = np.inf
     starts = np.concatenate([[0], np.cumsum(fresh.sum(axis=1))[:-1]])
     return np.minimum.reduceat(_max3(d), starts)
@@ -921,14 +918,14 @@ def _pair_bound(tri: np.ndarray, target: Surface, nearest: np.ndarray) -> np.nda
         share = np.where(crosses, s / (s - s_next), 0.0)
     cut = t + share[..., None] * (t[:, after] - t)  # (q, 3, 3) crossing points
     tri_i, tri_j = target.tri[fi][:, None], target.tri[fj][:, None]
-    corner_i = _quality.point_triangle_distance(t, tri_i)
-    corner_j = _quality.point_triangle_distance(t, tri_j)
+    corner_i = point_triangle_distance(t, tri_i)
+    corner_j = point_triangle_distance(t, tri_j)
     on_cut = _max3(
         np.where(
             crosses,
             np.maximum(
-                _quality.point_triangle_distance(cut, tri_i),
-                _quality.point_triangle_distance(cut, tri_j),
+                point_triangle_distance(cut, tri_i),
+                point_triangle_distance(cut, tri_j),
             ),
             0.0,
         )
@@ -961,7 +958,7 @@ def _nearest_face(target: Surface, points: np.ndarray) -> np.ndarray:
     plane = np.abs(_dot3(points[rows], normal[cols]) - offset[cols])
     keep = plane <= reach[rows] + margin
     rows, cols = rows[keep], cols[keep]
-    distance = _quality.point_triangle_distance(points[rows], index.tri[cols])
+    distance = point_triangle_distance(points[rows], index.tri[cols])
     order = np.lexsort((distance, rows))
     first = np.ones(len(order), bool)
     first[1:] = rows[order][1:] != rows[order][:-1]

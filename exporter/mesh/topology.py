@@ -1,0 +1,158 @@
+"""Topology of indexed triangle meshes: edges and how many faces use them, borders,
+non-manifold vertices, planar regions and open-boundary loops.
+
+Data form: a welded triangle mesh, ``faces`` (m, 3) int64 into ``positions`` (k, 3) float64
+metres (any one frame); results are boolean masks over vertices (k,), per-face labels (m,) or
+edge lists (e, 2) int64 of sorted vertex pairs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .geometry import cross_rows, row_norms, sorted_edge_keys
+from .weld import lowest_member
+
+# Two faces sharing an edge are one planar region when their unit normals differ by less than
+# this angle (cosine) and the second lies on the first's plane within PLANE_M metres.
+COPLANAR_COS = float(np.cos(np.radians(1.0)))
+PLANE_M = 1e-3
+
+
+def unique_rows(pairs: np.ndarray, **options):
+    """``np.unique(pairs, axis=0, **options)`` for (e, 2) non-negative int64 rows, through one
+    int64 key per row (the same rows in the same order, several times faster than ``axis=0``)."""
+    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    base = int(pairs.max()) + 1 if len(pairs) else 1
+    result = np.unique(pairs[:, 0] * base + pairs[:, 1], **options)
+    if not options:
+        return np.column_stack(np.divmod(result, base))
+    keys, *rest = result
+    return (np.column_stack(np.divmod(keys, base)), *(r.reshape(-1) for r in rest))
+
+
+# The last face array edge_use saw and its result: one level asks for the border, the
+# non-manifold edges and the boundary of the same faces several times. The array is held, so its
+# identity cannot pass to another; callers never modify face arrays in place.
+_last_edge_use: tuple = (None, None)
+
+
+def edge_use(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unique undirected edges (e, 2) int64 (sorted pairs) and how many faces use each (e,)."""
+    global _last_edge_use
+    seen, result = _last_edge_use
+    if seen is faces:
+        return result
+    if len(faces) == 0:
+        unique, counts = np.zeros((0, 2), np.int64), np.zeros(0, np.int64)
+    else:
+        # One int64 key per side (low * base + high) sorted once; groups of equal keys are the
+        # edges (the rows and counts of np.unique(axis=0) on the sorted pairs).
+        corners = np.asarray(faces, dtype=np.int64)
+        ahead = corners[:, [1, 2, 0]]
+        low, high = np.minimum(corners, ahead).reshape(-1), np.maximum(corners, ahead).reshape(-1)
+        base = int(high.max()) + 1
+        keys = np.sort(low * base + high)
+        start = np.flatnonzero(np.concatenate([[True], keys[1:] != keys[:-1]]))
+        counts = np.concatenate([start[1:], [len(keys)]]) - start
+        unique = np.empty((len(start), 2), np.int64)
+        unique[:, 0], unique[:, 1] = np.divmod(keys[start], base)
+    unique.flags.writeable = counts.flags.writeable = False
+    _last_edge_use = (faces, (unique, counts))
+    return unique, counts
+
+
+def border_vertices(faces: np.ndarray, vertex_count: int) -> np.ndarray:
+    """(k,) bool: vertices on an edge used by exactly one face (the open boundary)."""
+    edges, counts = edge_use(faces)
+    mask = np.zeros(vertex_count, dtype=bool)
+    mask[edges[counts == 1].reshape(-1)] = True
+    return mask
+
+
+def nonmanifold_vertices(faces: np.ndarray, vertex_count: int) -> np.ndarray:
+    """(k,) bool: vertices on an edge used by more than two faces (locked so collapses stay sane)."""
+    edges, counts = edge_use(faces)
+    mask = np.zeros(vertex_count, dtype=bool)
+    mask[edges[counts > 2].reshape(-1)] = True
+    return mask
+
+
+def planar_regions(
+    positions: np.ndarray,
+    faces: np.ndarray,
+    groups: np.ndarray | None = None,
+    edge_keys: tuple[np.ndarray, np.ndarray] | None = None,
+) -> np.ndarray:
+    """(m,) int64 region of every face: edge-connected faces on one plane (the polygons of the
+    building's polygonal model, whatever their triangulation); with ``groups`` (m,) int64 only
+    faces of one group (e.g. one UV chart) join. ``edge_keys``: :func:`sorted_edge_keys` of
+    ``faces`` and ``len(positions)`` when the caller has them."""
+    m = len(faces)
+    if m == 0:
+        return np.zeros(0, np.int64)
+    a, b, c = (positions[faces[:, i]] for i in range(3))
+    normal = cross_rows(b - a, c - a)
+    normal /= np.maximum(row_norms(normal)[:, None], 1e-30)
+    keys, order = edge_keys if edge_keys is not None else sorted_edge_keys(faces, len(positions))
+    owner = order // 3
+    same = keys[1:] == keys[:-1]
+    f, g = owner[:-1][same], owner[1:][same]
+    if groups is not None:
+        keep = groups[f] == groups[g]
+        f, g = f[keep], g[keep]
+    # Every face's centroid with the arithmetic of positions[faces].mean(axis=1) (its sum starts
+    # at 0.0), for all faces at once.
+    centroid = (0.0 + a + b + c) / 3
+    coplanar = ((normal[f] * normal[g]).sum(1) > COPLANAR_COS) & (
+        np.abs(((centroid[g] - a[f]) * normal[f]).sum(1)) < PLANE_M
+    )
+    # Components numbered by their lowest face, as scipy's connected_components numbers them.
+    lowest = lowest_member(m, f[coplanar], g[coplanar])
+    root = lowest == np.arange(m)
+    return (np.cumsum(root) - 1)[lowest]
+
+
+def boundary_loops(faces: np.ndarray, vertex_count: int) -> tuple[np.ndarray, int]:
+    """Open-boundary edges (e, 2) int64 (used by one face, (low, high) vertex, sorted) and the
+    number of loops they form."""
+    first, second = faces.ravel(), faces[:, [1, 2, 0]].ravel()  # edges (0, 1), (1, 2), (2, 0)
+    keys = np.sort(np.minimum(first, second) * (vertex_count + 1) + np.maximum(first, second))
+    # A key used once differs from both neighbours (np.unique's counts == 1, fewer passes).
+    once = np.ones(len(keys), dtype=bool)
+    if len(keys) > 1:
+        repeated = keys[1:] == keys[:-1]
+        once[1:] &= ~repeated
+        once[:-1] &= ~repeated
+    border = np.column_stack(np.divmod(keys[once], vertex_count + 1))
+    return border, count_components(border.tolist())
+
+
+def count_components(edges: list) -> int:
+    """Connected components of the graph of ``edges`` ((a, b) vertex pairs, a Python list):
+    only vertices on an edge count.
+
+    Union-find in plain Python: a building's open boundary has tens of edges, where scipy's
+    ``csr_matrix`` + ``connected_components`` cost ~150 us of argument checking per call (a
+    count, so any exact method gives the same number)."""
+    parent: dict[int, int] = {}
+
+    def find(x: int) -> int:
+        root = x
+        while parent[root] != root:
+            root = parent[root]
+        while parent[x] != root:  # path compression
+            parent[x], x = root, parent[x]
+        return root
+
+    count = 0
+    for a, b in edges:
+        for v in (a, b):
+            if v not in parent:
+                parent[v] = v
+                count += 1
+        ra, rb = find(a), find(b)
+        if ra != rb:
+            parent[ra] = rb
+            count -= 1
+    return count
