@@ -32,6 +32,7 @@ from exporter.mesh.hausdorff import (
     _Regions,
     _sides_in,
 )
+from tests.region_reference import reference_region_certificate
 
 # --------------------------------------------------------------------------- reference formulations
 
@@ -507,8 +508,13 @@ def _former(monkeypatch):
     monkeypatch.setattr(hausdorff._Regions, "_straight_runs", reference_straight_runs)
     monkeypatch.setattr(hausdorff, "_chain_bound", reference_chain_bound)
     monkeypatch.setattr(hausdorff, "_single_triangle_bound", reference_single_triangle_bound)
-    monkeypatch.setattr(coverage, "_bands", reference_bands)
-    monkeypatch.setattr(coverage, "_slivers", reference_slivers)
+    monkeypatch.setattr(
+        coverage,
+        "region_certificate",
+        lambda level, source, weld=coverage.WELD_M, max_bound=np.inf: reference_region_certificate(
+            level, source, reference_bands, reference_slivers, weld, max_bound
+        ),
+    )
 
 
 def test_the_guard_gives_the_former_bounds_on_a_generated_tile(tmp_path, monkeypatch):
