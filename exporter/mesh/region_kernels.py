@@ -24,7 +24,25 @@ import numpy as np
 
 from .band_kernels import _region_bands
 from .jit import kernel
-from .sorted_kernels import lower_bound
+from .sorted_kernels import lower_bound, stable_order
+
+
+@kernel
+def _any(flags):  # pragma: no cover - compiled
+    for flag in flags:
+        if flag:
+            return True
+    return False
+
+
+@kernel
+def _rows(table, pick):  # pragma: no cover - compiled
+    """``table[pick]`` for a (n, 3) table (a loop: numba's fancy indexing compiles slowly)."""
+    out = np.empty((pick.shape[0], 3), table.dtype)
+    for i in range(pick.shape[0]):
+        for j in range(3):
+            out[i, j] = table[pick[i], j]
+    return out
 
 
 @kernel
@@ -74,7 +92,13 @@ def _assign(level, normal_l, source, region, normals, k, same_normal_cos):  # pr
     for i in range(m):
         for j in range(3):
             member[3 * i + j] = region[i] * k + source[i, j]
-    member = np.unique(member)
+    ordered = member[stable_order(member)]
+    count = 0
+    for t in range(len(ordered)):  # distinct keys, ascending (np.unique)
+        if t == 0 or ordered[t] != ordered[t - 1]:
+            ordered[count] = ordered[t]
+            count += 1
+    member = ordered[:count]
     # Regions of each vertex, ascending: a counting sort of the members by vertex.
     start = np.zeros(k + 1, np.int64)
     for key in member:
@@ -110,7 +134,7 @@ def _assign(level, normal_l, source, region, normals, k, same_normal_cos):  # pr
 @kernel
 def _chain_difference(level, reg_l, source, reg_s, k, good):  # pragma: no cover - compiled
     """Step 3-4: the nonzero edges of boundary(level faces) - boundary(source faces) per region,
-    as rows (region, a, b, side) in (region, low, high) order (a -> b the edge's direction in the
+    as columns region, a, b, side in (region, low, high) order (a -> b the edge's direction in the
     difference, side +1 / -1 / 0: only the level's, only the source's, both); regions with an
     edge of multiplicity above 1 are marked not ``good``."""
     count = 3 * (level.shape[0] + source.shape[0])
@@ -126,8 +150,11 @@ def _chain_difference(level, reg_l, source, reg_s, k, good):  # pragma: no cover
                 sign[h] = 1 if a < b else -1
                 from_level[h] = is_level
                 h += 1
-    order = np.argsort(keys, kind="mergesort")
-    rows = np.empty((count, 4), np.int64)
+    order = stable_order(keys)
+    rg = np.empty(count, np.int64)
+    ra = np.empty(count, np.int64)
+    rb = np.empty(count, np.int64)
+    rs = np.empty(count, np.int64)
     d = 0
     i = 0
     while i < count:
@@ -145,26 +172,26 @@ def _chain_difference(level, reg_l, source, reg_s, k, good):  # pragma: no cover
         g, low, high = key // (k * k), (key // k) % k, key % k
         if abs(total) > 1:
             good[g] = False
-        rows[d, 0] = g
-        rows[d, 1], rows[d, 2] = (low, high) if total > 0 else (high, low)
-        rows[d, 3] = 1 if net_s == 0 else (-1 if net_l == 0 else 0)
+        rg[d] = g
+        ra[d], rb[d] = (low, high) if total > 0 else (high, low)
+        rs[d] = 1 if net_s == 0 else (-1 if net_l == 0 else 0)
         d += 1
-    return rows[:d]
+    return rg[:d], ra[:d], rb[:d], rs[:d]
 
 
 @kernel
-def _in_plane(diff, points, normals):  # pragma: no cover - compiled
-    """(d, 2) metres: each row's start vertex in its region's plane axes (u = n x helper, v =
+def _in_plane(region, start, points, normals):  # pragma: no cover - compiled
+    """(d, 2) metres: each start vertex in its region's plane axes (u = n x helper, v =
     n x u, helper x unless n is nearly x)."""
-    xy = np.empty((diff.shape[0], 2))
-    for r in range(diff.shape[0]):
-        n0, n1, n2 = normals[diff[r, 0], 0], normals[diff[r, 0], 1], normals[diff[r, 0], 2]
+    xy = np.empty((region.shape[0], 2))
+    for r in range(region.shape[0]):
+        n0, n1, n2 = normals[region[r], 0], normals[region[r], 1], normals[region[r], 2]
         h0, h1, h2 = (1.0, 0.0, 0.0) if abs(n0) < 0.9 else (0.0, 1.0, 0.0)
         u0, u1, u2 = n1 * h2 - n2 * h1, n2 * h0 - n0 * h2, n0 * h1 - n1 * h0
         length = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
         u0, u1, u2 = u0 / length, u1 / length, u2 / length
         v0, v1, v2 = n1 * u2 - n2 * u1, n2 * u0 - n0 * u2, n0 * u1 - n1 * u0
-        s = points[diff[r, 1]]
+        s = points[start[r]]
         xy[r, 0] = s[0] * u0 + s[1] * u1 + s[2] * u2
         xy[r, 1] = s[0] * v0 + s[1] * v1 + s[2] * v2
     return xy
@@ -180,8 +207,8 @@ def _regions(points, la, lb, rest_a, rest_b, region, done_a, done_b, limits, ste
     offset, max_bound, scale = limits
     same_normal_cos, oriented_eps, max_band_edges, half = steps
     k = points.shape[0]
-    fs = lb[rest_b]
-    fl = la[rest_a]
+    fs = _rows(lb, rest_b)
+    fl = _rows(la, rest_a)
     ms, ml = fs.shape[0], fl.shape[0]
     r = region.max() + 1
     cross_s = np.empty((ms, 3))
@@ -209,26 +236,27 @@ def _regions(points, la, lb, rest_a, rest_b, region, done_a, done_b, limits, ste
             cross_l[i, j] = c[j]
             normal_l[i, j] = c[j] / length
     reg_l = _assign(fl, normal_l, fs, region, normals, k, same_normal_cos)
-    placed = np.flatnonzero(reg_l >= 0)
-    fp, cp, rp = fl[placed], cross_l[placed], reg_l[placed]
+    placed = np.empty(ml, np.int64)
+    count = 0
+    for i in range(ml):
+        if reg_l[i] >= 0:
+            placed[count] = i
+            count += 1
+    placed = placed[:count]
+    fp, cp = _rows(fl, placed), _rows(cross_l, placed)
+    rp = np.empty(count, np.int64)
+    for i in range(count):
+        rp[i] = reg_l[placed[i]]
     _orientation(points, fs, cross_s, region, normals, oriented_eps, good)
     _orientation(points, fp, cp, rp, normals, oriented_eps, good)
-    diff = _chain_difference(fp, rp, fs, region, k, good)
+    dg, da, db, ds = _chain_difference(fp, rp, fs, region, k, good)
     width = np.zeros(r)
-    if diff.shape[0]:
-        by_start = np.argsort(diff[:, 0] * k + diff[:, 1], kind="mergesort")
-        _region_bands(
-            diff[:, 0].copy(),
-            diff[:, 1].copy(),
-            diff[:, 2].copy(),
-            diff[:, 3].copy(),
-            by_start,
-            _in_plane(diff, points, normals),
-            good,
-            width,
-            max_band_edges,
-            half,
-        )
+    if dg.shape[0]:
+        keys = np.empty(dg.shape[0], np.int64)
+        for i in range(dg.shape[0]):
+            keys[i] = dg[i] * k + da[i]
+        xy = _in_plane(dg, da, points, normals)
+        _region_bands(dg, da, db, ds, stable_order(keys), xy, good, width, max_band_edges, half)
     low = np.full(r, np.inf)
     high = np.full(r, -np.inf)
     _heights(points, fs, region, normals, low, high)
@@ -258,6 +286,8 @@ def _slivers(points, faces, done, budget, sliver, settled):  # pragma: no cover 
     m = faces.shape[0]
     if budget <= 0:
         return 0.0
+    e = np.empty((3, 3))
+    on = np.zeros(3, np.bool_)
     thin = np.zeros(m, np.bool_)
     width = np.zeros(m)
     longest = np.zeros(m, np.int64)
@@ -265,7 +295,6 @@ def _slivers(points, faces, done, budget, sliver, settled):  # pragma: no cover 
     for i in range(m):
         if done[i]:
             continue
-        e = np.empty((3, 3))
         top, at = -np.inf, 0
         for j in range(3):
             p, q = points[faces[i, j]], points[faces[i, (j + 1) % 3]]
@@ -296,14 +325,13 @@ def _slivers(points, faces, done, budget, sliver, settled):  # pragma: no cover 
                 a, b = faces[i, j], faces[i, (j + 1) % 3]
                 known[h] = min(a, b) * k + max(a, b)
                 h += 1
-    known = np.sort(known)
+    known = known[stable_order(known)]
     n = len(known)
     widest = 0.0
     found = False
     for i in range(m):
         if not thin[i]:
             continue
-        on = np.zeros(3, np.bool_)
         for j in range(3):
             a, b = faces[i, j], faces[i, (j + 1) % 3]
             key = min(a, b) * k + max(a, b)
@@ -326,18 +354,20 @@ def _settle(points, la, lb, rest_a, rest_b, region, done_a, done_b, limits, step
     if rest_a.shape[0] and rest_b.shape[0]:
         settled = _regions(points, la, lb, rest_a, rest_b, region, done_a, done_b, limits, steps)
     for _ in range(sliver_rounds):
-        if not (done_a.any() or done_b.any()):
+        if not (_any(done_a) or _any(done_b)):
             break
         budget = max_bound - 2 * offset - settled
         slivers_a = np.zeros(la.shape[0], np.bool_)
         slivers_b = np.zeros(lb.shape[0], np.bool_)
         width_a = _slivers(points, la, done_a, budget, sliver, slivers_a)
         width_b = _slivers(points, lb, done_b, budget, sliver, slivers_b)
-        if not (slivers_a.any() or slivers_b.any()):
+        if not (_any(slivers_a) or _any(slivers_b)):
             break
         settled += max(width_a, width_b)
-        done_a |= slivers_a
-        done_b |= slivers_b
+        for i in range(la.shape[0]):
+            done_a[i] = done_a[i] or slivers_a[i]
+        for i in range(lb.shape[0]):
+            done_b[i] = done_b[i] or slivers_b[i]
     return settled
 
 

@@ -17,20 +17,18 @@ from __future__ import annotations
 import numpy as np
 
 from .jit import kernel
+from .sorted_kernels import lower_bound, upper_bound
 
 
 @kernel
 def _through(keys_out, order_out, keys_in, key):  # pragma: no cover - compiled
     """The one oriented segment leaving ``key`` = (region, vertex) when exactly one leaves and
     one enters it, else -1."""
-    s = np.searchsorted(keys_out, key, side="left")
-    e = np.searchsorted(keys_out, key, side="right")
-    if e - s != 1:
+    s = lower_bound(keys_out, 0, len(keys_out), key)
+    if upper_bound(keys_out, s, len(keys_out), key) - s != 1:
         return -1
-    if (
-        np.searchsorted(keys_in, key, side="right") - np.searchsorted(keys_in, key, side="left")
-        != 1
-    ):
+    t = lower_bound(keys_in, 0, len(keys_in), key)
+    if upper_bound(keys_in, t, len(keys_in), key) - t != 1:
         return -1
     return order_out[s]
 
