@@ -79,9 +79,15 @@ def _pairs(points, tri, out):  # pragma: no cover - compiled
 def point_triangle_distance(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
     """Distance from points (..., 3) to triangles (..., 3, 3), broadcast against each other;
     (...) metres. Any one Cartesian frame."""
-    shape = np.broadcast_shapes(points.shape[:-1], tri.shape[:-2])
-    p = np.ascontiguousarray(np.broadcast_to(points, (*shape, 3)), np.float64).reshape(-1, 3)
-    t = np.ascontiguousarray(np.broadcast_to(tri, (*shape, 3, 3)), np.float64).reshape(-1, 3, 3)
+    if points.shape[:-1] == tri.shape[:-2]:  # (point, triangle) pairs: no broadcasting
+        shape = points.shape[:-1]
+        p = np.ascontiguousarray(points, np.float64).reshape(-1, 3)
+        t = np.ascontiguousarray(tri, np.float64).reshape(-1, 3, 3)
+    else:
+        shape = np.broadcast_shapes(points.shape[:-1], tri.shape[:-2])
+        p = np.ascontiguousarray(np.broadcast_to(points, (*shape, 3)), np.float64).reshape(-1, 3)
+        t = np.ascontiguousarray(np.broadcast_to(tri, (*shape, 3, 3)), np.float64)
+        t = t.reshape(-1, 3, 3)
     out = np.empty(len(p))
     if len(p):
         _pairs(p, t, out)
