@@ -113,3 +113,16 @@ def test_out_of_range_indices_are_errors_not_crashes():
     constants = (0.99, 1e-9, 64, 1e-6, 4)
     with pytest.raises(ValueError, match="out of range"):
         settle_regions(points, faces, faces, empty, empty, empty, done, done, 0.0, 1.0, constants)
+
+
+@pytest.mark.parametrize("offset, scale", [(6.4e6, 20.0), (0.0, 1e-6), (1e-9, 1e-9)])
+def test_far_and_tiny_coordinates_give_the_former_certificate(offset, scale):
+    # Global-frame magnitudes (metres from the Earth's centre) and sub-micrometre parts.
+    rng = np.random.default_rng(3)
+    points, faces = _grid(rng, 4, 3, scale)
+    points = points + offset
+    for level in _variants(rng, points, faces):
+        _same(level, (points, faces))
+    single = faces[:1]
+    _same((points, single), (points, faces))
+    _same((points, faces), (points, single))
