@@ -40,6 +40,9 @@ A region that fails a test (a flipped face, a chain that differs otherwise) and 
 placed in a region are returned as *open*: the caller bounds them with the general method
 (:mod:`exporter.mesh.hausdorff`), which they then cost alone.
 
+Steps 2-4 and 6 run compiled (:mod:`exporter.mesh.region_kernels`, bands in
+:mod:`exporter.mesh.band_kernels`); welding and the planar regions are the shared numpy ones.
+
 Sources: the winding-number argument is the one of polygon coverage tests (e.g. Hormann &
 Agathos, "The point in polygon problem for arbitrary polygons", 2001); welding as
 :mod:`exporter.mesh.weld`.
