@@ -27,10 +27,8 @@ from exporter.mesh.hausdorff import (
     SHRINK,
     Surface,
     _dot3,
-    _inside_face,
     _ranges,
     _Regions,
-    _sides_in,
 )
 from tests.region_reference import reference_region_certificate
 
@@ -80,7 +78,7 @@ def reference_planar_bound(
     height = np.abs(_dot3(t, normal[:, None]) - reg.offset[region, None])
     height = np.maximum(np.maximum(height[:, 0], height[:, 1]), height[:, 2])
     cx, cy = tx.sum(1) / 3.0, ty.sum(1) / 3.0
-    keep = _inside_face(cx, cy, reg.tri2[face])
+    keep = reference_inside_face(cx, cy, reg.tri2[face])
     if cap is not None:
         keep &= height + reg.slack[region] < cap[row]
     if not keep.any():
@@ -122,7 +120,7 @@ def reference_planar_bound(
     value[todo[inside]] = (np.sqrt(height[todo] ** 2 + rho**2) + reg.slack[region[todo]])[inside]
     if len(owner):
         retry = np.unique(owner)
-        moved = _sides_in(tx[todo], ty[todo], inradius[todo], owner, seg, reg, retry)
+        moved = reference_sides_in(tx[todo], ty[todo], inradius[todo], owner, seg, reg, retry)
         if moved is not None:
             pick, mx, my, shift = moved
             crossed = reference_boundary_crosses(mx, my, region[todo[pick]], reg)
@@ -146,6 +144,72 @@ def reference_planar_bound(
         ]
     np.minimum.at(bound, row, value)
     return bound
+
+
+def reference_inside_face(x: np.ndarray, y: np.ndarray, tri2: np.ndarray) -> np.ndarray:
+    """(p,) bool: the point (x, y) lies in the 2-D triangle (p, 3, 2) (closed, with a 1e-9
+    relative margin: a point wrongly inside lies that close to an edge of the face; if that edge
+    bounds the region, the boundary test sees it cross the shrunk triangle)."""
+    pos = np.ones(len(x), bool)
+    neg = np.ones(len(x), bool)
+    for i, j in ((0, 1), (1, 2), (2, 0)):
+        ex, ey = tri2[:, j, 0] - tri2[:, i, 0], tri2[:, j, 1] - tri2[:, i, 1]
+        wx, wy = x - tri2[:, i, 0], y - tri2[:, i, 1]
+        side = ex * wy - ey * wx
+        margin = (
+            1e-9 * (np.abs(ex) + np.abs(ey)) * (np.abs(wx) + np.abs(wy) + np.abs(ex) + np.abs(ey))
+        )
+        pos &= side >= -margin
+        neg &= side <= margin
+    return pos | neg
+
+
+def reference_sides_in(tx, ty, inradius, owner, seg, reg, retry):
+    """Triangles (p, 3) metres with each side moved inwards just past the boundary edges that
+    cross them (``owner``, ``seg`` pairs): every crossing edge is charged to the side it enters
+    least; a side moves by the largest charge (at least ``SHRINK`` x the inradius). Returns the
+    rows ``retry`` kept (the moves stay below a quarter of the inradius), their new corners (q, 3)
+    and each one's largest corner displacement (metres; d(., moved triangle) is convex, so every
+    point of the triangle is that close to it), or None."""
+    # Inward unit normals of the sides i -> i+1 (side i is opposite corner i+2).
+    ex = tx[:, [1, 2, 0]] - tx  # np.roll(tx, -1, axis=1), without its Python overhead
+    ey = ty[:, [1, 2, 0]] - ty
+    length = np.hypot(ex, ey)
+    orient = np.sign(
+        (tx[:, 1] - tx[:, 0]) * (ty[:, 2] - ty[:, 0])
+        - (ty[:, 1] - ty[:, 0]) * (tx[:, 2] - tx[:, 0])
+    )
+    nx, ny = -ey / length * orient[:, None], ex / length * orient[:, None]
+    x0, y0 = reg.seg_x0[seg], reg.seg_y0[seg]
+    x1, y1 = reg.seg_x1[seg], reg.seg_y1[seg]
+    depth = np.maximum(
+        (x0[:, None] - tx[owner]) * nx[owner] + (y0[:, None] - ty[owner]) * ny[owner],
+        (x1[:, None] - tx[owner]) * nx[owner] + (y1[:, None] - ty[owner]) * ny[owner],
+    )  # (q, 3): how far each crossing edge enters past each side
+    side = np.argmin(depth, axis=1)
+    need = np.zeros(tx.shape)
+    np.maximum.at(need, (owner, side), depth[np.arange(len(owner)), side])
+    need = need[retry]
+    r = inradius[retry]
+    size = np.abs(tx[retry]).max(axis=-1) + np.abs(ty[retry]).max(axis=-1)
+    delta = np.maximum(need * (1 + 1e-6) + 1e-12 * size[:, None], SHRINK * r[:, None])
+    keep = (delta < 0.25 * r[:, None]).all(axis=1)
+    if not keep.any():
+        return None
+    retry, delta = retry[keep], delta[keep]
+    px, py = tx[retry], ty[retry]
+    nxr, nyr = nx[retry], ny[retry]
+    # Corner i lies on sides i-1 and i: solve n . x = n . p + delta for both moved sides.
+    back = [2, 0, 1]  # np.roll(., 1, axis=1)
+    a1x, a1y = nxr[:, back], nyr[:, back]
+    c1 = a1x * px[:, back] + a1y * py[:, back] + delta[:, back]
+    c2 = nxr * px + nyr * py + delta
+    det = a1x * nyr - a1y * nxr
+    mx = (c1 * nyr - a1y * c2) / det
+    my = (a1x * c2 - c1 * nxr) / det
+    shift = np.sqrt((mx - px) ** 2 + (my - py) ** 2).max(axis=-1)
+    good = np.isfinite(shift)
+    return retry[good], mx[good], my[good], shift[good]
 
 
 def reference_boundary_crosses(
