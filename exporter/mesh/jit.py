@@ -6,19 +6,62 @@ machine, later ones load it (measured in docs/performance.md, "Compiled kernels"
 location is writable at all the kernel is compiled in memory on first use instead of failing.
 ``error_model="numpy"``: a float division by zero gives inf/NaN as numpy does (the numpy code the
 kernels replaced relied on it), never an exception.
+
+numba (and LLVM, ~115 MiB of a process's memory) is imported on the first call of a kernel, not
+when the mesh layer is imported: a process that never runs one (the export's main process, the
+command line's ``--help``) does not pay for it. On that first call every kernel defined so far
+becomes a numba dispatcher and the module names bound to a kernel are rebound to it (kernels call
+each other by global name, which numba resolves when it compiles the caller).
 """
 
 from __future__ import annotations
 
+import functools
+import sys
 from collections.abc import Callable
 from typing import Any
 
-import numba
+_PENDING: list[_Lazy] = []
 
 
-def kernel(function: Callable[..., Any]) -> Any:
-    """``function`` compiled with numba (nopython, disk-cached when a cache dir is writable)."""
+class _Lazy:
+    """A kernel not yet handed to numba; calling it hands every pending kernel over."""
+
+    def __init__(self, function: Callable[..., Any]) -> None:
+        functools.update_wrapper(self, function)
+        self.function = function
+        self.dispatcher: Any = None
+        _PENDING.append(self)
+
+    def __call__(self, *args: Any) -> Any:
+        if self.dispatcher is None:
+            compile_pending()
+        return self.dispatcher(*args)
+
+
+def _njit(function: Callable[..., Any]) -> Any:
+    import numba
+
     try:
         return numba.njit(cache=True, error_model="numpy", nogil=True)(function)
     except RuntimeError:  # numba: "cannot cache function ...: no locator available"
         return numba.njit(error_model="numpy", nogil=True)(function)
+
+
+def compile_pending() -> None:
+    """Every kernel defined so far as a numba dispatcher (compiled on its first call), and the
+    names of the kernel modules that hold one rebound to it."""
+    for lazy in _PENDING:
+        if lazy.dispatcher is None:
+            lazy.dispatcher = _njit(lazy.function)
+    for module_name in {lazy.function.__module__ for lazy in _PENDING}:
+        namespace = vars(sys.modules[module_name])
+        for name, value in list(namespace.items()):
+            if isinstance(value, _Lazy):
+                namespace[name] = value.dispatcher
+
+
+def kernel(function: Callable[..., Any]) -> Any:
+    """``function`` compiled with numba (nopython, disk-cached when a cache dir is writable) on
+    its first call."""
+    return _Lazy(function)
