@@ -17,11 +17,12 @@ each other by global name, which numba resolves when it compiles the caller).
 from __future__ import annotations
 
 import functools
-import sys
+import threading
 from collections.abc import Callable
 from typing import Any
 
 _PENDING: list[_Lazy] = []
+_LOCK = threading.Lock()  # a Dask worker may run several threads
 
 
 class _Lazy:
@@ -51,11 +52,17 @@ def _njit(function: Callable[..., Any]) -> Any:
 def compile_pending() -> None:
     """Every kernel defined so far as a numba dispatcher (compiled on its first call), and the
     names of the kernel modules that hold one rebound to it."""
+    with _LOCK:
+        _compile_pending()
+
+
+def _compile_pending() -> None:
     for lazy in _PENDING:
         if lazy.dispatcher is None:
             lazy.dispatcher = _njit(lazy.function)
-    for module_name in {lazy.function.__module__ for lazy in _PENDING}:
-        namespace = vars(sys.modules[module_name])
+    # Each kernel module's namespace (its functions' globals: what numba resolves names in).
+    namespaces = {id(lazy.function.__globals__): lazy.function.__globals__ for lazy in _PENDING}
+    for namespace in namespaces.values():
         for name, value in list(namespace.items()):
             if isinstance(value, _Lazy):
                 namespace[name] = value.dispatcher
