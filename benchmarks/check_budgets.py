@@ -34,6 +34,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from exporter.config import Config  # noqa: E402
+from exporter.errors import InputError  # noqa: E402
 from exporter.readers import load_entry, scan_folder  # noqa: E402
 from exporter.samplegen import generate_buildings  # noqa: E402
 from exporter.simplify import _join, build_mesh_chain  # noqa: E402
@@ -91,9 +92,12 @@ def main() -> int:
     real = Path(args.real)
     if real.is_dir():
         for path in sorted(p for p in real.iterdir() if p.is_dir() or p.suffix == ".json"):
-            sets[path.name] = [
-                load_entry(e, readers) for e in scan_folder(str(path), readers).entries
-            ]
+            try:
+                entries = scan_folder(str(path), readers).entries
+            except InputError as error:  # e.g. a CityGML folder: no reader for it
+                print(f"{path.name} left out: {error}")
+                continue
+            sets[path.name] = [load_entry(e, readers) for e in entries]
     else:
         print(f"{real} not found: generated buildings only")
     configs = {

@@ -64,7 +64,7 @@ def reference_point_triangle_distance(points, tri):
     return np.where(bad, corners, distance)
 
 
-@pytest.mark.parametrize("scale", [1e-3, 1.0, 300.0])
+@pytest.mark.parametrize("scale", [1e-3, 1.0, 300.0, 1e6])
 def test_point_triangle_distance_is_bit_identical_to_the_textbook_form(scale):
     rng = np.random.default_rng(int(scale * 1000))
     tri = rng.normal(size=(3000, 6, 3, 3)) * scale

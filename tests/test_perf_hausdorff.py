@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 
 from exporter.mesh import coverage, hausdorff
-from exporter.mesh.coverage import SLIVER, _band_widths, _cycles
+from exporter.mesh.band_kernels import _band_width, _walk
+from exporter.mesh.coverage import SLIVER
 from exporter.mesh.distance import SurfaceIndex, point_triangle_distance
 from exporter.mesh.geometry import cross_rows
 from exporter.mesh.hausdorff import (
@@ -26,11 +27,10 @@ from exporter.mesh.hausdorff import (
     SHRINK,
     Surface,
     _dot3,
-    _inside_face,
     _ranges,
     _Regions,
-    _sides_in,
 )
+from tests.region_reference import reference_region_certificate
 
 # --------------------------------------------------------------------------- reference formulations
 
@@ -78,7 +78,7 @@ def reference_planar_bound(
     height = np.abs(_dot3(t, normal[:, None]) - reg.offset[region, None])
     height = np.maximum(np.maximum(height[:, 0], height[:, 1]), height[:, 2])
     cx, cy = tx.sum(1) / 3.0, ty.sum(1) / 3.0
-    keep = _inside_face(cx, cy, reg.tri2[face])
+    keep = reference_inside_face(cx, cy, reg.tri2[face])
     if cap is not None:
         keep &= height + reg.slack[region] < cap[row]
     if not keep.any():
@@ -120,7 +120,7 @@ def reference_planar_bound(
     value[todo[inside]] = (np.sqrt(height[todo] ** 2 + rho**2) + reg.slack[region[todo]])[inside]
     if len(owner):
         retry = np.unique(owner)
-        moved = _sides_in(tx[todo], ty[todo], inradius[todo], owner, seg, reg, retry)
+        moved = reference_sides_in(tx[todo], ty[todo], inradius[todo], owner, seg, reg, retry)
         if moved is not None:
             pick, mx, my, shift = moved
             crossed = reference_boundary_crosses(mx, my, region[todo[pick]], reg)
@@ -144,6 +144,72 @@ def reference_planar_bound(
         ]
     np.minimum.at(bound, row, value)
     return bound
+
+
+def reference_inside_face(x: np.ndarray, y: np.ndarray, tri2: np.ndarray) -> np.ndarray:
+    """(p,) bool: the point (x, y) lies in the 2-D triangle (p, 3, 2) (closed, with a 1e-9
+    relative margin: a point wrongly inside lies that close to an edge of the face; if that edge
+    bounds the region, the boundary test sees it cross the shrunk triangle)."""
+    pos = np.ones(len(x), bool)
+    neg = np.ones(len(x), bool)
+    for i, j in ((0, 1), (1, 2), (2, 0)):
+        ex, ey = tri2[:, j, 0] - tri2[:, i, 0], tri2[:, j, 1] - tri2[:, i, 1]
+        wx, wy = x - tri2[:, i, 0], y - tri2[:, i, 1]
+        side = ex * wy - ey * wx
+        margin = (
+            1e-9 * (np.abs(ex) + np.abs(ey)) * (np.abs(wx) + np.abs(wy) + np.abs(ex) + np.abs(ey))
+        )
+        pos &= side >= -margin
+        neg &= side <= margin
+    return pos | neg
+
+
+def reference_sides_in(tx, ty, inradius, owner, seg, reg, retry):
+    """Triangles (p, 3) metres with each side moved inwards just past the boundary edges that
+    cross them (``owner``, ``seg`` pairs): every crossing edge is charged to the side it enters
+    least; a side moves by the largest charge (at least ``SHRINK`` x the inradius). Returns the
+    rows ``retry`` kept (the moves stay below a quarter of the inradius), their new corners (q, 3)
+    and each one's largest corner displacement (metres; d(., moved triangle) is convex, so every
+    point of the triangle is that close to it), or None."""
+    # Inward unit normals of the sides i -> i+1 (side i is opposite corner i+2).
+    ex = tx[:, [1, 2, 0]] - tx  # np.roll(tx, -1, axis=1), without its Python overhead
+    ey = ty[:, [1, 2, 0]] - ty
+    length = np.hypot(ex, ey)
+    orient = np.sign(
+        (tx[:, 1] - tx[:, 0]) * (ty[:, 2] - ty[:, 0])
+        - (ty[:, 1] - ty[:, 0]) * (tx[:, 2] - tx[:, 0])
+    )
+    nx, ny = -ey / length * orient[:, None], ex / length * orient[:, None]
+    x0, y0 = reg.seg_x0[seg], reg.seg_y0[seg]
+    x1, y1 = reg.seg_x1[seg], reg.seg_y1[seg]
+    depth = np.maximum(
+        (x0[:, None] - tx[owner]) * nx[owner] + (y0[:, None] - ty[owner]) * ny[owner],
+        (x1[:, None] - tx[owner]) * nx[owner] + (y1[:, None] - ty[owner]) * ny[owner],
+    )  # (q, 3): how far each crossing edge enters past each side
+    side = np.argmin(depth, axis=1)
+    need = np.zeros(tx.shape)
+    np.maximum.at(need, (owner, side), depth[np.arange(len(owner)), side])
+    need = need[retry]
+    r = inradius[retry]
+    size = np.abs(tx[retry]).max(axis=-1) + np.abs(ty[retry]).max(axis=-1)
+    delta = np.maximum(need * (1 + 1e-6) + 1e-12 * size[:, None], SHRINK * r[:, None])
+    keep = (delta < 0.25 * r[:, None]).all(axis=1)
+    if not keep.any():
+        return None
+    retry, delta = retry[keep], delta[keep]
+    px, py = tx[retry], ty[retry]
+    nxr, nyr = nx[retry], ny[retry]
+    # Corner i lies on sides i-1 and i: solve n . x = n . p + delta for both moved sides.
+    back = [2, 0, 1]  # np.roll(., 1, axis=1)
+    a1x, a1y = nxr[:, back], nyr[:, back]
+    c1 = a1x * px[:, back] + a1y * py[:, back] + delta[:, back]
+    c2 = nxr * px + nyr * py + delta
+    det = a1x * nyr - a1y * nxr
+    mx = (c1 * nyr - a1y * c2) / det
+    my = (a1x * c2 - c1 * nxr) / det
+    shift = np.sqrt((mx - px) ** 2 + (my - py) ** 2).max(axis=-1)
+    good = np.isfinite(shift)
+    return retry[good], mx[good], my[good], shift[good]
 
 
 def reference_boundary_crosses(
@@ -483,12 +549,9 @@ def test_band_widths_of_many_cycles_equal_the_loop(seed):
     rng = np.random.default_rng(seed)
     cycles = [_cycle(rng, int(rng.integers(1, 40)), rng.random() < 0.8) for _ in range(300)]
     cycles.append((np.zeros((4, 2)), np.array([1, 1, -1, -1])))  # all vertices at one point
-    xy = np.concatenate([c[0] for c in cycles])
-    sides = np.concatenate([c[1] for c in cycles])
-    lengths = np.array([len(c[0]) for c in cycles])
-    fast = _band_widths(xy, sides, lengths)
+    fast = [_band_width(xy[:, 0].copy(), xy[:, 1].copy(), sides, 0.5) for xy, sides in cycles]
     accepted = 0
-    for (points, side), value in zip(cycles, fast.tolist()):
+    for (points, side), value in zip(cycles, fast):
         expected = reference_band_width(points.tolist(), side.tolist())
         if expected is None:
             assert np.isnan(value)
@@ -509,8 +572,13 @@ def _former(monkeypatch):
     monkeypatch.setattr(hausdorff._Regions, "_straight_runs", reference_straight_runs)
     monkeypatch.setattr(hausdorff, "_chain_bound", reference_chain_bound)
     monkeypatch.setattr(hausdorff, "_single_triangle_bound", reference_single_triangle_bound)
-    monkeypatch.setattr(coverage, "_bands", reference_bands)
-    monkeypatch.setattr(coverage, "_slivers", reference_slivers)
+    monkeypatch.setattr(
+        coverage,
+        "region_certificate",
+        lambda level, source, weld=coverage.WELD_M, max_bound=np.inf: reference_region_certificate(
+            level, source, reference_bands, reference_slivers, weld, max_bound
+        ),
+    )
 
 
 def test_the_guard_gives_the_former_bounds_on_a_generated_tile(tmp_path, monkeypatch):
@@ -566,6 +634,32 @@ def test_the_former_bounds_on_random_soups(monkeypatch):
         assert fast == former
 
 
+def compiled_cycles(rows: list) -> list | None:
+    """The compiled walk's cycles as lists of row numbers in walk order (None: refused)."""
+    table = np.array(rows, np.int64).reshape(-1, 4)
+    cycle_of = np.empty(len(rows), np.int64)
+    order = np.empty(len(rows), np.int64)
+    by_start = np.argsort(table[:, 1], kind="stable")
+    count = _walk(
+        table[:, 1].copy(),
+        table[:, 2].copy(),
+        table[:, 3].copy(),
+        by_start,
+        table[by_start, 1].copy(),
+        0,
+        len(rows),
+        coverage.MAX_BAND_EDGES,
+        cycle_of,
+        order,
+    )
+    if count < 0:
+        return None
+    cycles: list[list[int]] = [[] for _ in range(count)]
+    for row in np.lexsort((order, cycle_of)).tolist():
+        cycles[cycle_of[row]].append(row)
+    return cycles
+
+
 @pytest.mark.parametrize("seed", range(3))
 def test_cycles_equal_the_former_walk(seed):
     # Random chain differences: closed loops (one edge leaving each vertex), loops meeting at a
@@ -585,6 +679,6 @@ def test_cycles_equal_the_former_walk(seed):
             )
         rng.shuffle(rows)
         expected = reference_cycles(rows)
-        assert _cycles(rows) == expected
+        assert compiled_cycles(rows) == expected
         closed += expected is not None
     assert closed > 100

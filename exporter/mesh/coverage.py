@@ -38,6 +38,9 @@ A region that fails a test (a flipped face, a chain that differs otherwise) and 
 placed in a region are returned as *open*: the caller bounds them with the general method
 (:mod:`exporter.mesh.hausdorff`), which they then cost alone.
 
+Steps 2-4 and 6 run compiled (:mod:`exporter.mesh.region_kernels`, bands in
+:mod:`exporter.mesh.band_kernels`); welding and the planar regions are the shared numpy ones.
+
 Sources: the winding-number argument is the one of polygon coverage tests (e.g. Hormann &
 Agathos, "The point in polygon problem for arbitrary polygons", 2001); welding as
 :mod:`exporter.mesh.weld`.
@@ -49,7 +52,7 @@ import dataclasses
 
 import numpy as np
 
-from .geometry import cross_rows
+from .region_kernels import settle_regions
 from .topology import planar_regions
 from .weld import weld_positions
 
@@ -86,77 +89,6 @@ def _face_keys(faces: np.ndarray, k: int) -> np.ndarray:
     return (s[:, 0] * k + s[:, 1]) * k + s[:, 2]
 
 
-def _assign(
-    level: np.ndarray, normal_l: np.ndarray, source: np.ndarray, region: np.ndarray, normals, k
-) -> np.ndarray:
-    """(m_level,) region of each level face (-1: none): a region whose source faces use all three
-    of its corners and whose normal its own is within ``SAME_NORMAL_COS`` of."""
-    r = len(normals)
-    # (region, vertex) memberships, sorted, for lookups.
-    member = np.unique(np.repeat(region, 3) * k + source.reshape(-1))
-    out = np.full(len(level), -1, np.int64)
-    if len(level) == 0 or len(member) == 0:
-        return out
-    # Candidates: every region holding the face's first corner.
-    mv = member % k
-    order = np.argsort(mv, kind="stable")
-    first = np.searchsorted(mv[order], level[:, 0], side="left")
-    last = np.searchsorted(mv[order], level[:, 0], side="right")
-    counts = last - first
-    owner = np.repeat(np.arange(len(level)), counts)
-    item = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
-    cand = member[order[first[owner] + item]] // k
-    ok = (normal_l[owner] * normals[cand]).sum(1) >= SAME_NORMAL_COS
-    for c in (1, 2):
-        key = cand * k + level[owner, c]
-        at = np.minimum(np.searchsorted(member, key), len(member) - 1)
-        ok &= member[at] == key
-    owner, cand = owner[ok], cand[ok]
-    # First fitting region per face (several fit only for regions on one plane).
-    out[owner[::-1]] = cand[::-1]
-    del r
-    return out
-
-
-def _unit_normals(points: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    t = points[faces]
-    cross = cross_rows(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
-    length = np.sqrt((cross**2).sum(1))
-    return cross / np.maximum(length, 1e-300)[:, None], cross
-
-
-def _chain_difference(
-    faces_l: np.ndarray, reg_l: np.ndarray, faces_s: np.ndarray, reg_s: np.ndarray, k: int
-) -> tuple[np.ndarray, np.ndarray]:
-    """The nonzero edges of boundary(level faces of region) - boundary(source faces of region):
-    (d, 4) rows ``(region, a, b, side)``, a -> b the edge's direction in the difference, side +1
-    when it is the level's boundary edge a -> b (the source has none there), -1 when it is the
-    source's boundary edge b -> a reversed (the level has none), 0 otherwise; and the regions
-    where an edge of the difference has a multiplicity above 1."""
-    half = np.concatenate([faces_l[:, [0, 1, 1, 2, 2, 0]], faces_s[:, [0, 1, 1, 2, 2, 0]]])
-    half = half.reshape(-1, 2)
-    from_level = np.concatenate([np.ones(3 * len(faces_l), bool), np.zeros(3 * len(faces_s), bool)])
-    region = np.repeat(np.concatenate([reg_l, reg_s]), 3)
-    lo, hi = np.minimum(half[:, 0], half[:, 1]), np.maximum(half[:, 0], half[:, 1])
-    sign = np.where(half[:, 0] < half[:, 1], 1.0, -1.0)
-    keys = (region * k + lo) * k + hi
-    uniq, inverse = np.unique(keys, return_inverse=True)
-    # Net boundary of each side along lo -> hi.
-    net_l = np.bincount(inverse, weights=sign * from_level, minlength=len(uniq))
-    net_s = np.bincount(inverse, weights=sign * ~from_level, minlength=len(uniq))
-    total = net_l - net_s
-    nonzero = np.flatnonzero(np.abs(total) > 0.5)
-    key = uniq[nonzero]
-    reg = key // (k * k)
-    lo, hi = (key // k) % k, key % k
-    forward = total[nonzero] > 0
-    side = np.where(np.abs(net_s[nonzero]) < 0.5, 1, np.where(np.abs(net_l[nonzero]) < 0.5, -1, 0))
-    rows = np.column_stack(
-        [reg, np.where(forward, lo, hi), np.where(forward, hi, lo), side]
-    ).astype(np.int64)
-    return rows, np.unique(reg[np.abs(total[nonzero]) > 1.5])
-
-
 def region_certificate(
     level, source, weld: float = WELD_M, max_bound: float = np.inf
 ) -> Certificate:
@@ -183,255 +115,22 @@ def region_certificate(
     # 2. regions of b's other faces (b is the side whose regions are used: the source)
     rest_b = np.flatnonzero(~shared_b & ~degenerate_b)
     rest_a = np.flatnonzero(~shared_a & ~degenerate_a)
-    settled = 0.0
     done_a, done_b = shared_a & ~degenerate_a, shared_b & ~degenerate_b
-    if len(rest_b) and len(rest_a):
-        fs = lb[rest_b]
-        region = planar_regions(points, fs)
-        ns, cross_s = _unit_normals(points, fs)
-        r = int(region.max()) + 1
-        normals = np.zeros((r, 3))
-        np.add.at(normals, region, cross_s)
-        length = np.sqrt((normals**2).sum(1))
-        good = length > 0  # a region whose faces' normals cancel has no plane
-        normals[~good] = (0.0, 0.0, 1.0)
-        normals[good] /= length[good, None]
-        fl = la[rest_a]
-        nl, cross_l = _unit_normals(points, fl)
-        reg_l = _assign(fl, nl, fs, region, normals, k)
-        # Faces of a not placed: their candidate regions are unknown, so nothing is lost by
-        # leaving them open alone.
-        placed = reg_l >= 0
-        # 3. orientation along the region's normal, both sides
-        for faces_x, cross_x, reg_x in (
-            (fs, cross_s, region),
-            (fl[placed], cross_l[placed], reg_l[placed]),
-        ):
-            t = points[faces_x]
-            e = t - t[:, [1, 2, 0]]
-            e2 = e[..., 0] * e[..., 0] + e[..., 1] * e[..., 1] + e[..., 2] * e[..., 2]
-            longest = np.maximum(np.maximum(e2[:, 0], e2[:, 1]), e2[:, 2])
-            along = (cross_x * normals[reg_x]).sum(1)
-            bad = along <= ORIENTED * longest
-            good[reg_x[bad]] = False
-        # 3-4. chains
-        diff, multiple = _chain_difference(fl[placed], reg_l[placed], fs, region, k)
-        good[multiple] = False
-        width = np.zeros(r)
-        if len(diff):
-            _bands(diff, points, normals, good, width)
-        # heights
-        heights_lo = np.full(r, np.inf)
-        heights_hi = np.full(r, -np.inf)
-        for faces_x, reg_x in ((fs, region), (fl[placed], reg_l[placed])):
-            h = np.einsum("mkj,mj->mk", points[faces_x], normals[reg_x])
-            np.minimum.at(heights_lo, reg_x, np.minimum(np.minimum(h[:, 0], h[:, 1]), h[:, 2]))
-            np.maximum.at(heights_hi, reg_x, np.maximum(np.maximum(h[:, 0], h[:, 1]), h[:, 2]))
-        spread = heights_hi - heights_lo
-        # Rounding of the heights themselves: a relative margin.
-        scale = float(np.abs(points).max()) if len(points) else 0.0
-        value = spread + width + 1e-12 * scale
-        good &= value + 2 * offset <= max_bound
-        if good.any():
-            settled = float(value[good].max())
-        done_b[rest_b[good[region]]] = True
-        done_a[rest_a[placed][good[reg_l[placed]]]] = True
-    # 6. slivers along settled edges, both sides; a fan of slivers is settled one ring a round,
-    # each round's width added to the bound (its faces lie along the faces settled before it).
-    for _ in range(SLIVER_ROUNDS):
-        if not (done_a.any() or done_b.any()):
-            break
-        width_a, slivers_a = _slivers(points, la, done_a, max_bound - 2 * offset - settled)
-        width_b, slivers_b = _slivers(points, lb, done_b, max_bound - 2 * offset - settled)
-        if not (slivers_a.any() or slivers_b.any()):
-            break
-        settled += max(width_a, width_b)
-        done_a |= slivers_a
-        done_b |= slivers_b
+    both = len(rest_b) and len(rest_a)
+    region = planar_regions(points, lb[rest_b]) if both else np.zeros(0, np.int64)
+    # 2-4 (regions: placement, orientation, chains, bands, heights) and 6 (slivers), compiled.
+    settled = settle_regions(
+        points,
+        la,
+        lb,
+        rest_a if both else rest_a[:0],
+        rest_b if both else rest_b[:0],
+        region,
+        done_a,
+        done_b,
+        offset,
+        max_bound,
+        (SAME_NORMAL_COS, ORIENTED, MAX_BAND_EDGES, SLIVER, SLIVER_ROUNDS),
+    )
     bound = settled + 2 * offset if (done_a.any() or done_b.any()) else 0.0
     return Certificate(bound, ~done_a, ~done_b)
-
-
-def _slivers(points: np.ndarray, faces: np.ndarray, done: np.ndarray, budget: float):
-    """Step 6: ``(width, settled)``: the open faces of one side (welded ids ``faces`` (m, 3),
-    ``done`` (m,) bool) that are slivers lying along settled faces' edges, and the metres they add.
-
-    A collapse onto a line leaves collinear triangles that fill a T-junction (corners a, m, b with
-    m on the segment ab). Every point of a triangle lies within its least altitude h of its
-    longest edge ab, and the polyline a-m-b lies within h of ab. So when ab is an edge of a
-    settled face, or both other edges are, every point of the sliver is within 2h of a point of a
-    settled face, hence within 2h + the settled bound of the other mesh. Slivers whose 2h exceeds
-    ``budget`` (metres) or ``SLIVER`` x their longest edge stay open."""
-    settled = np.zeros(len(faces), bool)
-    open_ = np.flatnonzero(~done)
-    if len(open_) == 0 or budget <= 0:
-        return 0.0, settled
-    t = points[faces[open_]]
-    edges = t[:, [1, 2, 0]] - t  # edge i runs from corner i to corner i + 1
-    lengths = np.sqrt((edges**2).sum(-1))
-    longest = lengths.argmax(axis=1)
-    top = lengths[np.arange(len(open_)), longest]
-    area2 = np.sqrt((cross_rows(edges[:, 0], -edges[:, 2]) ** 2).sum(1))
-    width = 2 * area2 / np.maximum(top, 1e-300)  # twice the least altitude
-    thin = (width <= budget) & (width <= SLIVER * top) & (top > 0)
-    if not thin.any():
-        return 0.0, settled
-    k = int(faces.max()) + 1
-    kept = faces[done]
-    pairs = np.sort(kept[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    known = np.unique(pairs[:, 0] * k + pairs[:, 1])
-    # Only the thin faces' edges are looked up (one sorted search for all three edges of each).
-    thin_rows = np.flatnonzero(thin)
-    f = faces[open_[thin_rows]]
-    g = f[:, [1, 2, 0]]
-    keys = np.minimum(f, g) * k + np.maximum(f, g)  # (t, 3): edge i from corner i to i + 1
-    at = np.minimum(np.searchsorted(known, keys), len(known) - 1)
-    on = (known[at] == keys) if len(known) else np.zeros(keys.shape, bool)
-    rows = np.arange(len(thin_rows))
-    i = longest[thin_rows]
-    along = np.zeros(len(open_), bool)
-    along[thin_rows] = on[rows, i] | (on[rows, (i + 1) % 3] & on[rows, (i + 2) % 3])
-    ok = thin & along
-    settled[open_[ok]] = True
-    return (float(width[ok].max()) if ok.any() else 0.0), settled
-
-
-def _cycles(rows: list) -> list | None:
-    """The cycles of one region's chain difference (``(region, a, b, side)`` rows), walked so
-    that at a vertex where several edges leave, the walk turns onto the other side's edge (two
-    bands meeting at a corner); None when that is ambiguous or a walk does not close."""
-    leaving: dict[int, list[int]] = {}
-    for i, row in enumerate(rows):
-        leaving.setdefault(row[1], []).append(i)
-    used = [False] * len(rows)
-    cycles = []
-    for first in range(len(rows)):
-        if used[first]:
-            continue
-        cycle, i = [], first
-        while True:
-            used[i] = True
-            cycle.append(i)
-            if len(cycle) > MAX_BAND_EDGES:
-                return None
-            row = rows[i]
-            out = leaving.get(row[2], ())
-            if len(out) == 1:
-                # One edge leaves (most vertices): the general rule below, without its lists.
-                j = out[0]
-                if j == first:
-                    break
-                if used[j]:
-                    return None
-                i = j
-                continue
-            options = [j for j in out if not used[j] or j == first]
-            if first in options:
-                break
-            if len(options) > 1:
-                options = [j for j in options if rows[j][3] != row[3]]
-            if len(options) != 1:
-                return None
-            i = options[0]
-        cycles.append(cycle)
-    return cycles
-
-
-def _bands(diff: np.ndarray, points: np.ndarray, normals: np.ndarray, good, width) -> None:
-    """Step 4: the cycles of the chain difference ``diff`` (:func:`_chain_difference` rows) per
-    region; a region whose cycles are not all bands is marked not ``good``; ``width`` (r,) gets
-    each region's widest band (metres)."""
-    order = np.argsort(diff[:, 0], kind="stable")
-    diff = diff[order]
-    # In-plane coordinates of every edge's start on its region's plane.
-    n = normals[diff[:, 0]]
-    helper = np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
-    u = cross_rows(n, helper)
-    u /= np.sqrt((u**2).sum(1))[:, None]
-    v = cross_rows(n, u)
-    start = points[diff[:, 1]]
-    xy = np.column_stack([(start * u).sum(1), (start * v).sum(1)])
-    starts = np.flatnonzero(np.r_[True, diff[1:, 0] != diff[:-1, 0]])
-    ends = np.r_[starts[1:], len(diff)]
-    # Walk every region's cycles (plain Python: a handful of edges each), then measure all the
-    # cycles at once (:func:`_band_widths`).
-    edges: list[int] = []
-    lengths: list[int] = []
-    owners: list[int] = []
-    every = diff.tolist()
-    for s, e in zip(starts.tolist(), ends.tolist()):
-        g = every[s][0]
-        if not good[g]:
-            continue
-        rows = every[s:e]
-        cycles = _cycles(rows)
-        if cycles is None or any(row[3] == 0 for row in rows):
-            good[g] = False
-            continue
-        for cycle in cycles:
-            edges.extend(s + i for i in cycle)
-            lengths.append(len(cycle))
-            owners.append(g)
-    if not lengths:
-        return
-    band = _band_widths(xy[edges], diff[edges, 3], np.array(lengths))
-    owner = np.array(owners)
-    bad = np.isnan(band)
-    good[owner[bad]] = False
-    np.maximum.at(width, owner[~bad], band[~bad])
-
-
-def _band_widths(xy: np.ndarray, sides: np.ndarray, lengths: np.ndarray) -> np.ndarray:
-    """Width (metres) across the chord of each cycle of the chain difference that is a band: a
-    cycle (vertices ``xy`` (sum lengths, 2) in-plane metres, edge e from vertex e to e + 1, the
-    cycles' ``lengths`` (c,) one after the other) splits at its two farthest-apart vertices into
-    two runs, each monotone along the chord, one of the level's boundary edges and the other of
-    the source's (``sides`` (sum lengths,) +1 / -1 per edge); (c,) metres, NaN otherwise.
-
-    All cycles at once on (c, L, L) padded arrays (a loop per cycle cost ~60 us of Python); the
-    same float operations in the same order as the former loop, so the same bits (checked
-    against it in tests/test_coverage.py)."""
-    c, most = len(lengths), int(lengths.max())
-    first = np.cumsum(lengths) - lengths
-    owner = np.repeat(np.arange(c), lengths)
-    pos = np.arange(len(owner)) - first[owner]
-    x = np.zeros((c, most))
-    y = np.zeros((c, most))
-    side = np.zeros((c, most), np.int64)
-    x[owner, pos], y[owner, pos], side[owner, pos] = xy[:, 0], xy[:, 1], sides
-    valid = np.arange(most)[None] < lengths[:, None]  # (c, L)
-    # Farthest pair p < q, the first in (p, q) order among equals (as the loop's strict '>').
-    dx = x[:, None, :] - x[:, :, None]  # [p, q] = x_q - x_p
-    dy = y[:, None, :] - y[:, :, None]
-    d = dx * dx + dy * dy
-    pair = np.triu(np.ones((most, most), bool), 1)[None] & valid[:, None, :]
-    d = np.where(pair, d, -1.0)
-    flat = d.reshape(c, -1).argmax(axis=1)
-    i, j = flat // most, flat % most
-    best = d.reshape(c, -1)[np.arange(c), flat]
-    rows = np.arange(c)
-    # Python's '** 0.5' (the loop's) rather than np.sqrt: the same last bit.
-    length = np.array([b**0.5 if b > 0.0 else 1.0 for b in best.tolist()])
-    xi, yi = x[rows, i][:, None], y[rows, i][:, None]
-    ax = ((x[rows, j] - x[rows, i]) / length)[:, None]
-    ay = ((y[rows, j] - y[rows, i]) / length)[:, None]
-    t = (x - xi) * ax + (y - yi) * ay
-    h = (y - yi) * ax - (x - xi) * ay
-    # Edge e runs from vertex e to e + 1 (cyclically); the first run is i <= e < j.
-    nxt = np.where(np.arange(most)[None] + 1 < lengths[:, None], np.arange(most)[None] + 1, 0)
-    step = t[rows[:, None], nxt] - t  # (c, L) t[e + 1] - t[e]
-    e = np.arange(most)[None]
-    in_first = (e >= i[:, None]) & (e < j[:, None]) & valid
-    in_second = ~in_first & valid
-    slack = (1e-12 * length)[:, None]
-    ok = ~(in_first & (step < -slack)).any(axis=1) & ~(in_second & (-step < -slack)).any(axis=1)
-    # One side's edges on each run: all +1 then all -1, or the reverse.
-    first_pos = ((side == 1) | ~in_first).all(axis=1)
-    first_neg = ((side == -1) | ~in_first).all(axis=1)
-    second_pos = ((side == 1) | ~in_second).all(axis=1)
-    second_neg = ((side == -1) | ~in_second).all(axis=1)
-    ok &= (first_pos & second_neg) | (first_neg & second_pos)
-    ok &= best > 0.0
-    high = np.where(valid, h, -np.inf).max(axis=1)
-    low = np.where(valid, h, np.inf).min(axis=1)
-    return np.where(ok, high - low, np.nan)

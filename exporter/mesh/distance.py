@@ -2,7 +2,8 @@
 
 Data form: ``positions`` (k, 3) float64 metres and ``faces`` (m, 3) int64 in any one frame (the
 stages use the building-local East/Up/North frame); points (p, 3) in the same frame; distances in
-metres. :func:`point_triangle_distance` is Ericson's closest-point test, vectorised;
+metres. :func:`point_triangle_distance` is Ericson's closest-point test (compiled:
+:mod:`.distance_kernels`);
 :class:`SurfaceIndex` prepares a mesh once (a k-d tree of probes on it) so that many points are
 answered by a few candidate triangles first, then every triangle that could still be closer.
 """
@@ -14,6 +15,7 @@ import itertools
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .distance_kernels import point_triangle_distance
 from .geometry import cross_rows
 
 SEED = 20240521  # probe samples (and the quality metrics' wall samples) are the same on every run
@@ -57,68 +59,6 @@ def sample_surface(
     a, b, c = (positions[faces[chosen, i]] for i in range(3))
     points = a + r1[:, None] * (b - a) + r2[:, None] * (c - a)
     return (points, chosen) if with_faces else points
-
-
-def _dot(u: list, v: list) -> np.ndarray:
-    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
-
-
-def point_triangle_distance(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
-    """Distance from points (..., 3) to triangles (..., 3, 3) (broadcast), (...) metres.
-
-    Ericson, "Real-Time Collision Detection" (2005) 5.1.5, vectorised over coordinates held as
-    three separate arrays (x, y, z), so no step reduces over a length-3 axis.
-    """
-    shape = np.broadcast_shapes(points.shape[:-1], tri.shape[:-2])
-    if points.shape[:-1] == tri.shape[:-2]:  # (point, triangle) pairs: the columns as they are
-        p = [points[..., i] for i in range(3)]
-        a, b, c = ([tri[..., k, i] for i in range(3)] for k in range(3))
-    else:
-        p = [np.broadcast_to(points[..., i], shape) for i in range(3)]
-        a, b, c = ([np.broadcast_to(tri[..., k, i], shape) for i in range(3)] for k in range(3))
-    ab = [b[i] - a[i] for i in range(3)]
-    ac = [c[i] - a[i] for i in range(3)]
-    ap = [p[i] - a[i] for i in range(3)]
-    d1, d2 = _dot(ab, ap), _dot(ac, ap)
-    bp = [p[i] - b[i] for i in range(3)]
-    d3, d4 = _dot(ab, bp), _dot(ac, bp)
-    cp = [p[i] - c[i] for i in range(3)]
-    d5, d6 = _dot(ab, cp), _dot(ac, cp)
-    va = d3 * d6 - d5 * d4
-    vb = d5 * d2 - d1 * d6
-    vc = d1 * d4 - d3 * d2
-    with np.errstate(divide="ignore", invalid="ignore"):
-        denom = va + vb + vc
-        v = np.where(denom != 0, vb / denom, 0.0)
-        w = np.where(denom != 0, vc / denom, 0.0)
-        closest = [a[i] + ab[i] * v + ac[i] * w for i in range(3)]
-        # Edge then vertex regions, applied last-wins from the most general to the most specific.
-        t_bc = np.clip((d4 - d3) / ((d4 - d3) + (d5 - d6)), 0, 1)
-        edge_bc = (va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0)
-        t_ac = np.clip(d2 / (d2 - d6), 0, 1)
-        edge_ac = (vb <= 0) & (d2 >= 0) & (d6 <= 0)
-        t_ab = np.clip(d1 / (d1 - d3), 0, 1)
-        edge_ab = (vc <= 0) & (d1 >= 0) & (d3 <= 0)
-        at_c = (d6 >= 0) & (d5 <= d6)
-        at_b = (d3 >= 0) & (d4 <= d3)
-        at_a = (d1 <= 0) & (d2 <= 0)
-        for i in range(3):
-            x = np.where(edge_bc, b[i] + t_bc * (c[i] - b[i]), closest[i])
-            x = np.where(edge_ac, a[i] + t_ac * ac[i], x)
-            x = np.where(edge_ab, a[i] + t_ab * ab[i], x)
-            x = np.where(at_c, c[i], x)
-            x = np.where(at_b, b[i], x)
-            closest[i] = np.where(at_a, a[i], x)
-    offset = [p[i] - closest[i] for i in range(3)]
-    distance = np.sqrt(_dot(offset, offset))
-    # Degenerate (zero-area) triangles can leave NaN: their nearest corner stands in.
-    bad = np.isnan(distance)
-    if bad.any():
-        corners = np.minimum(
-            np.minimum(np.sqrt(_dot(ap, ap)), np.sqrt(_dot(bp, bp))), np.sqrt(_dot(cp, cp))
-        )
-        distance = np.where(bad, corners, distance)
-    return distance
 
 
 class SurfaceIndex:

@@ -51,6 +51,8 @@ import numpy as np
 from . import coverage
 from .distance import SurfaceIndex, point_triangle_distance
 from .geometry import cross_rows, longest_edges, unique_float_rows
+from .planar_bound_kernels import planar_bound
+from .straight_run_kernels import straight_runs
 from .topology import planar_regions
 
 MAX_DEPTH = 7  # 4-splits per triangle at most (edges down to 1/128 of the triangle's)
@@ -305,68 +307,7 @@ class _Regions:
         orientation."""
         if len(seg) < 2:
             return seg_region, seg
-        outgoing: dict[tuple[int, int], list[int]] = {}
-        incoming: dict[tuple[int, int], list[int]] = {}
-        # Plain lists: the walk below looks items up one at a time (numpy scalars cost more).
-        region_of, ends_of, oriented_of = seg_region.tolist(), ends.tolist(), oriented.tolist()
-        for i, (g, (va, vb), ok) in enumerate(zip(region_of, ends_of, oriented_of)):
-            if ok:
-                outgoing.setdefault((g, va), []).append(i)
-                incoming.setdefault((g, vb), []).append(i)
-
-        def through(g, v):
-            out, into = outgoing.get((g, v), ()), incoming.get((g, v), ())
-            return out[0] if len(out) == 1 and len(into) == 1 else None
-
-        points = seg.tolist()
-        used = [False] * len(seg)
-        merged_region, merged = [], []
-        order = sorted(
-            range(len(seg)), key=lambda i: through(region_of[i], ends_of[i][0]) is not None
-        )
-        for i in order:
-            if used[i]:
-                continue
-            used[i] = True
-            g = region_of[i]
-            if not oriented_of[i]:
-                merged_region.append(g)
-                merged.append(points[i])
-                continue
-            start, end = points[i][0], points[i][1]
-            inner: list[list[float]] = []
-            j = i
-            while True:
-                nxt = through(g, ends_of[j][1])
-                if nxt is None or used[nxt]:
-                    break
-                candidate = points[nxt][1]
-                cx, cy = candidate[0] - start[0], candidate[1] - start[1]
-                length = (cx * cx + cy * cy) ** 0.5
-                offsets = [
-                    (cx * (q[1] - start[1]) - cy * (q[0] - start[0])) / length
-                    if length > 0
-                    else 1e300
-                    for q in inner + [end]
-                ]
-                # Inward (left, the region's side) only: the new region then contains the old
-                # one, and is within the largest offset of it.
-                if max(offsets) > T_JUNCTION * length or min(offsets) < -1e-9 * length:
-                    break
-                inner.append(end)
-                end = candidate
-                used[nxt] = True
-                j = nxt
-            if inner:
-                cx, cy = end[0] - start[0], end[1] - start[1]
-                length = (cx * cx + cy * cy) ** 0.5
-                offset = max(
-                    abs(cx * (q[1] - start[1]) - cy * (q[0] - start[0])) / length for q in inner
-                )
-                self.gap[g] = max(self.gap[g], offset)
-            merged_region.append(g)
-            merged.append([start, end])
-        return np.array(merged_region, np.int64), np.array(merged, np.float64).reshape(-1, 2, 2)
+        return straight_runs(seg_region, seg, ends, oriented, self.gap, T_JUNCTION)
 
     def _store(self, seg_region: np.ndarray, seg: np.ndarray, r: int) -> None:
         order = np.argsort(seg_region, kind="stable")
@@ -546,149 +487,7 @@ def _planar_bound(tri: np.ndarray, target: Surface, row: np.ndarray, face: np.nd
     none holds. A pair counts only if the centroid projected on the region's plane lies in the
     face (a point of the shrunk triangle in the region, see the module doc) and, with ``cap``
     (metres), the plane bound stays below it."""
-    reg = target.regions
-    n = len(tri)
-    bound = np.full(n, np.inf)
-    region = reg.region[face]
-    keep = reg.slack[region] <= PLANE_SLACK_MAX
-    row, face, region = row[keep], face[keep], region[keep]
-    if len(row) == 0:
-        return bound
-    u, v, normal = reg.u[region], reg.v[region], reg.normal[region]
-    t = tri[row]
-    # (p, 3) in-plane coordinates and heights of the corners, metres
-    tx = _dot3(t, u[:, None])
-    ty = _dot3(t, v[:, None])
-    height = np.abs(_dot3(t, normal[:, None]) - reg.offset[region, None])
-    height = np.maximum(np.maximum(height[:, 0], height[:, 1]), height[:, 2])
-    cx = (tx[:, 0] + tx[:, 1] + tx[:, 2]) / 3.0  # the order .sum(1) adds them
-    cy = (ty[:, 0] + ty[:, 1] + ty[:, 2]) / 3.0
-    keep = _inside_face(cx, cy, reg.tri2[face])
-    if cap is not None:
-        keep &= height + reg.slack[region] < cap[row]
-    if not keep.any():
-        return bound
-    # One test per (triangle, region).
-    key = row[keep] * (len(reg.normal) + 1) + region[keep]
-    _, first = np.unique(key, return_index=True)
-    pick = np.flatnonzero(keep)[first]
-    row, region, height, tx, ty = row[pick], region[pick], height[pick], tx[pick], ty[pick]
-    la = np.hypot(tx[:, 2] - tx[:, 1], ty[:, 2] - ty[:, 1])  # side opposite each corner
-    lb = np.hypot(tx[:, 0] - tx[:, 2], ty[:, 0] - ty[:, 2])
-    lc = np.hypot(tx[:, 1] - tx[:, 0], ty[:, 1] - ty[:, 0])
-    perimeter = la + lb + lc
-    area2 = np.abs(
-        (tx[:, 1] - tx[:, 0]) * (ty[:, 2] - ty[:, 0])
-        - (ty[:, 1] - ty[:, 0]) * (tx[:, 2] - tx[:, 0])
-    )
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ix = (la * tx[:, 0] + lb * tx[:, 1] + lc * tx[:, 2]) / perimeter
-        iy = (la * ty[:, 0] + lb * ty[:, 1] + lc * ty[:, 2]) / perimeter
-        inradius = area2 / perimeter
-    reach = np.sqrt(_max3((tx - ix[:, None]) ** 2 + (ty - iy[:, None]) ** 2))
-    size = _max3(np.abs(tx)) + _max3(np.abs(ty)) + reach
-    # Too thin to shrink safely against rounding: left to the other bounds.
-    fine = np.isfinite(inradius) & (inradius > 1e-9 * size)
-    inradius = np.where(fine, inradius, 1.0)
-    value = np.full(len(row), np.inf)
-    # First shrunk about the incentre by rounding only; then, for triangles crossed by boundary
-    # edges (float noise: a level edge along a region's outline), each side moved in by what
-    # the crossing edges need of it.
-    todo = np.flatnonzero(fine)
-    ratio = np.full(len(todo), SHRINK)
-    sx = ix[todo, None] + (tx[todo] - ix[todo, None]) * (1.0 - SHRINK)
-    sy = iy[todo, None] + (ty[todo] - iy[todo, None]) * (1.0 - SHRINK)
-    owner, seg = _boundary_crosses(sx, sy, region[todo], reg, pairs=True)
-    crossing = (todo[owner], seg)  # (triangle, segment) pairs crossing the first shrunk copy
-    inside = np.ones(len(todo), bool)
-    inside[owner] = False
-    rho = 2.0 * ratio * reach[todo] + reg.gap[region[todo]]
-    value[todo[inside]] = (np.sqrt(height[todo] ** 2 + rho**2) + reg.slack[region[todo]])[inside]
-    if len(owner):
-        retry = np.unique(owner)
-        moved = _sides_in(tx[todo], ty[todo], inradius[todo], owner, seg, reg, retry)
-        if moved is not None:
-            pick, mx, my, shift = moved
-            crossed = _boundary_crosses(mx, my, region[todo[pick]], reg)
-            ok = ~crossed
-            which = todo[pick[ok]]
-            rho = 2.0 * shift[ok] + reg.gap[region[which]]
-            value[which] = np.sqrt(height[which] ** 2 + rho**2) + reg.slack[region[which]]
-    # Last tries: shrunk about the incentre by shares of the target's diagonal, all in one test
-    # (a triangle takes the first that holds, as when tried one after the other). They are
-    # nested in the first shrunk copy (the same incentre, a ratio at least SHRINK), so only the
-    # segments crossing that one can cross them: sound, and the same decisions unless a segment
-    # passes within rounding of a copy's corner (what the 2x of rho covers anyway).
-    todo = np.flatnonzero(fine & ~np.isfinite(value))
-    if len(todo):
-        delta = np.maximum(SHRINK * inradius[todo, None], np.array(LOOSE)[None] * reg.scale)
-        tries = delta < 0.5 * inradius[todo, None]  # (t, len(LOOSE)), False from some on
-        which, level = np.nonzero(tries)
-        tri_of = todo[which]
-        ratio = delta[which, level] / inradius[tri_of]
-        sx = ix[tri_of, None] + (tx[tri_of] - ix[tri_of, None]) * (1.0 - ratio[:, None])
-        sy = iy[tri_of, None] + (ty[tri_of] - iy[tri_of, None]) * (1.0 - ratio[:, None])
-        first_owner, first_seg = crossing
-        counts = np.bincount(first_owner, minlength=len(row))
-        starts = np.cumsum(counts) - counts
-        owner, item = _ranges(starts[tri_of], counts[tri_of])
-        inside = ~_boundary_crosses(
-            sx, sy, region[tri_of], reg, candidates=(owner, first_seg[item])
-        )
-        rho = 2.0 * ratio * reach[tri_of] + reg.gap[region[tri_of]]
-        got, first = np.unique(tri_of[inside], return_index=True)
-        take = np.flatnonzero(inside)[first]
-        value[got] = (np.sqrt(height[tri_of] ** 2 + rho**2) + reg.slack[region[tri_of]])[take]
-    np.minimum.at(bound, row, value)
-    return bound
-
-
-def _sides_in(tx, ty, inradius, owner, seg, reg, retry):
-    """Triangles (p, 3) metres with each side moved inwards just past the boundary edges that
-    cross them (``owner``, ``seg`` pairs): every crossing edge is charged to the side it enters
-    least; a side moves by the largest charge (at least ``SHRINK`` x the inradius). Returns the
-    rows ``retry`` kept (the moves stay below a quarter of the inradius), their new corners (q, 3)
-    and each one's largest corner displacement (metres; d(., moved triangle) is convex, so every
-    point of the triangle is that close to it), or None."""
-    # Inward unit normals of the sides i -> i+1 (side i is opposite corner i+2).
-    ex = tx[:, [1, 2, 0]] - tx  # np.roll(tx, -1, axis=1), without its Python overhead
-    ey = ty[:, [1, 2, 0]] - ty
-    length = np.hypot(ex, ey)
-    orient = np.sign(
-        (tx[:, 1] - tx[:, 0]) * (ty[:, 2] - ty[:, 0])
-        - (ty[:, 1] - ty[:, 0]) * (tx[:, 2] - tx[:, 0])
-    )
-    nx, ny = -ey / length * orient[:, None], ex / length * orient[:, None]
-    x0, y0 = reg.seg_x0[seg], reg.seg_y0[seg]
-    x1, y1 = reg.seg_x1[seg], reg.seg_y1[seg]
-    depth = np.maximum(
-        (x0[:, None] - tx[owner]) * nx[owner] + (y0[:, None] - ty[owner]) * ny[owner],
-        (x1[:, None] - tx[owner]) * nx[owner] + (y1[:, None] - ty[owner]) * ny[owner],
-    )  # (q, 3): how far each crossing edge enters past each side
-    side = np.argmin(depth, axis=1)
-    need = np.zeros(tx.shape)
-    np.maximum.at(need, (owner, side), depth[np.arange(len(owner)), side])
-    need = need[retry]
-    r = inradius[retry]
-    size = _max3(np.abs(tx[retry])) + _max3(np.abs(ty[retry]))
-    delta = np.maximum(need * (1 + 1e-6) + 1e-12 * size[:, None], SHRINK * r[:, None])
-    keep = (delta < 0.25 * r[:, None]).all(axis=1)
-    if not keep.any():
-        return None
-    retry, delta = retry[keep], delta[keep]
-    px, py = tx[retry], ty[retry]
-    nxr, nyr = nx[retry], ny[retry]
-    # Corner i lies on sides i-1 and i: solve n . x = n . p + delta for both moved sides.
-    back = [2, 0, 1]  # np.roll(., 1, axis=1)
-    a1x, a1y = nxr[:, back], nyr[:, back]
-    c1 = a1x * px[:, back] + a1y * py[:, back] + delta[:, back]
-    c2 = nxr * px + nyr * py + delta
-    det = a1x * nyr - a1y * nxr
-    mx = (c1 * nyr - a1y * c2) / det
-    my = (a1x * c2 - c1 * nxr) / det
-    shift = _max3(np.sqrt((mx - px) ** 2 + (my - py) ** 2))
-    good = np.isfinite(shift)
-    return retry[good], mx[good], my[good], shift[good]
+    return planar_bound(tri, row, face, target.regions, cap, (SHRINK, PLANE_SLACK_MAX, LOOSE))
 
 
 def _centroid(tri: np.ndarray) -> np.ndarray:
@@ -703,11 +502,6 @@ def _max3(x: np.ndarray) -> np.ndarray:
     return np.maximum(np.maximum(x[..., 0], x[..., 1]), x[..., 2])
 
 
-def _min3(x: np.ndarray) -> np.ndarray:
-    """``x.min(-1)`` for (..., 3) arrays, written out."""
-    return np.minimum(np.minimum(x[..., 0], x[..., 1]), x[..., 2])
-
-
 def _dot3(points: np.ndarray, axis: np.ndarray) -> np.ndarray:
     """``(points * axis).sum(-1)`` for (..., 3) arrays, written out."""
     return (
@@ -717,82 +511,11 @@ def _dot3(points: np.ndarray, axis: np.ndarray) -> np.ndarray:
     )
 
 
-def _inside_face(x: np.ndarray, y: np.ndarray, tri2: np.ndarray) -> np.ndarray:
-    """(p,) bool: the point (x, y) lies in the 2-D triangle (p, 3, 2) (closed, with a 1e-9
-    relative margin: a point wrongly inside lies that close to an edge of the face; if that edge
-    bounds the region, the boundary test sees it cross the shrunk triangle)."""
-    pos = np.ones(len(x), bool)
-    neg = np.ones(len(x), bool)
-    for i, j in ((0, 1), (1, 2), (2, 0)):
-        ex, ey = tri2[:, j, 0] - tri2[:, i, 0], tri2[:, j, 1] - tri2[:, i, 1]
-        wx, wy = x - tri2[:, i, 0], y - tri2[:, i, 1]
-        side = ex * wy - ey * wx
-        margin = (
-            1e-9 * (np.abs(ex) + np.abs(ey)) * (np.abs(wx) + np.abs(wy) + np.abs(ex) + np.abs(ey))
-        )
-        pos &= side >= -margin
-        neg &= side <= margin
-    return pos | neg
-
-
 def _ranges(starts: np.ndarray, counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(owner, item) pairs for owners with item ranges [starts, starts + counts)."""
     owner = np.repeat(np.arange(len(counts)), counts)
     item = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
     return owner, starts[owner] + item
-
-
-def _boundary_crosses(
-    tx: np.ndarray,
-    ty: np.ndarray,
-    region: np.ndarray,
-    reg: _Regions,
-    pairs: bool = False,
-    candidates: tuple[np.ndarray, np.ndarray] | None = None,
-):
-    """(p,) bool: a boundary edge of the region meets the open triangle with corners (tx, ty)
-    (p, 3) metres (bounding boxes first, then separating axes: the triangle's three edge
-    normals and the segment's normal). ``candidates``: the (triangle, segment) pairs to test
-    (sorted by triangle; a superset of the crossing ones), by default all of each region's.
-    ``pairs``: return the crossing pairs instead."""
-    if candidates is None:
-        counts = reg.seg_start[region + 1] - reg.seg_start[region]
-        owner, item = _ranges(reg.seg_start[region], counts)
-    else:
-        owner, item = candidates
-    low_x, high_x = _min3(tx), _max3(tx)
-    low_y, high_y = _min3(ty), _max3(ty)
-    x0, y0, x1, y1 = reg.seg_x0[item], reg.seg_y0[item], reg.seg_x1[item], reg.seg_y1[item]
-    near = (
-        (np.maximum(x0, x1) > low_x[owner])
-        & (np.minimum(x0, x1) < high_x[owner])
-        & (np.maximum(y0, y1) > low_y[owner])
-        & (np.minimum(y0, y1) < high_y[owner])
-    )
-    owner, item = owner[near], item[near]
-    x0, y0, x1, y1 = x0[near], y0[near], x1[near], y1[near]
-    px, py = tx[owner], ty[owner]  # (q, 3)
-    # Separating axes: the triangle's three edge normals at once (axis a from corner a to a + 1)
-    # and the segment's normal; each projection is the same product sum as one axis at a time.
-    nx = py - py[:, [1, 2, 0]]  # (q, 3)
-    ny = px[:, [1, 2, 0]] - px
-    t = px[:, None, :] * nx[:, :, None] + py[:, None, :] * ny[:, :, None]  # (q, axis, corner)
-    s0, s1 = x0[:, None] * nx + y0[:, None] * ny, x1[:, None] * nx + y1[:, None] * ny
-    cut = (np.maximum(s0, s1) <= _min3(t)) | (np.minimum(s0, s1) >= _max3(t))  # (q, axis)
-    separated = cut[:, 0] | cut[:, 1] | cut[:, 2]
-    nx, ny = y0 - y1, x1 - x0
-    t0 = px[:, 0] * nx + py[:, 0] * ny
-    t1 = px[:, 1] * nx + py[:, 1] * ny
-    t2 = px[:, 2] * nx + py[:, 2] * ny
-    s0, s1 = x0 * nx + y0 * ny, x1 * nx + y1 * ny
-    separated |= (np.maximum(s0, s1) <= np.minimum(np.minimum(t0, t1), t2)) | (
-        np.minimum(s0, s1) >= np.maximum(np.maximum(t0, t1), t2)
-    )
-    if pairs:
-        return owner[~separated], item[~separated]
-    result = np.zeros(len(tx), bool)
-    result[owner[~separated]] = True
-    return result
 
 
 def _identical(tri: np.ndarray, target: Surface) -> np.ndarray:

@@ -39,6 +39,7 @@ import numpy as np
 
 from .distance import row_lengths
 from .geometry import cross_rows, row_norms, sorted_edge_keys
+from .slit_kernels import inside_sides
 from .topology import boundary_loops
 
 SLIT_M = 1e-5  # metres: a vertex this close to a border side lies on it (float32 input rounding)
@@ -70,33 +71,8 @@ def slit_points(
     start = faces.reshape(-1)[sides]
     end = faces[sides // 3, (sides % 3 + 1) % 3]
     points = np.unique(np.concatenate([start, end]))
-    a = positions[start]
-    direction = positions[end] - a
-    length = np.maximum(row_norms(direction), 1e-30)
-    # Coordinates apart: (points, sides) arrays with no reduction over a length-3 axis.
-    ax, ay, az = a.T
-    unit_x, unit_y, unit_z = (direction / length[:, None]).T
-    found_side, found_vertex, found_t = [], [], []
-    # Border points x border sides in blocks, so a large open mesh stays within memory.
-    block = max(1, 2_000_000 // len(sides))
-    for first in range(0, len(points), block):
-        ids = points[first : first + block]
-        px, py, pz = positions[ids].T
-        ox, oy, oz = px[:, None] - ax, py[:, None] - ay, pz[:, None] - az
-        along = ox * unit_x + oy * unit_y + oz * unit_z  # metres from the side's start
-        off2 = ox * ox + oy * oy + oz * oz - along * along
-        hit = (
-            (off2 <= tolerance * tolerance)
-            & (along > tolerance)
-            & (along < length - tolerance)
-            & (start != ids[:, None])
-            & (end != ids[:, None])
-        )
-        row, column = np.nonzero(hit)
-        found_side.append(sides[column])
-        found_vertex.append(ids[row])
-        found_t.append(along[row, column] / length[column])
-    side, vertex, t = (np.concatenate(x) for x in (found_side, found_vertex, found_t))
+    column, vertex, t = inside_sides(positions, points, start, end, tolerance)  # compiled
+    side = sides[column]
     # Not between back-to-back faces (two parts' walls standing against each other): that seam
     # is part of each part's footprint outline, and joining it would fold the mesh by 180 deg.
     facing = _facing_partner(positions, faces, sides, start, end, side, vertex)

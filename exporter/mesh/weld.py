@@ -17,6 +17,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .component_kernels import lowest_member
 from .geometry import unique_float_rows
 
 WELD_M = 1e-6  # metres: positions equal to this are one vertex in a joined mesh
@@ -71,22 +72,3 @@ def weld_positions(positions: np.ndarray, distance: float = 0.0) -> tuple[np.nda
     # Clusters numbered by their lowest member, so the order follows the input.
     root = lowest == np.arange(n)
     return (np.cumsum(root) - 1)[lowest], positions[root]
-
-
-def lowest_member(n: int, left: np.ndarray, right: np.ndarray) -> np.ndarray:
-    """(n,) int64: the lowest node of every node's connected component in the undirected graph
-    with edges ``left[i] -- right[i]`` (the partition of ``connected_components``, without scipy's
-    per-call sparse-matrix overhead: min-label propagation with pointer jumping, a few rounds for
-    the small clusters here)."""
-    labels = np.arange(n)
-    if len(left) == 0:
-        return labels
-    while True:
-        low = np.minimum(labels[left], labels[right])
-        new = labels.copy()
-        np.minimum.at(new, left, low)
-        np.minimum.at(new, right, low)
-        new = new[new]
-        if np.array_equal(new, labels):
-            return labels
-        labels = new
