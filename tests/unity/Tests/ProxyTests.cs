@@ -243,6 +243,19 @@ namespace VWorldLod.Tests
                 TileIndexEntry[] tiles = TileIndexReader.Read(File.ReadAllText(indexPath), indexPath, j => PlainJsonManifestParser.ParseAs<TileIndex>(j, indexPath), problems, out proxies);
                 Assert.Equal(0, problems.Count, "problems: " + string.Join(" | ", problems));
                 Assert.True(proxies.Length >= 3, "proxies: " + proxies.Length);
+                foreach (ProxyEntry p in proxies)
+                {
+                    // The index's globe placement (exporter.placement.tile_placement) is where a
+                    // tile root at the proxy's centre goes (VWorldLodTilePlacement without a georeference).
+                    Placement given = p.ScenePose(null);
+                    double[] at = Placement.GlobePosition(p.center.lon, p.center.lat, 0, p.globe.earth_radius_m, p.globe.unity_radius);
+                    double[] q = Placement.EastUpNorthRotation(p.center.lon, p.center.lat);
+                    Assert.Near(0, Math.Sqrt(Math.Pow(given.px - at[0], 2) + Math.Pow(given.py - at[1], 2) + Math.Pow(given.pz - at[2], 2)), 0.01, p.name + " position (m)");
+                    Assert.Near(1, Math.Abs(given.qx * q[0] + given.qy * q[1] + given.qz * q[2] + given.qw * q[3]), 1e-9, p.name + " rotation");
+                    Placement framed = p.ScenePose(origin);
+                    double[] scene = p.ScenePosition(origin);
+                    Assert.Near(0, Math.Abs(framed.px - scene[0]) + Math.Abs(framed.py - scene[1]) + Math.Abs(framed.pz - scene[2]), 1e-9, p.name + " georeferenced pose at its position");
+                }
                 var settings = new StreamingSettings { LoadRadius = load, UnloadRadius = load * 1.2, Horizontal = true };
                 var tileBackend = new FakeBackend(folder);
                 var tileStreamer = new TileStreamer(tiles, e => e.ScenePosition(origin), settings, tileBackend);
