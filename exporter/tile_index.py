@@ -121,13 +121,12 @@ def proxy_entries(out_dir: Path, records: Iterable[dict], tiles: list[dict]) -> 
     globes = {t["name"]: t["globe"] for t in tiles}
     listed: dict[str, dict] = {}
     for record in records:
-        below = [*record["tiles"], *record["children"]]
-        if not (out_dir / record["file"]).is_file() or not below:
+        tiles, children = record["tiles"], record["children"]
+        if not (out_dir / record["file"]).is_file() or not (tiles or children):
             continue
-        if any(name not in globes and name not in listed for name in below):
+        if any(t not in globes for t in tiles) or any(c not in listed for c in children):
             continue  # a hole under it: refining it would show nothing there
-        first = below[0]
-        globe = globes[first] if first in globes else listed[first]["globe"]
+        globe = globes[tiles[0]] if tiles else listed[children[0]]["globe"]
         listed[record["tile"].name] = proxy_entry(record, globe)
     return sorted(listed.values(), key=lambda e: (e["level"], e["idx"], e["idy"]))
 
