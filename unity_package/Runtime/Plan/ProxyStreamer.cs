@@ -32,11 +32,10 @@ namespace VWorldLod
             public ProxyEntry Entry;
             public int Index;
             public int[] Children;
-            public string[] Subtree; // every building tile below it (its own and its children's)
             public int Parent = -1;
             public object Handle; // loaded
             public Job Loading;
-            public bool Visible, Wanted, Failed;
+            public bool Visible, Wanted, Failed, Covered; // Covered: a tile below it shows its buildings
             public double Sse, Distance;
         }
 
@@ -94,15 +93,7 @@ namespace VWorldLod
                 n.Children = children.ToArray();
             }
             for (int i = 0; i < nodes.Length; i++) if (nodes[i].Parent < 0) roots.Add(i);
-            foreach (int r in roots) Gather(nodes[r]);
             Reposition();
-        }
-
-        string[] Gather(Node n)
-        {
-            var all = new List<string>(n.Entry.tiles ?? new string[0]);
-            foreach (int c in n.Children) all.AddRange(Gather(nodes[c]));
-            return n.Subtree = all.ToArray();
         }
 
         /// <summary>Recomputes the proxies' scene positions (after the georeference origin moved).</summary>
@@ -152,12 +143,15 @@ namespace VWorldLod
                 n.Sse = ScreenSpaceError(n.Entry.geometric_error, n.Distance, screenHeight, fovDegrees);
                 n.Wanted = false;
             }
+            foreach (int r in roots) Cover(nodes[r]);
             foreach (int r in roots) Want(nodes[r]);
-            var show = new HashSet<Node>();
+            var show = new List<Node>();
             foreach (int r in roots) Show(nodes[r], show);
+            var visibleNow = new bool[nodes.Length];
+            foreach (Node n in show) visibleNow[n.Index] = true;
             foreach (Node n in nodes)
             {
-                bool visible = show.Contains(n);
+                bool visible = visibleNow[n.Index];
                 if (visible == n.Visible) continue;
                 n.Visible = visible;
                 object h = n.Handle;
@@ -172,15 +166,18 @@ namespace VWorldLod
             Start();
         }
 
-        bool Covered(Node n)
+        // Marks the proxies with a tile below them showing its buildings (one pass, bottom-up).
+        bool Cover(Node n)
         {
-            foreach (string t in n.Subtree) if (TileShown(t)) return true;
-            return false;
+            bool covered = false;
+            foreach (string t in n.Entry.tiles ?? new string[0]) covered |= TileShown(t);
+            foreach (int c in n.Children) covered |= Cover(nodes[c]);
+            return n.Covered = covered;
         }
 
         void Want(Node n)
         {
-            bool covered = Covered(n);
+            bool covered = n.Covered;
             bool refinable = n.Children.Length > 0 && (n.Entry.tiles == null || n.Entry.tiles.Length == 0);
             if (!covered && (!refinable || (n.Sse <= settings.MaximumScreenSpaceError && !n.Failed)))
             {
@@ -192,7 +189,7 @@ namespace VWorldLod
 
         // Adds what shows for n's region; returns whether that region is complete (every wanted
         // proxy under it shows, or a loaded ancestor stands in).
-        bool Show(Node n, HashSet<Node> show)
+        bool Show(Node n, List<Node> show)
         {
             if (n.Wanted)
             {
@@ -200,19 +197,19 @@ namespace VWorldLod
                 ShowLoadedBelow(n, show);
                 return false;
             }
-            var below = new HashSet<Node>();
+            var below = new List<Node>();
             bool complete = true;
             foreach (int c in n.Children) complete &= Show(nodes[c], below);
-            if (!complete && n.Handle != null && !Covered(n))
+            if (!complete && n.Handle != null && !n.Covered)
             {
                 show.Add(n); // the coarser proxy holds until its finer ones have all arrived
                 return true;
             }
-            show.UnionWith(below);
+            show.AddRange(below);
             return complete;
         }
 
-        void ShowLoadedBelow(Node n, HashSet<Node> show)
+        void ShowLoadedBelow(Node n, List<Node> show)
         {
             foreach (int c in n.Children)
             {
