@@ -422,6 +422,8 @@ def export_tiles(
         from .tileset import write_tileset
 
         stats.tileset = write_tileset(out_dir, config.tileset, config.textures.jpeg_quality)
+        if stats.tileset.proxies_index:  # the streamer shows the proxies beyond its buildings
+            write_tile_index(out_dir, stats.tiles, config.globe, stats.tileset.proxies_index)
     stats.wall_seconds = time.perf_counter() - started
     return stats
 

@@ -14,6 +14,14 @@ JsonUtility: no variable-key objects, no nested arrays, no top-level array)::
 ``globe`` repeats the manifest's radii (R in metres, UR in Unity units), so a streamer can place
 tile centres in Unity units before reading any manifest.
 
+``proxies`` (version 1.1, when ``OUT/tileset.json`` has HLOD proxies; :func:`proxy_entry`): per
+proxied quadtree tile its ``.glb`` (``file``, relative to OUT), ``bounds``/``center`` as tiles
+have them (the proxy's glTF frame, +X West, +Y Up, +Z North, sits at ``center``, elevation 0),
+``placement`` (that frame's Unity-globe placement, :func:`exporter.placement.tile_placement`),
+``radius_m`` (metres: a sphere about ``center`` holding the proxy), ``geometric_error`` (metres,
+tileset.json's), ``children`` (child proxies' names) and ``tiles`` (names of the building tiles
+directly under it). A proxy is listed only when its file exists and all its children are listed.
+
 Tiles are listed in (level, idx, idy) order. The index lists every tile folder of ``OUT`` that holds
 a manifest, not only the tiles of the run that wrote it, so incremental and multi-run exports into
 one ``OUT`` stay complete. Tiles of this run come with their building count
@@ -33,12 +41,14 @@ from pathlib import Path
 
 from . import manifest
 from .atomic import write_text_atomic
+from .config import GlobeOptions
 from .manifest import MANIFEST_NAME
 from .model import TileId
+from .placement import tile_placement
 from .tiles import tile_bounds, tile_center
 
 FORMAT = "vworld-lod-tile-index"
-VERSION = "1.0"
+VERSION = "1.1"
 INDEX_NAME = "tiles.json"
 
 
@@ -55,9 +65,8 @@ def tile_from_name(name: str) -> TileId | None:
     return tile
 
 
-def tile_entry(tile: TileId, buildings: int, globe: dict) -> dict:
-    """The index entry of ``tile`` with ``buildings`` buildings (bounds and centre in degrees) and
-    ``globe`` ``{"earth_radius_m", "unity_radius"}``."""
+def _where(tile: TileId) -> dict:
+    """Name, level, idx, idy, bounds and centre (degrees; elevation 0 m) of ``tile``."""
     west, south, east, north = tile_bounds(tile)
     lon, lat = tile_center(tile)
     return {
@@ -67,6 +76,14 @@ def tile_entry(tile: TileId, buildings: int, globe: dict) -> dict:
         "idy": tile.idy,
         "bounds": {"west": west, "south": south, "east": east, "north": north},
         "center": {"lon": lon, "lat": lat, "elev": 0.0},
+    }
+
+
+def tile_entry(tile: TileId, buildings: int, globe: dict) -> dict:
+    """The index entry of ``tile`` with ``buildings`` buildings (bounds and centre in degrees) and
+    ``globe`` ``{"earth_radius_m", "unity_radius"}``."""
+    return {
+        **_where(tile),
         "manifest": f"{tile.name}/{MANIFEST_NAME}",
         "buildings": int(buildings),
         "globe": {
@@ -74,6 +91,44 @@ def tile_entry(tile: TileId, buildings: int, globe: dict) -> dict:
             "unity_radius": float(globe["unity_radius"]),
         },
     }
+
+
+def proxy_entry(record: dict, globe: dict) -> dict:
+    """The index entry of a proxy: ``record`` (from :func:`exporter.tileset.write_tileset`:
+    ``tile`` (TileId), ``file``, ``radius_m``, ``geometric_error`` (metres), ``children``,
+    ``tiles``) with the radii ``globe`` of the tiles below it."""
+    tile = record["tile"]
+    radii = GlobeOptions(
+        unity_radius=float(globe["unity_radius"]), earth_radius=float(globe["earth_radius_m"])
+    )
+    return {
+        **_where(tile),
+        "file": str(record["file"]),
+        # The proxy's glTF frame is the tile root's frame: East/Up/North at the centre, elev 0.
+        "placement": tile_placement(tile, radii),
+        "radius_m": float(record["radius_m"]),
+        "geometric_error": float(record["geometric_error"]),
+        "children": sorted(record["children"]),
+        "tiles": sorted(record["tiles"]),
+        "globe": dict(globe),
+    }
+
+
+def proxy_entries(out_dir: Path, records: Iterable[dict], tiles: list[dict]) -> list[dict]:
+    """Entries of the proxies of ``records`` (children before parents) whose file exists under
+    ``out_dir`` and whose children and building tiles are all listed (``tiles``: tile entries),
+    in (level, idx, idy) order; each takes its radii from a tile or child below it."""
+    globes = {t["name"]: t["globe"] for t in tiles}
+    listed: dict[str, dict] = {}
+    for record in records:
+        tiles, children = record["tiles"], record["children"]
+        if not (out_dir / record["file"]).is_file() or not (tiles or children):
+            continue
+        if any(t not in globes for t in tiles) or any(c not in listed for c in children):
+            continue  # a hole under it: refining it would show nothing there
+        globe = globes[tiles[0]] if tiles else listed[children[0]]["globe"]
+        listed[record["tile"].name] = proxy_entry(record, globe)
+    return sorted(listed.values(), key=lambda e: (e["level"], e["idx"], e["idy"]))
 
 
 def _facts(buildings, globe) -> tuple[int, dict] | None:
@@ -109,12 +164,17 @@ def _previous_entries(index_path: Path) -> tuple[dict[str, dict], int]:
         return {}, 0
 
 
-def build_index(out_dir: str | Path, fresh: dict[str, tuple[int, dict]] | None = None) -> dict:
+def build_index(
+    out_dir: str | Path,
+    fresh: dict[str, tuple[int, dict]] | None = None,
+    proxies: Iterable[dict] = (),
+) -> dict:
     """The index of every ``<level>_<idx>_<idy>/lod_manifest.json`` under ``out_dir``.
 
     ``fresh`` maps tile names of the current run to ``(buildings, globe radii)``; other tiles reuse
     the previous index's entry when their manifest is older than that index, else their manifest's
     ``summary.buildings`` and ``globe`` are read. A manifest that cannot be read is left out.
+    ``proxies``: proxy records (see :func:`proxy_entries`), listed under ``proxies`` when usable.
     """
     out_dir = Path(out_dir)
     fresh = fresh or {}
@@ -140,15 +200,21 @@ def build_index(out_dir: str | Path, fresh: dict[str, tuple[int, dict]] | None =
             continue
         entries.append((tile, tile_entry(tile, *facts)))
     entries.sort(key=lambda item: (item[0].level, item[0].idx, item[0].idy))
-    return {"format": FORMAT, "version": VERSION, "tiles": [entry for _, entry in entries]}
+    index: dict = {"format": FORMAT, "version": VERSION, "tiles": [entry for _, entry in entries]}
+    listed = proxy_entries(out_dir, proxies, index["tiles"])
+    if listed:
+        index["proxies"] = listed
+    return index
 
 
-def write_tile_index(out_dir: str | Path, tiles: Iterable = (), globe=None) -> Path:
+def write_tile_index(
+    out_dir: str | Path, tiles: Iterable = (), globe=None, proxies: Iterable[dict] = ()
+) -> Path:
     """Write ``OUT/tiles.json`` (atomically, fsynced) for every tile of ``out_dir``; returns its path.
 
     ``tiles``: the run's :class:`exporter.pipeline.TileResult` (``.tile``, ``.buildings``);
     ``globe``: the run's :class:`exporter.config.GlobeOptions` (without it those tiles' manifests
-    are read for their radii).
+    are read for their radii); ``proxies``: the tileset's proxy records (``TilesetResult.proxies_index``).
     """
     radii = (
         {"earth_radius_m": globe.earth_radius, "unity_radius": globe.unity_radius}
@@ -156,7 +222,7 @@ def write_tile_index(out_dir: str | Path, tiles: Iterable = (), globe=None) -> P
         else None
     )
     fresh = {r.tile.name: (r.buildings, radii) for r in tiles} if radii is not None else {}
-    index = build_index(out_dir, fresh)
+    index = build_index(out_dir, fresh, proxies)
     text = json.dumps(index, ensure_ascii=False, allow_nan=False, indent=1) + "\n"
     return write_text_atomic(Path(out_dir) / INDEX_NAME, text, durable=True)
 

@@ -96,7 +96,8 @@ def _export(tmp_path: Path, source: Path) -> tuple[list[dict], list[Path]]:
         for m in sorted(out.glob("*/lod_manifest.json"))
         for b in json.loads(m.read_text())["buildings"]
     ]
-    return records, sorted(out.glob("*/*/lod*.glb"))  # the levels (not the tileset's proxies)
+    # The buildings' level files (the tileset's proxies under tileset_proxies/ are not theirs).
+    return records, sorted(out.glob("*/*/lod*.glb"))
 
 
 def _independent_centres(path: Path, epsg: str) -> dict:

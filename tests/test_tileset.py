@@ -337,3 +337,91 @@ def test_a_proxy_input_broken_after_it_was_read_leaves_that_proxy_out(city, tmp_
     assert uris == {f"tileset_proxies/{SEOUL.name}.glb"}  # neither the east one nor the one above
     assert any(EAST_OF_SEOUL.name in line for line in result.left_out)
     assert len(chains(walk(tileset))) == 10
+
+
+def _proxy_visits(out: Path) -> dict[str, object]:
+    """tileset.json's proxy tiles by tile name."""
+    return {
+        Path(unquote(v.uri)).stem: v
+        for v in walk(load(out))
+        if v.uri and v.uri.startswith("tileset_proxies/")
+    }
+
+
+def test_tiles_json_lists_the_proxies_for_the_unity_streamer(city):
+    from exporter.tile_index import validate_index
+
+    index = json.loads((city / "tiles.json").read_text())
+    validate_index(index)
+    proxies = {p["name"]: p for p in index["proxies"]}
+    visits = _proxy_visits(city)
+    assert sorted(proxies) == sorted(visits) and len(proxies) == 3
+    top = proxies["14_139709_58056"]
+    assert top["children"] == [SEOUL.name, EAST_OF_SEOUL.name] and top["tiles"] == []
+    assert proxies[SEOUL.name]["children"] == [] and proxies[SEOUL.name]["tiles"] == [SEOUL.name]
+    for name, entry in proxies.items():
+        assert entry["file"] == unquote(visits[name].uri)
+        assert (
+            entry["geometric_error"] == visits[name].tile["geometricError"]
+        )  # tileset.json's, metres
+        # radius_m: a sphere about the frame's origin holding every vertex of the proxy
+        points = np.vstack([p.positions for p in read_primitives(city / entry["file"])])
+        assert np.linalg.norm(points, axis=1).max() <= entry["radius_m"] + 1e-6
+
+
+def test_a_proxy_in_unity_stands_where_tileset_json_puts_it(city):
+    """The Unity placement of each proxy's frame (tiles.json) and tileset.json's transform agree:
+    the origin within 1 cm (Unity globe -> lon/lat/elev on the sphere, tileset -> pyproj's
+    EPSG:4978 -> EPSG:4979), the axes (glTF +X West, +Y Up, +Z North) within 1e-9."""
+    from exporter.placement import apply_placement, enu_matrix, rotate
+
+    to_geodetic = Transformer.from_crs("EPSG:4978", "EPSG:4979", always_xy=True)
+    index = json.loads((city / "tiles.json").read_text())
+    visits = _proxy_visits(city)
+    for entry in index["proxies"]:
+        place, globe = entry["placement"], entry["globe"]
+        matrix = visits[entry["name"]].world @ Y_UP  # glTF frame -> ECEF
+        lon, lat, h = to_geodetic.transform(*to_world(matrix, np.zeros((1, 3)))[0])
+        # Unity: glTFast turns glTF (+X West) into Unity local (+X East) by negating x.
+        unity = apply_placement(place, np.zeros((1, 3)))[0]
+        radius = np.linalg.norm(unity)
+        u_lat = np.degrees(np.arcsin(unity[1] / radius))
+        u_lon = np.degrees(np.arctan2(unity[0], -unity[2]))
+        u_elev = (radius - globe["unity_radius"]) * globe["earth_radius_m"] / globe["unity_radius"]
+        metres_per_degree = np.radians(1.0) * globe["earth_radius_m"]
+        assert abs(u_lat - lat) * metres_per_degree < 0.01
+        assert abs(u_lon - lon) * metres_per_degree * np.cos(np.radians(lat)) < 0.01
+        assert abs(u_elev - h) < 0.01
+        # Axes: Unity local East/Up/North -> globe frame equals East/Up/North at the centre; in
+        # the tileset, glTF +X/+Y/+Z are West/Up/North there.
+        axes = rotate(place["rotation"], np.eye(3)).T
+        assert np.allclose(axes, enu_matrix(lon, lat), atol=1e-9)
+        lam, phi = np.radians(lon), np.radians(lat)
+        east = np.array([-np.sin(lam), np.cos(lam), 0.0])
+        up = np.array([np.cos(phi) * np.cos(lam), np.cos(phi) * np.sin(lam), np.sin(phi)])
+        assert matrix[:3, 0] @ east == pytest.approx(-1.0, abs=1e-9)
+        assert matrix[:3, 1] @ up == pytest.approx(1.0, abs=1e-9)
+
+
+def test_tiles_json_lists_a_proxy_only_when_its_file_and_children_are_there(city, tmp_path):
+    from exporter.tile_index import build_index
+
+    out = tmp_path / "out"
+    shutil.copytree(city, out)
+    records = write_tileset(out, TilesetOptions()).proxies_index
+    assert [p["name"] for p in build_index(out, proxies=records)["proxies"]] == [
+        "14_139709_58056",
+        SEOUL.name,
+        EAST_OF_SEOUL.name,
+    ]
+    (out / "tileset_proxies" / f"{SEOUL.name}.glb").unlink()
+    # Its parent would refine into a hole: left out too; the other tile's proxy stays.
+    assert [p["name"] for p in build_index(out, proxies=records)["proxies"]] == [EAST_OF_SEOUL.name]
+    write_tileset(out, TilesetOptions(proxies=False))
+    assert "proxies" not in build_index(out, proxies=[])
+
+
+def test_an_export_without_proxies_writes_a_tiles_json_without_them(tmp_path):
+    config = Config(tileset=TilesetOptions(proxies=False))
+    export([make_tile(tmp_path / "in", SEOUL, 1)], tmp_path / "out", config)
+    assert "proxies" not in json.loads((tmp_path / "out" / "tiles.json").read_text())

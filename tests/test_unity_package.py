@@ -92,7 +92,7 @@ def passed_failed(output: str) -> tuple[int, int]:
 
 def test_package_json_is_a_unity_package_depending_on_gltfast():
     data = json.loads((PACKAGE / "package.json").read_text(encoding="utf-8"))
-    assert data["name"] == "com.vworldlod.importer" and data["version"] == "0.2.1"
+    assert data["name"] == "com.vworldlod.importer" and data["version"] == "0.2.2"
     assert data["unity"] == "2022.3" and data["displayName"] and data["description"]
     # glTFast 6.3.0: the first release without the HDRP 17 compiler error and the exception on a
     # missing runtime shader (its CHANGELOG); the API the package calls exists there (see
@@ -698,3 +698,76 @@ def test_csharp_streaming_detects_a_wrong_expectation(build, tmp_path):
     result = run_csharp(build, "--streaming", tmp_path / "streaming.json")
     assert result.returncode != 0
     assert f"loads at step {late}" in result.stdout
+
+
+# --------------------------------------------------------------------------- tileset proxies
+
+
+def proxy_steps(index: dict, origin, height: float, fov: float, load: float) -> list[dict]:
+    """Camera positions over a two-tile export (scene frame at ``origin``, metres) and what
+    3D Tiles' screen-space-error rule shows there: high up the level-14 proxy alone, lower its two
+    level-15 proxies, at street level over one tile its buildings and the other tile's proxy."""
+    from exporter.model import GeoPoint
+    from exporter.placement import enu_offset
+
+    proxies = {p["name"]: p for p in index["proxies"]}
+    root = next(p for p in proxies.values() if p["level"] == 14)
+    leaves = [proxies[name] for name in root["children"]]
+    where = {
+        n: enu_offset(GeoPoint(p["center"]["lon"], p["center"]["lat"], 0.0), origin, 6378137.0)
+        for n, p in proxies.items()
+    }
+
+    def sse(name: str, camera: np.ndarray) -> float:
+        d = max(float(np.linalg.norm(camera - where[name])) - proxies[name]["radius_m"], 1e-6)
+        return proxies[name]["geometric_error"] * height / (d * 2 * np.tan(np.radians(fov) / 2))
+
+    at = lambda y: np.array([0.0, y, 0.0])  # above the root's centre
+    high = next(at(y) for y in np.arange(50.0, 20000.0, 10.0) if sse(root["name"], at(y)) <= 8)
+    fits = [
+        y
+        for y in np.arange(50.0, 5000.0, 5.0)
+        if sse(root["name"], at(y)) > 16 and all(sse(p["name"], at(y)) <= 16 for p in leaves)
+    ]
+    assert fits, "the export's errors leave no height where the root refines into its leaves"
+    street = where[leaves[0]["name"]] + [0.0, 30.0, 0.0]
+    assert all(float(np.linalg.norm((where[p["name"]] - high)[[0, 2]])) > load for p in leaves)
+    return [
+        {"camera": list(high), "visible": [root["name"]], "buildings": []},
+        {"camera": list(at(fits[len(fits) // 2])), "visible": root["children"], "buildings": []},
+        {"camera": list(street), "visible": [leaves[1]["name"]], "buildings": [leaves[0]["name"]]},
+        {"camera": list(high), "visible": [root["name"]], "buildings": []},
+    ]
+
+
+@needs_mono
+def test_csharp_streams_the_tileset_proxies_of_a_real_export(build, tmp_path):
+    """ProxyStreamer with TileStreamer over a real two-tile export (tiles.json with proxies):
+    from high up the level-14 proxy, lower its two tiles' proxies, at street level one tile's
+    buildings and the other tile's proxy (never a proxy over shown buildings), back up the root."""
+    from exporter.config import Config
+    from exporter.model import GeoPoint, TileId
+    from exporter.pipeline import export_tiles
+    from exporter.samplegen import generate_tile
+
+    tiles = [TileId(15, 279418, 116113), TileId(15, 279419, 116113)]
+    folders = [
+        generate_tile(tmp_path / "in" / t.name, 3, seed=i, tile=t, atlas_size=64)
+        for i, t in enumerate(tiles)
+    ]
+    out = tmp_path / "out"
+    export_tiles(folders, out, Config(), jobs=1)
+    index = json.loads((out / "tiles.json").read_text(encoding="utf-8"))
+    root = next(p for p in index["proxies"] if p["level"] == 14)
+    origin = GeoPoint(root["center"]["lon"], root["center"]["lat"], 0.0)
+    height, fov, load = 1080.0, 60.0, 40.0
+    spec = {
+        "index": str(out / "tiles.json"),
+        "origin": {"lon": origin.lon, "lat": origin.lat, "elev": 0.0},
+        "load": load,
+        "height": height,
+        "fov": fov,
+        "steps": proxy_steps(index, origin, height, fov, load),
+    }
+    (tmp_path / "proxies.json").write_text(json.dumps(spec), encoding="utf-8")
+    check_run(run_csharp(build, "--proxies", tmp_path / "proxies.json"), 90)

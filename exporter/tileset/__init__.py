@@ -12,8 +12,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from ..config import TextureOptions, TilesetOptions
-from .tree import quadtree, read_buildings
+from .tree import Node, quadtree, read_buildings
 from .write import TILESET_NAME, tileset_json, write_tileset_json
 
 __all__ = ["TILESET_NAME", "TilesetResult", "write_tileset"]
@@ -26,6 +28,8 @@ class TilesetResult:
     proxies: int = 0
     proxies_built: int = 0
     left_out: list[str] = field(default_factory=list)
+    # What tiles.json lists of the proxies for the Unity streamer (exporter.tile_index.proxy_entries)
+    proxies_index: list[dict] = field(default_factory=list)
 
     def summary(self) -> str:
         """One line for the command line."""
@@ -42,6 +46,38 @@ class TilesetResult:
                 else ""
             )
         return text
+
+
+def proxy_records(tops: list[Node]) -> list[dict]:
+    """Per proxy of the finished tree (children before parents): its tile, ``file`` (relative to
+    OUT), ``radius_m`` (metres: the farthest corner of its content box from its frame's origin,
+    the tile centre at elevation 0), ``geometric_error`` (metres, as tileset.json has it), the
+    names of its child proxies (``children``) and of the building tile it holds (``tiles``)."""
+    records: list[dict] = []
+
+    def visit(node: Node) -> None:
+        for child in node.children:
+            visit(child)
+        if node.tile is None or node.proxy_hash is None or node.world is None:
+            return
+        assert node.corners is not None and node.content is not None
+        radius = float(np.linalg.norm(node.corners - node.world[:3, 3], axis=1).max())
+        children = [c.tile.name for c in node.children if c.tile is not None]
+        holds = any(c.building is not None for c in node.children)
+        records.append(
+            {
+                "tile": node.tile,
+                "file": node.content,
+                "radius_m": radius,
+                "geometric_error": node.error,
+                "children": children,
+                "tiles": [node.tile.name] if holds else [],
+            }
+        )
+
+    for top in tops:
+        visit(top)
+    return records
 
 
 def write_tileset(
@@ -65,4 +101,4 @@ def write_tileset(
         proxies, built = add_proxies(out_dir, tops, options, jpeg_quality, left_out)
     path = write_tileset_json(out_dir, tileset_json(tops, left_out))
     count = sum(len(chains) for chains in by_tile.values())
-    return TilesetResult(path, count, proxies, built, left_out)
+    return TilesetResult(path, count, proxies, built, left_out, proxy_records(tops))

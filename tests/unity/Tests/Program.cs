@@ -1,6 +1,6 @@
 // Entry point of the C# test assembly:
 //   mono VWorldLod.Tests.exe [--manifest PATH]... [--broken PATH FIELD]... [--placements PATH]... [--names PATH]...
-//                            [--georef PATH]... [--float32 PATH]... [--streaming PATH]...
+//                            [--georef PATH]... [--float32 PATH]... [--streaming PATH]... [--proxies PATH]...
 // Always runs the self-contained tests; the options add tests on files made by the Python side.
 using System;
 
@@ -17,6 +17,7 @@ namespace VWorldLod.Tests
             GeoreferenceTests.Run(t);
             EditorSceneTests.Run(t);
             StreamingTests.RunSelfContained(t);
+            ProxyTests.RunSelfContained(t);
             for (int i = 0; i < args.Length; i++)
             {
                 if (args[i] == "--manifest" && i + 1 < args.Length) ExportedTests.RunManifest(t, args[++i]);
@@ -26,6 +27,7 @@ namespace VWorldLod.Tests
                 else if (args[i] == "--georef" && i + 1 < args.Length) GeoreferenceTests.RunCases(t, args[++i]);
                 else if (args[i] == "--float32" && i + 1 < args.Length) GeoreferenceTests.RunFloat32(t, args[++i]);
                 else if (args[i] == "--streaming" && i + 1 < args.Length) StreamingTests.Run(t, args[++i]);
+                else if (args[i] == "--proxies" && i + 1 < args.Length) ProxyTests.Run(t, args[++i]);
                 else
                 {
                     Console.Error.WriteLine("unknown or incomplete argument: " + args[i]);

@@ -59,6 +59,8 @@ namespace UnityEngine
     public class Camera : Behaviour
     {
         public static Camera main { get { throw new NotSupportedException("stand-in"); } }
+        public float fieldOfView { get; set; }
+        public int pixelHeight { get { throw new NotSupportedException("stand-in"); } }
     }
 
     [AttributeUsage(AttributeTargets.Class)]

@@ -20,6 +20,17 @@ namespace VWorldLod
         /// </summary>
         public static TileIndexEntry[] Read(string text, string indexPath, Func<string, TileIndex> parse, List<string> problems)
         {
+            ProxyEntry[] proxies;
+            return Read(text, indexPath, parse, problems, out proxies);
+        }
+
+        /// <summary>
+        /// As Read, also giving the usable proxies: an entry is left out (one message in problems)
+        /// when it is malformed or a child proxy or building tile it names is not usable, since
+        /// refining it would leave a hole.
+        /// </summary>
+        public static TileIndexEntry[] Read(string text, string indexPath, Func<string, TileIndex> parse, List<string> problems, out ProxyEntry[] proxies)
+        {
             if (string.IsNullOrEmpty(text) || text.Trim().Length == 0)
                 throw new ManifestException(indexPath, "", "the tile index is empty");
             TileIndex index;
@@ -52,7 +63,87 @@ namespace VWorldLod
                 }
                 usable.Add(tiles[i]);
             }
+            proxies = UsableProxies(index.proxies ?? new ProxyEntry[0], names, indexPath, problems);
             return usable.ToArray();
+        }
+
+        static ProxyEntry[] UsableProxies(ProxyEntry[] all, HashSet<string> tileNames, string indexPath, List<string> problems)
+        {
+            var bad = new Dictionary<int, string>();
+            var byName = new Dictionary<string, int>();
+            for (int i = 0; i < all.Length; i++)
+            {
+                string problem = ProxyProblem(all[i]);
+                if (problem == null && byName.ContainsKey(all[i].name)) problem = "another proxy has the same name";
+                if (problem != null) bad[i] = problem;
+                else byName[all[i].name] = i;
+            }
+            // A proxy whose child or tile is missing is left out, and so, in turn, its parents.
+            for (bool changed = true; changed;)
+            {
+                changed = false;
+                for (int i = 0; i < all.Length; i++)
+                {
+                    if (bad.ContainsKey(i)) continue;
+                    string missing = null;
+                    foreach (string c in all[i].children)
+                        if (!byName.ContainsKey(c) || bad.ContainsKey(byName[c])) missing = "its child proxy " + c + " is not usable";
+                    foreach (string t in all[i].tiles)
+                        if (!tileNames.Contains(t)) missing = "its tile " + t + " is not in the index";
+                    if (missing == null) continue;
+                    bad[i] = missing;
+                    changed = true;
+                }
+            }
+            var usable = new List<ProxyEntry>();
+            for (int i = 0; i < all.Length; i++)
+            {
+                string problem;
+                if (!bad.TryGetValue(i, out problem)) { usable.Add(all[i]); continue; }
+                string label = all[i] == null || string.IsNullOrEmpty(all[i].name) ? "" : " (" + all[i].name + ")";
+                problems.Add(new ManifestException(indexPath, "proxies[" + i + "]" + label, problem + "; proxy left out").Message);
+            }
+            return usable.ToArray();
+        }
+
+        /// <summary>Why one proxy entry cannot be shown, or null (missing children/tiles lists become empty).</summary>
+        public static string ProxyProblem(ProxyEntry p)
+        {
+            if (p == null) return "missing";
+            if (string.IsNullOrEmpty(p.name)) return "name missing";
+            if (p.center == null || GeoOrigin.Problem(p.center.lon, p.center.lat, p.center.elev) != null)
+                return "center is not a place on the globe";
+            string globe = GlobeProblem(p.globe);
+            if (globe != null) return globe;
+            string file = PathProblem("file", p.file);
+            if (file != null) return file;
+            if (p.placement == null || p.placement.position == null || p.placement.position.Length != 3
+                || p.placement.rotation == null || p.placement.rotation.Length != 4 || !(p.placement.scale > 0))
+                return "placement needs position [x, y, z], rotation [x, y, z, w] and a positive scale";
+            if (!(p.geometric_error >= 0) || double.IsInfinity(p.geometric_error)) return "geometric_error must be a number of metres >= 0";
+            if (!(p.radius_m >= 0) || double.IsInfinity(p.radius_m)) return "radius_m must be a number of metres >= 0";
+            if (p.children == null) p.children = new string[0];
+            if (p.tiles == null) p.tiles = new string[0];
+            if (p.children.Length + p.tiles.Length == 0) return "it stands for no tile (children and tiles empty)";
+            return null;
+        }
+
+        static string GlobeProblem(GlobeInfo g)
+        {
+            if (g == null || !(g.earth_radius_m > 0) || !(g.unity_radius > 0)
+                || double.IsInfinity(g.earth_radius_m) || double.IsInfinity(g.unity_radius))
+                return "globe.earth_radius_m and globe.unity_radius must be positive numbers";
+            return null;
+        }
+
+        static string PathProblem(string field, string m)
+        {
+            if (string.IsNullOrEmpty(m)) return field + " missing";
+            if (m.StartsWith("/") || m.StartsWith("\\") || m.Contains(":"))
+                return field + " \"" + m + "\" is not relative to the index";
+            foreach (string part in m.Split('/', '\\'))
+                if (part == "..") return field + " \"" + m + "\" leaves the index's folder";
+            return null;
         }
 
         /// <summary>Why one tile entry cannot be streamed, or null.</summary>
@@ -62,16 +153,7 @@ namespace VWorldLod
             if (string.IsNullOrEmpty(t.name)) return "name missing";
             if (t.center == null || GeoOrigin.Problem(t.center.lon, t.center.lat, t.center.elev) != null)
                 return "center is not a place on the globe";
-            if (t.globe == null || !(t.globe.earth_radius_m > 0) || !(t.globe.unity_radius > 0)
-                || double.IsInfinity(t.globe.earth_radius_m) || double.IsInfinity(t.globe.unity_radius))
-                return "globe.earth_radius_m and globe.unity_radius must be positive numbers";
-            string m = t.manifest;
-            if (string.IsNullOrEmpty(m)) return "manifest missing";
-            if (m.StartsWith("/") || m.StartsWith("\\") || m.Contains(":"))
-                return "manifest \"" + m + "\" is not relative to the index";
-            foreach (string part in m.Split('/', '\\'))
-                if (part == "..") return "manifest \"" + m + "\" leaves the index's folder";
-            return null;
+            return GlobeProblem(t.globe) ?? PathProblem("manifest", t.manifest);
         }
     }
 }

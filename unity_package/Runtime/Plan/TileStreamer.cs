@@ -53,6 +53,7 @@ namespace VWorldLod
         double[][] positions;
         readonly double[] distances;
         readonly Dictionary<int, ActiveTile> active = new Dictionary<int, ActiveTile>();
+        readonly Dictionary<string, int> indexOf = new Dictionary<string, int>();
         readonly List<Job> inFlight = new List<Job>();
         bool disposed;
 
@@ -73,6 +74,7 @@ namespace VWorldLod
             this.settings = settings;
             this.backend = backend;
             distances = new double[tiles.Length];
+            for (int i = 0; i < tiles.Length; i++) indexOf[tiles[i].name] = i;
             Reposition();
         }
 
@@ -89,6 +91,17 @@ namespace VWorldLod
             var keys = new List<int>(active.Keys);
             keys.Sort();
             return keys.ConvertAll(k => tiles[k].name);
+        }
+
+        /// <summary>
+        /// Whether the tile named shows (or is loading) its buildings: loaded within the radius and
+        /// its manifest not failed. A proxy over it is hidden meanwhile (ProxyStreamer.TileShown).
+        /// </summary>
+        public bool Shows(string tileName)
+        {
+            int i;
+            ActiveTile tile;
+            return indexOf.TryGetValue(tileName, out i) && active.TryGetValue(i, out tile) && !tile.Failed;
         }
 
         /// <summary>One frame: finish, select around the camera (scene position), start loads.</summary>
@@ -289,7 +302,7 @@ namespace VWorldLod
                 tile.PlanRequested = true;
                 job = new Job { Tile = tile };
                 Event("request " + tile.Entry.name);
-                job.Task = Call(() => backend.LoadTile(tile.Entry, token));
+                job.Task = StreamingCalls.Call(() => backend.LoadTile(tile.Entry, token));
             }
             else
             {
@@ -297,29 +310,10 @@ namespace VWorldLod
                 BuildingPlan building = tile.Plan.Buildings[job.Building];
                 Event("request " + tile.Entry.name + " " + building.Id + " " + job.Level);
                 int level = job.Level;
-                job.Task = Call(() => backend.LoadLevel(tile.Plan, building, level, token));
+                job.Task = StreamingCalls.Call(() => backend.LoadLevel(tile.Plan, building, level, token));
             }
             inFlight.Add(job);
             MaxInFlightSeen = Math.Max(MaxInFlightSeen, inFlight.Count);
-        }
-
-        // A backend call that throws at once becomes a faulted task (reported when taken in).
-        static Task Call<T>(Func<Task<T>> start)
-        {
-            try
-            {
-                Task<T> task = start();
-                if (task != null) return task;
-                var none = new TaskCompletionSource<T>();
-                none.SetResult(default(T));
-                return none.Task;
-            }
-            catch (Exception e)
-            {
-                var failed = new TaskCompletionSource<T>();
-                failed.SetException(e);
-                return failed.Task;
-            }
         }
 
         string What(Job job)
@@ -336,27 +330,12 @@ namespace VWorldLod
 
         void Safe(Action action)
         {
-            try
-            {
-                action();
-            }
-            catch (Exception e)
-            {
-                try
-                {
-                    backend.Report("VWorld LoD streaming: " + Innermost(e).Message);
-                }
-                catch (Exception)
-                {
-                    // Reporting itself failed: nothing left to tell; streaming goes on.
-                }
-            }
+            StreamingCalls.Safe(action, backend.Report, "VWorld LoD streaming: ");
         }
 
         static Exception Innermost(Exception e)
         {
-            while (e is AggregateException && e.InnerException != null) e = e.InnerException;
-            return e;
+            return StreamingCalls.Innermost(e);
         }
     }
 }

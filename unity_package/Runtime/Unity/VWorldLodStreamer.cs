@@ -3,8 +3,10 @@
 // http(s) base URL; loads the tiles whose centre is within loadRadius of the camera and unloads
 // those beyond unloadRadius; each building shows its coarsest level first and gains finer ones as
 // they arrive; at most maxConcurrentLoads loads are in flight. Tiles are placed relative to the
-// scene's VWorldLodGeoreference (re-placed when its origin moves). The decisions are TileStreamer's
-// (plain C#, tested under mono); this component only feeds it the camera position every frame.
+// scene's VWorldLodGeoreference (re-placed when its origin moves). Beyond the load radius it shows
+// the tileset's HLOD proxies that tiles.json lists (coarse to fine, by screen-space error), so a
+// whole city is on screen. The decisions are TileStreamer's and ProxyStreamer's (plain C#, tested
+// under mono); this component only feeds them the camera every frame.
 using System;
 using System.Collections.Generic;
 using System.Threading;
@@ -24,9 +26,14 @@ namespace VWorldLod
         public float unloadRadius = 650;
         /// <summary>Manifest and glTF loads in flight at once.</summary>
         public int maxConcurrentLoads = 4;
+        /// <summary>Show the tileset's merged tile proxies beyond loadRadius (when tiles.json lists them).</summary>
+        public bool showProxies = true;
+        /// <summary>Pixels: the coarsest proxy whose geometric error looks at most this large is shown (Cesium's default 16).</summary>
+        public float maximumScreenSpaceError = 16;
 
         readonly CancellationTokenSource cancel = new CancellationTokenSource();
         TileStreamer streamer;
+        ProxyStreamer proxies;
         StreamingSettings settings;
 
         async void Start()
@@ -44,7 +51,7 @@ namespace VWorldLod
 
         async System.Threading.Tasks.Task StartStreamingAsync()
         {
-            settings = new StreamingSettings { LoadRadius = loadRadius, UnloadRadius = unloadRadius, MaxConcurrentLoads = maxConcurrentLoads };
+            settings = new StreamingSettings { LoadRadius = loadRadius, UnloadRadius = unloadRadius, MaxConcurrentLoads = maxConcurrentLoads, MaximumScreenSpaceError = maximumScreenSpaceError };
             if (settings.Problem() != null)
             {
                 Debug.LogError("VWorld LoD: " + name + ": " + settings.Problem());
@@ -64,9 +71,10 @@ namespace VWorldLod
             if (text == null || cancel.IsCancellationRequested) return;
             var problems = new List<string>();
             TileIndexEntry[] tiles;
+            ProxyEntry[] proxyEntries;
             try
             {
-                tiles = TileIndexReader.Read(text, url, json => JsonUtility.FromJson<TileIndex>(json), problems);
+                tiles = TileIndexReader.Read(text, url, json => JsonUtility.FromJson<TileIndex>(json), problems, out proxyEntries);
             }
             catch (ManifestException e)
             {
@@ -77,12 +85,18 @@ namespace VWorldLod
             if (VWorldLodGeoreference.Current == null)
                 Debug.LogWarning("VWorld LoD: no VWorldLodGeoreference in the scene: tiles use the paper's absolute globe placement, where float32 positions jitter by 0.25-0.5 m; add one (GameObject > VWorld LoD > Georeference)");
             streamer = new TileStreamer(tiles, t => t.ScenePosition(VWorldLodGeoreference.CurrentOrigin), settings, new GltfStreamingBackend(transform, url));
+            if (showProxies && proxyEntries.Length > 0)
+            {
+                proxies = new ProxyStreamer(proxyEntries, p => p.ScenePosition(VWorldLodGeoreference.CurrentOrigin), settings, new GltfProxyBackend(transform, url));
+                proxies.TileShown = streamer.Shows;
+            }
             VWorldLodGeoreference.OriginChanged += Reposition;
         }
 
         void Reposition()
         {
             if (streamer != null) streamer.Reposition();
+            if (proxies != null) proxies.Reposition();
         }
 
         void Update()
@@ -96,6 +110,11 @@ namespace VWorldLod
             // still loads the tiles below it. On the globe (no local up) they are 3D.
             settings.Horizontal = VWorldLodGeoreference.CurrentOrigin != null;
             streamer.Update(p.x, p.y, p.z);
+            if (proxies == null) return;
+            // Screen-space error needs the view: the main camera's (a 60 degree, 1080 px view without one).
+            Camera view = Camera.main;
+            double height = view != null ? view.pixelHeight : 1080, fov = view != null ? view.fieldOfView : 60;
+            proxies.Update(p.x, p.y, p.z, height, fov);
         }
 
         void OnDestroy()
@@ -103,7 +122,9 @@ namespace VWorldLod
             cancel.Cancel();
             VWorldLodGeoreference.OriginChanged -= Reposition;
             if (streamer != null) streamer.Dispose();
+            if (proxies != null) proxies.Dispose();
             streamer = null;
+            proxies = null;
         }
     }
 }

@@ -47,12 +47,18 @@ namespace VWorldLod
         /// <summary>Copies what the placement needs from a plan.</summary>
         public void Configure(TilePlan plan)
         {
-            tileName = plan.TileName;
-            centerLongitude = plan.CenterLon;
-            centerLatitude = plan.CenterLat;
-            centerElevation = plan.CenterElev;
-            earthRadius = plan.EarthRadius;
-            unityRadius = plan.UnityRadius;
+            Configure(plan.TileName, plan.CenterLon, plan.CenterLat, plan.CenterElev, plan.EarthRadius, plan.UnityRadius);
+        }
+
+        /// <summary>A frame at lon/lat (degrees), elev (metres) on a globe of R metres and UR Unity units (a tile root or a proxy).</summary>
+        public void Configure(string name, double lon, double lat, double elev, double earthRadius, double unityRadius)
+        {
+            tileName = name;
+            centerLongitude = lon;
+            centerLatitude = lat;
+            centerElevation = elev;
+            this.earthRadius = earthRadius;
+            this.unityRadius = unityRadius;
         }
 
         /// <summary>The root's pose (double precision) relative to origin, or on the globe when origin is null.</summary>

@@ -1,0 +1,334 @@
+// Shows the tileset's HLOD proxies (tiles.json "proxies") beyond the building radius, coarse to
+// fine, the way 3D Tiles clients select tiles. Plain C# (no Unity type), driven by Update(camera,
+// screen) once a frame after TileStreamer; all I/O goes through an IProxyBackend.
+//
+// Per Update:
+//   1. finish: completed loads are taken in (released when no longer wanted);
+//   2. want: from each root down, a proxy is wanted when none of its building tiles shows its
+//      buildings (TileShown) and its screen-space error is at most MaximumScreenSpaceError (and
+//      its file did not fail to load), or it cannot be refined (no child proxies, or buildings of
+//      its own); otherwise its children are visited. Screen-space error (px) = geometric_error * screenHeight / (d * 2 tan(fov / 2)),
+//      d in metres from the camera to the proxy's bounding sphere (3D Tiles' rule);
+//   3. show: a wanted, loaded proxy shows; until it is loaded, its loaded descendants nearest to
+//      it show instead; a refined proxy whose wanted children are not all shown yet stays shown
+//      itself (when loaded and none of its tiles shows buildings), so a view never gets holes
+//      while finer proxies arrive, and never draws one place twice;
+//   4. unload proxies neither wanted nor shown; cancel loads of proxies no longer wanted;
+//   5. start loads of wanted proxies, coarsest level first, nearer first, while fewer than
+//      MaxConcurrentLoads are in flight (cancelled ones count until they finish).
+// Positions are scene positions of the proxies' frame origins (Unity units), from the caller's
+// function (ProxyEntry.ScenePosition), recomputed by Reposition().
+using System;
+using System.Collections.Generic;
+using System.Threading;
+using System.Threading.Tasks;
+
+namespace VWorldLod
+{
+    public sealed class ProxyStreamer : IDisposable
+    {
+        sealed class Node
+        {
+            public ProxyEntry Entry;
+            public int Index;
+            public int[] Children;
+            public int Parent = -1;
+            public object Handle; // loaded
+            public Job Loading;
+            public bool Visible, Wanted, Failed, Covered; // Covered: a tile below it shows its buildings
+            public double Sse, Distance;
+        }
+
+        sealed class Job
+        {
+            public Node Node;
+            public Task<object> Task;
+            public CancellationTokenSource Cancel = new CancellationTokenSource();
+            public bool Cancelled;
+        }
+
+        readonly Node[] nodes;
+        readonly List<int> roots = new List<int>();
+        readonly Func<ProxyEntry, double[]> position;
+        readonly StreamingSettings settings;
+        readonly IProxyBackend backend;
+        readonly List<Job> inFlight = new List<Job>();
+        double[][] positions;
+        bool disposed;
+
+        /// <summary>Whether a building tile (tiles.json name) shows its buildings; a proxy over it is then hidden.</summary>
+        public Func<string, bool> TileShown = name => false;
+
+        /// <summary>Called with "load &lt;proxy&gt;", "show &lt;proxy&gt;", "hide &lt;proxy&gt;", "unload &lt;proxy&gt;".</summary>
+        public Action<string> OnEvent;
+
+        /// <summary>The most loads in flight at once so far.</summary>
+        public int MaxInFlightSeen { get; private set; }
+
+        public int InFlight { get { return inFlight.Count; } }
+
+        /// <summary>proxies: usable entries (TileIndexReader.Read); children are named among them.</summary>
+        public ProxyStreamer(ProxyEntry[] proxies, Func<ProxyEntry, double[]> position, StreamingSettings settings, IProxyBackend backend)
+        {
+            string problem = settings.Problem();
+            if (problem != null) throw new ArgumentException(problem);
+            this.position = position;
+            this.settings = settings;
+            this.backend = backend;
+            nodes = new Node[proxies.Length];
+            var byName = new Dictionary<string, int>();
+            for (int i = 0; i < proxies.Length; i++)
+            {
+                nodes[i] = new Node { Entry = proxies[i], Index = i };
+                byName[proxies[i].name] = i;
+            }
+            foreach (Node n in nodes)
+            {
+                var children = new List<int>();
+                foreach (string c in n.Entry.children ?? new string[0])
+                {
+                    int k;
+                    if (byName.TryGetValue(c, out k) && nodes[k].Parent < 0 && k != n.Index) { children.Add(k); nodes[k].Parent = n.Index; }
+                }
+                n.Children = children.ToArray();
+            }
+            for (int i = 0; i < nodes.Length; i++) if (nodes[i].Parent < 0) roots.Add(i);
+            Reposition();
+        }
+
+        /// <summary>Recomputes the proxies' scene positions (after the georeference origin moved).</summary>
+        public void Reposition()
+        {
+            positions = new double[nodes.Length][];
+            for (int i = 0; i < nodes.Length; i++) positions[i] = position(nodes[i].Entry);
+        }
+
+        /// <summary>
+        /// Pixels: how large an error of errorMetres looks at distanceMetres on a screen
+        /// screenHeight pixels tall with a vertical field of view of fovDegrees (3D Tiles' rule).
+        /// </summary>
+        public static double ScreenSpaceError(double errorMetres, double distanceMetres, double screenHeight, double fovDegrees)
+        {
+            double d = Math.Max(distanceMetres, 1e-6);
+            return errorMetres * screenHeight / (d * 2 * Math.Tan(fovDegrees * Math.PI / 360.0));
+        }
+
+        /// <summary>Names of the proxies wanted at the last Update, in index order.</summary>
+        public List<string> Wanted() { return Names(n => n.Wanted); }
+
+        /// <summary>Names of the proxies shown now, in index order.</summary>
+        public List<string> Visible() { return Names(n => n.Visible); }
+
+        /// <summary>Names of the loaded proxies, in index order.</summary>
+        public List<string> Loaded() { return Names(n => n.Handle != null); }
+
+        List<string> Names(Func<Node, bool> which)
+        {
+            var names = new List<string>();
+            foreach (Node n in nodes) if (which(n)) names.Add(n.Entry.name);
+            return names;
+        }
+
+        /// <summary>One frame: camera at scene position (x, y, z); screenHeight pixels, vertical field of view in degrees.</summary>
+        public void Update(double x, double y, double z, double screenHeight, double fovDegrees)
+        {
+            if (disposed) return;
+            Finish();
+            foreach (Node n in nodes)
+            {
+                double[] p = positions[n.Index];
+                double unitsPerMetre = n.Entry.globe.unity_radius / n.Entry.globe.earth_radius_m;
+                double centre = Math.Sqrt((p[0] - x) * (p[0] - x) + (p[1] - y) * (p[1] - y) + (p[2] - z) * (p[2] - z)) / unitsPerMetre;
+                n.Distance = Math.Max(centre - n.Entry.radius_m, 0);
+                n.Sse = ScreenSpaceError(n.Entry.geometric_error, n.Distance, screenHeight, fovDegrees);
+                n.Wanted = false;
+            }
+            foreach (int r in roots) Cover(nodes[r]);
+            foreach (int r in roots) Want(nodes[r]);
+            var show = new List<Node>();
+            foreach (int r in roots) Show(nodes[r], show);
+            var visibleNow = new bool[nodes.Length];
+            foreach (Node n in show) visibleNow[n.Index] = true;
+            foreach (Node n in nodes)
+            {
+                bool visible = visibleNow[n.Index];
+                if (visible == n.Visible) continue;
+                n.Visible = visible;
+                object h = n.Handle;
+                Safe(() => backend.ShowProxy(h, visible));
+                Event((visible ? "show " : "hide ") + n.Entry.name);
+            }
+            foreach (Node n in nodes)
+            {
+                if (n.Handle != null && !n.Wanted && !n.Visible) Release(n);
+                if (n.Loading != null && !n.Wanted && !n.Loading.Cancelled) CancelLoad(n.Loading);
+            }
+            Start();
+        }
+
+        // Marks the proxies with a tile below them showing its buildings (one pass, bottom-up).
+        bool Cover(Node n)
+        {
+            bool covered = false;
+            foreach (string t in n.Entry.tiles ?? new string[0]) covered |= TileShown(t);
+            foreach (int c in n.Children) covered |= Cover(nodes[c]);
+            return n.Covered = covered;
+        }
+
+        void Want(Node n)
+        {
+            bool covered = n.Covered;
+            bool refinable = n.Children.Length > 0 && (n.Entry.tiles == null || n.Entry.tiles.Length == 0);
+            if (!covered && (!refinable || (n.Sse <= settings.MaximumScreenSpaceError && !n.Failed)))
+            {
+                n.Wanted = true;
+                return;
+            }
+            foreach (int c in n.Children) Want(nodes[c]);
+        }
+
+        // Adds what shows for n's region; returns whether that region is complete (every wanted
+        // proxy under it shows, or a loaded ancestor stands in).
+        bool Show(Node n, List<Node> show)
+        {
+            if (n.Wanted)
+            {
+                if (n.Handle != null) { show.Add(n); return true; }
+                ShowLoadedBelow(n, show);
+                return false;
+            }
+            var below = new List<Node>();
+            bool complete = true;
+            foreach (int c in n.Children) complete &= Show(nodes[c], below);
+            if (!complete && n.Handle != null && !n.Covered)
+            {
+                show.Add(n); // the coarser proxy holds until its finer ones have all arrived
+                return true;
+            }
+            show.AddRange(below);
+            return complete;
+        }
+
+        void ShowLoadedBelow(Node n, List<Node> show)
+        {
+            foreach (int c in n.Children)
+            {
+                Node child = nodes[c];
+                if (child.Handle != null) show.Add(child);
+                else ShowLoadedBelow(child, show);
+            }
+        }
+
+        void Finish()
+        {
+            for (int i = 0; i < inFlight.Count; i++)
+            {
+                Job job = inFlight[i];
+                if (!job.Task.IsCompleted) continue;
+                inFlight.RemoveAt(i--);
+                Take(job);
+            }
+        }
+
+        void Take(Job job)
+        {
+            object result = null;
+            if (job.Task.IsFaulted)
+            {
+                if (!job.Cancelled) Safe(() => backend.Report(job.Node.Entry.file + ": " + Innermost(job.Task.Exception).Message));
+            }
+            else if (!job.Task.IsCanceled) result = job.Task.Result;
+            if (job.Node.Loading == job) job.Node.Loading = null;
+            if (result == null)
+            {
+                if (!job.Cancelled && !disposed) job.Node.Failed = true; // reported; its children stand in
+                return;
+            }
+            if (job.Cancelled || disposed)
+            {
+                Safe(() => backend.ReleaseProxy(result));
+                return;
+            }
+            job.Node.Handle = result;
+        }
+
+        void Release(Node n)
+        {
+            object h = n.Handle;
+            n.Handle = null;
+            if (n.Visible)
+            {
+                n.Visible = false;
+                Event("hide " + n.Entry.name);
+            }
+            Safe(() => backend.ReleaseProxy(h));
+            Event("unload " + n.Entry.name);
+        }
+
+        void CancelLoad(Job job)
+        {
+            job.Cancelled = true;
+            try
+            {
+                job.Cancel.Cancel();
+            }
+            catch (Exception e)
+            {
+                Safe(() => backend.Report(job.Node.Entry.file + ": cancelling its load: " + Innermost(e).Message));
+            }
+            if (job.Node.Loading == job) job.Node.Loading = null;
+        }
+
+        void Start()
+        {
+            var waiting = new List<Node>();
+            foreach (Node n in nodes) if (n.Wanted && n.Handle == null && n.Loading == null && !n.Failed) waiting.Add(n);
+            waiting.Sort((a, b) => a.Entry.level != b.Entry.level ? a.Entry.level.CompareTo(b.Entry.level)
+                : a.Distance != b.Distance ? a.Distance.CompareTo(b.Distance) : a.Index.CompareTo(b.Index));
+            foreach (Node n in waiting)
+            {
+                if (inFlight.Count >= settings.MaxConcurrentLoads) return;
+                var job = new Job { Node = n };
+                n.Loading = job;
+                Event("load " + n.Entry.name);
+                CancellationToken token = job.Cancel.Token;
+                ProxyEntry entry = n.Entry;
+                job.Task = StreamingCalls.Call(() => backend.LoadProxy(entry, token));
+                inFlight.Add(job);
+                MaxInFlightSeen = Math.Max(MaxInFlightSeen, inFlight.Count);
+            }
+        }
+
+        /// <summary>Cancels every load and releases every proxy; never throws.</summary>
+        public void Dispose()
+        {
+            if (disposed) return;
+            disposed = true;
+            foreach (Node n in nodes) if (n.Handle != null) Release(n);
+            foreach (Job job in inFlight)
+            {
+                CancelLoad(job);
+                if (job.Task.IsCompleted) { Take(job); continue; }
+                Job pending = job;
+                job.Task.ContinueWith(t => Take(pending), CancellationToken.None, TaskContinuationOptions.ExecuteSynchronously, TaskScheduler.Default);
+            }
+            inFlight.Clear();
+        }
+
+        void Event(string text)
+        {
+            Action<string> handler = OnEvent;
+            if (handler != null) Safe(() => handler(text));
+        }
+
+        void Safe(Action action)
+        {
+            StreamingCalls.Safe(action, backend.Report, "VWorld LoD proxies: ");
+        }
+
+        static Exception Innermost(Exception e)
+        {
+            return StreamingCalls.Innermost(e);
+        }
+    }
+}

@@ -1,0 +1,61 @@
+// The Unity side of ProxyStreamer: each proxy .glb loaded with glTFast (GltfLevelLoader) under a
+// root placed like a tile root (VWorldLodTilePlacement at the proxy's centre, relative to the
+// scene's georeference and re-placed when its origin moves): the proxy's glTF frame is its tile's
+// East/Up/North frame at elevation 0, and glTFast's x flip turns its +X West into Unity's East.
+using System.Threading;
+using System.Threading.Tasks;
+using UnityEngine;
+
+namespace VWorldLod
+{
+    public class GltfProxyBackend : IProxyBackend
+    {
+        sealed class Loaded
+        {
+            public GameObject Root;
+            public LoadedLevel Level;
+        }
+
+        readonly Transform parent;
+        readonly string indexUrl;
+
+        /// <summary>Proxy roots go under parent; files are read beside indexUrl.</summary>
+        public GltfProxyBackend(Transform parent, string indexUrl)
+        {
+            this.parent = parent;
+            this.indexUrl = indexUrl;
+        }
+
+        public async Task<object> LoadProxy(ProxyEntry proxy, CancellationToken cancellation)
+        {
+            var root = new GameObject("proxy " + proxy.name);
+            root.transform.SetParent(parent, false);
+            root.AddComponent<VWorldLodTilePlacement>().Configure(proxy.name, proxy.center.lon, proxy.center.lat, proxy.center.elev, proxy.globe.earth_radius_m, proxy.globe.unity_radius);
+            root.GetComponent<VWorldLodTilePlacement>().Place();
+            LoadedLevel level = await GltfLevelLoader.LoadAsync(StreamingPaths.Beside(indexUrl, proxy.file), root.transform, proxy.name + "_proxy", cancellation);
+            if (level == null)
+            {
+                Object.Destroy(root);
+                return null;
+            }
+            return new Loaded { Root = root, Level = level };
+        }
+
+        public void ShowProxy(object loaded, bool visible)
+        {
+            ((Loaded)loaded).Level.Root.SetActive(visible);
+        }
+
+        public void ReleaseProxy(object loaded)
+        {
+            var proxy = (Loaded)loaded;
+            proxy.Level.Release();
+            if (proxy.Root != null) Object.Destroy(proxy.Root);
+        }
+
+        public void Report(string message)
+        {
+            Debug.LogError("VWorld LoD: " + message);
+        }
+    }
+}
