@@ -85,6 +85,7 @@ class SurfaceIndex:
     CANDIDATES = 6  # nearest probes whose triangles give the upper bound
     DENSE_PAIRS = 20_000  # point x triangle tests below which all pairs are tested at once
     TREE_SHARE = 8  # the tree's lists are used when they hold under 1/8 of all pairs
+    BLOCK_PAIRS = 1 << 20  # candidate pairs held at once (an 8 MiB float64 block)
 
     @staticmethod
     def _near(point: list, centre: list, radius, limit, strict: bool) -> np.ndarray:
@@ -101,38 +102,30 @@ class SurfaceIndex:
     def _dense_pairs(
         self, points: np.ndarray, limit: np.ndarray, strict: bool
     ) -> tuple[np.ndarray, np.ndarray]:
-        near = self._near(
-            [points[:, i, None] for i in range(3)],
-            [self.centres[None, :, i] for i in range(3)],
-            self.radii[None],
-            limit[:, None],
-            strict,
-        )
-        rows, cols = np.nonzero(near)
-        return rows, cols
+        """Every point x triangle pair tested, in blocks of at most ``BLOCK_PAIRS`` pairs (a
+        (p, m) block of a merged tile's points and triangles is gigabytes)."""
+        step = max(1, self.BLOCK_PAIRS // max(len(self.centres), 1))
+        rows_out, cols_out = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
+        for start in range(0, len(points), step):
+            block = points[start : start + step]
+            near = self._near(
+                [block[:, i, None] for i in range(3)],
+                [self.centres[None, :, i] for i in range(3)],
+                self.radii[None],
+                limit[start : start + step, None],
+                strict,
+            )
+            rows, cols = np.nonzero(near)
+            rows_out.append(rows + start)
+            cols_out.append(cols)
+        return np.concatenate(rows_out), np.concatenate(cols_out)
 
-    def sphere_pairs(
-        self, points: np.ndarray, limit: np.ndarray, strict: bool = False
+    def _tree_pairs(
+        self, points: np.ndarray, limit: np.ndarray, reach: np.ndarray, strict: bool
     ) -> tuple[np.ndarray, np.ndarray]:
-        """(rows, cols) int64, row-major sorted: every point i (p, 3) metres and triangle j whose
-        bounding sphere comes within ``limit[i]`` (metres; ``< limit`` when ``strict``) of it.
-
-        Small problems test all p x m pairs; larger ones only the centres a ``cKDTree`` finds
-        within ``limit + largest radius`` (widened by 1e-9 for the tree's own rounding), then
-        apply the same test to those: the same pairs either way (an O(p m) step was the certified
-        bound's cost on buildings of thousands of triangles). The tree's lists are Python lists:
-        when they would hold more than 1/``TREE_SHARE`` of all pairs (counted first, in C), the
-        dense test is cheaper and is used."""
-        m = len(self.centres)
-        if len(points) * m <= self.DENSE_PAIRS or not np.all(np.isfinite(limit)):
-            return self._dense_pairs(points, limit, strict)
-        if self._centre_tree is None:
-            self._centre_tree = cKDTree(self.centres)
-        reach = (limit + self.radii.max()) * (1 + 1e-9) + 1e-12
-        counts = self._centre_tree.query_ball_point(points, reach, return_length=True)
-        if counts.sum() * self.TREE_SHARE > len(points) * m:
-            # Most pairs are near (large limits, one big face): the lists would cost more.
-            return self._dense_pairs(points, limit, strict)
+        """The pairs of points (p, 3) with the centres within ``reach`` (p,) metres of them, then
+        the exact sphere test; the tree's lists made for a few points at a time."""
+        assert self._centre_tree is not None
         found = self._centre_tree.query_ball_point(points, reach, return_sorted=True)
         counts = np.fromiter(map(len, found), np.int64, len(found))  # the lists' own lengths
         rows = np.repeat(np.arange(len(points)), counts)
@@ -145,6 +138,46 @@ class SurfaceIndex:
             strict,
         )
         return rows[keep], cols[keep]
+
+    def sphere_pairs(
+        self, points: np.ndarray, limit: np.ndarray, strict: bool = False
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(rows, cols) int64, row-major sorted: every point i (p, 3) metres and triangle j whose
+        bounding sphere comes within ``limit[i]`` (metres; ``< limit`` when ``strict``) of it.
+
+        Small problems test all p x m pairs; larger ones only the centres a ``cKDTree`` finds
+        within ``limit + largest radius`` (widened by 1e-9 for the tree's own rounding), then
+        apply the same test to those: the same pairs either way (an O(p m) step was the certified
+        bound's cost on buildings of thousands of triangles). The tree's lists are Python lists:
+        when they would hold more than 1/``TREE_SHARE`` of all pairs (counted first, in C), the
+        dense test is cheaper and is used. Either way at most ``BLOCK_PAIRS`` candidate pairs are
+        held at once (points taken a block at a time), besides the pairs found."""
+        m = len(self.centres)
+        if len(points) * m <= self.DENSE_PAIRS or not np.all(np.isfinite(limit)):
+            return self._dense_pairs(points, limit, strict)
+        if self._centre_tree is None:
+            self._centre_tree = cKDTree(self.centres)
+        reach = (limit + self.radii.max()) * (1 + 1e-9) + 1e-12
+        counts = self._centre_tree.query_ball_point(points, reach, return_length=True)
+        if counts.sum() * self.TREE_SHARE > len(points) * m:
+            # Most pairs are near (large limits, one big face): the lists would cost more.
+            return self._dense_pairs(points, limit, strict)
+        # Blocks of points whose lists hold at most BLOCK_PAIRS entries (one point at least).
+        total = np.cumsum(counts)
+        rows_out, cols_out = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
+        start = 0
+        while start < len(points):
+            base = total[start] - counts[start]
+            stop = max(
+                int(np.searchsorted(total, base + self.BLOCK_PAIRS, side="right")), start + 1
+            )
+            rows, cols = self._tree_pairs(
+                points[start:stop], limit[start:stop], reach[start:stop], strict
+            )
+            rows_out.append(rows + start)
+            cols_out.append(cols)
+            start = stop
+        return np.concatenate(rows_out), np.concatenate(cols_out)
 
     def _nearest(self, points: np.ndarray, candidates: int) -> tuple[np.ndarray, np.ndarray]:
         """Distances (p, k) metres and indices (p, k) of the k nearest probes, k <= candidates."""
