@@ -79,6 +79,8 @@ def _pairs(points, tri, out):  # pragma: no cover - compiled
 def point_triangle_distance(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
     """Distance from points (..., 3) to triangles (..., 3, 3), broadcast against each other;
     (...) metres. Any one Cartesian frame."""
+    if points.shape[-1:] != (3,) or tri.shape[-2:] != (3, 3):
+        raise ValueError(f"point_triangle_distance: shapes {points.shape}, {tri.shape}")
     if points.shape[:-1] == tri.shape[:-2]:  # (point, triangle) pairs: no broadcasting
         shape = points.shape[:-1]
         p = np.ascontiguousarray(points, np.float64).reshape(-1, 3)

@@ -237,12 +237,34 @@ def _planar(tri, row, face, regions, planes, tri2, seg_start, seg, cap, numbers,
         bound[row[i]] = min(bound[row[i]], value)
 
 
+def _check_regions(regions, m: int) -> None:
+    """Raise ValueError unless ``regions`` (a ``hausdorff._Regions`` of m faces) is consistent:
+    the kernel follows its indices without bounds checks."""
+    r = len(regions.normal)
+    start = np.asarray(regions.seg_start)
+    fields = (regions.slack, regions.offset, regions.gap, regions.u, regions.v)
+    if (
+        len(regions.tri2) != m
+        or (m and (regions.region.min() < 0 or regions.region.max() >= r))
+        or any(len(x) != r for x in fields)
+        or len(start) != r + 1
+        or (r and (start[0] < 0 or np.any(np.diff(start) < 0)))
+        or start[-1]
+        > min(map(len, (regions.seg_x0, regions.seg_y0, regions.seg_x1, regions.seg_y1)))
+    ):
+        raise ValueError(
+            "planar_bound: the planar regions are inconsistent (an index out of range)"
+        )
+
+
 def planar_bound(tri, row, face, regions, cap, constants) -> np.ndarray:
     """(n,) metres: the in-plane bound of each triangle ``tri`` (n, 3, 3) metres over the
     planar regions of its candidate faces (``row``, ``face`` (p,) int64 pairs), inf where none
     holds; ``regions`` a prepared ``hausdorff._Regions`` of the target, ``cap`` (n,) metres or
     None, ``constants`` = (shrink, largest region slack, loose shares (3,))."""
     shrink, plane_slack_max, loose = constants
+    if cap is not None and len(cap) != len(tri):
+        raise ValueError("planar_bound: one cap per triangle")
     n = len(tri)
     bound = np.full(n, np.inf)
     row = np.ascontiguousarray(row, np.int64)
@@ -252,6 +274,9 @@ def planar_bound(tri, row, face, regions, cap, constants) -> np.ndarray:
         return bound
     if row.min() < 0 or row.max() >= n or face.min() < 0 or face.max() >= m:
         raise ValueError("planar_bound: a triangle or face index is out of range")
+    if len(row) != len(face) or np.shape(tri)[1:] != (3, 3):
+        raise ValueError("planar_bound: pairs or triangles of the wrong shape")
+    _check_regions(regions, m)
     planes = np.ascontiguousarray(
         np.vstack(
             [

@@ -73,6 +73,8 @@ def rasterise_views(xy: np.ndarray, faces: np.ndarray, size: int) -> np.ndarray:
     """Conservative coverage of the triangles ``faces`` (m, 3) int64 in each view: ``xy`` (v, n, 2)
     pixel coordinates (column, row), one (n, 2) set per view; (v, size, size) bool."""
     xy = np.ascontiguousarray(xy, np.float64)
+    if xy.ndim != 3 or xy.shape[2] != 2:
+        raise ValueError(f"rasterise_views: xy must be (views, n, 2), not {xy.shape}")
     faces = np.ascontiguousarray(faces, np.int64).reshape(-1, 3)
     out = np.zeros((len(xy), size, size), dtype=bool)
     if len(faces) and size > 0:

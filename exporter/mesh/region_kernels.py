@@ -396,6 +396,9 @@ def settle_regions(
             raise ValueError("settle_regions: a vertex index is out of range")
     if len(rest_source) and (region.min() < 0 or len(region) != len(rest_source)):
         raise ValueError("settle_regions: regions do not match the source faces")
+    for faces, rest, done in ((level, rest_level, done_level), (source, rest_source, done_source)):
+        if len(done) != len(faces) or (len(rest) and (rest.min() < 0 or rest.max() >= len(faces))):
+            raise ValueError("settle_regions: a face index is out of range")
     same_normal_cos, oriented_eps, max_band_edges, sliver, sliver_rounds = constants
     scale = float(np.abs(points).max()) if k else 0.0
     return float(

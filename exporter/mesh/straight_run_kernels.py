@@ -133,6 +133,8 @@ def straight_runs(
     s = len(seg)
     region = np.ascontiguousarray(seg_region, np.int64)
     ends = np.ascontiguousarray(ends, np.int64).reshape(-1, 2)
+    if len(region) != s or len(ends) != s or len(oriented) != s or np.shape(seg)[1:] != (2, 2):
+        raise ValueError("straight_runs: segments, regions, ends and orientations differ in shape")
     if s and (region.min() < 0 or region.max() >= len(gap) or ends.min() < 0):
         raise ValueError("straight_runs: a region or vertex index is out of range")
     out_region = np.empty(s, np.int64)

@@ -1,0 +1,64 @@
+"""Every caller of a compiled kernel (exporter/mesh/*_kernels.py) checks the indices and shapes the
+kernel follows without bounds checks (numba does none): a bad input is a ValueError, never a read
+past an array (issue 24: "a compiled kernel never crashes the process")."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from exporter.mesh.distance_kernels import point_triangle_distance
+from exporter.mesh.hausdorff import LOOSE, PLANE_SLACK_MAX, SHRINK, T_JUNCTION, Surface
+from exporter.mesh.planar_bound_kernels import planar_bound
+from exporter.mesh.raster_kernels import rasterise_views
+from exporter.mesh.region_kernels import settle_regions
+from exporter.mesh.straight_run_kernels import straight_runs
+
+CONSTANTS = (SHRINK, PLANE_SLACK_MAX, LOOSE)
+
+
+def test_settle_regions_checks_the_face_lists():
+    points = np.zeros((3, 3))
+    faces = np.array([[0, 1, 2]])
+    empty = np.zeros(0, np.int64)
+    done = np.zeros(1, bool)
+    constants = (0.99, 1e-9, 64, 1e-6, 4)
+    beyond = np.array([7])
+    with pytest.raises(ValueError, match="out of range"):
+        settle_regions(points, faces, faces, beyond, empty, empty, done, done, 0.0, 1.0, constants)
+    with pytest.raises(ValueError, match="out of range"):  # one done flag short
+        settle_regions(
+            points, faces, faces, empty, empty, empty, done[:0], done, 0.0, 1.0, constants
+        )
+
+
+def test_planar_bound_checks_its_regions_and_shapes():
+    target = Surface(np.eye(3), np.array([[0, 1, 2]]))
+    tri = np.eye(3)[None]
+    one = np.array([0])
+    regions = target.regions
+    regions.seg_start = regions.seg_start + 100  # segments past the end
+    with pytest.raises(ValueError, match="inconsistent"):
+        planar_bound(tri, one, one, regions, None, CONSTANTS)
+    fresh = Surface(np.eye(3), np.array([[0, 1, 2]])).regions
+    with pytest.raises(ValueError, match="shape"):
+        planar_bound(tri, one, np.array([0, 0]), fresh, None, CONSTANTS)
+    with pytest.raises(ValueError, match="one cap per triangle"):
+        planar_bound(tri, one, one, fresh, np.zeros(3), CONSTANTS)
+    fresh.region = fresh.region + 3  # a face's region beyond the planes
+    with pytest.raises(ValueError, match="inconsistent"):
+        planar_bound(tri, one, one, fresh, None, CONSTANTS)
+
+
+def test_straight_runs_checks_matching_lengths():
+    seg = np.zeros((2, 2, 2))
+    ends = np.array([[0, 1], [1, 0]])
+    with pytest.raises(ValueError, match="shape"):
+        straight_runs(np.array([0]), seg, ends, np.ones(2, bool), np.zeros(2), T_JUNCTION)
+
+
+def test_raster_and_distance_check_their_shapes():
+    with pytest.raises(ValueError, match="views, n, 2"):
+        rasterise_views(np.zeros((1, 3, 1)), np.array([[0, 1, 2]]), 8)
+    with pytest.raises(ValueError, match="shapes"):
+        point_triangle_distance(np.zeros((3, 4)), np.zeros((3, 3, 3)))
