@@ -11,25 +11,9 @@ from exporter.mesh.distance_kernels import point_triangle_distance
 from exporter.mesh.hausdorff import LOOSE, PLANE_SLACK_MAX, SHRINK, T_JUNCTION, Surface
 from exporter.mesh.planar_bound_kernels import planar_bound
 from exporter.mesh.raster_kernels import rasterise_views
-from exporter.mesh.region_kernels import settle_regions
 from exporter.mesh.straight_run_kernels import straight_runs
 
 CONSTANTS = (SHRINK, PLANE_SLACK_MAX, LOOSE)
-
-
-def test_settle_regions_checks_the_face_lists():
-    points = np.zeros((3, 3))
-    faces = np.array([[0, 1, 2]])
-    empty = np.zeros(0, np.int64)
-    done = np.zeros(1, bool)
-    constants = (0.99, 1e-9, 64, 1e-6, 4)
-    beyond = np.array([7])
-    with pytest.raises(ValueError, match="out of range"):
-        settle_regions(points, faces, faces, beyond, empty, empty, done, done, 0.0, 1.0, constants)
-    with pytest.raises(ValueError, match="out of range"):  # one done flag short
-        settle_regions(
-            points, faces, faces, empty, empty, empty, done[:0], done, 0.0, 1.0, constants
-        )
 
 
 def test_planar_bound_checks_its_regions_and_shapes():

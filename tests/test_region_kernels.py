@@ -113,6 +113,15 @@ def test_out_of_range_indices_are_errors_not_crashes():
     constants = (0.99, 1e-9, 64, 1e-6, 4)
     with pytest.raises(ValueError, match="out of range"):
         settle_regions(points, faces, faces, empty, empty, empty, done, done, 0.0, 1.0, constants)
+    within = np.array([[0, 1, 2]])
+    with pytest.raises(ValueError, match="out of range"):  # a face list past the faces
+        settle_regions(
+            points, within, within, np.array([7]), empty, empty, done, done, 0.0, 1.0, constants
+        )
+    with pytest.raises(ValueError, match="out of range"):  # one done flag short
+        settle_regions(
+            points, within, within, empty, empty, empty, done[:0], done, 0.0, 1.0, constants
+        )
 
 
 @pytest.mark.parametrize("offset, scale", [(6.4e6, 20.0), (0.0, 1e-6), (1e-9, 1e-9)])
