@@ -171,15 +171,23 @@ class _Regions:
         # Regions on one plane that only meet at T-junctions (or not at all) are one region.
         if len(normal) > 1:
             r = len(normal)
-            rows, cols, pairs, alone = _same_plane_pairs(
-                normal, offset, slack, SAME_PLANE * max(self.scale, 1e-9)
-            )
-            # The count of the r x r relation (diagonal included) is above r.
-            if r - alone + 2 * pairs > r:
-                from scipy.sparse import coo_matrix
+            tolerance = SAME_PLANE * max(self.scale, 1e-9)
+            if r * r <= PAIR_CHUNK:  # a building's few regions: all pairs at once
+                same = (normal @ normal.T > SAME_PLANE_COS) & (
+                    np.abs(offset[:, None] - offset[None, :]) + slack[:, None] + slack[None, :]
+                    <= tolerance
+                )
+                merge = same.sum() > r
+            else:  # a merged tile's thousands: an (r, r) block would be gigabytes
+                rows, cols, pairs, alone = _same_plane_pairs(normal, offset, slack, tolerance)
+                merge = r - alone + 2 * pairs > r  # the count of the same r x r relation
+                if merge:
+                    from scipy.sparse import coo_matrix
+
+                    same = coo_matrix((np.ones(len(rows), bool), (rows, cols)), shape=(r, r))
+            if merge:
                 from scipy.sparse.csgraph import connected_components
 
-                same = coo_matrix((np.ones(len(rows), bool), (rows, cols)), shape=(r, r))
                 _, label = connected_components(same, directed=False)
                 region = label[region]
                 normal, offset, slack = _planes(tri, cross, region)
