@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import cross_rows, row_norms, sorted_edge_keys
-from .weld import lowest_member
+from .geometry import sorted_edge_keys
+from .planar_region_kernels import region_labels
 
 # Two faces sharing an edge are one planar region when their unit normals differ by less than
 # this angle (cosine) and the second lies on the first's plane within PLANE_M metres.
@@ -91,26 +91,23 @@ def planar_regions(
     m = len(faces)
     if m == 0:
         return np.zeros(0, np.int64)
-    a, b, c = (positions[faces[:, i]] for i in range(3))
-    normal = cross_rows(b - a, c - a)
-    normal /= np.maximum(row_norms(normal)[:, None], 1e-30)
+    faces = np.ascontiguousarray(faces, np.int64)
+    if faces.min() < 0 or faces.max() >= len(positions):
+        raise ValueError("planar_regions: a face's vertex index is out of range")
+    if groups is not None and len(groups) != m:
+        raise ValueError("planar_regions: groups and faces differ in length")
     keys, order = edge_keys if edge_keys is not None else sorted_edge_keys(faces, len(positions))
-    owner = order // 3
-    same = keys[1:] == keys[:-1]
-    f, g = owner[:-1][same], owner[1:][same]
-    if groups is not None:
-        keep = groups[f] == groups[g]
-        f, g = f[keep], g[keep]
-    # Every face's centroid with the arithmetic of positions[faces].mean(axis=1) (its sum starts
-    # at 0.0), for all faces at once.
-    centroid = (0.0 + a + b + c) / 3
-    coplanar = ((normal[f] * normal[g]).sum(1) > COPLANAR_COS) & (
-        np.abs(((centroid[g] - a[f]) * normal[f]).sum(1)) < PLANE_M
+    use_groups = groups is not None
+    return region_labels(
+        np.ascontiguousarray(positions, np.float64),
+        faces,
+        np.ascontiguousarray(groups if use_groups else np.zeros(0), np.int64),
+        use_groups,
+        np.ascontiguousarray(keys, np.int64),
+        np.ascontiguousarray(order, np.int64),
+        COPLANAR_COS,
+        PLANE_M,
     )
-    # Components numbered by their lowest face, as scipy's connected_components numbers them.
-    lowest = lowest_member(m, f[coplanar], g[coplanar])
-    root = lowest == np.arange(m)
-    return (np.cumsum(root) - 1)[lowest]
 
 
 def boundary_loops(faces: np.ndarray, vertex_count: int) -> tuple[np.ndarray, int]:
