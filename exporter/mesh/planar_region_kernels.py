@@ -8,15 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .component_kernels import root
 from .jit import kernel
-
-
-@kernel
-def _find(parent, a):  # pragma: no cover - compiled
-    while parent[a] != a:  # path halving
-        parent[a] = parent[parent[a]]
-        a = parent[a]
-    return a
 
 
 @kernel
@@ -61,7 +54,7 @@ def region_labels(
         )
         if not (cos > cos_limit and abs(height) < plane_m):
             continue
-        rf, rg = _find(parent, f), _find(parent, g)
+        rf, rg = root(parent, f), root(parent, g)
         if rf < rg:
             parent[rg] = rf
         elif rg < rf:

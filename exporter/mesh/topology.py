@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .boundary_kernels import border_loops
 from .geometry import sorted_edge_keys
 from .planar_region_kernels import region_labels
 
@@ -112,44 +113,9 @@ def planar_regions(
 
 def boundary_loops(faces: np.ndarray, vertex_count: int) -> tuple[np.ndarray, int]:
     """Open-boundary edges (e, 2) int64 (used by one face, (low, high) vertex, sorted) and the
-    number of loops they form."""
-    first, second = faces.ravel(), faces[:, [1, 2, 0]].ravel()  # edges (0, 1), (1, 2), (2, 0)
-    keys = np.sort(np.minimum(first, second) * (vertex_count + 1) + np.maximum(first, second))
-    # A key used once differs from both neighbours (np.unique's counts == 1, fewer passes).
-    once = np.ones(len(keys), dtype=bool)
-    if len(keys) > 1:
-        repeated = keys[1:] == keys[:-1]
-        once[1:] &= ~repeated
-        once[:-1] &= ~repeated
-    border = np.column_stack(np.divmod(keys[once], vertex_count + 1))
-    return border, count_components(border.tolist())
-
-
-def count_components(edges: list) -> int:
-    """Connected components of the graph of ``edges`` ((a, b) vertex pairs, a Python list):
-    only vertices on an edge count.
-
-    Union-find in plain Python: a building's open boundary has tens of edges, where scipy's
-    ``csr_matrix`` + ``connected_components`` cost ~150 us of argument checking per call (a
-    count, so any exact method gives the same number)."""
-    parent: dict[int, int] = {}
-
-    def find(x: int) -> int:
-        root = x
-        while parent[root] != root:
-            root = parent[root]
-        while parent[x] != root:  # path compression
-            parent[x], x = root, parent[x]
-        return root
-
-    count = 0
-    for a, b in edges:
-        for v in (a, b):
-            if v not in parent:
-                parent[v] = v
-                count += 1
-        ra, rb = find(a), find(b)
-        if ra != rb:
-            parent[ra] = rb
-            count -= 1
-    return count
+    number of loops they form (connected components of those edges), compiled."""
+    faces = np.ascontiguousarray(faces, np.int64).reshape(-1, 3)
+    if len(faces) and (faces.min() < 0 or faces.max() > vertex_count):
+        raise ValueError("boundary_loops: a face's vertex index is out of range")
+    border, loops = border_loops(faces, int(vertex_count))
+    return border, int(loops)
