@@ -1,5 +1,5 @@
 """The compiled open boundary (:mod:`exporter.mesh.boundary_kernels`) gives the former numpy
-form's border edges and loop count (kept here as the reference: one sorted key per side, the keys
+form's border sides, border edges and loop count (kept here as the reference: one sorted key per side, the keys
 used once, a Python union-find): on generated buildings, their slit-closed meshes and random
 face soups (repeated, degenerate and non-manifold faces); bad vertex ids are errors."""
 
@@ -8,7 +8,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from exporter.mesh.slits import close_slits
+from exporter.mesh.geometry import sorted_edge_keys
+from exporter.mesh.slits import border_sides, close_slits
 from exporter.mesh.topology import boundary_loops
 
 
@@ -47,7 +48,22 @@ def reference_boundary_loops(faces, vertex_count):
     return border, reference_count_components(border.tolist())
 
 
+def reference_border_sides(faces, vertex_count):
+    """The former numpy body of ``slits.border_sides``."""
+    ordered, order = sorted_edge_keys(faces, vertex_count)
+    once = np.ones(len(ordered), dtype=bool)
+    if len(ordered) > 1:
+        repeated = ordered[1:] == ordered[:-1]
+        once[1:] &= ~repeated
+        once[:-1] &= ~repeated
+    return np.sort(order[once])
+
+
 def _same(faces, vertex_count):
+    if len(faces) == 0 or faces.max() < vertex_count:
+        sides = border_sides(faces, vertex_count)
+        assert sides.dtype == np.int64
+        assert np.array_equal(sides, reference_border_sides(faces, vertex_count))
     border, loops = boundary_loops(faces, vertex_count)
     expected, expected_loops = reference_boundary_loops(faces, vertex_count)
     assert border.dtype == np.int64 and border.shape == expected.shape
@@ -83,3 +99,5 @@ def test_bad_vertex_ids_are_errors():
         boundary_loops(np.array([[0, 1, -1]]), 3)
     with pytest.raises(ValueError, match="boundary_loops"):
         boundary_loops(np.array([[0, 1, 9]]), 3)
+    with pytest.raises(ValueError, match="border_sides"):
+        border_sides(np.array([[0, 1, 3]]), 3)

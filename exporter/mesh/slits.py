@@ -37,8 +37,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from .boundary_kernels import once_sides
 from .distance import row_lengths
-from .geometry import cross_rows, row_norms, sorted_edge_keys
+from .geometry import cross_rows, row_norms
 from .slit_kernels import inside_sides
 from .split_kernels import split_fans
 from .topology import boundary_loops
@@ -48,15 +49,12 @@ MAX_ROUNDS = 4  # a face is split on one side per round; three sides at most, pl
 
 
 def border_sides(faces: np.ndarray, vertex_count: int) -> np.ndarray:
-    """(s,) int64 border sides ``3 f + i`` (from corner i of face f to corner i + 1): the sides
-    whose undirected edge no other side uses."""
-    ordered, order = sorted_edge_keys(faces, vertex_count)
-    once = np.ones(len(ordered), dtype=bool)
-    if len(ordered) > 1:
-        repeated = ordered[1:] == ordered[:-1]
-        once[1:] &= ~repeated
-        once[:-1] &= ~repeated
-    return np.sort(order[once])
+    """(s,) int64 border sides ``3 f + i`` (from corner i of face f to corner i + 1), ascending:
+    the sides whose undirected edge no other side uses."""
+    faces = np.ascontiguousarray(faces, np.int64).reshape(-1, 3)
+    if len(faces) and (faces.min() < 0 or faces.max() >= vertex_count):
+        raise ValueError("border_sides: a face's vertex index is out of range")
+    return once_sides(faces, int(vertex_count))  # compiled
 
 
 def slit_points(
