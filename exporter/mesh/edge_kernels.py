@@ -50,3 +50,23 @@ def edge_key_order(faces, vertex_count):  # pragma: no cover - compiled
     for i in range(n):
         keys[i] = low[order[i]] * vertex_count + high[order[i]]
     return keys, order
+
+
+@kernel
+def edge_counts(faces, vertex_count):  # pragma: no cover - compiled
+    """``(edges (e, 2) int64, uses (e,) int64)``: the undirected edges of ``faces`` (m, 3) int64
+    (ids below ``vertex_count``) as ascending (low, high) pairs and how many sides use each."""
+    keys, _ = edge_key_order(faces, vertex_count)
+    n = keys.shape[0]
+    distinct = 0
+    for i in range(n):
+        distinct += i == 0 or keys[i] != keys[i - 1]
+    edges = np.empty((distinct, 2), np.int64)
+    uses = np.zeros(distinct, np.int64)
+    e = -1
+    for i in range(n):
+        if i == 0 or keys[i] != keys[i - 1]:
+            e += 1
+            edges[e, 0], edges[e, 1] = keys[i] // vertex_count, keys[i] % vertex_count
+        uses[e] += 1
+    return edges, uses

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .boundary_kernels import border_loops
+from .edge_kernels import edge_counts
 from .geometry import sorted_edge_keys
 from .planar_region_kernels import region_labels
 
@@ -44,20 +45,11 @@ def edge_use(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     seen, result = _last_edge_use
     if seen is faces:
         return result
-    if len(faces) == 0:
-        unique, counts = np.zeros((0, 2), np.int64), np.zeros(0, np.int64)
-    else:
-        # One int64 key per side (low * base + high) sorted once; groups of equal keys are the
-        # edges (the rows and counts of np.unique(axis=0) on the sorted pairs).
-        corners = np.asarray(faces, dtype=np.int64)
-        ahead = corners[:, [1, 2, 0]]
-        low, high = np.minimum(corners, ahead).reshape(-1), np.maximum(corners, ahead).reshape(-1)
-        base = int(high.max()) + 1
-        keys = np.sort(low * base + high)
-        start = np.flatnonzero(np.concatenate([[True], keys[1:] != keys[:-1]]))
-        counts = np.concatenate([start[1:], [len(keys)]]) - start
-        unique = np.empty((len(start), 2), np.int64)
-        unique[:, 0], unique[:, 1] = np.divmod(keys[start], base)
+    corners = np.ascontiguousarray(faces, dtype=np.int64).reshape(-1, 3)
+    if len(corners) and corners.min() < 0:
+        raise ValueError("edge_use: a face's vertex index is negative")
+    # Compiled: sides sorted by (low, high) vertex, equal neighbours counted.
+    unique, counts = edge_counts(corners, int(corners.max()) + 1 if len(corners) else 1)
     unique.flags.writeable = counts.flags.writeable = False
     _last_edge_use = (faces, (unique, counts))
     return unique, counts
