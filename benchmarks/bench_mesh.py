@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from checkouts import load_exporter
+from checkouts import load_exporter, use_checkout
 
 NAMES = ("config", "readers", "simplify", "quality")
 
@@ -79,24 +79,25 @@ def main() -> None:
     parser.add_argument("--crs", default="EPSG:7415", help="CRS of CityJSON files declaring none")
     args = parser.parse_args()
     here = Path(__file__).resolve().parents[1]
-    checkouts = {
-        "this": load_exporter(here, NAMES),
-        "baseline": load_exporter(Path(args.baseline), NAMES),
-    }
+    roots = {"this": here, "baseline": Path(args.baseline)}
+    checkouts = {name: load_exporter(root, NAMES) for name, root in roots.items()}
     modules = checkouts["this"]
+    use_checkout(here)
     config = modules["config"].Config()
     readers = dataclasses.replace(config.readers, crs=args.crs)
     scan = modules["readers"].scan_folder(args.folder, readers)
     entries = scan.entries[: args.limit or None]
     buildings = [modules["readers"].load_entry(entry, readers) for entry in entries]
     # The kernels' first call (compile or cache load) is not a building's cost.
-    for mods in checkouts.values():
+    for name, mods in checkouts.items():
+        use_checkout(roots[name])
         mesh_stage(mods, buildings[0].parts, config)
     times = {name: np.full(len(buildings), np.inf) for name in checkouts}
     results: dict[str, list] = {name: [] for name in checkouts}
     for i, building in enumerate(buildings):
         for run in range(args.repeat):
             for name, mods in checkouts.items():
+                use_checkout(roots[name])
                 start = time.process_time()
                 out = mesh_stage(mods, building.parts, config)
                 times[name][i] = min(times[name][i], time.process_time() - start)

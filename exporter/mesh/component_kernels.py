@@ -11,6 +11,15 @@ from .jit import kernel
 
 
 @kernel
+def root(parent, a):  # pragma: no cover - compiled
+    """The root of node ``a`` in the union-find forest ``parent`` (n,) int64, halving its path."""
+    while parent[a] != a:
+        parent[a] = parent[parent[a]]
+        a = parent[a]
+    return a
+
+
+@kernel
 def _lowest(n, left, right):  # pragma: no cover - compiled
     parent = np.arange(n)
     for e in range(left.shape[0]):

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .edge_kernels import edge_key_order
+
 
 def cross_rows(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Row-wise u x v of (m, 3) arrays (broadcast), (m, 3) float64: ``np.cross``'s arithmetic (same
@@ -31,11 +33,10 @@ def sorted_edge_keys(faces: np.ndarray, vertex_count: int) -> tuple[np.ndarray, 
     """Every face side's undirected edge as one key ``low * vertex_count + high``, ascending
     (3m,) int64, and the stable permutation of the sides (side ``3 f + i`` runs from corner i of
     face f to the next) that sorts them: ``np.lexsort`` of the (low, high) pairs, with one key."""
-    sides = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    low, high = sides.min(axis=1), sides.max(axis=1)
-    keys = low * vertex_count + high
-    order = np.argsort(keys, kind="stable")
-    return keys[order], order
+    faces = np.ascontiguousarray(faces, np.int64).reshape(-1, 3)
+    if len(faces) and (faces.min() < 0 or faces.max() >= vertex_count):
+        raise ValueError("sorted_edge_keys: a face's vertex index is out of range")
+    return edge_key_order(faces, int(vertex_count))  # compiled
 
 
 def cross3(a, b) -> np.ndarray:

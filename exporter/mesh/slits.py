@@ -37,9 +37,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from .boundary_kernels import once_sides
 from .distance import row_lengths
-from .geometry import cross_rows, row_norms, sorted_edge_keys
+from .geometry import cross_rows, row_norms
 from .slit_kernels import inside_sides
+from .split_kernels import split_fans
 from .topology import boundary_loops
 
 SLIT_M = 1e-5  # metres: a vertex this close to a border side lies on it (float32 input rounding)
@@ -47,15 +49,12 @@ MAX_ROUNDS = 4  # a face is split on one side per round; three sides at most, pl
 
 
 def border_sides(faces: np.ndarray, vertex_count: int) -> np.ndarray:
-    """(s,) int64 border sides ``3 f + i`` (from corner i of face f to corner i + 1): the sides
-    whose undirected edge no other side uses."""
-    ordered, order = sorted_edge_keys(faces, vertex_count)
-    once = np.ones(len(ordered), dtype=bool)
-    if len(ordered) > 1:
-        repeated = ordered[1:] == ordered[:-1]
-        once[1:] &= ~repeated
-        once[:-1] &= ~repeated
-    return np.sort(order[once])
+    """(s,) int64 border sides ``3 f + i`` (from corner i of face f to corner i + 1), ascending:
+    the sides whose undirected edge no other side uses."""
+    faces = np.ascontiguousarray(faces, np.int64).reshape(-1, 3)
+    if len(faces) and (faces.min() < 0 or faces.max() >= vertex_count):
+        raise ValueError("border_sides: a face's vertex index is out of range")
+    return once_sides(faces, int(vertex_count))  # compiled
 
 
 def slit_points(
@@ -128,54 +127,23 @@ def split_sides(
     the input face of every output face, ``rest`` the ``(side, vertex, t)`` of the points on the
     faces' other sides, on the output faces now holding those sides (the fan's first face holds
     the side ``c -> a``, its last face ``b -> c``). ``side``, ``vertex``, ``t``:
-    :func:`slit_points`, sorted by side then t."""
-    face = side // 3
-    first_of_face = np.flatnonzero(np.concatenate([[True], face[1:] != face[:-1]]))
-    lowest = np.repeat(side[first_of_face], np.diff(np.append(first_of_face, len(side))))
-    chosen = side == lowest
-    rest = side[~chosen], vertex[~chosen], t[~chosen]
-    side, vertex, t = side[chosen], vertex[chosen], t[chosen]
-    f, i = side // 3, side % 3
-    a, b, c = faces[f, i], faces[f, (i + 1) % 3], faces[f, (i + 2) % 3]
-    # The fan of a side with points v1..vn: (a, v1, c), (v1, v2, c), ..., (vn, b, c): one face
-    # ending at each point, plus the last one ending at b.
-    first = np.concatenate([[True], side[1:] != side[:-1]])
-    last = np.concatenate([side[1:] != side[:-1], [True]])
-    previous = np.concatenate([[0], vertex[:-1]])
-    previous[first] = a[first]
-    fan = np.concatenate(
-        [np.column_stack([previous, vertex, c]), np.column_stack([vertex[last], b[last], c[last]])]
+    :func:`slit_points`, sorted by side then t; ``corner_uvs`` float32."""
+    faces = np.ascontiguousarray(faces, np.int64)
+    side = np.ascontiguousarray(side, np.int64)
+    if len(side) and (side.min() < 0 or side.max() >= 3 * len(faces)):
+        raise ValueError("split_sides: a side is out of range")
+    if len(side) > 1 and (np.diff(side) < 0).any():
+        raise ValueError("split_sides: the sides are not sorted")
+    has_uvs = corner_uvs is not None
+    out_faces, out_uvs, source, *rest = split_fans(  # compiled
+        faces,
+        np.ascontiguousarray(corner_uvs if has_uvs else np.zeros((0, 3, 2)), np.float32),
+        has_uvs,
+        side,
+        np.ascontiguousarray(vertex, np.int64),
+        np.ascontiguousarray(t, np.float64),
     )
-    fan_source = np.concatenate([f, f[last]])
-    keep = np.ones(len(faces), dtype=bool)
-    keep[f] = False
-    kept = int(keep.sum())
-    out_faces = np.concatenate([faces[keep], fan])
-    source = np.concatenate([np.flatnonzero(keep), fan_source])
-    out_uvs = None
-    if corner_uvs is not None:
-        uv_a, uv_b, uv_c = (corner_uvs[f, (i + k) % 3].astype(np.float64) for k in range(3))
-        at = uv_a + t[:, None] * (uv_b - uv_a)  # the UV of each point, along its side
-        at_previous = np.concatenate([at[:1], at[:-1]])
-        at_previous[first] = uv_a[first]
-        fan_uvs = np.concatenate(
-            [
-                np.stack([at_previous, at, uv_c], axis=1),
-                np.stack([at[last], uv_b[last], uv_c[last]], axis=1),
-            ]
-        ).astype(np.float32)
-        out_uvs = np.concatenate([corner_uvs[keep], fan_uvs])
-    if len(rest[0]):
-        # The split faces ascend (sides sorted), so a face's fan is found by searchsorted.
-        split_face = f[first]
-        group = np.searchsorted(split_face, rest[0] // 3)
-        first_fan = kept + np.flatnonzero(first)[group]
-        last_fan = kept + len(side) + group
-        on_last = rest[0] % 3 == (i[first][group] + 1) % 3  # the side b -> c
-        moved = np.where(on_last, 3 * last_fan + 1, 3 * first_fan + 2)
-        order = np.lexsort((rest[2], moved))
-        rest = moved[order], rest[1][order], rest[2][order]
-    return out_faces, out_uvs, source, rest
+    return out_faces, out_uvs if has_uvs else None, source, tuple(rest)
 
 
 def close_slits(

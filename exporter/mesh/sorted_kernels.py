@@ -55,3 +55,13 @@ def stable_order(keys):  # pragma: no cover - compiled
         order, spare = spare, order
         width *= 2
     return order
+
+
+@kernel
+def run_end(keys, lo):  # pragma: no cover - compiled
+    """The end of the run of equal values in ``keys`` starting at ``lo`` (first index after it
+    holding another value, or ``len(keys)``)."""
+    hi = lo
+    while hi < keys.shape[0] and keys[hi] == keys[lo]:
+        hi += 1
+    return hi

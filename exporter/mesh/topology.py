@@ -10,8 +10,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import cross_rows, row_norms, sorted_edge_keys
-from .weld import lowest_member
+from .boundary_kernels import border_loops
+from .edge_kernels import edge_counts
+from .geometry import sorted_edge_keys
+from .planar_region_kernels import region_labels
 
 # Two faces sharing an edge are one planar region when their unit normals differ by less than
 # this angle (cosine) and the second lies on the first's plane within PLANE_M metres.
@@ -43,20 +45,11 @@ def edge_use(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     seen, result = _last_edge_use
     if seen is faces:
         return result
-    if len(faces) == 0:
-        unique, counts = np.zeros((0, 2), np.int64), np.zeros(0, np.int64)
-    else:
-        # One int64 key per side (low * base + high) sorted once; groups of equal keys are the
-        # edges (the rows and counts of np.unique(axis=0) on the sorted pairs).
-        corners = np.asarray(faces, dtype=np.int64)
-        ahead = corners[:, [1, 2, 0]]
-        low, high = np.minimum(corners, ahead).reshape(-1), np.maximum(corners, ahead).reshape(-1)
-        base = int(high.max()) + 1
-        keys = np.sort(low * base + high)
-        start = np.flatnonzero(np.concatenate([[True], keys[1:] != keys[:-1]]))
-        counts = np.concatenate([start[1:], [len(keys)]]) - start
-        unique = np.empty((len(start), 2), np.int64)
-        unique[:, 0], unique[:, 1] = np.divmod(keys[start], base)
+    corners = np.ascontiguousarray(faces, dtype=np.int64).reshape(-1, 3)
+    if len(corners) and corners.min() < 0:
+        raise ValueError("edge_use: a face's vertex index is negative")
+    # Compiled: sides sorted by (low, high) vertex, equal neighbours counted.
+    unique, counts = edge_counts(corners, int(corners.max()) + 1 if len(corners) else 1)
     unique.flags.writeable = counts.flags.writeable = False
     _last_edge_use = (faces, (unique, counts))
     return unique, counts
@@ -91,68 +84,30 @@ def planar_regions(
     m = len(faces)
     if m == 0:
         return np.zeros(0, np.int64)
-    a, b, c = (positions[faces[:, i]] for i in range(3))
-    normal = cross_rows(b - a, c - a)
-    normal /= np.maximum(row_norms(normal)[:, None], 1e-30)
+    faces = np.ascontiguousarray(faces, np.int64)
+    if faces.min() < 0 or faces.max() >= len(positions):
+        raise ValueError("planar_regions: a face's vertex index is out of range")
+    if groups is not None and len(groups) != m:
+        raise ValueError("planar_regions: groups and faces differ in length")
     keys, order = edge_keys if edge_keys is not None else sorted_edge_keys(faces, len(positions))
-    owner = order // 3
-    same = keys[1:] == keys[:-1]
-    f, g = owner[:-1][same], owner[1:][same]
-    if groups is not None:
-        keep = groups[f] == groups[g]
-        f, g = f[keep], g[keep]
-    # Every face's centroid with the arithmetic of positions[faces].mean(axis=1) (its sum starts
-    # at 0.0), for all faces at once.
-    centroid = (0.0 + a + b + c) / 3
-    coplanar = ((normal[f] * normal[g]).sum(1) > COPLANAR_COS) & (
-        np.abs(((centroid[g] - a[f]) * normal[f]).sum(1)) < PLANE_M
+    use_groups = groups is not None
+    return region_labels(
+        np.ascontiguousarray(positions, np.float64),
+        faces,
+        np.ascontiguousarray(groups if use_groups else np.zeros(0), np.int64),
+        use_groups,
+        np.ascontiguousarray(keys, np.int64),
+        np.ascontiguousarray(order, np.int64),
+        COPLANAR_COS,
+        PLANE_M,
     )
-    # Components numbered by their lowest face, as scipy's connected_components numbers them.
-    lowest = lowest_member(m, f[coplanar], g[coplanar])
-    root = lowest == np.arange(m)
-    return (np.cumsum(root) - 1)[lowest]
 
 
 def boundary_loops(faces: np.ndarray, vertex_count: int) -> tuple[np.ndarray, int]:
     """Open-boundary edges (e, 2) int64 (used by one face, (low, high) vertex, sorted) and the
-    number of loops they form."""
-    first, second = faces.ravel(), faces[:, [1, 2, 0]].ravel()  # edges (0, 1), (1, 2), (2, 0)
-    keys = np.sort(np.minimum(first, second) * (vertex_count + 1) + np.maximum(first, second))
-    # A key used once differs from both neighbours (np.unique's counts == 1, fewer passes).
-    once = np.ones(len(keys), dtype=bool)
-    if len(keys) > 1:
-        repeated = keys[1:] == keys[:-1]
-        once[1:] &= ~repeated
-        once[:-1] &= ~repeated
-    border = np.column_stack(np.divmod(keys[once], vertex_count + 1))
-    return border, count_components(border.tolist())
-
-
-def count_components(edges: list) -> int:
-    """Connected components of the graph of ``edges`` ((a, b) vertex pairs, a Python list):
-    only vertices on an edge count.
-
-    Union-find in plain Python: a building's open boundary has tens of edges, where scipy's
-    ``csr_matrix`` + ``connected_components`` cost ~150 us of argument checking per call (a
-    count, so any exact method gives the same number)."""
-    parent: dict[int, int] = {}
-
-    def find(x: int) -> int:
-        root = x
-        while parent[root] != root:
-            root = parent[root]
-        while parent[x] != root:  # path compression
-            parent[x], x = root, parent[x]
-        return root
-
-    count = 0
-    for a, b in edges:
-        for v in (a, b):
-            if v not in parent:
-                parent[v] = v
-                count += 1
-        ra, rb = find(a), find(b)
-        if ra != rb:
-            parent[ra] = rb
-            count -= 1
-    return count
+    number of loops they form (connected components of those edges), compiled."""
+    faces = np.ascontiguousarray(faces, np.int64).reshape(-1, 3)
+    if len(faces) and (faces.min() < 0 or faces.max() > vertex_count):
+        raise ValueError("boundary_loops: a face's vertex index is out of range")
+    border, loops = border_loops(faces, int(vertex_count))
+    return border, int(loops)

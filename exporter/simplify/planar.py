@@ -33,6 +33,7 @@ import mapbox_earcut
 import numpy as np
 
 from ..mesh.geometry import cross3, cross_rows, row_norms, sorted_edge_keys
+from ..mesh.outline_kernels import outline_loops
 from ..mesh.slits import close_slits, slit_vertices
 from ..mesh.topology import border_vertices, edge_use, planar_regions
 
@@ -236,49 +237,26 @@ def _region_loops(
     list of loops (vertex lists) or None (pinched, open chain, no outline, or a loop under 3).
 
     ``half`` (h, 2) int64 directed half-edges of all regions' faces in face order, ``half_region``
-    (h,) their region (0..region_count-1, ascending), ``k`` the vertex count. The outline is a
-    permutation of its half-edges exactly when sources and targets are unique and every target is
-    a source; then every walk of :func:`_loops` closes, starting at the region's first outline
-    half-edge in face order.
+    (h,) their region (0..region_count-1, ascending), ``k`` the vertex count
+    (``region_count * k * k < 2**62``); the walks are compiled
+    (:func:`exporter.mesh.outline_kernels.outline_loops`).
     """
-    key = (half_region * k + half[:, 0]) * k + half[:, 1]
-    reverse = (half_region * k + half[:, 1]) * k + half[:, 0]
-    outline = ~_member(reverse, np.sort(key))
-    edges, owner = half[outline], half_region[outline]
-    source, target = owner * k + edges[:, 0], owner * k + edges[:, 1]
-    bad = np.bincount(owner, minlength=region_count) == 0
-    if not len(source):
-        return [None] * region_count
-    by_source = np.argsort(source)
-    sources, targets = source[by_source], np.sort(target)
-    bad[sources[1:][sources[1:] == sources[:-1]] // k] = True
-    bad[targets[1:][targets[1:] == targets[:-1]] // k] = True
-    at = np.minimum(np.searchsorted(sources, target), len(source) - 1)
-    bad[owner[sources[at] != target]] = True
-    following = by_source[at]
+    half = np.ascontiguousarray(half, np.int64).reshape(-1, 2)
+    half_region = np.ascontiguousarray(half_region, np.int64)
+    if len(half) and (half.min() < 0 or half.max() >= k):
+        raise ValueError("_region_loops: a vertex id is out of range")
+    if len(droppable) < k:
+        raise ValueError("_region_loops: droppable has fewer than k entries")
+    if len(half_region) > 1 and (np.diff(half_region) < 0).any():
+        raise ValueError("_region_loops: the regions are not ascending")
+    bad, vertices, bounds, loop_region = outline_loops(  # compiled
+        half, half_region, int(region_count), int(k), np.asarray(droppable, dtype=bool)
+    )
     loops: list = [None if b else [] for b in bad.tolist()]
-    # Each outline vertex, or -1 where it is dropped.
-    kept = np.where(np.asarray(droppable, dtype=bool)[edges[:, 0]], -1, edges[:, 0]).tolist()
-    following, owners = following.tolist(), owner.tolist()
-    # Walks start at every half-edge not yet seen, in face order (bytearray.find skips the seen
-    # ones at C speed); bad regions' half-edges are never walked (their successors may be wrong).
-    seen = bytearray(bad[owner].tobytes())
-    first = seen.find(0)
-    while first >= 0:
-        loop, e = [], first
-        while not seen[e]:
-            seen[e] = 1
-            if kept[e] >= 0:
-                loop.append(kept[e])
-            e = following[e]
-        # A good region's walk stays in it; one of its loops under 3 vertices voids the region.
-        region = loops[owners[first]]
-        if region is not None:
-            if len(loop) < 3:
-                loops[owners[first]] = None
-            else:
-                region.append(loop)
-        first = seen.find(0, first + 1)
+    flat, ends = vertices.tolist(), bounds.tolist()
+    for i, region in enumerate(loop_region.tolist()):
+        if loops[region] is not None:
+            loops[region].append(flat[ends[i] : ends[i + 1]])
     return loops
 
 
