@@ -21,8 +21,14 @@ from pyproj import Transformer
 from exporter.cli import main
 from exporter.config import ConfigError, ReaderOptions, config_from_dict, default_config_yaml
 from exporter.errors import InputError, ReadError
+from exporter.readers import (
+    check_crs_option,
+    detect_format,
+    input_paths,
+    load_entry,
+    scan_folder,
+)
 from exporter.readers import citygml as reader
-from exporter.readers import detect_format, input_paths, load_entry, scan_folder
 from exporter.readers.atlas import shelf_pack
 from tests.citygml_writer import (
     appearance_member,
@@ -291,6 +297,26 @@ def test_crs_inherited_declared_wins_and_missing_needs_crs(tmp_path):
     with pytest.raises(InputError, match=r"c\.gml.*no coordinate reference system"):
         scan_folder(bare)
     assert load_all(bare, crs="EPSG:25832")[0].reference == reference
+
+
+def test_crs_options_follow_the_cityjson_rules(tmp_path):
+    """--override-crs replaces a declared CRS (noted); a --crs other than the declared one is a
+    conflict that check_crs_option refuses unless another input lacks a CRS (issue 26's rules)."""
+    data = [{"id": "B2", "surfaces": box(X0, Y0, 100.0, 8, 8, 9)}]
+    declared = write(tmp_path / "a" / "a.gml", citygml(data))  # EPSG:25832
+    kept = load_all(declared)[0]
+    moved = load_all(declared, override_crs="EPSG:25833")[0]
+    assert abs(moved.reference.lon - kept.reference.lon) > 1.0  # 6 degrees: the next UTM zone
+    assert any("in place of the declared" in p for p in moved.problems)
+    options = ReaderOptions(crs="EPSG:25833")
+    scan = scan_folder(declared, options)
+    assert scan.crs_conflicts and not scan.crs_option_used
+    with pytest.raises(InputError, match=r"a\.gml: declares .*25832.*no input lacks a CRS"):
+        check_crs_option([scan], options)
+    bare = write(tmp_path / "c" / "c.gml", citygml(data, srs=None))
+    bare_scan = scan_folder(bare, options)
+    assert bare_scan.crs_option_used and not bare_scan.crs_conflicts
+    check_crs_option([scan, bare_scan], options)  # --crs is for c.gml; a.gml keeps its own
 
 
 def test_lod_choice_follows_the_config(tmp_path):

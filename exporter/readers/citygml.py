@@ -23,7 +23,8 @@ Sources: OGC CityGML 1.0 (08-007r1) and 2.0 (12-019) encoding standards, GML 3.1
   ``ReaderOptions.drop_ground_surfaces`` (VWorld-style floorless models, as for CityJSON).
 - **Coordinates**: ``srsName`` on the geometry or its nearest ancestor, else the building's or the
   CityModel's ``gml:Envelope``, else ``ReaderOptions.crs`` (``--crs``, never overriding a declared
-  one). Forms: ``EPSG:x``, OGC URNs (with or without version), compound URNs
+  one; a conflict is listed in ``Scan.crs_conflicts`` as for CityJSON); ``ReaderOptions.override_crs``
+  (``--override-crs``) in place of any declared one, noted. Forms: ``EPSG:x``, OGC URNs (with or without version), compound URNs
   (``urn:ogc:def:crs,crs:EPSG::25832,crs:EPSG::5783``), OGC URLs, ``...epsg.xml#x`` and the
   German AdV ``urn:adv:crs:ETRS89_UTM32*...``. Coordinates are in the CRS's own axis order
   (EPSG:6697 and 4326 are latitude first) and are swapped to easting/longitude first before
@@ -490,9 +491,19 @@ def _ring(ring, problems: _Problems) -> np.ndarray | None:
 class _Walker:
     """Collects the surfaces of geometry properties, following xlinks within the building."""
 
-    def __init__(self, ids: dict, colours: dict, default_crs: str | None, problems: _Problems):
-        self.ids, self.colours, self.default_crs = ids, colours, default_crs
+    def __init__(
+        self,
+        ids: dict,
+        colours: dict,
+        declared_default: str | None,
+        problems: _Problems,
+        options: ReaderOptions,
+    ):
+        self.ids, self.colours, self.declared_default = ids, colours, declared_default
+        self.option_crs, self.override_crs = options.crs, options.override_crs
         self.problems = problems
+        self.declared: set[str] = set()  # the srsNames the geometry declares, as written
+        self.used_option = False  # some geometry declares none and is read in options.crs
         self.surfaces: list[_Surface] = []
         self.seen: dict = {}  # (element, flip) -> index in surfaces (elements kept alive here)
         self.followed: dict = {}  # (element, flip) reached by xlink:href (kept alive here)
@@ -500,7 +511,14 @@ class _Walker:
         self.crs_cache: dict = {}
 
     def crs(self, element) -> str:
-        srs_name = _inherited(element, "srsName") or self.default_crs
+        """The CRS to read ``element``'s coordinates in: ``override_crs``, else the declared
+        ``srsName``, else ``options.crs`` (the rule the CityJSON reader follows)."""
+        declared = _inherited(element, "srsName") or self.declared_default
+        if declared is not None:
+            self.declared.add(declared)
+        elif not self.override_crs:
+            self.used_option = self.option_crs is not None
+        srs_name = self.override_crs or declared or self.option_crs
         if srs_name is None:
             raise ValueError(f"declares no coordinate reference system (srsName); {CRS_HINT}")
         if srs_name not in self.crs_cache:
@@ -583,6 +601,8 @@ class _Read:
     attributes: dict
     lod: int | None
     dangling: list = field(default_factory=list)  # xlink:href ids not found in the building
+    declared: set = field(default_factory=set)  # srsNames its geometry declares, as written
+    used_option: bool = False  # some of its geometry declares no CRS: read in options.crs
 
 
 def _attributes(building, building_id: str) -> dict:
@@ -644,12 +664,17 @@ def read_building(
             ids.setdefault(gml_id, element)
     for gml_id, element in (foreign or {}).items():
         ids.setdefault(gml_id, element)
-    default = _envelope_srs(building) or file_srs or options.crs
-    walker = _Walker(ids, colours, default, problems)
+    walker = _Walker(ids, colours, _envelope_srs(building) or file_srs, problems, options)
     for lod, semantic, prop in found:
         if lod == read.lod:
             walker.walk(prop, semantic, False, None)
     read.dangling = walker.dangling
+    read.declared, read.used_option = walker.declared, walker.used_option
+    if options.override_crs and walker.declared:
+        problems.notes.append(
+            f"read in {options.override_crs} in place of the declared "
+            f"{', '.join(sorted(walker.declared))} (override_crs)"
+        )
     dropped = 0
     for surface in walker.surfaces:
         if surface is None:
@@ -907,6 +932,8 @@ class _FileScan:
     entries: list = field(default_factory=list)
     skipped: list = field(default_factory=list)
     notes: list = field(default_factory=list)
+    crs_option_used: bool = False  # see Scan.crs_option_used
+    crs_conflicts: list = field(default_factory=list)  # see Scan.crs_conflicts
 
 
 _NO_GEOMETRY = "no surface geometry (after dropping ground surfaces, if asked)"
@@ -931,10 +958,39 @@ def _skipped(source: str, element, name, error: Exception) -> Skipped:
 def _foreign_surfaces(found: tuple, options: ReaderOptions) -> list[_Surface]:
     """The surfaces of elements referenced from another building (:func:`foreign_polygons`)."""
     elements = {gml_id: etree.fromstring(data) for gml_id, data in found}
-    walker = _Walker(elements, {}, options.crs, _Problems())
+    walker = _Walker(elements, {}, None, _Problems(), options)
     for element in elements.values():
         walker.walk(element, None, False, None)
     return [s for s in walker.surfaces if s is not None]
+
+
+def _crs_notes(path: Path, declared: set[str], options: ReaderOptions, out: _FileScan) -> None:
+    """The CityJSON reader's notes and ``crs_conflicts`` for a file declaring ``declared``: an
+    override is noted; a declared CRS other than ``options.crs`` is kept, noted and listed as a
+    conflict (``readers.check_crs_option`` refuses the run when no file lacks a CRS)."""
+    names = sorted(declared)
+    if options.override_crs and names:
+        out.notes.append(
+            f"{path.name}: declares {', '.join(names)}; read as {options.override_crs} "
+            "(readers.override_crs / --override-crs)"
+        )
+        return
+    wanted = geodesy.normalise_crs_text(options.crs) if options.crs else None
+    other = [n for n in names if wanted is not None and _crs_text(n) != wanted]
+    if other:
+        out.crs_conflicts.append(f"{path}: declares {other[0]}, not {options.crs}")
+        out.notes.append(
+            f"{path.name}: declares {other[0]}; read in it (--crs / readers.crs is for files "
+            "that declare none)"
+        )
+
+
+def _crs_text(srs_name: str) -> str:
+    """:func:`crs_of_srs_name`, or the name itself when unknown (its buildings were skipped)."""
+    try:
+        return crs_of_srs_name(srs_name)
+    except ValueError:
+        return srs_name
 
 
 def _scan_file(path: Path, options: ReaderOptions) -> _FileScan:
@@ -944,7 +1000,7 @@ def _scan_file(path: Path, options: ReaderOptions) -> _FileScan:
     )
     theme = themes[0] if themes else None
     pending = []  # (entry, {theme: image URIs}) until the theme is known
-    declared = False
+    declared: set[str] = set()  # the srsNames the file's geometry declares, as written
     # Shared by the entries (a file may list 10^5 buildings): the path, its one-item inputs
     # list (replaced, never appended to) and the TileIds.
     source = str(path)
@@ -952,7 +1008,6 @@ def _scan_file(path: Path, options: ReaderOptions) -> _FileScan:
     tiles: dict = {}
     try:
         for ordinal, (_, element, file_srs) in enumerate(stream(path)):
-            declared = declared or file_srs is not None
             local_themes, _ = _local_appearance(element, None)
             for name in local_themes:
                 if name not in themes:
@@ -961,7 +1016,8 @@ def _scan_file(path: Path, options: ReaderOptions) -> _FileScan:
                 read = read_building(element, ordinal, file_srs, options, {})
                 if not read.surfaces and not read.dangling:
                     raise ValueError(_NO_GEOMETRY)
-                declared = declared or any(_inherited(s.element, "srsName") for s in read.surfaces)
+                declared |= read.declared
+                out.crs_option_used |= read.used_option
                 lonlath = _all_lonlath(read.surfaces)
                 # A building referencing another's polygons is placed once they are found.
                 tile = None if read.dangling else _tile(lonlath)
@@ -999,10 +1055,7 @@ def _scan_file(path: Path, options: ReaderOptions) -> _FileScan:
         out.notes.append(
             f"{path.name}: appearance themes {', '.join(map(repr, themes))}; used the first, {theme!r}"
         )
-    if options.crs and declared:
-        out.notes.append(
-            f"{path.name}: declares its CRS; --crs / readers.crs applies only where none is declared"
-        )
+    _crs_notes(path, declared, options, out)
     wanted = {gml_id for _, _, dangling, _ in pending for gml_id in dangling}
     foreign = foreign_polygons(path, wanted) if wanted else {}
     for entry, images, dangling, placed in pending:
@@ -1046,6 +1099,8 @@ def scan(folder: Path, options: ReaderOptions) -> Scan:
         result.entries += found.entries
         result.skipped += found.skipped
         result.notes += found.notes
+        result.crs_option_used |= found.crs_option_used
+        result.crs_conflicts += found.crs_conflicts
     return result
 
 
