@@ -26,7 +26,6 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from . import __version__
 from .atomic import remove_stale_temporaries, write_text_atomic
@@ -42,10 +41,8 @@ from .readers import Entry, check_crs_option, scan_folder
 from .records import files_intact, stamped, write_record
 from .tile_index import write_tile_index
 from .tiles import tile_bounds, tile_center
+from .tileset import TilesetResult, write_tileset
 from .workers import start_worker
-
-if TYPE_CHECKING:
-    from .tileset import TilesetResult
 
 # --------------------------------------------------------------------------- small pure helpers
 
@@ -417,13 +414,14 @@ def export_tiles(
                 reused.get(tile, 0),
             )
         )
-    write_tile_index(out_dir, stats.tiles, config.globe)  # after the manifests: only complete tiles
-    if config.tileset.enabled:  # last: it references only files that are complete
-        from .tileset import write_tileset
-
-        stats.tileset = write_tileset(out_dir, config.tileset, config.textures.jpeg_quality)
-        if stats.tileset.proxies_index:  # the streamer shows the proxies beyond its buildings
-            write_tile_index(out_dir, stats.tiles, config.globe, stats.tileset.proxies_index)
+    # After the manifests (the tileset and tiles.json reference only complete files); tiles.json
+    # once, after the tileset, listing its proxies for the streamer, and also when the tileset fails.
+    try:
+        if config.tileset.enabled:
+            stats.tileset = write_tileset(out_dir, config.tileset, config.textures.jpeg_quality)
+    finally:
+        proxies = stats.tileset.proxies_index if stats.tileset is not None else []
+        write_tile_index(out_dir, stats.tiles, config.globe, proxies)
     stats.wall_seconds = time.perf_counter() - started
     return stats
 
