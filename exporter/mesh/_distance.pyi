@@ -1,0 +1,3 @@
+import numpy as np
+
+def pairs(points: np.ndarray, tri: np.ndarray, out: np.ndarray, /) -> None: ...
