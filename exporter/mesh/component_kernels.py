@@ -1,42 +1,12 @@
-"""Connected components of an undirected graph, compiled: union-find (Tarjan, "Efficiency of a
-good but not linear set union algorithm", 1975) with path halving, each union linking the larger
-root under the smaller, so every component's root is its lowest node (the labels
-``scipy.sparse.csgraph.connected_components`` orders its components by)."""
+"""Connected components of an undirected graph, labelled by their lowest node: the checks around
+the compiled union-find (``exporter/mesh/c/component.c``; Tarjan 1975, path halving, the larger
+root linked under the smaller)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from .jit import kernel
-
-
-@kernel
-def root(parent, a):  # pragma: no cover - compiled
-    """The root of node ``a`` in the union-find forest ``parent`` (n,) int64, halving its path."""
-    while parent[a] != a:
-        parent[a] = parent[parent[a]]
-        a = parent[a]
-    return a
-
-
-@kernel
-def _lowest(n, left, right):  # pragma: no cover - compiled
-    parent = np.arange(n)
-    for e in range(left.shape[0]):
-        a, b = left[e], right[e]
-        while parent[a] != a:  # find with path halving
-            parent[a] = parent[parent[a]]
-            a = parent[a]
-        while parent[b] != b:
-            parent[b] = parent[parent[b]]
-            b = parent[b]
-        if a < b:
-            parent[b] = a
-        elif b < a:
-            parent[a] = b
-    for i in range(n):  # parents are lower than their children: one pass in order settles all
-        parent[i] = parent[parent[i]]
-    return parent
+from ._component import lowest
 
 
 def lowest_member(n: int, left: np.ndarray, right: np.ndarray) -> np.ndarray:
@@ -48,4 +18,17 @@ def lowest_member(n: int, left: np.ndarray, right: np.ndarray) -> np.ndarray:
         raise ValueError("lowest_member: edge ends of different lengths")
     if len(left) and (min(left.min(), right.min()) < 0 or max(left.max(), right.max()) >= n):
         raise ValueError("lowest_member: a node index is out of range")
-    return _lowest(int(n), left, right)
+    return lowest(int(n), left, right)
+
+
+# Still imported by the numba kernels of boundary_kernels and planar_region_kernels until their
+# C ports land (they use c/union_find.h); removed with exporter/mesh/jit.py.
+from .jit import kernel  # noqa: E402
+
+
+@kernel
+def root(parent, a):  # pragma: no cover - compiled
+    while parent[a] != a:
+        parent[a] = parent[parent[a]]
+        a = parent[a]
+    return a

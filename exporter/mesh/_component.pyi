@@ -1,0 +1,3 @@
+import numpy as np
+
+def lowest(n: int, left: np.ndarray, right: np.ndarray, /) -> np.ndarray: ...

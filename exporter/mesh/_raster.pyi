@@ -1,0 +1,3 @@
+import numpy as np
+
+def rasterise(xy: np.ndarray, faces: np.ndarray, size: int, out: np.ndarray, /) -> None: ...
