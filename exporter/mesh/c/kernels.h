@@ -39,7 +39,7 @@ static inline int64_t k_mod(int64_t a, int64_t b) {
     return (r != 0 && ((r < 0) != (b < 0))) ? r + b : r;
 }
 
-static const char *k_type_name(int typenum) {
+static inline const char *k_type_name(int typenum) {
     switch (typenum) {
     case NPY_FLOAT64: return "float64";
     case NPY_FLOAT32: return "float32";
@@ -56,7 +56,7 @@ static const char *k_type_name(int typenum) {
  * type is converted when numpy casts it safely; an output (writable != 0) must already be a
  * writable C-contiguous array of that type, since the kernel writes into it. Returns NULL at once
  * when an error is already set, so a kernel can fetch all its arguments and test once. */
-static PyArrayObject *k_array(PyObject *obj, int typenum, int ndim, int writable,
+static inline PyArrayObject *k_array(PyObject *obj, int typenum, int ndim, int writable,
                               const char *kernel, const char *name) {
     PyArrayObject *array;
     if (PyErr_Occurred()) return NULL;
@@ -90,7 +90,7 @@ static PyArrayObject *k_array(PyObject *obj, int typenum, int ndim, int writable
 }
 
 /* 0 when dimension `axis` of `array` is `size`, else -1 with a ValueError. */
-static int k_dim(PyArrayObject *array, int axis, npy_intp size, const char *kernel,
+static inline int k_dim(PyArrayObject *array, int axis, npy_intp size, const char *kernel,
                  const char *name) {
     if (PyArray_DIM(array, axis) != size) {
         PyErr_Format(PyExc_ValueError, "%s: %s has %zd along axis %d, expected %zd", kernel, name,
@@ -101,7 +101,7 @@ static int k_dim(PyArrayObject *array, int axis, npy_intp size, const char *kern
 }
 
 /* 0 when every value of the int64 `array` lies in [0, bound), else -1 with a ValueError. */
-static int k_indices(PyArrayObject *array, int64_t bound, const char *kernel, const char *name) {
+static inline int k_indices(PyArrayObject *array, int64_t bound, const char *kernel, const char *name) {
     const int64_t *v = (const int64_t *)PyArray_DATA(array);
     npy_intp n = PyArray_SIZE(array);
     for (npy_intp i = 0; i < n; i++) {
@@ -115,12 +115,12 @@ static int k_indices(PyArrayObject *array, int64_t bound, const char *kernel, co
 }
 
 /* A new C-contiguous array of `typenum`, zero-filled; NULL with MemoryError. */
-static PyArrayObject *k_zeros(int ndim, const npy_intp *dims, int typenum) {
+static inline PyArrayObject *k_zeros(int ndim, const npy_intp *dims, int typenum) {
     return (PyArrayObject *)PyArray_ZEROS(ndim, (npy_intp *)dims, typenum, 0);
 }
 
 /* A new C-contiguous array of `typenum`, uninitialised; NULL with MemoryError. */
-static PyArrayObject *k_empty(int ndim, const npy_intp *dims, int typenum) {
+static inline PyArrayObject *k_empty(int ndim, const npy_intp *dims, int typenum) {
     return (PyArrayObject *)PyArray_EMPTY(ndim, (npy_intp *)dims, typenum, 0);
 }
 

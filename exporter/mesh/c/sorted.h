@@ -34,7 +34,7 @@ static inline int64_t run_end(const int64_t *keys, int64_t n, int64_t lo) {
 
 /* The stable ascending order of keys[0:n]: written to `order` (n) using `spare` (n) as scratch;
  * returns whichever of the two holds the result. */
-static int64_t *stable_order(const int64_t *keys, int64_t n, int64_t *order, int64_t *spare) {
+static inline int64_t *stable_order(const int64_t *keys, int64_t n, int64_t *order, int64_t *spare) {
     for (int64_t i = 0; i < n; i++) order[i] = i;
     for (int64_t width = 1; width < n; width *= 2) {
         for (int64_t lo = 0; lo < n; lo += 2 * width) {
