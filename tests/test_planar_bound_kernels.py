@@ -69,3 +69,39 @@ def test_an_index_out_of_range_is_an_error_not_a_crash():
             None,
             (SHRINK, PLANE_SLACK_MAX, LOOSE),
         )
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"face": np.array([4])}, "face holds 4"),
+        ({"region": np.array([3])}, "region holds 3"),
+        ({"seg_start": np.array([0, 5])}, "seg_start"),
+        ({"seg_start": np.array([-1, 0])}, "seg_start"),
+        ({"tri2": np.zeros((2, 3, 2))}, "tri2"),
+        ({"out": np.zeros(1, np.float32)}, "out must be"),
+    ],
+)
+def test_the_compiled_kernel_checks_what_it_follows(change, message):
+    """The C kernel called directly (past the wrapper's checks) refuses indices out of range."""
+    from exporter.mesh._planar_bound import bound
+
+    args = {
+        "tri": np.eye(3)[None],
+        "row": np.array([0]),
+        "face": np.array([0]),
+        "region": np.array([0]),
+        "planes": np.zeros((12, 1)),
+        "tri2": np.zeros((1, 3, 2)),
+        "seg_start": np.array([0, 0]),
+        "seg": np.zeros((4, 0)),
+        "cap": None,
+        "loose": np.array(LOOSE),
+        "scale": 1.0,
+        "shrink": SHRINK,
+        "plane_slack_max": PLANE_SLACK_MAX,
+        "out": np.full(1, np.inf),
+    }
+    bound(*args.values())  # the unchanged arguments are accepted
+    with pytest.raises(ValueError, match=message):
+        bound(*{**args, **change}.values())

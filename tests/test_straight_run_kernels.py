@@ -72,3 +72,36 @@ def test_an_index_out_of_range_is_an_error_not_a_crash():
     ends = np.array([[0, 1], [1, 0]])
     with pytest.raises(ValueError, match="out of range"):
         straight_runs(np.array([0, 5]), seg, ends, np.ones(2, bool), np.zeros(2), T_JUNCTION)
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"order_out": np.array([2])}, "order_out holds 2"),
+        ({"region": np.array([0, 1])}, "region holds 1"),
+        ({"keys_in": np.zeros(2, np.int64)}, "keys_in"),
+        ({"gap": np.zeros(1, np.float32)}, "gap must be"),
+        ({"out_seg": np.zeros((1, 2, 2))}, "out_seg"),
+    ],
+)
+def test_the_compiled_walk_checks_what_it_follows(change, message):
+    """The C walk called directly (past the wrapper's checks) refuses indices out of range."""
+    from exporter.mesh._straight_run import runs
+
+    args = {
+        "region": np.array([0, 0]),
+        "seg": np.array([[[0.0, 0.0], [1.0, 0.0]], [[1.0, 0.0], [2.0, 0.0]]]),
+        "start_key": np.array([0, 1]),
+        "end_key": np.array([1, 2]),
+        "order_out": np.array([0]),
+        "keys_in": np.array([1]),
+        "oriented": np.array([True, False]),
+        "t_junction": T_JUNCTION,
+        "half": 0.5,
+        "gap": np.zeros(1),
+        "out_region": np.empty(2, np.int64),
+        "out_seg": np.empty((2, 2, 2)),
+    }
+    assert runs(*args.values()) == 2  # the unchanged arguments are accepted
+    with pytest.raises(ValueError, match=message):
+        runs(*{**args, **change}.values())
