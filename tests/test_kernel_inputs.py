@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from exporter.mesh.distance_kernels import point_triangle_distance
+from exporter.mesh.edge_kernels import edge_counts, edge_key_order
 from exporter.mesh.hausdorff import LOOSE, PLANE_SLACK_MAX, SHRINK, T_JUNCTION, Surface
 from exporter.mesh.planar_bound_kernels import planar_bound
 from exporter.mesh.raster_kernels import rasterise_views
@@ -46,3 +47,12 @@ def test_raster_and_distance_check_their_shapes():
         rasterise_views(np.zeros((1, 3, 1)), np.array([[0, 1, 2]]), 8)
     with pytest.raises(ValueError, match="shapes"):
         point_triangle_distance(np.zeros((3, 4)), np.zeros((3, 3, 3)))
+
+
+def test_edge_kernels_check_their_faces():
+    with pytest.raises(ValueError, match=r"faces holds 5, outside \[0, 3\)"):
+        edge_key_order(np.array([[0, 1, 5]]), 3)
+    with pytest.raises(ValueError, match="faces must have 2 dimensions"):
+        edge_counts(np.array([0, 1, 2]), 3)
+    with pytest.raises(ValueError, match="faces has 4 along axis 1"):
+        edge_counts(np.zeros((1, 4), np.int64), 3)
