@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from exporter.mesh.boundary_kernels import border_loops, once_sides
 from exporter.mesh.distance_kernels import point_triangle_distance
 from exporter.mesh.edge_kernels import edge_counts, edge_key_order
 from exporter.mesh.hausdorff import LOOSE, PLANE_SLACK_MAX, SHRINK, T_JUNCTION, Surface
@@ -56,3 +57,10 @@ def test_edge_kernels_check_their_faces():
         edge_counts(np.array([0, 1, 2]), 3)
     with pytest.raises(ValueError, match="faces has 4 along axis 1"):
         edge_counts(np.zeros((1, 4), np.int64), 3)
+
+
+def test_boundary_kernels_check_their_faces():
+    with pytest.raises(ValueError, match=r"faces holds 4, outside \[0, 4\)"):
+        once_sides(np.array([[0, 1, 4]]), 3)  # ids up to vertex_count itself are allowed
+    with pytest.raises(ValueError, match="vertex_count is negative"):
+        border_loops(np.zeros((0, 3), np.int64), -1)

@@ -7,6 +7,7 @@
  * sides; a merge sort at a fan's apex), so the order is exactly np.argsort(keys, kind="stable")'s
  * (tests/test_edge_kernels.py keeps the numpy form as the reference). Integers only.
  */
+#include "faces.h"
 #include "kernels.h"
 #include "sorted.h"
 
@@ -77,30 +78,22 @@ done:
  * vertex_count) of `kernel` as a new tuple, or NULL with a ValueError or MemoryError. */
 static PyObject *sorted_sides(PyObject *args, const char *format, const char *kernel,
                              int64_t *vertex_count) {
-    PyObject *faces_obj, *result = NULL;
-    long long count;
+    PyObject *result = NULL;
     PyArrayObject *keys = NULL, *order = NULL;
-    if (!PyArg_ParseTuple(args, format, &faces_obj, &count)) return NULL;
-    PyArrayObject *faces = k_array(faces_obj, NPY_INT64, 2, 0, kernel, "faces");
+    PyArrayObject *faces = faces_argument(args, format, kernel, 0, vertex_count);
     if (faces == NULL) return NULL;
-    if (count < 0) {
-        PyErr_Format(PyExc_ValueError, "%s: vertex_count is negative", kernel);
-        goto done;
-    }
-    if (k_dim(faces, 1, 3, kernel, "faces") || k_indices(faces, count, kernel, "faces")) goto done;
     npy_intp n = 3 * PyArray_DIM(faces, 0);
     keys = k_empty(1, &n, NPY_INT64);
     order = k_empty(1, &n, NPY_INT64);
     if (keys == NULL || order == NULL) goto done;
     int status;
     Py_BEGIN_ALLOW_THREADS
-    status = key_order(K_I64(faces), n / 3, count, K_I64(keys), K_I64(order));
+    status = key_order(K_I64(faces), n / 3, *vertex_count, K_I64(keys), K_I64(order));
     Py_END_ALLOW_THREADS
     if (status) {
         PyErr_NoMemory();
         goto done;
     }
-    *vertex_count = count;
     result = PyTuple_Pack(2, (PyObject *)keys, (PyObject *)order);
 done:
     Py_DECREF(faces);
