@@ -12,6 +12,7 @@ from exporter.mesh.distance_kernels import point_triangle_distance
 from exporter.mesh.edge_kernels import edge_counts, edge_key_order
 from exporter.mesh.hausdorff import LOOSE, PLANE_SLACK_MAX, SHRINK, T_JUNCTION, Surface
 from exporter.mesh.planar_bound_kernels import planar_bound
+from exporter.mesh.planar_region_kernels import region_labels
 from exporter.mesh.raster_kernels import rasterise_views
 from exporter.mesh.straight_run_kernels import straight_runs
 
@@ -64,3 +65,16 @@ def test_boundary_kernels_check_their_faces():
         once_sides(np.array([[0, 1, 4]]), 3)  # ids up to vertex_count itself are allowed
     with pytest.raises(ValueError, match="vertex_count is negative"):
         border_loops(np.zeros((0, 3), np.int64), -1)
+
+
+def test_planar_region_kernel_checks_its_edge_keys_and_groups():
+    positions, faces = np.eye(3), np.array([[0, 1, 2]])
+    keys, none = np.zeros(3, np.int64), np.zeros(0, np.int64)
+    with pytest.raises(ValueError, match=r"order holds 3, outside \[0, 3\)"):
+        region_labels(positions, faces, none, False, keys, np.array([0, 1, 3]), 0.9, 1e-3)
+    with pytest.raises(ValueError, match="order has 2 along axis 0"):
+        region_labels(positions, faces, none, False, keys, np.array([0, 1]), 0.9, 1e-3)
+    with pytest.raises(ValueError, match="groups has 0 along axis 0"):
+        region_labels(positions, faces, none, True, keys, np.array([0, 1, 2]), 0.9, 1e-3)
+    with pytest.raises(ValueError, match=r"faces holds 3, outside \[0, 3\)"):
+        region_labels(positions, faces + 3, none, False, keys, np.array([0, 1, 2]), 0.9, 1e-3)
