@@ -11,6 +11,7 @@ from exporter.mesh.boundary_kernels import border_loops, once_sides
 from exporter.mesh.distance_kernels import point_triangle_distance
 from exporter.mesh.edge_kernels import edge_counts, edge_key_order
 from exporter.mesh.hausdorff import LOOSE, PLANE_SLACK_MAX, SHRINK, T_JUNCTION, Surface
+from exporter.mesh.outline_kernels import outline_loops
 from exporter.mesh.planar_bound_kernels import planar_bound
 from exporter.mesh.planar_region_kernels import region_labels
 from exporter.mesh.raster_kernels import rasterise_views
@@ -78,3 +79,13 @@ def test_planar_region_kernel_checks_its_edge_keys_and_groups():
         region_labels(positions, faces, none, True, keys, np.array([0, 1, 2]), 0.9, 1e-3)
     with pytest.raises(ValueError, match=r"faces holds 3, outside \[0, 3\)"):
         region_labels(positions, faces + 3, none, False, keys, np.array([0, 1, 2]), 0.9, 1e-3)
+
+
+def test_outline_kernel_checks_regions_and_vertices():
+    half, keep = np.array([[0, 1], [1, 2], [2, 0]]), np.zeros(3, bool)
+    with pytest.raises(ValueError, match=r"half_region holds 1, outside \[0, 1\)"):
+        outline_loops(half, np.array([0, 0, 1]), 1, 3, keep)
+    with pytest.raises(ValueError, match=r"half holds 2, outside \[0, 2\)"):
+        outline_loops(half, np.zeros(3, np.int64), 1, 2, keep)
+    with pytest.raises(ValueError, match=r"droppable \(2,\)"):
+        outline_loops(half, np.zeros(3, np.int64), 1, 3, keep[:2])
