@@ -15,6 +15,7 @@ from exporter.mesh.outline_kernels import outline_loops
 from exporter.mesh.planar_bound_kernels import planar_bound
 from exporter.mesh.planar_region_kernels import region_labels
 from exporter.mesh.raster_kernels import rasterise_views
+from exporter.mesh.split_kernels import split_fans
 from exporter.mesh.straight_run_kernels import straight_runs
 
 CONSTANTS = (SHRINK, PLANE_SLACK_MAX, LOOSE)
@@ -89,3 +90,16 @@ def test_outline_kernel_checks_regions_and_vertices():
         outline_loops(half, np.zeros(3, np.int64), 1, 2, keep)
     with pytest.raises(ValueError, match=r"droppable \(2,\)"):
         outline_loops(half, np.zeros(3, np.int64), 1, 3, keep[:2])
+
+
+def test_split_kernel_checks_its_sides_and_uvs():
+    faces, uvs = np.array([[0, 1, 2], [2, 1, 3]]), np.zeros((2, 3, 2), np.float32)
+    vertex, t = np.array([4, 5]), np.array([0.5, 0.5])
+    with pytest.raises(ValueError, match="the sides are not sorted"):
+        split_fans(faces, uvs, True, np.array([4, 0]), vertex, t)
+    with pytest.raises(ValueError, match=r"side holds 6, outside \[0, 6\)"):
+        split_fans(faces, uvs, True, np.array([0, 6]), vertex, t)
+    with pytest.raises(ValueError, match="corner_uvs has 1 along axis 0"):
+        split_fans(faces, uvs[:1], True, np.array([0, 4]), vertex, t)
+    with pytest.raises(ValueError, match="t has 1 along axis 0"):
+        split_fans(faces, uvs, False, np.array([0, 4]), vertex, t[:1])
