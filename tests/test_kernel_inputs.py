@@ -15,6 +15,7 @@ from exporter.mesh.outline_kernels import outline_loops
 from exporter.mesh.planar_bound_kernels import planar_bound
 from exporter.mesh.planar_region_kernels import region_labels
 from exporter.mesh.raster_kernels import rasterise_views
+from exporter.mesh.slit_kernels import inside_sides
 from exporter.mesh.split_kernels import split_fans
 from exporter.mesh.straight_run_kernels import straight_runs
 
@@ -103,3 +104,11 @@ def test_split_kernel_checks_its_sides_and_uvs():
         split_fans(faces, uvs[:1], True, np.array([0, 4]), vertex, t)
     with pytest.raises(ValueError, match="t has 1 along axis 0"):
         split_fans(faces, uvs, False, np.array([0, 4]), vertex, t[:1])
+
+
+def test_slit_kernel_checks_its_sides():
+    positions, one = np.eye(3), np.array([0])
+    with pytest.raises(ValueError, match="end has 2 along axis 0, expected 1"):
+        inside_sides(positions, one, one, np.array([1, 2]), 1e-5)
+    with pytest.raises(ValueError, match="positions has 2 along axis 1"):
+        inside_sides(np.zeros((3, 2)), one, one, np.array([1]), 1e-5)
