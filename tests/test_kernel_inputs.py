@@ -7,10 +7,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from exporter.mesh.boundary_kernels import border_loops, once_sides
 from exporter.mesh.distance_kernels import point_triangle_distance
+from exporter.mesh.edge_kernels import edge_counts, edge_key_order
 from exporter.mesh.hausdorff import LOOSE, PLANE_SLACK_MAX, SHRINK, T_JUNCTION, Surface
+from exporter.mesh.outline_kernels import outline_loops
 from exporter.mesh.planar_bound_kernels import planar_bound
+from exporter.mesh.planar_region_kernels import region_labels
 from exporter.mesh.raster_kernels import rasterise_views
+from exporter.mesh.slit_kernels import inside_sides
+from exporter.mesh.split_kernels import split_fans
 from exporter.mesh.straight_run_kernels import straight_runs
 
 CONSTANTS = (SHRINK, PLANE_SLACK_MAX, LOOSE)
@@ -95,3 +101,63 @@ def test_region_kernel_checks_its_faces():
         _region.settle(points, faces, faces, one, one, empty, done, done.copy(), *constants)
     with pytest.raises(ValueError, match="done_source must be a writable"):
         _region.settle(points, faces, faces, one, one, one, done, np.zeros(1), *constants)
+
+
+def test_edge_kernels_check_their_faces():
+    with pytest.raises(ValueError, match=r"faces holds 5, outside \[0, 3\)"):
+        edge_key_order(np.array([[0, 1, 5]]), 3)
+    with pytest.raises(ValueError, match="faces must have 2 dimensions"):
+        edge_counts(np.array([0, 1, 2]), 3)
+    with pytest.raises(ValueError, match="faces has 4 along axis 1"):
+        edge_counts(np.zeros((1, 4), np.int64), 3)
+
+
+def test_boundary_kernels_check_their_faces():
+    with pytest.raises(ValueError, match=r"faces holds 4, outside \[0, 4\)"):
+        once_sides(np.array([[0, 1, 4]]), 3)  # ids up to vertex_count itself are allowed
+    with pytest.raises(ValueError, match="vertex_count is negative"):
+        border_loops(np.zeros((0, 3), np.int64), -1)
+
+
+def test_planar_region_kernel_checks_its_edge_keys_and_groups():
+    positions, faces = np.eye(3), np.array([[0, 1, 2]])
+    keys, none = np.zeros(3, np.int64), np.zeros(0, np.int64)
+    with pytest.raises(ValueError, match=r"order holds 3, outside \[0, 3\)"):
+        region_labels(positions, faces, none, False, keys, np.array([0, 1, 3]), 0.9, 1e-3)
+    with pytest.raises(ValueError, match="order has 2 along axis 0"):
+        region_labels(positions, faces, none, False, keys, np.array([0, 1]), 0.9, 1e-3)
+    with pytest.raises(ValueError, match="groups has 0 along axis 0"):
+        region_labels(positions, faces, none, True, keys, np.array([0, 1, 2]), 0.9, 1e-3)
+    with pytest.raises(ValueError, match=r"faces holds 3, outside \[0, 3\)"):
+        region_labels(positions, faces + 3, none, False, keys, np.array([0, 1, 2]), 0.9, 1e-3)
+
+
+def test_outline_kernel_checks_regions_and_vertices():
+    half, keep = np.array([[0, 1], [1, 2], [2, 0]]), np.zeros(3, bool)
+    with pytest.raises(ValueError, match=r"half_region holds 1, outside \[0, 1\)"):
+        outline_loops(half, np.array([0, 0, 1]), 1, 3, keep)
+    with pytest.raises(ValueError, match=r"half holds 2, outside \[0, 2\)"):
+        outline_loops(half, np.zeros(3, np.int64), 1, 2, keep)
+    with pytest.raises(ValueError, match=r"droppable \(2,\)"):
+        outline_loops(half, np.zeros(3, np.int64), 1, 3, keep[:2])
+
+
+def test_split_kernel_checks_its_sides_and_uvs():
+    faces, uvs = np.array([[0, 1, 2], [2, 1, 3]]), np.zeros((2, 3, 2), np.float32)
+    vertex, t = np.array([4, 5]), np.array([0.5, 0.5])
+    with pytest.raises(ValueError, match="the sides are not sorted"):
+        split_fans(faces, uvs, True, np.array([4, 0]), vertex, t)
+    with pytest.raises(ValueError, match=r"side holds 6, outside \[0, 6\)"):
+        split_fans(faces, uvs, True, np.array([0, 6]), vertex, t)
+    with pytest.raises(ValueError, match="corner_uvs has 1 along axis 0"):
+        split_fans(faces, uvs[:1], True, np.array([0, 4]), vertex, t)
+    with pytest.raises(ValueError, match="t has 1 along axis 0"):
+        split_fans(faces, uvs, False, np.array([0, 4]), vertex, t[:1])
+
+
+def test_slit_kernel_checks_its_sides():
+    positions, one = np.eye(3), np.array([0])
+    with pytest.raises(ValueError, match="end has 2 along axis 0, expected 1"):
+        inside_sides(positions, one, one, np.array([1, 2]), 1e-5)
+    with pytest.raises(ValueError, match="positions has 2 along axis 1"):
+        inside_sides(np.zeros((3, 2)), one, one, np.array([1]), 1e-5)
