@@ -1,5 +1,5 @@
 """Every caller of a compiled kernel (exporter/mesh/*_kernels.py) checks the indices and shapes the
-kernel follows without bounds checks (numba does none): a bad input is a ValueError, never a read
+kernel follows (the C loops index without bounds checks; the kernels re-check what they index): a bad input is a ValueError, never a read
 past an array (issue 24: "a compiled kernel never crashes the process")."""
 
 from __future__ import annotations

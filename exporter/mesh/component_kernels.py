@@ -20,15 +20,3 @@ def lowest_member(n: int, left: np.ndarray, right: np.ndarray) -> np.ndarray:
         raise ValueError("lowest_member: a node index is out of range")
     return lowest(int(n), left, right)
 
-
-# Still imported by the numba kernels of boundary_kernels and planar_region_kernels until their
-# C ports land (they use c/union_find.h); removed with exporter/mesh/jit.py.
-from .jit import kernel  # noqa: E402
-
-
-@kernel
-def root(parent, a):  # pragma: no cover - compiled
-    while parent[a] != a:
-        parent[a] = parent[parent[a]]
-        a = parent[a]
-    return a
