@@ -19,4 +19,3 @@ def lowest_member(n: int, left: np.ndarray, right: np.ndarray) -> np.ndarray:
     if len(left) and (min(left.min(), right.min()) < 0 or max(left.max(), right.max()) >= n):
         raise ValueError("lowest_member: a node index is out of range")
     return lowest(int(n), left, right)
-
