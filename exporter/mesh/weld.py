@@ -6,8 +6,10 @@ position of its lowest-index member, so welding never invents a coordinate.
 
 Clusters are the connected components of the "closer than ``distance`` metres" graph
 (``scipy.spatial.cKDTree.query_pairs``, components by :func:`lowest_member`);
-``distance == 0`` merges exact duplicates only. :func:`join_meshes` joins meshes into one
-:class:`WeldedMesh` by exact position (rounded to ``WELD_M``), as the quality metrics see them.
+``distance == 0`` merges exact duplicates only (equal by ``==``: -0.0 is 0.0, a row holding a
+NaN stays alone; a hash of the rows in ``exporter/mesh/c/weld.c``). :func:`join_meshes` joins
+meshes into one :class:`WeldedMesh` by exact position (rounded to ``WELD_M``), as the quality
+metrics see them.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ._weld import exact
 from .component_kernels import lowest_member
 from .geometry import unique_float_rows
 
@@ -57,16 +60,9 @@ def weld_positions(positions: np.ndarray, distance: float = 0.0) -> tuple[np.nda
     if n == 0:
         return np.zeros(0, dtype=np.int64), np.zeros((0, 3))
     if distance <= 0.0:
-        _, first, inverse = np.unique(positions, axis=0, return_index=True, return_inverse=True)
-        labels = inverse.reshape(-1)
-        # Renumber clusters by their lowest member so the order follows the input.
-        first = np.full(labels.max() + 1, n, dtype=np.int64)
-        np.minimum.at(first, labels, np.arange(n))
-        order = np.argsort(first)
-        rank = np.empty_like(order)
-        rank[order] = np.arange(len(order))
-        welded = rank[labels].astype(np.int64)
-        return welded, positions[first[order]]
+        # Clusters numbered by their lowest member, so the order follows the input.
+        welded, first = exact(np.ascontiguousarray(positions))
+        return welded, positions[first]
     pairs = cKDTree(positions).query_pairs(r=float(distance), output_type="ndarray")
     lowest = lowest_member(n, pairs[:, 0], pairs[:, 1])
     # Clusters numbered by their lowest member, so the order follows the input.
