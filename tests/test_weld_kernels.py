@@ -1,6 +1,7 @@
 """The compiled equal-row kernels (exporter/mesh/c/weld.c) against the numpy forms they replace,
 bit for bit: ``weld_positions`` with ``distance <= 0`` (exact duplicates, clusters numbered by
-their lowest member) and ``unique_float_rows`` (np.unique(axis=0) order, first occurrences,
+their lowest member), with ``distance > 0`` (the tree over distinct positions only) and
+``unique_float_rows`` (np.unique(axis=0) order, first occurrences,
 inverse), on random rows full of duplicates, -0.0 / 0.0, NaN and ties, on empty and one-row
 input, and on the rows the mesh stage hands them for generated buildings."""
 
@@ -8,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.spatial import cKDTree
 
 import exporter.mesh.geometry as geometry
 import exporter.mesh.hausdorff as hausdorff
@@ -15,6 +17,7 @@ import exporter.mesh.weld as weld
 import exporter.simplify as simplify
 import exporter.simplify.meshopt as meshopt
 from exporter.mesh import _weld
+from exporter.mesh.component_kernels import lowest_member
 from exporter.mesh.geometry import unique_float_rows
 from exporter.mesh.weld import join_meshes, weld_positions
 
@@ -34,6 +37,15 @@ def reference_exact_weld(positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     rank[order] = np.arange(len(order))
     welded = rank[labels].astype(np.int64)
     return welded, positions[first[order]]
+
+
+def reference_near_weld(positions: np.ndarray, distance: float) -> tuple[np.ndarray, np.ndarray]:
+    """The former ``weld_positions(positions, distance > 0)``: the tree over every position."""
+    positions = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
+    pairs = cKDTree(positions).query_pairs(r=float(distance), output_type="ndarray")
+    lowest = lowest_member(len(positions), pairs[:, 0], pairs[:, 1])
+    root = lowest == np.arange(len(positions))
+    return (np.cumsum(root) - 1)[lowest], positions[root]
 
 
 def reference_unique_float_rows(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -72,6 +84,21 @@ def test_exact_weld_equals_numpy_unique(nan):
             got = weld_positions(positions, 0.0)
             assert_same(got, reference_exact_weld(positions))
             assert_same(weld_positions(positions, -1.0), got)
+
+
+@pytest.mark.parametrize("distance", [1e-6, 0.05, 0.7])
+def test_near_weld_of_duplicated_positions_equals_the_tree_over_all(distance):
+    # The tree now sees each distinct position once: the clusters and their numbering must not
+    # change, with exact duplicates, near ones (noise below and above the distance) and chains.
+    rng = np.random.default_rng(int(distance * 1e6))
+    for n in [1, 2, 5, 40, 300]:
+        for _ in range(6):
+            positions = duplicated_rows(rng, n, 3, False)
+            positions = np.where(np.isfinite(positions) & (np.abs(positions) < 1e3), positions, 3.0)
+            noise = rng.normal(size=(n, 3)) * distance * rng.choice([0.0, 0.3, 2.0], size=(n, 1))
+            positions = np.vstack([positions, positions + noise])[rng.permutation(2 * n)]
+            got = weld_positions(positions, distance)
+            assert_same(got, reference_near_weld(positions, distance))
 
 
 def test_exact_weld_of_signed_zeros_keeps_the_lowest_members_bits():
@@ -149,6 +176,8 @@ def test_kernels_on_generated_buildings(monkeypatch):
         for part in building.parts:
             soup = part.positions[part.triangles].reshape(-1, 3)
             assert_same(weld_positions(soup), reference_exact_weld(soup))
+            assert_same(weld_positions(soup, 1e-6), reference_near_weld(soup, 1e-6))
+            assert_same(weld_positions(soup, 0.3), reference_near_weld(soup, 0.3))
             assert_same(weld_positions(np.round(soup, 1)), reference_exact_weld(np.round(soup, 1)))
         joined = join_meshes([(p.positions, p.triangles) for p in building.parts])
         assert len(joined.positions) < sum(len(p.positions) for p in building.parts)

@@ -4,12 +4,12 @@ Data form: ``positions`` (n, 3) float64 metres in the building-local East/Up/Nor
 the result maps every input vertex to a cluster (``welded``, (n,) int64) whose position is the
 position of its lowest-index member, so welding never invents a coordinate.
 
-Clusters are the connected components of the "closer than ``distance`` metres" graph
-(``scipy.spatial.cKDTree.query_pairs``, components by :func:`lowest_member`);
-``distance == 0`` merges exact duplicates only (equal by ``==``: -0.0 is 0.0, a row holding a
-NaN stays alone; a hash of the rows in ``exporter/mesh/c/weld.c``). :func:`join_meshes` joins
-meshes into one :class:`WeldedMesh` by exact position (rounded to ``WELD_M``), as the quality
-metrics see them.
+Exact duplicates (equal by ``==``: -0.0 is 0.0, a row holding a NaN stays alone) are found by a
+hash of the rows (``exporter/mesh/c/weld.c``); ``distance == 0`` merges them only. Otherwise the
+clusters are the connected components of the "closer than ``distance`` metres" graph on the
+distinct positions (``scipy.spatial.cKDTree.query_pairs``, components by
+:func:`lowest_member`). :func:`join_meshes` joins meshes into one :class:`WeldedMesh` by exact
+position (rounded to ``WELD_M``), as the quality metrics see them.
 """
 
 from __future__ import annotations
@@ -56,15 +56,17 @@ def weld_positions(positions: np.ndarray, distance: float = 0.0) -> tuple[np.nda
     ``welded_positions`` (k, 3) float64 metres, the lowest-index member's position per cluster.
     """
     positions = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
-    n = len(positions)
-    if n == 0:
+    if len(positions) == 0:
         return np.zeros(0, dtype=np.int64), np.zeros((0, 3))
+    # Exact duplicates are one cluster at any distance (first member wins): numbered by their
+    # lowest member, so the order follows the input.
+    cluster, first = exact(np.ascontiguousarray(positions))
+    distinct = positions[first]
     if distance <= 0.0:
-        # Clusters numbered by their lowest member, so the order follows the input.
-        welded, first = exact(np.ascontiguousarray(positions))
-        return welded, positions[first]
-    pairs = cKDTree(positions).query_pairs(r=float(distance), output_type="ndarray")
-    lowest = lowest_member(n, pairs[:, 0], pairs[:, 1])
-    # Clusters numbered by their lowest member, so the order follows the input.
-    root = lowest == np.arange(n)
-    return (np.cumsum(root) - 1)[lowest], positions[root]
+        return cluster, distinct
+    # The tree sees each position once: a component's lowest distinct position is its lowest
+    # member (duplicates are at distance 0, so in the component of their first member).
+    pairs = cKDTree(distinct).query_pairs(r=float(distance), output_type="ndarray")
+    lowest = lowest_member(len(distinct), pairs[:, 0], pairs[:, 1])
+    root = lowest == np.arange(len(distinct))
+    return (np.cumsum(root) - 1)[lowest][cluster], distinct[root]
