@@ -101,6 +101,35 @@ def test_near_weld_of_duplicated_positions_equals_the_tree_over_all(distance):
             assert_same(got, reference_near_weld(positions, distance))
 
 
+@pytest.mark.parametrize("scale", [1.0, 100.0, 3e4])
+@pytest.mark.parametrize("distance", [1e-6, 0.01, 0.5])
+def test_near_weld_at_the_distance_equals_the_tree(scale, distance):
+    # Pairs at the distance to within a few ulps either way (axis-aligned ones exact): the
+    # compiled pair search must join exactly the pairs the tree joins.
+    rng = np.random.default_rng(int(scale + distance * 1e6))
+    base = rng.uniform(-scale, scale, size=(60, 3))
+    direction = rng.normal(size=(60, 3))
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    direction[:20] = np.eye(3)[rng.integers(0, 3, 20)] * rng.choice([-1.0, 1.0], size=(20, 1))
+    tweak = 1.0 + rng.integers(-4, 5, size=(60, 1)) * np.finfo(float).eps
+    positions = np.vstack([base, base + direction * (distance * tweak)])[rng.permutation(120)]
+    got = weld_positions(positions, distance)
+    assert_same(got, reference_near_weld(positions, distance))
+    assert len(got[1]) < 120  # some pairs do join
+
+
+def test_near_weld_of_non_finite_input_asks_the_tree():
+    positions = np.array([[0.0, 0, 0], [1e-7, 0, 0], [5.0, 5, 5], [2e-7, 0, 0], [5.0, 5, 5]])
+    assert_same(weld_positions(positions, np.inf), reference_near_weld(positions, np.inf))
+    positions[2, 1] = np.inf  # refused by the tree, as before
+    with pytest.raises(ValueError, match="finite"):
+        reference_near_weld(positions, 1e-6)
+    with pytest.raises(ValueError, match="finite"):
+        weld_positions(positions, 1e-6)
+    with pytest.raises(ValueError, match="rows has 2 along axis 1"):
+        _weld.near(np.zeros((3, 2)), 1.0)
+
+
 def test_exact_weld_of_signed_zeros_keeps_the_lowest_members_bits():
     positions = np.array([[-0.0, 1, 2], [0.0, 1, 2], [0.0, -0.0, 0], [-0.0, 0.0, -0.0]])
     welded, points = weld_positions(positions)

@@ -5,11 +5,13 @@ the result maps every input vertex to a cluster (``welded``, (n,) int64) whose p
 position of its lowest-index member, so welding never invents a coordinate.
 
 Exact duplicates (equal by ``==``: -0.0 is 0.0, a row holding a NaN stays alone) are found by a
-hash of the rows (``exporter/mesh/c/weld.c``); ``distance == 0`` merges them only. Otherwise the
-clusters are the connected components of the "closer than ``distance`` metres" graph on the
-distinct positions (``scipy.spatial.cKDTree.query_pairs``, components by
-:func:`lowest_member`). :func:`join_meshes` joins meshes into one :class:`WeldedMesh` by exact
-position (rounded to ``WELD_M``), as the quality metrics see them.
+hash of the rows; ``distance == 0`` merges them only. Otherwise the clusters are the connected
+components of the graph joining distinct positions whose squared distance
+``(dx*dx + dy*dy) + dz*dz`` is at most ``distance**2`` (the test and result of
+``scipy.spatial.cKDTree.query_pairs``, which still handles non-finite input), found by a sweep
+along one direction. Both loops are in ``exporter/mesh/c/weld.c``. :func:`join_meshes` joins
+meshes into one :class:`WeldedMesh` by exact position (rounded to ``WELD_M``), as the quality
+metrics see them.
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ._weld import exact
+from ._weld import exact, near
 from .component_kernels import lowest_member
 from .geometry import unique_float_rows
 
@@ -64,9 +66,11 @@ def weld_positions(positions: np.ndarray, distance: float = 0.0) -> tuple[np.nda
     distinct = positions[first]
     if distance <= 0.0:
         return cluster, distinct
-    # The tree sees each position once: a component's lowest distinct position is its lowest
+    # Components over distinct positions: a component's lowest distinct position is its lowest
     # member (duplicates are at distance 0, so in the component of their first member).
-    pairs = cKDTree(distinct).query_pairs(r=float(distance), output_type="ndarray")
-    lowest = lowest_member(len(distinct), pairs[:, 0], pairs[:, 1])
+    lowest = near(distinct, float(distance))
+    if lowest is None:  # a coordinate or the distance not finite: the tree decides, as before
+        pairs = cKDTree(distinct).query_pairs(r=float(distance), output_type="ndarray")
+        lowest = lowest_member(len(distinct), pairs[:, 0], pairs[:, 1])
     root = lowest == np.arange(len(distinct))
     return (np.cumsum(root) - 1)[lowest][cluster], distinct[root]

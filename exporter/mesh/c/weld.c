@@ -1,5 +1,6 @@
-/* Equal float rows: exact-duplicate clusters (a hash of the rows) and unique rows in lexicographic
- * order (a stable merge sort of row indices).
+/* Equal and near float rows: exact-duplicate clusters (a hash of the rows), unique rows in
+ * lexicographic order (a stable merge sort of row indices), and the components of the graph of
+ * points closer than a distance (a sweep along a generic direction, union-find: union_find.h).
  *
  * Rows are (n, w) float64, C order, any one frame and unit. Two rows are equal when every column
  * compares equal (==, as numpy compares them: -0.0 equals 0.0, a NaN equals nothing, so a row
@@ -7,10 +8,14 @@
  * NaN after every number, NaNs tied), the first column first, ties in input order, which is
  * np.lexsort(keys.T[::-1]); with the equality above this is np.unique(keys, axis=0,
  * return_index=True, return_inverse=True) without its sort of a structured view
- * (tests/test_weld_kernels.py checks both against the numpy forms, bit for bit).
+ * (tests/test_weld_kernels.py checks both against the numpy forms, bit for bit). Near points
+ * are joined by scipy's cKDTree.query_pairs distance test, computed alike (same test file).
  */
 #include "kernels.h"
 #include "sorted.h"
+#include "union_find.h"
+
+#include <float.h>
 
 /* Whether rows a and b (w columns) are equal column by column. */
 static inline int rows_equal(const double *a, const double *b, npy_intp w) {
@@ -152,11 +157,97 @@ static PyObject *exact(PyObject *self, PyObject *args) { return rows_kernel(args
  * group of equal rows in the rows' stable lexicographic order, and each row's group. */
 static PyObject *unique(PyObject *self, PyObject *args) { return rows_kernel(args, 1); }
 
+/* A generic direction (1, p^-1, p^-2), p the plastic number: positions sorted along it rarely tie
+ * (an axis would put a whole wall at one key). */
+#define NEAR_A 1.0
+#define NEAR_B 0.7548776662466927
+#define NEAR_C 0.5698402909980532
+
+/* near(rows (n, 3) float64, distance) -> (n,) int64 or None: the lowest row of each row's
+ * component in the graph joining rows i, j with ((dx*dx + dy*dy) + dz*dz) <= distance*distance
+ * (dx = x_i - x_j: scipy's cKDTree.query_pairs test, whose result is exactly this pair set, its
+ * boxes bounding every pair's rounded distance). Candidates: rows sorted by their key along the
+ * direction above, each paired with the next ones whose key is within a bound of what such a pair
+ * can differ by (the distance plus the keys' rounding). None when a coordinate or the distance is
+ * not finite (the caller then asks the tree). */
+static PyObject *near(PyObject *self, PyObject *args) {
+    PyObject *rows_obj, *result = NULL;
+    double distance;
+    if (!PyArg_ParseTuple(args, "Od:near", &rows_obj, &distance)) return NULL;
+    PyArrayObject *rows = k_array(rows_obj, NPY_FLOAT64, 2, 0, "weld.near", "rows");
+    PyArrayObject *lowest = NULL;
+    int64_t *scratch = NULL;
+    double *key = NULL;
+    if (rows == NULL || k_dim(rows, 1, 3, "weld.near", "rows")) goto done;
+    npy_intp n = PyArray_DIM(rows, 0);
+    const double *r = K_F64(rows);
+    double largest = 0.0; /* the largest coordinate's size; infinite if one is not finite */
+    for (npy_intp i = 0; i < 3 * n; i++) {
+        double size = fabs(r[i]);
+        if (!(size <= DBL_MAX)) largest = INFINITY;
+        else if (size > largest) largest = size;
+    }
+    if (!isfinite(largest) || !isfinite(distance)) {
+        result = Py_None;
+        Py_INCREF(result);
+        goto done;
+    }
+    npy_intp dims[1] = {n};
+    lowest = k_empty(1, dims, NPY_INT64);
+    scratch = malloc((2 * (size_t)n + 1) * sizeof *scratch);
+    key = malloc(((size_t)n + 1) * sizeof *key);
+    if (lowest == NULL) goto done;
+    if (scratch == NULL || key == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    int64_t *parent = K_I64(lowest), *order = scratch, *spare = scratch + n;
+    const double bound = distance * distance;
+    /* A joined pair has |dx|, |dy|, |dz| <= ~distance (or a tiny one whose square underflows), so
+     * keys within (A + B + C) times that, plus each key's rounding (a few ulps of the largest
+     * coordinate); 2x and 64 ulps to spare. */
+    const double reach = (NEAR_A + NEAR_B + NEAR_C) *
+                         (2.0 * (distance > 1e-150 ? distance : 1e-150) + 64.0 * DBL_EPSILON * largest);
+    Py_BEGIN_ALLOW_THREADS
+    for (npy_intp i = 0; i < n; i++) {
+        parent[i] = i;
+        key[i] = NEAR_A * r[3 * i] + NEAR_B * r[3 * i + 1] + NEAR_C * r[3 * i + 2];
+    }
+#define KEY_LE(a, b) (key[a] <= key[b])
+    K_STABLE_ORDER(n, order, spare, KEY_LE);
+#undef KEY_LE
+    for (npy_intp t = 0; t < n; t++) {
+        const double *a = r + 3 * order[t];
+        for (npy_intp u = t + 1; u < n && key[order[u]] - key[order[t]] <= reach; u++) {
+            const double *b = r + 3 * order[u];
+            double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
+            double d = 0.0;
+            d += dx * dx;
+            d += dy * dy;
+            d += dz * dz;
+            if (d <= bound) uf_join(parent, order[t], order[u]);
+        }
+    }
+    /* Parents are lower than their children: one pass in order settles every row. */
+    for (npy_intp i = 0; i < n; i++) parent[i] = parent[parent[i]];
+    Py_END_ALLOW_THREADS
+    result = (PyObject *)lowest;
+    lowest = NULL;
+done:
+    free(scratch);
+    free(key);
+    Py_XDECREF(rows);
+    Py_XDECREF(lowest);
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"exact", exact, METH_VARARGS,
      "exact(rows) -> (cluster, first): clusters of equal rows by first member, and those members"},
     {"unique", unique, METH_VARARGS,
      "unique(rows) -> (first, inverse): unique rows in lexicographic order, first occurrences"},
+    {"near", near, METH_VARARGS,
+     "near(rows, distance) -> (n,) int64 or None: lowest row of each row's near-component"},
     {NULL, NULL, 0, NULL},
 };
 
