@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._weld import unique
 from .edge_kernels import edge_key_order
 
 
@@ -72,15 +73,14 @@ def compact_vertices(faces: np.ndarray, vertex_count: int) -> tuple[np.ndarray, 
 
 def unique_float_rows(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``np.unique(keys, axis=0, return_index=True, return_inverse=True)[1:]`` for (c, w) float64
-    rows (the same lexicographic order, first occurrences, inverse): one stable lexsort (rows equal
-    when every column compares equal, lowest index first) instead of a sort of a structured view."""
-    order = np.lexsort(keys.T[::-1])
-    ordered = keys[order]
-    start = np.ones(len(order), dtype=bool)
-    start[1:] = (ordered[1:] != ordered[:-1]).any(axis=1)
-    inverse = np.empty(len(order), dtype=np.int64)
-    inverse[order] = np.cumsum(start) - 1
-    return order[start], inverse
+    rows (w >= 1; other dtypes converted): ``first`` (k,) int64, the lowest index of each group of
+    equal rows (every column ``==``, so -0.0 is 0.0 and a row holding a NaN is alone) in the rows'
+    lexicographic order (``np.lexsort(keys.T[::-1])``, NaN last), and ``inverse`` (c,) int64, each
+    row's group. A stable sort of row indices in ``exporter/mesh/c/weld.c``."""
+    keys = np.ascontiguousarray(keys, dtype=np.float64)
+    if keys.ndim != 2 or keys.shape[1] == 0:
+        raise ValueError(f"unique_float_rows: keys must be (c, w >= 1) rows, not {keys.shape}")
+    return unique(keys)
 
 
 def unit_vectors(vectors: np.ndarray) -> np.ndarray:

@@ -4,10 +4,14 @@ Data form: ``positions`` (n, 3) float64 metres in the building-local East/Up/Nor
 the result maps every input vertex to a cluster (``welded``, (n,) int64) whose position is the
 position of its lowest-index member, so welding never invents a coordinate.
 
-Clusters are the connected components of the "closer than ``distance`` metres" graph
-(``scipy.spatial.cKDTree.query_pairs``, components by :func:`lowest_member`);
-``distance == 0`` merges exact duplicates only. :func:`join_meshes` joins meshes into one
-:class:`WeldedMesh` by exact position (rounded to ``WELD_M``), as the quality metrics see them.
+Exact duplicates (equal by ``==``: -0.0 is 0.0, a row holding a NaN stays alone) are found by a
+hash of the rows; ``distance == 0`` merges them only. Otherwise the clusters are the connected
+components of the graph joining distinct positions whose squared distance
+``(dx*dx + dy*dy) + dz*dz`` is at most ``distance**2`` (the test and result of
+``scipy.spatial.cKDTree.query_pairs``, which still handles non-finite input), found by a sweep
+along one direction. Both loops are in ``exporter/mesh/c/weld.c``. :func:`join_meshes` joins
+meshes into one :class:`WeldedMesh` by exact position (rounded to ``WELD_M``), as the quality
+metrics see them.
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ._weld import exact, near
 from .component_kernels import lowest_member
 from .geometry import unique_float_rows
 
@@ -53,22 +58,19 @@ def weld_positions(positions: np.ndarray, distance: float = 0.0) -> tuple[np.nda
     ``welded_positions`` (k, 3) float64 metres, the lowest-index member's position per cluster.
     """
     positions = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
-    n = len(positions)
-    if n == 0:
+    if len(positions) == 0:
         return np.zeros(0, dtype=np.int64), np.zeros((0, 3))
+    # Exact duplicates are one cluster at any distance (first member wins): numbered by their
+    # lowest member, so the order follows the input.
+    cluster, first = exact(np.ascontiguousarray(positions))
+    distinct = positions[first]
     if distance <= 0.0:
-        _, first, inverse = np.unique(positions, axis=0, return_index=True, return_inverse=True)
-        labels = inverse.reshape(-1)
-        # Renumber clusters by their lowest member so the order follows the input.
-        first = np.full(labels.max() + 1, n, dtype=np.int64)
-        np.minimum.at(first, labels, np.arange(n))
-        order = np.argsort(first)
-        rank = np.empty_like(order)
-        rank[order] = np.arange(len(order))
-        welded = rank[labels].astype(np.int64)
-        return welded, positions[first[order]]
-    pairs = cKDTree(positions).query_pairs(r=float(distance), output_type="ndarray")
-    lowest = lowest_member(n, pairs[:, 0], pairs[:, 1])
-    # Clusters numbered by their lowest member, so the order follows the input.
-    root = lowest == np.arange(n)
-    return (np.cumsum(root) - 1)[lowest], positions[root]
+        return cluster, distinct
+    # Components over distinct positions: a component's lowest distinct position is its lowest
+    # member (duplicates are at distance 0, so in the component of their first member).
+    lowest = near(distinct, float(distance))
+    if lowest is None:  # a coordinate or the distance not finite: the tree decides, as before
+        pairs = cKDTree(distinct).query_pairs(r=float(distance), output_type="ndarray")
+        lowest = lowest_member(len(distinct), pairs[:, 0], pairs[:, 1])
+    root = lowest == np.arange(len(distinct))
+    return (np.cumsum(root) - 1)[lowest][cluster], distinct[root]
