@@ -48,7 +48,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import coverage
+from . import _surface, coverage
 from .distance import SurfaceIndex, point_triangle_distance
 from .geometry import cross_rows, longest_edges, unique_float_rows
 from .planar_bound_kernels import planar_bound
@@ -73,6 +73,7 @@ LOOSE = (3e-7, 3e-6, 1e-5)
 TRUSTED = 1e-6  # faces flatter than this (altitude / longest edge) give no single-face bound
 T_JUNCTION = 1e-6  # a vertex this close to an edge (share of its length) splits it
 PAIR_CHUNK = 1 << 20  # region pairs compared at once when merging regions on one plane
+NEAREST_DENSE = 1 << 18  # point x face tests below which every face is tried (no tree lists)
 
 __all__ = ["Surface", "bounds_within", "hausdorff_bounds", "directed_bounds", "exceeds", "split4"]
 
@@ -802,25 +803,22 @@ def _pair_bound(tri: np.ndarray, target: Surface, nearest: np.ndarray) -> np.nda
 def _nearest_face(target: Surface, points: np.ndarray) -> np.ndarray:
     """(p,) int64: a face of ``target`` at the least distance from each point (p, 3) metres (the
     faces whose bounding sphere and plane both come within the probes' upper bound are all
-    checked)."""
+    checked; the first in face order of the least distance, compiled: c/surface.c)."""
     index = target.index
     upper = index.upper(points)
     reach = upper * (1 + 1e-9) + 1e-12
-    rows, cols = index.sphere_pairs(points, reach)
     # A face's plane is no farther than the face: faces whose plane is beyond the bound cannot
     # be nearest (the margin covers the rounding of both distances; untrusted slivers, whose
     # normals are noise, have no plane and are always kept).
     normal, offset, margin = target.face_planes
-    plane = np.abs(_dot3(points[rows], normal[cols]) - offset[cols])
-    keep = plane <= reach[rows] + margin
-    rows, cols = rows[keep], cols[keep]
-    distance = point_triangle_distance(points[rows], index.tri[cols])
-    order = np.lexsort((distance, rows))
-    first = np.ones(len(order), bool)
-    first[1:] = rows[order][1:] != rows[order][:-1]
-    nearest = np.zeros(len(points), np.int64)
-    nearest[rows[order][first]] = cols[order][first]
-    return nearest
+    start = cols = None
+    if len(points) * len(index.tri) > NEAREST_DENSE and np.all(np.isfinite(reach)):
+        # A merged tile's many faces: only those the tree finds near (the same candidates).
+        rows, cols = index.sphere_pairs(points, reach)
+        start = np.searchsorted(rows, np.arange(len(points) + 1))
+    return _surface.nearest_face(
+        points, reach, index.centres, index.radii, normal, offset, margin, index.tri, start, cols
+    )
 
 
 def _prepare(side) -> Surface:

@@ -1,0 +1,23 @@
+import numpy as np
+
+def upper(
+    points: np.ndarray,
+    probe_distance: np.ndarray,
+    nearest: np.ndarray,
+    owner: np.ndarray,
+    tri: np.ndarray,
+    /,
+) -> np.ndarray: ...
+def nearest_face(
+    points: np.ndarray,
+    reach: np.ndarray,
+    centres: np.ndarray,
+    radii: np.ndarray,
+    normal: np.ndarray,
+    offset: np.ndarray,
+    margin: float,
+    tri: np.ndarray,
+    start: np.ndarray | None,
+    cols: np.ndarray | None,
+    /,
+) -> np.ndarray: ...

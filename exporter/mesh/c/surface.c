@@ -1,0 +1,192 @@
+/* Point-to-surface queries of the certified Hausdorff bound, one point at a time.
+ *
+ * upper: a point's upper bound from the triangles owning its nearest probes (the k-d tree query
+ *   stays in scipy): 0 for a point on a probe, else the least exact distance to those triangles
+ *   (exporter/mesh/distance.py, SurfaceIndex._upper; a NaN distance gives NaN, as np.minimum).
+ * nearest_face: a face at the least distance from each point among the faces whose bounding
+ *   sphere and plane both come within the point's reach (exporter/mesh/hausdorff.py,
+ *   _nearest_face): the first such face in face order with the least distance, NaN distances
+ *   last (as np.lexsort), face 0 when none qualifies.
+ *
+ * Data form: points (p, 3), triangles (m, 3, 3) corner after corner, in any one Cartesian frame,
+ * metres. Each float expression keeps the order of the numpy form it replaces, so the results are
+ * the same bits (tests/test_surface_kernels.py); distances are Ericson's (point_triangle.h).
+ */
+#include "point_triangle.h"
+
+/* np.minimum of two floats: NaN when either is. */
+static inline double np_minimum(double a, double b) { return (a < b || isnan(a)) ? a : b; }
+
+/* upper(points (p, 3), probe_distance (p, k), nearest (p, k) int64 probe ids, owner (n,) int64
+ * the triangle of each probe, tri (m, 3, 3)) -> (p,) float64 metres. */
+static PyObject *upper(PyObject *self, PyObject *args) {
+    PyObject *points_obj, *probe_obj, *nearest_obj, *owner_obj, *tri_obj, *result = NULL;
+    const char *kernel = "surface.upper";
+    PyArrayObject *out = NULL;
+    if (!PyArg_ParseTuple(args, "OOOOO:upper", &points_obj, &probe_obj, &nearest_obj, &owner_obj,
+                          &tri_obj))
+        return NULL;
+    PyArrayObject *points = k_array(points_obj, NPY_FLOAT64, 2, 0, kernel, "points");
+    PyArrayObject *probe = k_array(probe_obj, NPY_FLOAT64, 2, 0, kernel, "probe_distance");
+    PyArrayObject *nearest = k_array(nearest_obj, NPY_INT64, 2, 0, kernel, "nearest");
+    PyArrayObject *owner = k_array(owner_obj, NPY_INT64, 1, 0, kernel, "owner");
+    PyArrayObject *tri = k_array(tri_obj, NPY_FLOAT64, 3, 0, kernel, "tri");
+    if (points == NULL || probe == NULL || nearest == NULL || owner == NULL || tri == NULL) goto done;
+    npy_intp p = PyArray_DIM(points, 0), k = PyArray_DIM(probe, 1), m = PyArray_DIM(tri, 0);
+    if (k_dim(points, 1, 3, kernel, "points") || k_dim(probe, 0, p, kernel, "probe_distance") ||
+        k_dim(nearest, 0, p, kernel, "nearest") || k_dim(nearest, 1, k, kernel, "nearest") ||
+        k_dim(tri, 1, 3, kernel, "tri") || k_dim(tri, 2, 3, kernel, "tri") ||
+        k_indices(nearest, PyArray_DIM(owner, 0), kernel, "nearest") ||
+        k_indices(owner, m, kernel, "owner"))
+        goto done;
+    if (k < 1 && p > 0) {
+        PyErr_Format(PyExc_ValueError, "%s: probe_distance needs one probe per point", kernel);
+        goto done;
+    }
+    npy_intp dims[1] = {p};
+    out = k_empty(1, dims, NPY_FLOAT64);
+    if (out == NULL) goto done;
+    const double *pt = K_F64(points), *pd = K_F64(probe), *t = K_F64(tri);
+    const int64_t *near = K_I64(nearest), *own = K_I64(owner);
+    double *o = K_F64(out);
+    Py_BEGIN_ALLOW_THREADS
+    for (npy_intp i = 0; i < p; i++) {
+        o[i] = 0.0;
+        if (!(pd[i * k] > 0)) continue; /* on a probe: on the surface */
+        int first = 1;
+        for (npy_intp a = 0; a < k; a++) {
+            int64_t face = own[near[i * k + a]];
+            int seen = 0; /* each (point, triangle) pair once */
+            for (npy_intp b = 0; b < a && !seen; b++) seen = own[near[i * k + b]] == face;
+            if (seen) continue;
+            double d = pair_distance(pt[3 * i], pt[3 * i + 1], pt[3 * i + 2], t + 9 * face);
+            o[i] = first ? d : np_minimum(o[i], d);
+            first = 0;
+        }
+    }
+    Py_END_ALLOW_THREADS
+    result = (PyObject *)out;
+    out = NULL;
+done:
+    Py_XDECREF(points);
+    Py_XDECREF(probe);
+    Py_XDECREF(nearest);
+    Py_XDECREF(owner);
+    Py_XDECREF(tri);
+    Py_XDECREF(out);
+    return result;
+}
+
+/* Whether face j is a candidate of point (x, y, z) within `reach` (metres): its bounding sphere
+ * comes within reach ((p - c)^2 summed x, y, z, as SurfaceIndex._near) and so does its plane
+ * (|p . n - offset| <= reach + margin; untrusted faces have n = 0, offset = 0: always kept). */
+static inline int candidate(double x, double y, double z, double reach, const double *c,
+                            double radius, const double *n, double offset, double margin) {
+    double dx = x - c[0], dy = y - c[1], dz = z - c[2];
+    double squared = dx * dx;
+    squared += dy * dy;
+    squared += dz * dz;
+    if (!(sqrt(squared) - radius <= reach)) return 0;
+    return fabs(x * n[0] + y * n[1] + z * n[2] - offset) <= reach + margin;
+}
+
+/* nearest_face(points (p, 3), reach (p,), centres (m, 3), radii (m,), normal (m, 3), offset (m,),
+ * margin, tri (m, 3, 3), start (p + 1,) int64 or None, cols (c,) int64 or None) -> (p,) int64:
+ * the faces tried are cols[start[i]:start[i + 1]] (ascending) for point i, every face when
+ * start is None. */
+static PyObject *nearest_face(PyObject *self, PyObject *args) {
+    PyObject *points_obj, *reach_obj, *centres_obj, *radii_obj, *normal_obj, *offset_obj, *tri_obj;
+    PyObject *start_obj, *cols_obj, *result = NULL;
+    double margin;
+    const char *kernel = "surface.nearest_face";
+    PyArrayObject *start = NULL, *cols = NULL, *out = NULL;
+    if (!PyArg_ParseTuple(args, "OOOOOOdOOO:nearest_face", &points_obj, &reach_obj, &centres_obj,
+                          &radii_obj, &normal_obj, &offset_obj, &margin, &tri_obj, &start_obj,
+                          &cols_obj))
+        return NULL;
+    PyArrayObject *points = k_array(points_obj, NPY_FLOAT64, 2, 0, kernel, "points");
+    PyArrayObject *reach = k_array(reach_obj, NPY_FLOAT64, 1, 0, kernel, "reach");
+    PyArrayObject *centres = k_array(centres_obj, NPY_FLOAT64, 2, 0, kernel, "centres");
+    PyArrayObject *radii = k_array(radii_obj, NPY_FLOAT64, 1, 0, kernel, "radii");
+    PyArrayObject *normal = k_array(normal_obj, NPY_FLOAT64, 2, 0, kernel, "normal");
+    PyArrayObject *offset = k_array(offset_obj, NPY_FLOAT64, 1, 0, kernel, "offset");
+    PyArrayObject *tri = k_array(tri_obj, NPY_FLOAT64, 3, 0, kernel, "tri");
+    int all = start_obj == Py_None;
+    if (!all) {
+        start = k_array(start_obj, NPY_INT64, 1, 0, kernel, "start");
+        cols = k_array(cols_obj, NPY_INT64, 1, 0, kernel, "cols");
+        if (start == NULL || cols == NULL) goto done;
+    }
+    if (points == NULL || reach == NULL || centres == NULL || radii == NULL || normal == NULL ||
+        offset == NULL || tri == NULL)
+        goto done;
+    npy_intp p = PyArray_DIM(points, 0), m = PyArray_DIM(tri, 0);
+    if (k_dim(points, 1, 3, kernel, "points") || k_dim(reach, 0, p, kernel, "reach") ||
+        k_dim(centres, 0, m, kernel, "centres") || k_dim(centres, 1, 3, kernel, "centres") ||
+        k_dim(radii, 0, m, kernel, "radii") || k_dim(normal, 0, m, kernel, "normal") ||
+        k_dim(normal, 1, 3, kernel, "normal") || k_dim(offset, 0, m, kernel, "offset") ||
+        k_dim(tri, 1, 3, kernel, "tri") || k_dim(tri, 2, 3, kernel, "tri"))
+        goto done;
+    if (!all) {
+        if (k_dim(start, 0, p + 1, kernel, "start") || k_indices(cols, m, kernel, "cols")) goto done;
+        const int64_t *s = K_I64(start);
+        npy_intp c = PyArray_DIM(cols, 0);
+        for (npy_intp i = 0; i <= p; i++) {
+            if (s[i] < 0 || s[i] > c || (i > 0 && s[i] < s[i - 1])) {
+                PyErr_Format(PyExc_ValueError, "%s: start must rise within [0, %zd]", kernel,
+                             (Py_ssize_t)c);
+                goto done;
+            }
+        }
+    }
+    npy_intp dims[1] = {p};
+    out = k_zeros(1, dims, NPY_INT64);
+    if (out == NULL) goto done;
+    const double *pt = K_F64(points), *re = K_F64(reach), *ce = K_F64(centres), *ra = K_F64(radii);
+    const double *no = K_F64(normal), *of = K_F64(offset), *t = K_F64(tri);
+    const int64_t *s = all ? NULL : K_I64(start), *cs = all ? NULL : K_I64(cols);
+    int64_t *o = K_I64(out);
+    Py_BEGIN_ALLOW_THREADS
+    for (npy_intp i = 0; i < p; i++) {
+        double x = pt[3 * i], y = pt[3 * i + 1], z = pt[3 * i + 2], best = 0.0;
+        int64_t found = -1;
+        npy_intp lo = all ? 0 : (npy_intp)s[i], hi = all ? m : (npy_intp)s[i + 1];
+        for (npy_intp a = lo; a < hi; a++) {
+            int64_t j = all ? (int64_t)a : cs[a];
+            if (!candidate(x, y, z, re[i], ce + 3 * j, ra[j], no + 3 * j, of[j], margin)) continue;
+            double d = pair_distance(x, y, z, t + 9 * j);
+            /* The first least distance; a NaN only until a number comes (sorted last). */
+            if (found < 0 || d < best || (isnan(best) && !isnan(d))) {
+                found = j;
+                best = d;
+            }
+        }
+        if (found >= 0) o[i] = found;
+    }
+    Py_END_ALLOW_THREADS
+    result = (PyObject *)out;
+    out = NULL;
+done:
+    Py_XDECREF(points);
+    Py_XDECREF(reach);
+    Py_XDECREF(centres);
+    Py_XDECREF(radii);
+    Py_XDECREF(normal);
+    Py_XDECREF(offset);
+    Py_XDECREF(tri);
+    Py_XDECREF(start);
+    Py_XDECREF(cols);
+    Py_XDECREF(out);
+    return result;
+}
+
+static PyMethodDef methods[] = {
+    {"upper", upper, METH_VARARGS,
+     "upper(points, probe_distance, nearest, owner, tri): each point's upper bound, metres"},
+    {"nearest_face", nearest_face, METH_VARARGS,
+     "nearest_face(points, reach, centres, radii, normal, offset, margin, tri, start, cols): "
+     "each point's nearest face among its candidates"},
+    {NULL, NULL, 0, NULL},
+};
+
+K_MODULE(surface, "Point-to-surface queries of the certified Hausdorff bound.", methods)
