@@ -13,7 +13,11 @@ from exporter.mesh import _surface, hausdorff
 from exporter.mesh.distance import SurfaceIndex
 from exporter.mesh.hausdorff import Surface
 from tests.surface_reference import reference_upper
-from tests.test_perf_hausdorff import reference_nearest_face
+from tests.test_perf_hausdorff import (
+    reference_chain_bound,
+    reference_nearest_face,
+    reference_single_triangle_bound,
+)
 
 
 def test_every_call_of_the_chain_on_generated_buildings_gives_the_former_values(monkeypatch):
@@ -22,7 +26,8 @@ def test_every_call_of_the_chain_on_generated_buildings_gives_the_former_values(
     from exporter.config import Config
 
     compiled_upper, compiled_nearest = SurfaceIndex._upper, hausdorff._nearest_face
-    seen = {"upper": 0, "nearest": 0}
+    compiled_single, compiled_chain = hausdorff._single_triangle_bound, hausdorff._chain_bound
+    seen = {"upper": 0, "nearest": 0, "single": 0, "chain": 0}
 
     def spy_upper(self, points, probe_distance, nearest):
         out = compiled_upper(self, points, probe_distance, nearest)
@@ -37,16 +42,32 @@ def test_every_call_of_the_chain_on_generated_buildings_gives_the_former_values(
         seen["nearest"] += len(out)
         return out
 
+    def spy_single(tri, target, nearest):
+        out = compiled_single(tri, target, nearest)
+        assert np.array_equal(out, reference_single_triangle_bound(tri, target, nearest))
+        seen["single"] += len(out)
+        return out
+
+    def spy_chain(tri, target, faces):
+        out = compiled_chain(tri, target, faces)
+        assert np.array_equal(out, reference_chain_bound(tri, target, faces))
+        seen["chain"] += len(out)
+        return out
+
     monkeypatch.setattr(SurfaceIndex, "_upper", spy_upper)
+    monkeypatch.setattr(hausdorff, "_single_triangle_bound", spy_single)
+    monkeypatch.setattr(hausdorff, "_chain_bound", spy_chain)
     monkeypatch.setattr(hausdorff, "_nearest_face", spy_nearest)
     config = Config()
     for building in samplegen.generate_buildings(30, seed=11):
         simplify.build_mesh_chain(building.parts, config.lods, config.simplify)
-    assert seen["upper"] > 1000 and seen["nearest"] > 100  # both were asked, often
+    assert seen["upper"] > 1000 and seen["nearest"] > 100  # asked often
+    assert seen["single"] > 20 and seen["chain"] > 20
 
 
 def _awkward_mesh(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """A bumpy grid with a sliver, a zero-area face and a repeated face (equal distances)."""
+    """A bumpy grid with a sliver, a zero-area face, a repeated face (equal distances) and a
+    zero-length edge (a chain of no length)."""
     x, y = np.meshgrid(np.linspace(0, 10, 7), np.linspace(0, 6, 5))
     z = rng.normal(size=x.shape) * 0.3
     positions = np.column_stack([x.ravel(), y.ravel(), z.ravel()])
@@ -56,9 +77,12 @@ def _awkward_mesh(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
             a, b, c, d = j * 7 + i, j * 7 + i + 1, (j + 1) * 7 + i, (j + 1) * 7 + i + 1
             faces += [[a, b, d], [a, d, c]]
     k = len(positions)
-    extra = np.array([[0.0, 0.0, 0.0], [5.0, 0.0, 1e-9], [10.0, 0.0, 0.0], [3.0, 3.0, 2.0]])
+    extra = np.array(
+        [[0.0, 0.0, 0.0], [5.0, 0.0, 1e-9], [10.0, 0.0, 0.0], [3.0, 3.0, 2.0], [0.0, 0.0, 0.0]]
+    )
     positions = np.concatenate([positions, extra])
-    faces += [[k, k + 1, k + 2], [k, k + 2, k], faces[7], [k + 3, 8, 9]]
+    # a sliver, a zero-area face, a repeated face, a fin, a zero-length edge
+    faces += [[k, k + 1, k + 2], [k, k + 2, k], faces[7], [k + 3, 8, 9], [k, k + 4, k + 3]]
     return positions, np.array(faces, np.int64)
 
 
@@ -83,8 +107,19 @@ def test_random_points_near_an_awkward_mesh_give_the_former_values(monkeypatch, 
             index._upper(points, probe_distance, nearest),
             reference_upper(index, points, probe_distance, nearest),
         )
+        nearest = hausdorff._nearest_face(target, points)
+        assert np.array_equal(nearest, reference_nearest_face(target.index, points))
+        tri = points[rng.integers(0, len(points), size=(30, 3))]
+        tri[:3, 1] = tri[:3, 0]  # degenerate pieces
+        near = nearest[:30]
         assert np.array_equal(
-            hausdorff._nearest_face(target, points), reference_nearest_face(target.index, points)
+            hausdorff._single_triangle_bound(tri, target, near),
+            reference_single_triangle_bound(tri, target, near),
+        )
+        faces_near = rng.integers(0, len(faces), size=(30, 4))
+        assert np.array_equal(
+            hausdorff._chain_bound(tri, target, faces_near),
+            reference_chain_bound(tri, target, faces_near),
         )
 
 
@@ -124,3 +159,22 @@ def test_a_bad_index_is_an_error_not_a_crash():
         _surface.nearest_face(*args, index.tri, np.array([0, 1]), np.array([0, 1]))
     with pytest.raises(ValueError, match="radii"):
         _surface.nearest_face(*args[:3], index.radii[:-1], *args[4:], index.tri, None, None)
+
+
+def test_bad_candidates_are_an_error_not_a_crash():
+    positions, faces = _awkward_mesh(np.random.default_rng(1))
+    target = Surface(positions, faces)
+    tri = target.tri[:4]
+    chains = target.chains
+    with pytest.raises(ValueError, match="cand"):
+        _surface.single_bound(tri, np.full((4, 2), len(faces)), target.trusted, target.tri)
+    with pytest.raises(ValueError, match="cand"):
+        _surface.single_bound(tri, np.zeros((4, 0), np.int64), target.trusted, target.tri)
+    with pytest.raises(ValueError, match="trusted"):
+        _surface.single_bound(tri, np.zeros((4, 2), np.int64), target.trusted[1:], target.tri)
+    with pytest.raises(ValueError, match="cand"):
+        _surface.chain_bound(tri, np.full((4, 1), -1), chains.start, chains.end, chains.slack)
+    with pytest.raises(ValueError, match="end"):
+        _surface.chain_bound(
+            tri, np.zeros((4, 1), np.int64), chains.start, chains.end[1:], chains.slack
+        )

@@ -21,3 +21,9 @@ def nearest_face(
     cols: np.ndarray | None,
     /,
 ) -> np.ndarray: ...
+def single_bound(
+    tri: np.ndarray, cand: np.ndarray, trusted: np.ndarray, target: np.ndarray, /
+) -> np.ndarray: ...
+def chain_bound(
+    tri: np.ndarray, cand: np.ndarray, start: np.ndarray, end: np.ndarray, slack: np.ndarray, /
+) -> np.ndarray: ...

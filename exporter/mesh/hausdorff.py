@@ -315,30 +315,12 @@ class _Chains:
         self.end = origin + high[:, None] * axis
 
 
-def _segment_distance(points: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.ndarray:
-    """Distance (...) metres from points (..., 3) to segments start-end (..., 3) (broadcast).
-
-    Per coordinate (no reduction over a length-3 axis): each sum of three products is added in
-    the order ``.sum(-1)`` adds them, so the same floats."""
-    d = [end[..., i] - start[..., i] for i in range(3)]
-    w = [points[..., i] - start[..., i] for i in range(3)]
-    length2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
-    along = w[0] * d[0] + w[1] * d[1] + w[2] * d[2]
-    length2 = np.broadcast_to(length2, along.shape)
-    t = np.clip(np.divide(along, length2, out=np.zeros_like(along), where=length2 > 0), 0.0, 1.0)
-    e = [w[i] - t * d[i] for i in range(3)]
-    return np.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
-
-
 def _chain_bound(tri: np.ndarray, target: Surface, faces: np.ndarray) -> np.ndarray:
     """(n,) metres: ``min_chain max_v d(v, chain segment) + slack`` over the chains of the edges
-    of each triangle's candidate ``faces`` (n, c) of ``target``."""
+    of each triangle's candidate ``faces`` (n, c) of ``target`` (compiled: c/surface.c)."""
     chains = target.chains
-    n = len(tri)
-    cand = chains.face_chain[faces].reshape(n, -1)  # (n, 3c)
-    start, end = chains.start[cand], chains.end[cand]  # (n, 3c, 3)
-    d = [_segment_distance(tri[:, None, v], start, end) for v in range(3)]  # 3 x (n, 3c)
-    return (np.maximum(np.maximum(d[0], d[1]), d[2]) + chains.slack[cand]).min(axis=1)
+    cand = chains.face_chain[faces].reshape(len(tri), -1)  # (n, 3c)
+    return _surface.chain_bound(tri, cand, chains.start, chains.end, chains.slack)
 
 
 def _same_plane_pairs(
@@ -447,19 +429,10 @@ def _single_triangle_bound(tri: np.ndarray, target: Surface, nearest: np.ndarray
     points = np.concatenate([tri, _centroid(tri)[:, None]], axis=1)  # (n, 4, 3)
     k = min(CANDIDATES, index.tree.n)
     _, probes = index.tree.query(points.reshape(-1, 3), k=k)
-    owners = np.sort(
-        np.column_stack([index.owner[probes.reshape(n, -1)], nearest]), axis=1
-    )  # (n, 4k + 1)
-    fresh = np.ones(owners.shape, dtype=bool)
-    fresh[:, 1:] = owners[:, 1:] != owners[:, :-1]
-    row = np.repeat(np.arange(n), fresh.sum(axis=1))
-    cand = owners[fresh]
-    # (pairs, 3): each vertex's distance to the candidate triangle; slivers, whose distances
-    # lose digits (Ericson's barycentric products cancel), are no candidates.
-    d = point_triangle_distance(tri[row], index.tri[cand][:, None])
-    d[~target.trusted[cand]] = np.inf
-    starts = np.concatenate([[0], np.cumsum(fresh.sum(axis=1))[:-1]])
-    return np.minimum.reduceat(_max3(d), starts)
+    # Each corner's distance to each distinct candidate (compiled: c/surface.c); slivers, whose
+    # distances lose digits (Ericson's barycentric products cancel), are no candidates (inf).
+    cand = np.column_stack([index.owner[probes.reshape(n, -1)], nearest])  # (n, 4k + 1)
+    return _surface.single_bound(tri, cand, target.trusted, index.tri)
 
 
 def _planar_bound(tri: np.ndarray, target: Surface, row: np.ndarray, face: np.ndarray, cap):

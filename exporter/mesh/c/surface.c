@@ -7,6 +7,9 @@
  *   sphere and plane both come within the point's reach (exporter/mesh/hausdorff.py,
  *   _nearest_face): the first such face in face order with the least distance, NaN distances
  *   last (as np.lexsort), face 0 when none qualifies.
+ * single_bound, chain_bound: a triangle's bound from one face (step 1 of the module doc of
+ *   hausdorff.py, _single_triangle_bound) or one straight edge chain (_chain_bound): the least
+ *   over its candidates of the largest distance of its corners.
  *
  * Data form: points (p, 3), triangles (m, 3, 3) corner after corner, in any one Cartesian frame,
  * metres. Each float expression keeps the order of the numpy form it replaces, so the results are
@@ -180,12 +183,157 @@ done:
     return result;
 }
 
+/* np.maximum of two floats: NaN when either is. */
+static inline double np_maximum(double a, double b) { return (a > b || isnan(a)) ? a : b; }
+
+/* 0 when tri is (n, 3, 3) and cand (n, c >= 1) holds indices below `bound`, else -1 with a
+ * ValueError (single_bound and chain_bound take one candidate list per triangle). */
+static int check_candidates(PyArrayObject *tri, PyArrayObject *cand, npy_intp bound,
+                            const char *kernel) {
+    npy_intp n = PyArray_DIM(tri, 0);
+    if (k_dim(tri, 1, 3, kernel, "tri") || k_dim(tri, 2, 3, kernel, "tri") ||
+        k_dim(cand, 0, n, kernel, "cand") || k_indices(cand, bound, kernel, "cand"))
+        return -1;
+    if (PyArray_DIM(cand, 1) < 1 && n > 0) {
+        PyErr_Format(PyExc_ValueError, "%s: cand needs one candidate per triangle", kernel);
+        return -1;
+    }
+    return 0;
+}
+
+/* single_bound(tri (n, 3, 3), cand (n, c) int64 faces, trusted (m,) bool, target (m, 3, 3)) ->
+ * (n,) metres: the least over the distinct candidates t of each row of the largest distance of
+ * the triangle's corners to t, inf for an untrusted t (np.minimum / np.maximum: NaN wins). */
+static PyObject *single_bound(PyObject *self, PyObject *args) {
+    PyObject *tri_obj, *cand_obj, *trusted_obj, *target_obj, *result = NULL;
+    const char *kernel = "surface.single_bound";
+    PyArrayObject *out = NULL;
+    if (!PyArg_ParseTuple(args, "OOOO:single_bound", &tri_obj, &cand_obj, &trusted_obj,
+                          &target_obj))
+        return NULL;
+    PyArrayObject *tri = k_array(tri_obj, NPY_FLOAT64, 3, 0, kernel, "tri");
+    PyArrayObject *cand = k_array(cand_obj, NPY_INT64, 2, 0, kernel, "cand");
+    PyArrayObject *trusted = k_array(trusted_obj, NPY_BOOL, 1, 0, kernel, "trusted");
+    PyArrayObject *target = k_array(target_obj, NPY_FLOAT64, 3, 0, kernel, "target");
+    if (tri == NULL || cand == NULL || trusted == NULL || target == NULL) goto done;
+    npy_intp n = PyArray_DIM(tri, 0), c = PyArray_DIM(cand, 1), m = PyArray_DIM(target, 0);
+    if (k_dim(trusted, 0, m, kernel, "trusted") || k_dim(target, 1, 3, kernel, "target") ||
+        k_dim(target, 2, 3, kernel, "target") || check_candidates(tri, cand, m, kernel))
+        goto done;
+    npy_intp dims[1] = {n};
+    out = k_empty(1, dims, NPY_FLOAT64);
+    if (out == NULL) goto done;
+    const double *t = K_F64(tri), *g = K_F64(target);
+    const int64_t *cs = K_I64(cand);
+    const npy_bool *ok = K_BOOL(trusted);
+    double *o = K_F64(out);
+    Py_BEGIN_ALLOW_THREADS
+    for (npy_intp i = 0; i < n; i++) {
+        const double *v = t + 9 * i;
+        const int64_t *row = cs + c * i;
+        for (npy_intp a = 0; a < c; a++) {
+            int seen = 0; /* each (triangle, face) pair once */
+            for (npy_intp b = 0; b < a && !seen; b++) seen = row[b] == row[a];
+            if (seen) continue;
+            double worst = INFINITY;
+            if (ok[row[a]]) {
+                const double *f = g + 9 * row[a];
+                worst = np_maximum(np_maximum(pair_distance(v[0], v[1], v[2], f),
+                                              pair_distance(v[3], v[4], v[5], f)),
+                                   pair_distance(v[6], v[7], v[8], f));
+            }
+            o[i] = a == 0 ? worst : np_minimum(o[i], worst);
+        }
+    }
+    Py_END_ALLOW_THREADS
+    result = (PyObject *)out;
+    out = NULL;
+done:
+    Py_XDECREF(tri);
+    Py_XDECREF(cand);
+    Py_XDECREF(trusted);
+    Py_XDECREF(target);
+    Py_XDECREF(out);
+    return result;
+}
+
+/* Distance (metres) from (x, y, z) to the segment s-e (hausdorff._segment_distance's order: the
+ * parameter clipped to [0, 1], 0 on a zero-length segment, a NaN kept). */
+static inline double segment_distance(double x, double y, double z, const double *s,
+                                      const double *e) {
+    double d0 = e[0] - s[0], d1 = e[1] - s[1], d2 = e[2] - s[2];
+    double w0 = x - s[0], w1 = y - s[1], w2 = z - s[2];
+    double length2 = d0 * d0 + d1 * d1 + d2 * d2;
+    double along = w0 * d0 + w1 * d1 + w2 * d2;
+    double t = length2 > 0 ? along / length2 : 0.0;
+    t = t < 0 ? 0.0 : (t > 1 ? 1.0 : t);
+    double e0 = w0 - t * d0, e1 = w1 - t * d1, e2 = w2 - t * d2;
+    return sqrt(e0 * e0 + e1 * e1 + e2 * e2);
+}
+
+/* chain_bound(tri (n, 3, 3), cand (n, c) int64 chains, start (q, 3), end (q, 3), slack (q,)) ->
+ * (n,) metres: the least over the row's chains of the largest distance of the triangle's corners
+ * to the chain's segment, plus its slack (NaN wins, as numpy's max and min). */
+static PyObject *chain_bound(PyObject *self, PyObject *args) {
+    PyObject *tri_obj, *cand_obj, *start_obj, *end_obj, *slack_obj, *result = NULL;
+    const char *kernel = "surface.chain_bound";
+    PyArrayObject *out = NULL;
+    if (!PyArg_ParseTuple(args, "OOOOO:chain_bound", &tri_obj, &cand_obj, &start_obj, &end_obj,
+                          &slack_obj))
+        return NULL;
+    PyArrayObject *tri = k_array(tri_obj, NPY_FLOAT64, 3, 0, kernel, "tri");
+    PyArrayObject *cand = k_array(cand_obj, NPY_INT64, 2, 0, kernel, "cand");
+    PyArrayObject *start = k_array(start_obj, NPY_FLOAT64, 2, 0, kernel, "start");
+    PyArrayObject *end = k_array(end_obj, NPY_FLOAT64, 2, 0, kernel, "end");
+    PyArrayObject *slack = k_array(slack_obj, NPY_FLOAT64, 1, 0, kernel, "slack");
+    if (tri == NULL || cand == NULL || start == NULL || end == NULL || slack == NULL) goto done;
+    npy_intp n = PyArray_DIM(tri, 0), c = PyArray_DIM(cand, 1), q = PyArray_DIM(slack, 0);
+    if (k_dim(start, 0, q, kernel, "start") || k_dim(start, 1, 3, kernel, "start") ||
+        k_dim(end, 0, q, kernel, "end") || k_dim(end, 1, 3, kernel, "end") ||
+        check_candidates(tri, cand, q, kernel))
+        goto done;
+    npy_intp dims[1] = {n};
+    out = k_empty(1, dims, NPY_FLOAT64);
+    if (out == NULL) goto done;
+    const double *t = K_F64(tri), *st = K_F64(start), *en = K_F64(end), *sl = K_F64(slack);
+    const int64_t *cs = K_I64(cand);
+    double *o = K_F64(out);
+    Py_BEGIN_ALLOW_THREADS
+    for (npy_intp i = 0; i < n; i++) {
+        const double *v = t + 9 * i;
+        for (npy_intp a = 0; a < c; a++) {
+            int64_t j = cs[c * i + a];
+            const double *s = st + 3 * j, *e = en + 3 * j;
+            double worst = np_maximum(np_maximum(segment_distance(v[0], v[1], v[2], s, e),
+                                                 segment_distance(v[3], v[4], v[5], s, e)),
+                                      segment_distance(v[6], v[7], v[8], s, e)) +
+                           sl[j];
+            o[i] = a == 0 ? worst : np_minimum(o[i], worst);
+        }
+    }
+    Py_END_ALLOW_THREADS
+    result = (PyObject *)out;
+    out = NULL;
+done:
+    Py_XDECREF(tri);
+    Py_XDECREF(cand);
+    Py_XDECREF(start);
+    Py_XDECREF(end);
+    Py_XDECREF(slack);
+    Py_XDECREF(out);
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"upper", upper, METH_VARARGS,
      "upper(points, probe_distance, nearest, owner, tri): each point's upper bound, metres"},
     {"nearest_face", nearest_face, METH_VARARGS,
      "nearest_face(points, reach, centres, radii, normal, offset, margin, tri, start, cols): "
      "each point's nearest face among its candidates"},
+    {"single_bound", single_bound, METH_VARARGS,
+     "single_bound(tri, cand, trusted, target): least largest corner distance to a candidate"},
+    {"chain_bound", chain_bound, METH_VARARGS,
+     "chain_bound(tri, cand, start, end, slack): least largest corner distance to a chain"},
     {NULL, NULL, 0, NULL},
 };
 
