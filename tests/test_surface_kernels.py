@@ -12,7 +12,7 @@ import pytest
 from exporter.mesh import _surface, hausdorff
 from exporter.mesh.distance import SurfaceIndex
 from exporter.mesh.hausdorff import Surface
-from tests.surface_reference import reference_upper
+from tests.surface_reference import reference_pair_bound, reference_upper
 from tests.test_perf_hausdorff import (
     reference_chain_bound,
     reference_nearest_face,
@@ -27,7 +27,8 @@ def test_every_call_of_the_chain_on_generated_buildings_gives_the_former_values(
 
     compiled_upper, compiled_nearest = SurfaceIndex._upper, hausdorff._nearest_face
     compiled_single, compiled_chain = hausdorff._single_triangle_bound, hausdorff._chain_bound
-    seen = {"upper": 0, "nearest": 0, "single": 0, "chain": 0}
+    compiled_pair = hausdorff._pair_bound
+    seen = {"upper": 0, "nearest": 0, "single": 0, "chain": 0, "pair": 0}
 
     def spy_upper(self, points, probe_distance, nearest):
         out = compiled_upper(self, points, probe_distance, nearest)
@@ -54,7 +55,15 @@ def test_every_call_of_the_chain_on_generated_buildings_gives_the_former_values(
         seen["chain"] += len(out)
         return out
 
+    def spy_pair(tri, target, nearest):
+        out = compiled_pair(tri, target, nearest)
+        other = compiled_nearest(target, tri.reshape(-1, 3)).reshape(len(tri), 3)
+        assert np.array_equal(out, reference_pair_bound(tri, target, nearest, other))
+        seen["pair"] += int(np.isfinite(out).sum())
+        return out
+
     monkeypatch.setattr(SurfaceIndex, "_upper", spy_upper)
+    monkeypatch.setattr(hausdorff, "_pair_bound", spy_pair)
     monkeypatch.setattr(hausdorff, "_single_triangle_bound", spy_single)
     monkeypatch.setattr(hausdorff, "_chain_bound", spy_chain)
     monkeypatch.setattr(hausdorff, "_nearest_face", spy_nearest)
@@ -62,7 +71,7 @@ def test_every_call_of_the_chain_on_generated_buildings_gives_the_former_values(
     for building in samplegen.generate_buildings(30, seed=11):
         simplify.build_mesh_chain(building.parts, config.lods, config.simplify)
     assert seen["upper"] > 1000 and seen["nearest"] > 100  # asked often
-    assert seen["single"] > 20 and seen["chain"] > 20
+    assert seen["single"] > 20 and seen["chain"] > 20 and seen["pair"] > 5
 
 
 def _awkward_mesh(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
@@ -115,6 +124,15 @@ def test_random_points_near_an_awkward_mesh_give_the_former_values(monkeypatch, 
         assert np.array_equal(
             hausdorff._single_triangle_bound(tri, target, near),
             reference_single_triangle_bound(tri, target, near),
+        )
+        other = rng.integers(0, len(faces), size=(30, 3))
+        other[::4, 1] = other[::4, 0]  # repeated other faces
+        other[::5, 0] = near[::5]  # the nearest face itself
+        assert np.array_equal(
+            _surface.pair_bound(
+                tri, near, other, target.trusted, *target.face_planes[:2], target.tri
+            ),
+            reference_pair_bound(tri, target, near, other),
         )
         faces_near = rng.integers(0, len(faces), size=(30, 4))
         assert np.array_equal(
@@ -174,6 +192,11 @@ def test_bad_candidates_are_an_error_not_a_crash():
         _surface.single_bound(tri, np.zeros((4, 2), np.int64), target.trusted[1:], target.tri)
     with pytest.raises(ValueError, match="cand"):
         _surface.chain_bound(tri, np.full((4, 1), -1), chains.start, chains.end, chains.slack)
+    args = (target.trusted, *target.face_planes[:2], target.tri)
+    with pytest.raises(ValueError, match="other"):
+        _surface.pair_bound(tri, np.zeros(4, np.int64), np.full((4, 3), len(faces)), *args)
+    with pytest.raises(ValueError, match="nearest"):
+        _surface.pair_bound(tri, np.zeros(3, np.int64), np.zeros((4, 3), np.int64), *args)
     with pytest.raises(ValueError, match="end"):
         _surface.chain_bound(
             tri, np.zeros((4, 1), np.int64), chains.start, chains.end[1:], chains.slack

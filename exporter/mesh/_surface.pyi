@@ -27,3 +27,13 @@ def single_bound(
 def chain_bound(
     tri: np.ndarray, cand: np.ndarray, start: np.ndarray, end: np.ndarray, slack: np.ndarray, /
 ) -> np.ndarray: ...
+def pair_bound(
+    tri: np.ndarray,
+    nearest: np.ndarray,
+    other: np.ndarray,
+    trusted: np.ndarray,
+    normal: np.ndarray,
+    offset: np.ndarray,
+    target: np.ndarray,
+    /,
+) -> np.ndarray: ...

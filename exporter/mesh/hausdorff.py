@@ -49,7 +49,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _plane_boundary, _surface, coverage
-from .distance import SurfaceIndex, point_triangle_distance
+from .distance import SurfaceIndex
 from .geometry import cross_rows, longest_edges, unique_float_rows
 from .planar_bound_kernels import planar_bound
 from .straight_run_kernels import straight_runs
@@ -450,12 +450,6 @@ def _centroid(tri: np.ndarray) -> np.ndarray:
     return (tri[:, 0] + tri[:, 1] + tri[:, 2]) / 3.0
 
 
-def _max3(x: np.ndarray) -> np.ndarray:
-    """``x.max(-1)`` for (..., 3) arrays, written out (numpy's reduction over a length-3 axis
-    costs several elementwise passes)."""
-    return np.maximum(np.maximum(x[..., 0], x[..., 1]), x[..., 2])
-
-
 def _dot3(points: np.ndarray, axis: np.ndarray) -> np.ndarray:
     """``(points * axis).sum(-1)`` for (..., 3) arrays, written out."""
     return (
@@ -630,54 +624,11 @@ def _pair_bound(tri: np.ndarray, target: Surface, nearest: np.ndarray) -> np.nda
     concave one), the lesser of both bounds is kept. Pairs: the face ``nearest`` (n,) to the
     centroid with the face nearest each corner; the least bound is kept (inf where no pair of
     distinct trusted faces exists). The crossing points carry rounding of about 1e-16 of the
-    coordinates: 1e-12 x the largest coordinate is added (distances are 1-Lipschitz)."""
-    n = len(tri)
-    other = _nearest_face(target, tri.reshape(-1, 3)).reshape(n, 3)
-    trusted = target.trusted
-    ok = (other != nearest[:, None]) & trusted[other] & trusted[nearest][:, None]
-    # One pair per distinct other face of a row.
-    ok[:, 1] &= other[:, 1] != other[:, 0]
-    ok[:, 2] &= (other[:, 2] != other[:, 0]) & (other[:, 2] != other[:, 1])
-    row, col = np.nonzero(ok)
-    fi, fj = nearest[row], other[row, col]
-    bound = np.full(n, np.inf)
-    if len(row) == 0:
-        return bound
+    coordinates: 1e-12 x the largest coordinate is added (distances are 1-Lipschitz). Compiled:
+    c/surface.c."""
+    other = _nearest_face(target, tri.reshape(-1, 3)).reshape(len(tri), 3)
     normal, offset, _ = target.face_planes
-    t = tri[row]  # (q, 3, 3)
-    s = (_dot3(t, normal[fi][:, None]) - offset[fi][:, None]) - (
-        _dot3(t, normal[fj][:, None]) - offset[fj][:, None]
-    )  # (q, 3) at the corners: where the two planes are equally far (signed)
-    after = [1, 2, 0]
-    s_next = s[:, after]
-    crosses = s * s_next < 0  # edge k -> k + 1 crosses the cut
-    with np.errstate(divide="ignore", invalid="ignore"):
-        share = np.where(crosses, s / (s - s_next), 0.0)
-    cut = t + share[..., None] * (t[:, after] - t)  # (q, 3, 3) crossing points
-    tri_i, tri_j = target.tri[fi][:, None], target.tri[fj][:, None]
-    corner_i = point_triangle_distance(t, tri_i)
-    corner_j = point_triangle_distance(t, tri_j)
-    on_cut = _max3(
-        np.where(
-            crosses,
-            np.maximum(
-                point_triangle_distance(cut, tri_i),
-                point_triangle_distance(cut, tri_j),
-            ),
-            0.0,
-        )
-    )
-    below, above = s <= 0, s >= 0
-    # Either face may take either cell (the nearer face lies on the larger signed distance at
-    # a convex edge, on the smaller at a concave one): both assignments are bounds.
-    value = np.minimum(
-        np.maximum(_max3(np.where(below, corner_i, 0.0)), _max3(np.where(above, corner_j, 0.0))),
-        np.maximum(_max3(np.where(above, corner_i, 0.0)), _max3(np.where(below, corner_j, 0.0))),
-    )
-    value = np.maximum(value, on_cut)
-    value += 1e-12 * np.abs(t).reshape(len(t), -1).max(axis=1)
-    np.minimum.at(bound, row, value)
-    return bound
+    return _surface.pair_bound(tri, nearest, other, target.trusted, normal, offset, target.tri)
 
 
 def _nearest_face(target: Surface, points: np.ndarray) -> np.ndarray:

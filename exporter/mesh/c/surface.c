@@ -10,6 +10,8 @@
  * single_bound, chain_bound: a triangle's bound from one face (step 1 of the module doc of
  *   hausdorff.py, _single_triangle_bound) or one straight edge chain (_chain_bound): the least
  *   over its candidates of the largest distance of its corners.
+ * pair_bound: a triangle's bound over two cells cut where two faces' planes are equally far
+ *   (step 1b, _pair_bound).
  *
  * Data form: points (p, 3), triangles (m, 3, 3) corner after corner, in any one Cartesian frame,
  * metres. Each float expression keeps the order of the numpy form it replaces, so the results are
@@ -324,6 +326,112 @@ done:
     return result;
 }
 
+/* The corners' distances to face f (3,) and the bound of the cell of corners with side >= 0
+ * (above) or <= 0 (below): np.maximum over the cell's corners, 0 for the others. */
+static inline double cell_bound(const double *d, const double *s, int above) {
+    double x[3];
+    for (int k = 0; k < 3; k++) x[k] = (above ? s[k] >= 0 : s[k] <= 0) ? d[k] : 0.0;
+    return np_maximum(np_maximum(x[0], x[1]), x[2]);
+}
+
+/* The two-cell bound of triangle v (9,) between faces fi and fj (hausdorff._pair_bound, float
+ * for float): the cut where their planes are equally far (signed), each cell bounded by either
+ * face, the lesser assignment, at least the crossing points' distances, plus 1e-12 x the largest
+ * coordinate. */
+static double pair_value(const double *v, const double *ni, double oi, const double *fi,
+                         const double *nj, double oj, const double *fj) {
+    double s[3], ci[3], cj[3], on_cut[3];
+    for (int k = 0; k < 3; k++) {
+        const double *p = v + 3 * k;
+        s[k] = ((p[0] * ni[0] + p[1] * ni[1] + p[2] * ni[2]) - oi) -
+               ((p[0] * nj[0] + p[1] * nj[1] + p[2] * nj[2]) - oj);
+        ci[k] = pair_distance(p[0], p[1], p[2], fi);
+        cj[k] = pair_distance(p[0], p[1], p[2], fj);
+    }
+    for (int k = 0; k < 3; k++) {
+        int next = (k + 1) % 3;
+        on_cut[k] = 0.0;
+        if (!(s[k] * s[next] < 0)) continue;
+        double share = s[k] / (s[k] - s[next]);
+        const double *p = v + 3 * k, *q = v + 3 * next;
+        double x = p[0] + share * (q[0] - p[0]), y = p[1] + share * (q[1] - p[1]),
+               z = p[2] + share * (q[2] - p[2]);
+        on_cut[k] = np_maximum(pair_distance(x, y, z, fi), pair_distance(x, y, z, fj));
+    }
+    double value = np_minimum(np_maximum(cell_bound(ci, s, 0), cell_bound(cj, s, 1)),
+                              np_maximum(cell_bound(ci, s, 1), cell_bound(cj, s, 0)));
+    value = np_maximum(value, np_maximum(np_maximum(on_cut[0], on_cut[1]), on_cut[2]));
+    double largest = fabs(v[0]);
+    for (int k = 1; k < 9; k++) largest = np_maximum(largest, fabs(v[k]));
+    return value + 1e-12 * largest;
+}
+
+/* pair_bound(tri (n, 3, 3), nearest (n,) int64, other (n, 3) int64, trusted (m,) bool, normal
+ * (m, 3), offset (m,), target (m, 3, 3)) -> (n,) metres: the least two-cell bound over the pairs
+ * (nearest, other[k]) of distinct trusted faces (each other face once), inf without one. */
+static PyObject *pair_bound(PyObject *self, PyObject *args) {
+    PyObject *tri_obj, *nearest_obj, *other_obj, *trusted_obj, *normal_obj, *offset_obj;
+    PyObject *target_obj, *result = NULL;
+    const char *kernel = "surface.pair_bound";
+    PyArrayObject *out = NULL;
+    if (!PyArg_ParseTuple(args, "OOOOOOO:pair_bound", &tri_obj, &nearest_obj, &other_obj,
+                          &trusted_obj, &normal_obj, &offset_obj, &target_obj))
+        return NULL;
+    PyArrayObject *tri = k_array(tri_obj, NPY_FLOAT64, 3, 0, kernel, "tri");
+    PyArrayObject *nearest = k_array(nearest_obj, NPY_INT64, 1, 0, kernel, "nearest");
+    PyArrayObject *other = k_array(other_obj, NPY_INT64, 2, 0, kernel, "other");
+    PyArrayObject *trusted = k_array(trusted_obj, NPY_BOOL, 1, 0, kernel, "trusted");
+    PyArrayObject *normal = k_array(normal_obj, NPY_FLOAT64, 2, 0, kernel, "normal");
+    PyArrayObject *offset = k_array(offset_obj, NPY_FLOAT64, 1, 0, kernel, "offset");
+    PyArrayObject *target = k_array(target_obj, NPY_FLOAT64, 3, 0, kernel, "target");
+    if (tri == NULL || nearest == NULL || other == NULL || trusted == NULL || normal == NULL ||
+        offset == NULL || target == NULL)
+        goto done;
+    npy_intp n = PyArray_DIM(tri, 0), m = PyArray_DIM(target, 0);
+    if (k_dim(tri, 1, 3, kernel, "tri") || k_dim(tri, 2, 3, kernel, "tri") ||
+        k_dim(nearest, 0, n, kernel, "nearest") || k_dim(other, 0, n, kernel, "other") ||
+        k_dim(other, 1, 3, kernel, "other") || k_dim(trusted, 0, m, kernel, "trusted") ||
+        k_dim(normal, 0, m, kernel, "normal") || k_dim(normal, 1, 3, kernel, "normal") ||
+        k_dim(offset, 0, m, kernel, "offset") || k_dim(target, 1, 3, kernel, "target") ||
+        k_dim(target, 2, 3, kernel, "target") || k_indices(nearest, m, kernel, "nearest") ||
+        k_indices(other, m, kernel, "other"))
+        goto done;
+    npy_intp dims[1] = {n};
+    out = k_empty(1, dims, NPY_FLOAT64);
+    if (out == NULL) goto done;
+    const double *t = K_F64(tri), *no = K_F64(normal), *of = K_F64(offset), *g = K_F64(target);
+    const int64_t *ne = K_I64(nearest), *ot = K_I64(other);
+    const npy_bool *ok = K_BOOL(trusted);
+    double *o = K_F64(out);
+    Py_BEGIN_ALLOW_THREADS
+    for (npy_intp r = 0; r < n; r++) {
+        int64_t i = ne[r];
+        const int64_t *js = ot + 3 * r;
+        o[r] = INFINITY;
+        for (int k = 0; k < 3; k++) {
+            int64_t j = js[k];
+            if (j == i || !ok[j] || !ok[i] || (k >= 1 && j == js[0]) || (k == 2 && j == js[1]))
+                continue;
+            double value = pair_value(t + 9 * r, no + 3 * i, of[i], g + 9 * i, no + 3 * j, of[j],
+                                      g + 9 * j);
+            o[r] = np_minimum(o[r], value);
+        }
+    }
+    Py_END_ALLOW_THREADS
+    result = (PyObject *)out;
+    out = NULL;
+done:
+    Py_XDECREF(tri);
+    Py_XDECREF(nearest);
+    Py_XDECREF(other);
+    Py_XDECREF(trusted);
+    Py_XDECREF(normal);
+    Py_XDECREF(offset);
+    Py_XDECREF(target);
+    Py_XDECREF(out);
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"upper", upper, METH_VARARGS,
      "upper(points, probe_distance, nearest, owner, tri): each point's upper bound, metres"},
@@ -334,6 +442,8 @@ static PyMethodDef methods[] = {
      "single_bound(tri, cand, trusted, target): least largest corner distance to a candidate"},
     {"chain_bound", chain_bound, METH_VARARGS,
      "chain_bound(tri, cand, start, end, slack): least largest corner distance to a chain"},
+    {"pair_bound", pair_bound, METH_VARARGS,
+     "pair_bound(tri, nearest, other, trusted, normal, offset, target): two-cell bound"},
     {NULL, NULL, 0, NULL},
 };
 
