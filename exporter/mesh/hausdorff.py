@@ -41,7 +41,9 @@ The bound (one direction, triangle T of A against surface B):
    stops at the first vertex certainly above the tolerance.
 
 The symmetric distance is the larger of the two directions (A to B, B to A); an empty side
-against a non-empty one is infinitely far.
+against a non-empty one is infinitely far. The per-triangle loops run compiled
+(``c/surface.c``: nearest face, single-face, chain and pair bounds; ``c/plane_boundary.c``: the
+regions' boundary edges); the orchestration here stays numpy.
 """
 
 from __future__ import annotations
