@@ -15,6 +15,7 @@ import itertools
 import numpy as np
 from scipy.spatial import cKDTree
 
+from . import _surface
 from .distance_kernels import point_triangle_distance
 from .geometry import cross_rows
 
@@ -197,20 +198,9 @@ class SurfaceIndex:
         self, points: np.ndarray, probe_distance: np.ndarray, nearest: np.ndarray
     ) -> np.ndarray:
         # A point on a probe (a shared vertex: most of them when a level keeps input vertices) is
-        # on the surface: 0, which is also what its triangles would give.
-        upper = np.zeros(len(points))
-        off = np.flatnonzero(probe_distance[:, 0] > 0)
-        if len(off) == 0:
-            return upper
-        # Probes of one triangle are often among the nearest: each (point, triangle) pair once.
-        owners = np.sort(self.owner[nearest[off]], axis=1)
-        fresh = np.ones(owners.shape, dtype=bool)
-        fresh[:, 1:] = owners[:, 1:] != owners[:, :-1]
-        rows = np.repeat(np.arange(len(off)), fresh.sum(axis=1))
-        distance = point_triangle_distance(points[off[rows]], self.tri[owners[fresh]])
-        starts = np.concatenate([[0], np.cumsum(fresh.sum(axis=1))[:-1]])
-        upper[off] = np.minimum.reduceat(distance, starts)
-        return upper
+        # on the surface: 0, which is also what its triangles would give; else the least exact
+        # distance to the triangles owning its probes (compiled: c/surface.c).
+        return _surface.upper(points, probe_distance, nearest, self.owner, self.tri)
 
     def refine(self, points: np.ndarray, upper: np.ndarray) -> np.ndarray:
         """Exact distances (p,) metres given upper bounds: every triangle whose bounding sphere

@@ -41,15 +41,17 @@ The bound (one direction, triangle T of A against surface B):
    stops at the first vertex certainly above the tolerance.
 
 The symmetric distance is the larger of the two directions (A to B, B to A); an empty side
-against a non-empty one is infinitely far.
+against a non-empty one is infinitely far. The per-triangle loops run compiled
+(``c/surface.c``: nearest face, single-face, chain and pair bounds; ``c/plane_boundary.c``: the
+regions' boundary edges); the orchestration here stays numpy.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from . import coverage
-from .distance import SurfaceIndex, point_triangle_distance
+from . import _plane_boundary, _surface, coverage
+from .distance import SurfaceIndex
 from .geometry import cross_rows, longest_edges, unique_float_rows
 from .planar_bound_kernels import planar_bound
 from .straight_run_kernels import straight_runs
@@ -73,6 +75,7 @@ LOOSE = (3e-7, 3e-6, 1e-5)
 TRUSTED = 1e-6  # faces flatter than this (altitude / longest edge) give no single-face bound
 T_JUNCTION = 1e-6  # a vertex this close to an edge (share of its length) splits it
 PAIR_CHUNK = 1 << 20  # region pairs compared at once when merging regions on one plane
+NEAREST_DENSE = 1 << 18  # point x face tests below which every face is tried (no tree lists)
 
 __all__ = ["Surface", "bounds_within", "hausdorff_bounds", "directed_bounds", "exceeds", "split4"]
 
@@ -216,87 +219,10 @@ class _Regions:
         the region's T-junctions (a vertex of the region on an unmatched edge, within
         ``T_JUNCTION`` x the edge's length of its line); ``gap`` (r,) metres is the largest such
         offset of each region (a point in the sliver between is that close to the region)."""
-        m = len(faces)
-        r = len(self.normal)
-        t = self.tri2
-        area2 = (t[:, 1, 0] - t[:, 0, 0]) * (t[:, 2, 1] - t[:, 0, 1]) - (
-            t[:, 1, 1] - t[:, 0, 1]
-        ) * (t[:, 2, 0] - t[:, 0, 0])
-        a = faces[:, [0, 1, 2]].reshape(-1)
-        b = faces[:, [1, 2, 0]].reshape(-1)
-        face = np.repeat(np.arange(m), 3)
-        region = self.region[face]
-        upright = (area2 > 0)[face]
-        start2 = t.reshape(-1, 2)  # 2-D start of each half-edge, its end is the next corner
-        end2 = t[:, [1, 2, 0]].reshape(-1, 2)
-        self.gap = np.zeros(r)
-        interior = _matched(region, a, b, upright, k)
-        loose = np.flatnonzero(~interior & upright)
-        if len(loose):
-            # Split the unmatched half-edges at unmatched ends of the same region lying on them.
-            ends, pick = np.unique(
-                np.concatenate([region[loose] * k + a[loose], region[loose] * k + b[loose]]),
-                return_index=True,
-            )
-            end_region, end_vertex = ends // k, ends % k
-            end_point = np.concatenate([start2[loose], end2[loose]])[pick]
-            order = np.argsort(end_region, kind="stable")
-            first = np.searchsorted(end_region[order], np.arange(r + 1))
-            counts = first[region[loose] + 1] - first[region[loose]]
-            owner, item = _ranges(first[region[loose]], counts)
-            h = loose[owner]
-            w = order[item]
-            p, q, x = start2[h], end2[h], end_point[w]
-            d = q - p
-            length2 = (d * d).sum(1)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                along = ((x - p) * d).sum(1) / length2
-                off = np.abs(d[:, 0] * (x - p)[:, 1] - d[:, 1] * (x - p)[:, 0]) / np.sqrt(length2)
-            on = (
-                (end_vertex[w] != a[h])
-                & (end_vertex[w] != b[h])
-                & (along > 0)
-                & (along < 1)
-                & (off <= T_JUNCTION * np.sqrt(length2))
-            )
-            if on.any():
-                np.maximum.at(self.gap, region[h[on]], off[on])
-                # Sub-edges: each split half-edge's points in order along it.
-                hs = np.concatenate([h[on], loose, loose])
-                ts = np.concatenate([along[on], np.zeros(len(loose)), np.ones(len(loose))])
-                vs = np.concatenate([end_vertex[w[on]], a[loose], b[loose]])
-                ps = np.concatenate([end_point[w[on]], start2[loose], end2[loose]])
-                o = np.lexsort((ts, hs))
-                hs, vs, ps = hs[o], vs[o], ps[o]
-                same = hs[1:] == hs[:-1]
-                sub_a, sub_b = vs[:-1][same], vs[1:][same]
-                sub_h = hs[:-1][same]
-                sub_p, sub_q = ps[:-1][same], ps[1:][same]
-                sub_ok = _matched(region[sub_h], sub_a, sub_b, np.ones(len(sub_h), bool), k)
-                keep = ~interior & ~np.isin(np.arange(len(a)), loose)
-                seg_region = np.concatenate([region[keep], region[sub_h[~sub_ok]]])
-                seg = np.concatenate(
-                    [
-                        np.stack([start2[keep], end2[keep]], axis=1),
-                        np.stack([sub_p[~sub_ok], sub_q[~sub_ok]], axis=1),
-                    ]
-                )
-                ends = np.concatenate(
-                    [np.column_stack([a[keep], b[keep]]), np.column_stack([sub_a, sub_b])[~sub_ok]]
-                )
-                oriented = np.concatenate([upright[keep], np.ones((~sub_ok).sum(), bool)])
-                self._store(*self._straighten(seg_region, seg, ends, oriented), r)
-                return
-        boundary = np.flatnonzero(~interior)
-        self._store(
-            *self._straighten(
-                region[boundary],
-                np.stack([start2[boundary], end2[boundary]], axis=1),
-                np.column_stack([a[boundary], b[boundary]]),
-                upright[boundary],
-            ),
-            r,
-        )
+        seg_region, seg, ends, oriented, self.gap = _plane_boundary.boundary(
+            faces, k, self.region, len(self.normal), self.tri2, T_JUNCTION
+        )  # compiled: c/plane_boundary.c
+        self._store(*self._straighten(seg_region, seg, ends, oriented), len(self.normal))
 
     def _straighten(
         self, seg_region: np.ndarray, seg: np.ndarray, ends: np.ndarray, oriented: np.ndarray
@@ -391,30 +317,12 @@ class _Chains:
         self.end = origin + high[:, None] * axis
 
 
-def _segment_distance(points: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.ndarray:
-    """Distance (...) metres from points (..., 3) to segments start-end (..., 3) (broadcast).
-
-    Per coordinate (no reduction over a length-3 axis): each sum of three products is added in
-    the order ``.sum(-1)`` adds them, so the same floats."""
-    d = [end[..., i] - start[..., i] for i in range(3)]
-    w = [points[..., i] - start[..., i] for i in range(3)]
-    length2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
-    along = w[0] * d[0] + w[1] * d[1] + w[2] * d[2]
-    length2 = np.broadcast_to(length2, along.shape)
-    t = np.clip(np.divide(along, length2, out=np.zeros_like(along), where=length2 > 0), 0.0, 1.0)
-    e = [w[i] - t * d[i] for i in range(3)]
-    return np.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
-
-
 def _chain_bound(tri: np.ndarray, target: Surface, faces: np.ndarray) -> np.ndarray:
     """(n,) metres: ``min_chain max_v d(v, chain segment) + slack`` over the chains of the edges
-    of each triangle's candidate ``faces`` (n, c) of ``target``."""
+    of each triangle's candidate ``faces`` (n, c) of ``target`` (compiled: c/surface.c)."""
     chains = target.chains
-    n = len(tri)
-    cand = chains.face_chain[faces].reshape(n, -1)  # (n, 3c)
-    start, end = chains.start[cand], chains.end[cand]  # (n, 3c, 3)
-    d = [_segment_distance(tri[:, None, v], start, end) for v in range(3)]  # 3 x (n, 3c)
-    return (np.maximum(np.maximum(d[0], d[1]), d[2]) + chains.slack[cand]).min(axis=1)
+    cand = chains.face_chain[faces].reshape(len(tri), -1)  # (n, 3c)
+    return _surface.chain_bound(tri, cand, chains.start, chains.end, chains.slack)
 
 
 def _same_plane_pairs(
@@ -478,22 +386,6 @@ def _spanning(rows: np.ndarray, cols: np.ndarray, r: int):
     return [lowest[label[node]]], [node]
 
 
-def _matched(region, a, b, ok, k) -> np.ndarray:
-    """(h,) bool: the half-edge (a -> b) of ``region`` is ``ok`` and it and its opposite (b -> a)
-    occur exactly once each among the ``ok`` half-edges of the region."""
-    key = (region * k + a) * k + b
-    rkey = (region * k + b) * k + a
-    counted, counts = np.unique(key[ok], return_counts=True)
-    if len(counted) == 0:
-        return np.zeros(len(a), bool)
-
-    def count(keys):
-        at = np.minimum(np.searchsorted(counted, keys), len(counted) - 1)
-        return np.where(counted[at] == keys, counts[at], 0)
-
-    return ok & (count(key) == 1) & (count(rkey) == 1)
-
-
 def _planes(tri: np.ndarray, cross: np.ndarray, region: np.ndarray):
     """Each region's plane: unit ``normal`` (r, 3) (area-weighted), ``offset`` (r,) metres
     halfway between the extreme corners (the smallest slack for that normal) and ``slack`` (r,)
@@ -539,19 +431,10 @@ def _single_triangle_bound(tri: np.ndarray, target: Surface, nearest: np.ndarray
     points = np.concatenate([tri, _centroid(tri)[:, None]], axis=1)  # (n, 4, 3)
     k = min(CANDIDATES, index.tree.n)
     _, probes = index.tree.query(points.reshape(-1, 3), k=k)
-    owners = np.sort(
-        np.column_stack([index.owner[probes.reshape(n, -1)], nearest]), axis=1
-    )  # (n, 4k + 1)
-    fresh = np.ones(owners.shape, dtype=bool)
-    fresh[:, 1:] = owners[:, 1:] != owners[:, :-1]
-    row = np.repeat(np.arange(n), fresh.sum(axis=1))
-    cand = owners[fresh]
-    # (pairs, 3): each vertex's distance to the candidate triangle; slivers, whose distances
-    # lose digits (Ericson's barycentric products cancel), are no candidates.
-    d = point_triangle_distance(tri[row], index.tri[cand][:, None])
-    d[~target.trusted[cand]] = np.inf
-    starts = np.concatenate([[0], np.cumsum(fresh.sum(axis=1))[:-1]])
-    return np.minimum.reduceat(_max3(d), starts)
+    # Each corner's distance to each distinct candidate (compiled: c/surface.c); slivers, whose
+    # distances lose digits (Ericson's barycentric products cancel), are no candidates (inf).
+    cand = np.column_stack([index.owner[probes.reshape(n, -1)], nearest])  # (n, 4k + 1)
+    return _surface.single_bound(tri, cand, target.trusted, index.tri)
 
 
 def _planar_bound(tri: np.ndarray, target: Surface, row: np.ndarray, face: np.ndarray, cap):
@@ -567,12 +450,6 @@ def _centroid(tri: np.ndarray) -> np.ndarray:
     """(n, 3) metres: ``tri.mean(axis=1)`` of triangles (n, 3, 3), written out (the same sum,
     in the same order, divided by 3)."""
     return (tri[:, 0] + tri[:, 1] + tri[:, 2]) / 3.0
-
-
-def _max3(x: np.ndarray) -> np.ndarray:
-    """``x.max(-1)`` for (..., 3) arrays, written out (numpy's reduction over a length-3 axis
-    costs several elementwise passes)."""
-    return np.maximum(np.maximum(x[..., 0], x[..., 1]), x[..., 2])
 
 
 def _dot3(points: np.ndarray, axis: np.ndarray) -> np.ndarray:
@@ -749,78 +626,32 @@ def _pair_bound(tri: np.ndarray, target: Surface, nearest: np.ndarray) -> np.nda
     concave one), the lesser of both bounds is kept. Pairs: the face ``nearest`` (n,) to the
     centroid with the face nearest each corner; the least bound is kept (inf where no pair of
     distinct trusted faces exists). The crossing points carry rounding of about 1e-16 of the
-    coordinates: 1e-12 x the largest coordinate is added (distances are 1-Lipschitz)."""
-    n = len(tri)
-    other = _nearest_face(target, tri.reshape(-1, 3)).reshape(n, 3)
-    trusted = target.trusted
-    ok = (other != nearest[:, None]) & trusted[other] & trusted[nearest][:, None]
-    # One pair per distinct other face of a row.
-    ok[:, 1] &= other[:, 1] != other[:, 0]
-    ok[:, 2] &= (other[:, 2] != other[:, 0]) & (other[:, 2] != other[:, 1])
-    row, col = np.nonzero(ok)
-    fi, fj = nearest[row], other[row, col]
-    bound = np.full(n, np.inf)
-    if len(row) == 0:
-        return bound
+    coordinates: 1e-12 x the largest coordinate is added (distances are 1-Lipschitz). Compiled:
+    c/surface.c."""
+    other = _nearest_face(target, tri.reshape(-1, 3)).reshape(len(tri), 3)
     normal, offset, _ = target.face_planes
-    t = tri[row]  # (q, 3, 3)
-    s = (_dot3(t, normal[fi][:, None]) - offset[fi][:, None]) - (
-        _dot3(t, normal[fj][:, None]) - offset[fj][:, None]
-    )  # (q, 3) at the corners: where the two planes are equally far (signed)
-    after = [1, 2, 0]
-    s_next = s[:, after]
-    crosses = s * s_next < 0  # edge k -> k + 1 crosses the cut
-    with np.errstate(divide="ignore", invalid="ignore"):
-        share = np.where(crosses, s / (s - s_next), 0.0)
-    cut = t + share[..., None] * (t[:, after] - t)  # (q, 3, 3) crossing points
-    tri_i, tri_j = target.tri[fi][:, None], target.tri[fj][:, None]
-    corner_i = point_triangle_distance(t, tri_i)
-    corner_j = point_triangle_distance(t, tri_j)
-    on_cut = _max3(
-        np.where(
-            crosses,
-            np.maximum(
-                point_triangle_distance(cut, tri_i),
-                point_triangle_distance(cut, tri_j),
-            ),
-            0.0,
-        )
-    )
-    below, above = s <= 0, s >= 0
-    # Either face may take either cell (the nearer face lies on the larger signed distance at
-    # a convex edge, on the smaller at a concave one): both assignments are bounds.
-    value = np.minimum(
-        np.maximum(_max3(np.where(below, corner_i, 0.0)), _max3(np.where(above, corner_j, 0.0))),
-        np.maximum(_max3(np.where(above, corner_i, 0.0)), _max3(np.where(below, corner_j, 0.0))),
-    )
-    value = np.maximum(value, on_cut)
-    value += 1e-12 * np.abs(t).reshape(len(t), -1).max(axis=1)
-    np.minimum.at(bound, row, value)
-    return bound
+    return _surface.pair_bound(tri, nearest, other, target.trusted, normal, offset, target.tri)
 
 
 def _nearest_face(target: Surface, points: np.ndarray) -> np.ndarray:
     """(p,) int64: a face of ``target`` at the least distance from each point (p, 3) metres (the
     faces whose bounding sphere and plane both come within the probes' upper bound are all
-    checked)."""
+    checked; the first in face order of the least distance, compiled: c/surface.c)."""
     index = target.index
     upper = index.upper(points)
     reach = upper * (1 + 1e-9) + 1e-12
-    rows, cols = index.sphere_pairs(points, reach)
     # A face's plane is no farther than the face: faces whose plane is beyond the bound cannot
     # be nearest (the margin covers the rounding of both distances; untrusted slivers, whose
     # normals are noise, have no plane and are always kept).
     normal, offset, margin = target.face_planes
-    plane = np.abs(_dot3(points[rows], normal[cols]) - offset[cols])
-    keep = plane <= reach[rows] + margin
-    rows, cols = rows[keep], cols[keep]
-    distance = point_triangle_distance(points[rows], index.tri[cols])
-    order = np.lexsort((distance, rows))
-    first = np.ones(len(order), bool)
-    first[1:] = rows[order][1:] != rows[order][:-1]
-    nearest = np.zeros(len(points), np.int64)
-    nearest[rows[order][first]] = cols[order][first]
-    return nearest
+    start = cols = None
+    if len(points) * len(index.tri) > NEAREST_DENSE and np.all(np.isfinite(reach)):
+        # A merged tile's many faces: only those the tree finds near (the same candidates).
+        rows, cols = index.sphere_pairs(points, reach)
+        start = np.searchsorted(rows, np.arange(len(points) + 1))
+    return _surface.nearest_face(
+        points, reach, index.centres, index.radii, normal, offset, margin, index.tri, start, cols
+    )
 
 
 def _prepare(side) -> Surface:
