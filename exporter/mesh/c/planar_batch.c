@@ -1,0 +1,532 @@
+/* The integer bookkeeping and the exact float sums of the planar stage's batched
+ * retriangulation (exporter.simplify.planar: region_setup and _retriangulate_many).
+ *
+ * - sums: per region the outward normal sum of its faces' cross products, (b - a) x (c - a)
+ *   added row after row onto 0.0 (as planar._region_sums / cross_rows, operation for operation).
+ * - uvs: per region one UV per vertex (the first corner's in face order) and whether any corner
+ *   of a vertex has another UV (!= compared, so a NaN differs); keys region * k + vertex.
+ * - rings: the outline loops of some regions with the droppable vertices removed, flat, with
+ *   every ring vertex's predecessor in its ring; a region with a loop under 3 vertices fails.
+ * - outline: earcut's triangles as vertex ids, and per region whether the edges used once are
+ *   exactly its rings' edges and none is used more than twice.
+ * - straight: unlocked vertices on exactly two outline edges that run straight through them.
+ * Data: positions (k, 3) float64 metres (building-local East/Up/North), faces int64 ids below k.
+ * The former numpy and Python form is kept in tests/test_planar_batch_kernels.py as reference.
+ */
+#include "kernels.h"
+#include "sorted.h"
+
+/* 0 when the region sizes (count,) int64 sum to f faces, else -1 with a ValueError. */
+static int check_sizes(PyArrayObject *sizes, npy_intp f, const char *kernel) {
+    int64_t total = 0;
+    for (npy_intp r = 0; r < PyArray_DIM(sizes, 0); r++) total += K_I64(sizes)[r];
+    if (total == f) return 0;
+    PyErr_Format(PyExc_ValueError, "%s: sizes sum to %lld, not %zd faces", kernel,
+                 (long long)total, (Py_ssize_t)f);
+    return -1;
+}
+
+/* sums(positions (k, 3) float64, faces (f, 3) int64, sizes (count,) int64 summing to f)
+ * -> (count, 3) float64 normal sums. */
+static PyObject *sums(PyObject *self, PyObject *args) {
+    PyObject *positions_obj, *faces_obj, *sizes_obj;
+    const char *kernel = "planar_batch.sums";
+    PyArrayObject *out = NULL;
+    if (!PyArg_ParseTuple(args, "OOO:sums", &positions_obj, &faces_obj, &sizes_obj)) return NULL;
+    PyArrayObject *positions = k_array(positions_obj, NPY_FLOAT64, 2, 0, kernel, "positions");
+    PyArrayObject *faces = k_array(faces_obj, NPY_INT64, 2, 0, kernel, "faces");
+    PyArrayObject *sizes = k_array(sizes_obj, NPY_INT64, 1, 0, kernel, "sizes");
+    if (positions == NULL || faces == NULL || sizes == NULL) goto done;
+    npy_intp k = PyArray_DIM(positions, 0), f = PyArray_DIM(faces, 0);
+    npy_intp count = PyArray_DIM(sizes, 0), dims[2] = {count, 3};
+    if (k_dim(positions, 1, 3, kernel, "positions") || k_dim(faces, 1, 3, kernel, "faces") ||
+        k_indices(faces, k, kernel, "faces") || k_indices(sizes, f + 1, kernel, "sizes"))
+        goto done;
+    if (check_sizes(sizes, f, kernel)) goto done;
+    out = k_empty(2, dims, NPY_FLOAT64);
+    if (out == NULL) goto done;
+    Py_BEGIN_ALLOW_THREADS
+    const double *p = K_F64(positions);
+    const int64_t *face = K_I64(faces), *size = K_I64(sizes);
+    double *normal = K_F64(out);
+    int64_t at = 0;
+    for (npy_intp r = 0; r < count; r++) {
+        double sx = 0.0, sy = 0.0, sz = 0.0;
+        for (int64_t e = at + size[r]; at < e; at++) {
+            const double *pa = p + 3 * face[3 * at], *pb = p + 3 * face[3 * at + 1],
+                         *pc = p + 3 * face[3 * at + 2];
+            double ux = pb[0] - pa[0], uy = pb[1] - pa[1], uz = pb[2] - pa[2];
+            double vx = pc[0] - pa[0], vy = pc[1] - pa[1], vz = pc[2] - pa[2];
+            sx += uy * vz - uz * vy;
+            sy += uz * vx - ux * vz;
+            sz += ux * vy - uy * vx;
+        }
+        normal[3 * r] = sx;
+        normal[3 * r + 1] = sy;
+        normal[3 * r + 2] = sz;
+    }
+    Py_END_ALLOW_THREADS
+done:
+    Py_XDECREF(positions);
+    Py_XDECREF(faces);
+    Py_XDECREF(sizes);
+    return (PyObject *)out;
+}
+
+/* The uv pass over regions of faces (f, 3) with corner uvs (f, 3, 2) float32; sizes (count,)
+ * faces per region. Fills keys (3 f), values (3 f, 2), bad (count) and returns the key count,
+ * or -1 when scratch memory is lacking. */
+static int64_t uv_pass(const int64_t *face, const float *uv, const int64_t *size, int64_t count,
+                       int64_t f, int64_t k, int64_t *keys, float *values, npy_bool *bad) {
+    int64_t *order = malloc((size_t)(3 * f + 1) * sizeof(int64_t));
+    int64_t *spare = malloc((size_t)(3 * f + 1) * sizeof(int64_t));
+    int64_t written = 0, at = 0;
+    if (order == NULL || spare == NULL) {
+        written = -1;
+        goto done;
+    }
+    for (int64_t r = 0; r < count; r++) {
+        const int64_t *corner = face + 3 * at; /* the region's 3 size[r] corners, face order */
+        const float *corner_uv = uv + 6 * at;
+        int64_t n = 3 * size[r];
+        int64_t *sorted = stable_order(corner, n, order, spare);
+        bad[r] = 0;
+        for (int64_t i = 0; i < n; i++) {
+            int64_t c = sorted[i];
+            if (i == 0 || corner[c] != corner[sorted[i - 1]]) {
+                keys[written] = r * k + corner[c];
+                values[2 * written] = corner_uv[2 * c];
+                values[2 * written + 1] = corner_uv[2 * c + 1];
+                written++;
+            } else {
+                int64_t b = sorted[i - 1];
+                if (corner_uv[2 * c] != corner_uv[2 * b] ||
+                    corner_uv[2 * c + 1] != corner_uv[2 * b + 1])
+                    bad[r] = 1;
+            }
+        }
+        at += size[r];
+    }
+done:
+    free(order);
+    free(spare);
+    return written;
+}
+
+/* uvs(faces (f, 3) int64, corner_uvs (f, 3, 2) float32, sizes (count,) int64, k) ->
+ * (keys (3 f,) int64, values (3 f, 2) float32, bad (count,) bool, n): the first n keys and
+ * values hold the ascending keys region * k + vertex and each one's first corner UV. */
+static PyObject *uvs(PyObject *self, PyObject *args) {
+    PyObject *faces_obj, *uv_obj, *sizes_obj, *result = NULL;
+    long long k;
+    const char *kernel = "planar_batch.uvs";
+    PyArrayObject *keys = NULL, *values = NULL, *bad = NULL;
+    if (!PyArg_ParseTuple(args, "OOOL:uvs", &faces_obj, &uv_obj, &sizes_obj, &k)) return NULL;
+    PyArrayObject *faces = k_array(faces_obj, NPY_INT64, 2, 0, kernel, "faces");
+    PyArrayObject *corner_uvs = k_array(uv_obj, NPY_FLOAT32, 3, 0, kernel, "corner_uvs");
+    PyArrayObject *sizes = k_array(sizes_obj, NPY_INT64, 1, 0, kernel, "sizes");
+    if (faces == NULL || corner_uvs == NULL || sizes == NULL) goto done;
+    npy_intp f = PyArray_DIM(faces, 0), count = PyArray_DIM(sizes, 0);
+    npy_intp n3 = 3 * f, dims[2] = {3 * f, 2};
+    if (k < 0 || k_dim(faces, 1, 3, kernel, "faces") || k_indices(faces, k, kernel, "faces") ||
+        k_dim(corner_uvs, 0, f, kernel, "corner_uvs") ||
+        k_dim(corner_uvs, 1, 3, kernel, "corner_uvs") ||
+        k_dim(corner_uvs, 2, 2, kernel, "corner_uvs") || k_indices(sizes, f + 1, kernel, "sizes"))
+        goto done;
+    if (check_sizes(sizes, f, kernel)) goto done;
+    keys = k_empty(1, &n3, NPY_INT64);
+    values = k_empty(2, dims, NPY_FLOAT32);
+    bad = k_empty(1, &count, NPY_BOOL);
+    if (keys == NULL || values == NULL || bad == NULL) goto done;
+    int64_t written;
+    Py_BEGIN_ALLOW_THREADS
+    written = uv_pass(K_I64(faces), K_F32(corner_uvs), K_I64(sizes), count, f, k, K_I64(keys),
+                      K_F32(values), K_BOOL(bad));
+    Py_END_ALLOW_THREADS
+    if (written < 0) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    result = Py_BuildValue("(OOOL)", keys, values, bad, (long long)written);
+done:
+    Py_XDECREF(faces);
+    Py_XDECREF(corner_uvs);
+    Py_XDECREF(sizes);
+    Py_XDECREF(keys);
+    Py_XDECREF(values);
+    Py_XDECREF(bad);
+    return result;
+}
+
+/* rings(loop_vertices (v,) int64, loop_bounds (l + 1,) int64, region_loops (s + 1,) int64,
+ * setup_ok (s,) bool, ids (count,) int64 below s, droppable (k,) bool) -> (ok (count,) bool,
+ * ring_vertices (n,), previous (n,), ring_ends (rings,), region_rings (t + 1,), todo (t,)):
+ * region ids[j]'s loops are loop_bounds[region_loops[i]:region_loops[i + 1] + 1] slices of
+ * loop_vertices; ok: setup_ok and every loop keeps 3 vertices; the ok regions' (todo, ascending)
+ * kept ring vertices in order, each one's predecessor (index into ring_vertices), the rings'
+ * cumulative ends and the first ring of each todo region (ring indices). */
+static PyObject *rings(PyObject *self, PyObject *args) {
+    PyObject *v_obj, *b_obj, *r_obj, *ok_obj, *ids_obj, *drop_obj, *result = NULL;
+    const char *kernel = "planar_batch.rings";
+    PyArrayObject *ok = NULL, *ring_vertices = NULL, *previous = NULL, *ring_ends = NULL,
+                  *region_rings = NULL, *todo = NULL;
+    if (!PyArg_ParseTuple(args, "OOOOOO:rings", &v_obj, &b_obj, &r_obj, &ok_obj, &ids_obj,
+                          &drop_obj))
+        return NULL;
+    PyArrayObject *loop_vertices = k_array(v_obj, NPY_INT64, 1, 0, kernel, "loop_vertices");
+    PyArrayObject *loop_bounds = k_array(b_obj, NPY_INT64, 1, 0, kernel, "loop_bounds");
+    PyArrayObject *region_loops = k_array(r_obj, NPY_INT64, 1, 0, kernel, "region_loops");
+    PyArrayObject *setup_ok = k_array(ok_obj, NPY_BOOL, 1, 0, kernel, "setup_ok");
+    PyArrayObject *ids = k_array(ids_obj, NPY_INT64, 1, 0, kernel, "ids");
+    PyArrayObject *droppable = k_array(drop_obj, NPY_BOOL, 1, 0, kernel, "droppable");
+    if (loop_vertices == NULL || loop_bounds == NULL || region_loops == NULL ||
+        setup_ok == NULL || ids == NULL || droppable == NULL)
+        goto done;
+    npy_intp nv = PyArray_DIM(loop_vertices, 0), nl = PyArray_DIM(loop_bounds, 0) - 1;
+    npy_intp s = PyArray_DIM(setup_ok, 0), count = PyArray_DIM(ids, 0);
+    npy_intp k = PyArray_DIM(droppable, 0);
+    const int64_t *lv = K_I64(loop_vertices), *lb = K_I64(loop_bounds), *rl = K_I64(region_loops);
+    if (nl < 0 || k_dim(region_loops, 0, s + 1, kernel, "region_loops") ||
+        k_indices(ids, s, kernel, "ids") || k_indices(loop_vertices, k, kernel, "loop_vertices") ||
+        k_indices(loop_bounds, nv + 1, kernel, "loop_bounds") ||
+        k_indices(region_loops, nl + 1, kernel, "region_loops"))
+        goto done;
+    for (npy_intp i = 0; i < nl; i++) {
+        if (lb[i] > lb[i + 1]) {
+            PyErr_Format(PyExc_ValueError, "%s: loop_bounds are not ascending", kernel);
+            goto done;
+        }
+    }
+    for (npy_intp i = 0; i < s; i++) {
+        if (rl[i] > rl[i + 1]) {
+            PyErr_Format(PyExc_ValueError, "%s: region_loops are not ascending", kernel);
+            goto done;
+        }
+    }
+    const npy_bool *drop = K_BOOL(droppable), *sok = K_BOOL(setup_ok);
+    const int64_t *id = K_I64(ids);
+    ok = k_empty(1, &count, NPY_BOOL);
+    if (ok == NULL) goto done;
+    npy_bool *good = K_BOOL(ok);
+    /* First pass: which regions are ok and the output sizes. */
+    npy_intp n = 0, ring_count = 0, t = 0;
+    for (npy_intp j = 0; j < count; j++) {
+        int64_t i = id[j];
+        good[j] = sok[i];
+        if (!good[j]) continue;
+        npy_intp kept_total = 0;
+        for (int64_t l = rl[i]; l < rl[i + 1]; l++) {
+            npy_intp kept = 0;
+            for (int64_t x = lb[l]; x < lb[l + 1]; x++) kept += !drop[lv[x]];
+            if (kept < 3) good[j] = 0;
+            kept_total += kept;
+        }
+        if (good[j]) {
+            n += kept_total;
+            ring_count += rl[i + 1] - rl[i];
+            t++;
+        }
+    }
+    npy_intp t1 = t + 1;
+    ring_vertices = k_empty(1, &n, NPY_INT64);
+    previous = k_empty(1, &n, NPY_INT64);
+    ring_ends = k_empty(1, &ring_count, NPY_INT64);
+    region_rings = k_empty(1, &t1, NPY_INT64);
+    todo = k_empty(1, &t, NPY_INT64);
+    if (ring_vertices == NULL || previous == NULL || ring_ends == NULL || region_rings == NULL ||
+        todo == NULL)
+        goto done;
+    Py_BEGIN_ALLOW_THREADS
+    int64_t *rv = K_I64(ring_vertices), *prev = K_I64(previous), *ends = K_I64(ring_ends);
+    int64_t *first_ring = K_I64(region_rings), *todo_out = K_I64(todo);
+    int64_t at = 0, ring = 0, slot = 0;
+    for (npy_intp j = 0; j < count; j++) {
+        if (!good[j]) continue;
+        int64_t i = id[j];
+        todo_out[slot] = j;
+        first_ring[slot++] = ring;
+        for (int64_t l = rl[i]; l < rl[i + 1]; l++) {
+            int64_t start = at;
+            for (int64_t x = lb[l]; x < lb[l + 1]; x++) {
+                if (drop[lv[x]]) continue;
+                rv[at] = lv[x];
+                prev[at] = at - 1;
+                at++;
+            }
+            prev[start] = at - 1;
+            ends[ring++] = at;
+        }
+    }
+    first_ring[slot] = ring;
+    Py_END_ALLOW_THREADS
+    result = Py_BuildValue("(OOOOOO)", ok, ring_vertices, previous, ring_ends, region_rings, todo);
+done:
+    Py_XDECREF(loop_vertices);
+    Py_XDECREF(loop_bounds);
+    Py_XDECREF(region_loops);
+    Py_XDECREF(setup_ok);
+    Py_XDECREF(ids);
+    Py_XDECREF(droppable);
+    Py_XDECREF(ok);
+    Py_XDECREF(ring_vertices);
+    Py_XDECREF(previous);
+    Py_XDECREF(ring_ends);
+    Py_XDECREF(region_rings);
+    Py_XDECREF(todo);
+    return result;
+}
+
+static int key_less(const void *a, const void *b) {
+    int64_t x = *(const int64_t *)a, y = *(const int64_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* The outline check of `regions` regions; returns -1 when scratch memory is lacking. */
+static int outline_pass(const int64_t *tri, const int64_t *offset, const int64_t *size,
+                        const int64_t *face_count, int64_t regions, const int64_t *rv,
+                        const int64_t *prev, int64_t k, int64_t *new_faces, npy_bool *bad) {
+    int64_t longest = 0;
+    for (int64_t i = 0; i < regions; i++) {
+        longest = k_imax(longest, 3 * face_count[i]);
+        longest = k_imax(longest, size[i]);
+    }
+    int64_t *edges = malloc((size_t)(longest + 1) * sizeof(int64_t));
+    int64_t *loop = malloc((size_t)(longest + 1) * sizeof(int64_t));
+    if (edges == NULL || loop == NULL) {
+        free(edges);
+        free(loop);
+        return -1;
+    }
+    int64_t face = 0;
+    for (int64_t i = 0; i < regions; i++) {
+        int64_t n = 3 * face_count[i];
+        for (int64_t c = 0; c < n; c++) new_faces[3 * face + c] = rv[offset[i] + tri[3 * face + c]];
+        for (int64_t g = 0; g < face_count[i]; g++) {
+            const int64_t *corner = new_faces + 3 * (face + g);
+            for (int c = 0; c < 3; c++) {
+                int64_t a = corner[c], b = corner[(c + 1) % 3];
+                edges[3 * g + c] = a < b ? a * k + b : b * k + a;
+            }
+        }
+        qsort(edges, (size_t)n, sizeof(int64_t), key_less);
+        for (int64_t x = 0; x < size[i]; x++) {
+            int64_t a = rv[offset[i] + x], b = rv[prev[offset[i] + x]];
+            loop[x] = a < b ? a * k + b : b * k + a;
+        }
+        qsort(loop, (size_t)size[i], sizeof(int64_t), key_less);
+        /* Edges used once, in order, must be the loop's edges; none used three times. */
+        int64_t matched = 0;
+        int broken = 0;
+        for (int64_t lo = 0, hi; lo < n && !broken; lo = hi) {
+            hi = run_end(edges, n, lo);
+            if (hi - lo > 2) broken = 1;
+            if (hi - lo == 1) broken |= matched >= size[i] || loop[matched++] != edges[lo];
+        }
+        bad[i] = (npy_bool)(broken || matched != size[i]);
+        face += face_count[i];
+    }
+    free(edges);
+    free(loop);
+    return 0;
+}
+
+/* outline(tris (3 F,) int64, offsets (d,), sizes (d,), face_counts (d,) int64, ring_vertices
+ * (n,), previous (n,) int64, k) -> (new_faces (F, 3) int64, bad (d,) bool): region i's
+ * face_counts[i] triangles index ring_vertices[offsets[i]:offsets[i] + sizes[i]]. */
+static PyObject *outline(PyObject *self, PyObject *args) {
+    PyObject *t_obj, *o_obj, *s_obj, *c_obj, *v_obj, *p_obj, *result = NULL;
+    long long k;
+    const char *kernel = "planar_batch.outline";
+    PyArrayObject *new_faces = NULL, *bad = NULL;
+    if (!PyArg_ParseTuple(args, "OOOOOOL:outline", &t_obj, &o_obj, &s_obj, &c_obj, &v_obj,
+                          &p_obj, &k))
+        return NULL;
+    PyArrayObject *tris = k_array(t_obj, NPY_INT64, 1, 0, kernel, "tris");
+    PyArrayObject *offsets = k_array(o_obj, NPY_INT64, 1, 0, kernel, "offsets");
+    PyArrayObject *sizes = k_array(s_obj, NPY_INT64, 1, 0, kernel, "sizes");
+    PyArrayObject *counts = k_array(c_obj, NPY_INT64, 1, 0, kernel, "face_counts");
+    PyArrayObject *ring_vertices = k_array(v_obj, NPY_INT64, 1, 0, kernel, "ring_vertices");
+    PyArrayObject *previous = k_array(p_obj, NPY_INT64, 1, 0, kernel, "previous");
+    if (tris == NULL || offsets == NULL || sizes == NULL || counts == NULL ||
+        ring_vertices == NULL || previous == NULL)
+        goto done;
+    npy_intp d = PyArray_DIM(offsets, 0), n = PyArray_DIM(ring_vertices, 0);
+    npy_intp nt = PyArray_DIM(tris, 0);
+    if (k <= 0 || k > 3037000499LL || k_dim(sizes, 0, d, kernel, "sizes") ||
+        k_dim(counts, 0, d, kernel, "face_counts") ||
+        k_dim(previous, 0, n, kernel, "previous") || k_indices(previous, n, kernel, "previous") ||
+        k_indices(ring_vertices, k, kernel, "ring_vertices") ||
+        k_indices(offsets, n + 1, kernel, "offsets") || k_indices(sizes, n + 1, kernel, "sizes") ||
+        k_indices(counts, nt / 3 + 1, kernel, "face_counts"))
+        goto done;
+    const int64_t *off = K_I64(offsets), *size = K_I64(sizes), *cnt = K_I64(counts);
+    const int64_t *tri = K_I64(tris);
+    npy_intp faces_total = 0;
+    for (npy_intp i = 0; i < d; i++) {
+        if (off[i] + size[i] > n) {
+            PyErr_Format(PyExc_ValueError, "%s: region %zd runs past ring_vertices", kernel, i);
+            goto done;
+        }
+        for (int64_t c = 3 * faces_total; c < 3 * (faces_total + cnt[i]) && c < nt; c++) {
+            if (tri[c] < 0 || tri[c] >= size[i]) {
+                PyErr_Format(PyExc_ValueError, "%s: tris holds %lld, outside region %zd", kernel,
+                             (long long)tri[c], i);
+                goto done;
+            }
+        }
+        faces_total += cnt[i];
+    }
+    if (3 * faces_total != nt) {
+        PyErr_Format(PyExc_ValueError, "%s: face_counts sum to %zd, tris has %zd", kernel,
+                     (Py_ssize_t)faces_total, (Py_ssize_t)nt);
+        goto done;
+    }
+    npy_intp dims[2] = {faces_total, 3};
+    new_faces = k_empty(2, dims, NPY_INT64);
+    bad = k_empty(1, &d, NPY_BOOL);
+    if (new_faces == NULL || bad == NULL) goto done;
+    int status;
+    Py_BEGIN_ALLOW_THREADS
+    status = outline_pass(tri, off, size, cnt, d, K_I64(ring_vertices), K_I64(previous), k,
+                          K_I64(new_faces), K_BOOL(bad));
+    Py_END_ALLOW_THREADS
+    if (status) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    result = Py_BuildValue("(OO)", new_faces, bad);
+done:
+    Py_XDECREF(tris);
+    Py_XDECREF(offsets);
+    Py_XDECREF(sizes);
+    Py_XDECREF(counts);
+    Py_XDECREF(ring_vertices);
+    Py_XDECREF(previous);
+    Py_XDECREF(new_faces);
+    Py_XDECREF(bad);
+    return result;
+}
+
+/* The straight-vertex test over sorted edge keys; returns -1 when scratch memory is lacking. */
+static int straight_pass(const int64_t *keys, const int64_t *order, int64_t n, const int64_t *regions,
+                         const double *p, const npy_bool *locked, double tolerance, int on_border,
+                         int64_t k, npy_bool *straight) {
+    int64_t *degree = calloc((size_t)(k + 1), sizeof(int64_t));
+    int64_t *neighbour = malloc((size_t)(2 * k + 1) * sizeof(int64_t)); /* first two, in order */
+    npy_bool *border = calloc((size_t)(k + 1), 1);
+    if (degree == NULL || neighbour == NULL || border == NULL) {
+        free(degree);
+        free(neighbour);
+        free(border);
+        return -1;
+    }
+    /* The outline half-edges by source, stable: every outline edge from its low end (edges
+     * ascending), then every one from its high end. */
+    for (int side = 0; side < 2; side++) {
+        for (int64_t lo = 0, hi; lo < n; lo = hi) {
+            hi = run_end(keys, n, lo);
+            int64_t low = keys[lo] / k, high = keys[lo] % k;
+            int64_t least = regions[order[lo] / 3], most = least;
+            for (int64_t e = lo + 1; e < hi; e++) {
+                least = k_imin(least, regions[order[e] / 3]);
+                most = k_imax(most, regions[order[e] / 3]);
+            }
+            if (side == 0 && hi - lo == 1) border[low] = border[high] = 1;
+            if (hi - lo != 1 && least == most) continue;
+            int64_t source = side == 0 ? low : high, target = side == 0 ? high : low;
+            if (degree[source] < 2) neighbour[2 * source + degree[source]] = target;
+            degree[source]++;
+        }
+    }
+    for (int64_t v = 0; v < k; v++) {
+        straight[v] = 0;
+        if (degree[v] != 2 || locked[v] || (!on_border && border[v])) continue;
+        int64_t left = neighbour[2 * v], right = neighbour[2 * v + 1];
+        const double *a = p + 3 * left, *b = p + 3 * right, *q = p + 3 * v;
+        double d0 = b[0] - a[0], d1 = b[1] - a[1], d2 = b[2] - a[2];
+        double w0 = q[0] - a[0], w1 = q[1] - a[1], w2 = q[2] - a[2];
+        double length = sqrt(d0 * d0 + d1 * d1 + d2 * d2);
+        double c0 = d1 * w2 - d2 * w1, c1 = d2 * w0 - d0 * w2, c2 = d0 * w1 - d1 * w0;
+        double floor_length = isnan(length) || length >= 1e-30 ? length : 1e-30;
+        double squared = length * length;
+        double floor_squared = isnan(squared) || squared >= 1e-30 ? squared : 1e-30;
+        double off_line = sqrt(c0 * c0 + c1 * c1 + c2 * c2) / floor_length;
+        double between = (w0 * d0 + w1 * d1 + w2 * d2) / floor_squared;
+        /* Not where the two neighbours already share an edge (a slit / T-junction). */
+        int64_t pair = left < right ? left * k + right : right * k + left;
+        int64_t at = lower_bound(keys, 0, n, pair);
+        int closes = at < n && keys[at] == pair;
+        straight[v] = (npy_bool)(off_line < tolerance && between > 0 && between < 1 && !closes);
+    }
+    free(degree);
+    free(neighbour);
+    free(border);
+    return 0;
+}
+
+/* straight(positions (k, 3) float64, keys (3 m,) int64 ascending, order (3 m,) int64 sides,
+ * regions (m,) int64, locked (k,) bool, tolerance, on_border) -> (k,) bool: planar.straight_vertices
+ * (keys low * k + high of every face side, order the side each key came from). */
+static PyObject *straight(PyObject *self, PyObject *args) {
+    PyObject *p_obj, *keys_obj, *order_obj, *regions_obj, *locked_obj;
+    double tolerance;
+    int on_border;
+    const char *kernel = "planar_batch.straight";
+    PyArrayObject *out = NULL;
+    if (!PyArg_ParseTuple(args, "OOOOOdp:straight", &p_obj, &keys_obj, &order_obj, &regions_obj,
+                          &locked_obj, &tolerance, &on_border))
+        return NULL;
+    PyArrayObject *positions = k_array(p_obj, NPY_FLOAT64, 2, 0, kernel, "positions");
+    PyArrayObject *keys = k_array(keys_obj, NPY_INT64, 1, 0, kernel, "keys");
+    PyArrayObject *order = k_array(order_obj, NPY_INT64, 1, 0, kernel, "order");
+    PyArrayObject *regions = k_array(regions_obj, NPY_INT64, 1, 0, kernel, "regions");
+    PyArrayObject *locked = k_array(locked_obj, NPY_BOOL, 1, 0, kernel, "locked");
+    if (positions == NULL || keys == NULL || order == NULL || regions == NULL || locked == NULL)
+        goto done;
+    npy_intp k = PyArray_DIM(positions, 0), n = PyArray_DIM(keys, 0);
+    npy_intp m = PyArray_DIM(regions, 0);
+    if (k_dim(positions, 1, 3, kernel, "positions") || k_dim(locked, 0, k, kernel, "locked") ||
+        k_dim(keys, 0, 3 * m, kernel, "keys") || k_dim(order, 0, n, kernel, "order") ||
+        k_indices(order, n, kernel, "order") ||
+        (k > 0 && k_indices(keys, (int64_t)k * k, kernel, "keys")))
+        goto done;
+    if (k == 0 && n > 0) {
+        PyErr_Format(PyExc_ValueError, "%s: keys without vertices", kernel);
+        goto done;
+    }
+    for (npy_intp i = 1; i < n; i++) {
+        if (K_I64(keys)[i] < K_I64(keys)[i - 1]) {
+            PyErr_Format(PyExc_ValueError, "%s: keys are not ascending", kernel);
+            goto done;
+        }
+    }
+    out = k_empty(1, &k, NPY_BOOL);
+    if (out == NULL) goto done;
+    int status;
+    Py_BEGIN_ALLOW_THREADS
+    status = straight_pass(K_I64(keys), K_I64(order), n, K_I64(regions), K_F64(positions),
+                           K_BOOL(locked), tolerance, on_border, k, K_BOOL(out));
+    Py_END_ALLOW_THREADS
+    if (status) {
+        PyErr_NoMemory();
+        Py_CLEAR(out);
+    }
+done:
+    Py_XDECREF(positions);
+    Py_XDECREF(keys);
+    Py_XDECREF(order);
+    Py_XDECREF(regions);
+    Py_XDECREF(locked);
+    return (PyObject *)out;
+}
+
+static PyMethodDef methods[] = {
+    {"straight", straight, METH_VARARGS, "Unlocked vertices on two straight outline edges."},
+    {"sums", sums, METH_VARARGS, "Per-region sums of the faces' cross products."},
+    {"uvs", uvs, METH_VARARGS, "Per-region first UV per vertex and UV conflicts."},
+    {"rings", rings, METH_VARARGS, "Outline rings with droppable vertices removed."},
+    {"outline", outline, METH_VARARGS, "Earcut triangles as vertex ids and the outline check."},
+    {NULL, NULL, 0, NULL}};
+
+K_MODULE(planar_batch, "Batched planar retriangulation bookkeeping (exporter.simplify.planar).",
+         methods)

@@ -1,0 +1,335 @@
+"""The compiled planar-stage bookkeeping (``exporter/mesh/c/planar_batch.c``) gives bit for bit
+what the numpy and Python forms it replaced in :mod:`exporter.simplify.planar` gave (kept here as
+the references): the regions' normal sums and UV check (``region_setup``), the loops with the
+droppable vertices removed and the earcut outline check (``_retriangulate_many``) and
+:func:`straight_vertices`. Positions are building-local East/Up/North metres (random meshes:
+frame-free metres)."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+from test_perf_simplify import planar_cases, same, welded_mesh
+
+from exporter.mesh import _planar_batch
+from exporter.mesh.geometry import cross_rows, row_norms, sorted_edge_keys
+from exporter.mesh.topology import planar_regions
+from exporter.samplegen import generate_buildings
+from exporter.simplify.planar import _region_loops, region_setup, straight_vertices
+
+
+def reference_region_sums(rows, sizes, row_region, bounds):
+    """The former ``planar._region_sums``: rows added one after the other onto 0.0 per region."""
+    count, longest = len(sizes), int(sizes.max())
+    if count * longest > 4 * len(rows) + 256:
+        return np.stack([rows[bounds[r] : bounds[r + 1]].sum(axis=0) for r in range(count)])
+    padded = np.full((count, longest + 1, 3), -0.0)
+    padded[:, 0] = 0.0
+    padded[row_region, np.arange(1, len(rows) + 1) - np.repeat(bounds[:-1], sizes)] = rows
+    return np.add.accumulate(padded, axis=1)[:, -1]
+
+
+def reference_uvs(region_faces, face_uvs, sizes, k):
+    """The former UV check of ``region_setup``: (keys, values, conflict per region)."""
+    face_region = np.repeat(np.arange(len(sizes)), sizes)
+    corner_key = np.repeat(face_region, 3) * k + region_faces.reshape(-1)
+    order = np.argsort(corner_key, kind="stable")
+    ordered = corner_key[order]
+    first = np.ones(len(order), dtype=bool)
+    first[1:] = ordered[1:] != ordered[:-1]
+    corner_uv = face_uvs.reshape(-1, 2)[order]
+    differs = ~first[1:] & (corner_uv[1:] != corner_uv[:-1]).any(axis=1)
+    conflict = np.zeros(len(sizes), dtype=bool)
+    conflict[ordered[1:][differs] // k] = True
+    return ordered[first], corner_uv[first], conflict
+
+
+def reference_straight(
+    positions, faces, regions, locked, tolerance=1e-6, on_border=True, distances=None
+):
+    """The former numpy body of :func:`straight_vertices` (on the sorted edge keys);
+    ``distances``: a list that gets the off-line distances (metres) of the degree-2 vertices."""
+    k = len(positions)
+    keys, order = sorted_edge_keys(faces, k)
+    start = np.flatnonzero(np.concatenate([[True], keys[1:] != keys[:-1]]))
+    counts = np.concatenate([start[1:], [len(keys)]]) - start
+    owner = regions[order // 3]
+    existing = keys[start]
+    low, high = np.divmod(existing, k)
+    outline = (counts == 1) | (
+        np.minimum.reduceat(owner, start) != np.maximum.reduceat(owner, start)
+    )
+    ends = np.concatenate([low[outline], high[outline]])
+    degree = np.bincount(ends, minlength=k)
+    half = np.argsort(ends, kind="stable")
+    source = ends[half]
+    target = np.concatenate([high[outline], low[outline]])[half]
+    straight = np.zeros(k, dtype=bool)
+    two = np.flatnonzero(degree == 2)
+    if not on_border:
+        border = np.zeros(k, dtype=bool)
+        border[low[counts == 1]] = True
+        border[high[counts == 1]] = True
+        two = two[~border[two]]
+    if len(two):
+        first = np.searchsorted(source, two)
+        left, right = target[first], target[first + 1]
+        a, b = positions[left], positions[right]
+        p = positions[two]
+        direction = b - a
+        length = row_norms(direction)
+        off_line = row_norms(cross_rows(direction, p - a)) / np.maximum(length, 1e-30)
+        between = ((p - a) * direction).sum(1) / np.maximum(length**2, 1e-30)
+        if distances is not None:
+            distances.extend(off_line[(between > 0) & (between < 1)].tolist())
+        pair = np.minimum(left, right) * k + np.maximum(left, right)
+        closes = existing[np.minimum(np.searchsorted(existing, pair), len(existing) - 1)] == pair
+        straight[two] = (off_line < tolerance) & (between > 0) & (between < 1) & ~closes
+    return straight & ~locked
+
+
+def reference_rings(loops, setup_ok, ids, droppable):
+    """The former loop filtering of ``_retriangulate_many``: ok, ring vertices, predecessors,
+    ring ends, each todo region's first ring, todo."""
+    drop = droppable.tolist()
+    kept: list = []
+    for i in ids:
+        rings = loops[i]
+        if rings is not None:
+            rings = [[v for v in ring if not drop[v]] for ring in rings]
+            if any(len(ring) < 3 for ring in rings):
+                rings = None
+        kept.append(rings)
+    ok = setup_ok[ids] & np.array([rings is not None for rings in kept])
+    todo = np.flatnonzero(ok)
+    rings_of = [kept[r] for r in todo]
+    ring_sizes = [len(ring) for rings in rings_of for ring in rings]
+    ring_vertices = np.array(
+        [v for rings in rings_of for ring in rings for v in ring], dtype=np.int64
+    )
+    ring_ends = np.array(list(itertools.accumulate(ring_sizes)), dtype=np.int64)
+    previous = np.arange(-1, len(ring_vertices) - 1)
+    previous[ring_ends - np.array(ring_sizes, dtype=np.int64)] = ring_ends - 1
+    region_rings = np.array([0, *itertools.accumulate(len(r) for r in rings_of)], dtype=np.int64)
+    return ok, ring_vertices, previous, ring_ends, region_rings, todo
+
+
+def reference_outline(tris, offsets, sizes, ring_vertices, previous, k):
+    """The former outline check of ``_retriangulate_many``: (new faces, broken per region)."""
+    face_counts = [len(t) // 3 for t in tris]
+    done = np.arange(len(tris))
+    new_faces = ring_vertices[
+        np.concatenate(tris).astype(np.int64) + np.repeat(offsets, 3 * np.array(face_counts))
+    ].reshape(-1, 3)
+    new_region = np.repeat(done, face_counts)
+    ahead = new_faces[:, [1, 2, 0]]
+    edge_key = np.sort(
+        (
+            (new_region[:, None] * k + np.minimum(new_faces, ahead)) * k
+            + np.maximum(new_faces, ahead)
+        ).reshape(-1)
+    )
+    differs = np.concatenate([[True], edge_key[1:] != edge_key[:-1], [True]])
+    single = edge_key[differs[:-1] & differs[1:]]
+    overused = edge_key[2:][edge_key[2:] == edge_key[:-2]]
+    index = np.concatenate([np.arange(o, o + s) for o, s in zip(offsets, sizes)]).astype(int)
+    vertex_region = np.repeat(done, sizes)
+    ends_a, ends_b = ring_vertices[index], ring_vertices[previous[index]]
+    loop_key = (vertex_region * k + np.minimum(ends_a, ends_b)) * k + np.maximum(ends_a, ends_b)
+    loop_key.sort()
+    broken = np.zeros(len(tris), dtype=bool)
+    broken[np.setxor1d(single, loop_key) // (k * k)] = True
+    broken[overused // (k * k)] = True
+    return new_faces, broken
+
+
+def meshes():
+    buildings = generate_buildings(8, seed=7, atlas_size=32, two_part_share=0.3)
+    return [welded_mesh(b.parts) for b in buildings] + planar_cases()
+
+
+def regions_of(positions, faces, charts):
+    regions = planar_regions(positions, faces, charts)
+    return regions, [np.flatnonzero(regions == r) for r in range(regions.max() + 1)]
+
+
+def test_sums_equal_the_region_sums_of_the_cross_products():
+    rng = np.random.default_rng(41)
+    for _ in range(200):
+        sizes = rng.integers(1, 30, int(rng.integers(1, 15)))
+        k = int(rng.integers(3, 40))
+        positions = rng.normal(size=(k, 3)) * rng.choice([1e-300, 1e-3, 1.0, 1e150], (k, 1))
+        positions[rng.random(positions.shape) < 0.2] = -0.0
+        faces = rng.integers(0, k, (int(sizes.sum()), 3))
+        rows = cross_rows(
+            positions[faces[:, 1]] - positions[faces[:, 0]],
+            positions[faces[:, 2]] - positions[faces[:, 0]],
+        )
+        bounds = np.concatenate([[0], np.cumsum(sizes)]).tolist()
+        expected = np.stack(
+            [rows[bounds[r] : bounds[r + 1]].sum(axis=0) for r in range(len(sizes))]
+        )
+        got = _planar_batch.sums(positions, faces, sizes)
+        assert same(got, expected)
+        region = np.repeat(np.arange(len(sizes)), sizes)
+        assert same(got, reference_region_sums(rows, sizes, region, bounds))
+
+
+def test_uvs_equal_the_numpy_uv_check():
+    rng = np.random.default_rng(43)
+    conflicts = 0
+    for _ in range(200):
+        sizes = rng.integers(1, 20, int(rng.integers(1, 10)))
+        k = int(rng.integers(3, 25))
+        faces = rng.integers(0, k, (int(sizes.sum()), 3))
+        per_vertex = rng.choice([0.0, -0.0, 0.25, 1.0], (k, 2)).astype(np.float32)
+        uvs = per_vertex[faces]
+        # Some corners with another UV, a NaN, or -0.0 for 0.0 (equal).
+        uvs[rng.random(uvs.shape[:2]) < 0.03] = 0.5
+        uvs[rng.random(uvs.shape[:2]) < 0.01] = np.nan
+        keys, values, conflict, n = _planar_batch.uvs(faces, uvs, sizes, k)
+        expected = reference_uvs(faces, uvs, sizes, k)
+        assert same(keys[:n], expected[0]) and same(values[:n], expected[1])
+        assert same(conflict, expected[2])
+        conflicts += int(conflict.sum())
+    assert conflicts > 50
+
+
+def test_rings_equal_the_filtered_loops():
+    rng = np.random.default_rng(47)
+    checked = 0
+    for positions, faces, _, charts in meshes():
+        k = len(positions)
+        _, members = regions_of(positions, faces, charts)
+        setup = region_setup(positions, faces, None, members)
+        assert setup is not None
+        sizes = np.array([len(m) for m in members])
+        half = faces[np.concatenate(members)][:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+        owner = np.repeat(np.arange(len(members)), 3 * sizes)
+        loops = _region_loops(half, owner, len(members), k, np.zeros(k, dtype=bool))
+        # The setup's flat loops are the list form's.
+        for r, rings in enumerate(loops):
+            if rings is not None:
+                lo, hi = setup.region_loops[r], setup.region_loops[r + 1]
+                flat = [
+                    setup.loop_vertices[setup.loop_bounds[i] : setup.loop_bounds[i + 1]].tolist()
+                    for i in range(lo, hi)
+                ]
+                assert flat == rings
+        setup_ok = setup.ok & (rng.random(len(members)) < 0.9)
+        for share in (0.0, 0.2, 0.6):
+            droppable = rng.random(k) < share
+            ids = rng.permutation(len(members))[: int(rng.integers(1, len(members) + 1))]
+            got = _planar_batch.rings(
+                setup.loop_vertices, setup.loop_bounds, setup.region_loops, setup_ok, ids, droppable
+            )
+            expected = reference_rings(loops, setup_ok, ids, droppable)
+            assert all(np.array_equal(a, b) for a, b in zip(got, expected))
+            assert got[0].dtype == bool and all(a.dtype == np.int64 for a in got[1:])
+            checked += len(expected[5])
+    assert checked > 100
+
+
+def test_outline_equals_the_numpy_outline_check():
+    rng = np.random.default_rng(53)
+    broken = 0
+    for _ in range(200):
+        count = int(rng.integers(1, 8))
+        sizes = rng.integers(3, 12, count)
+        offsets = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+        k = int(sizes.sum()) + 5
+        ring_vertices = rng.permutation(k)[: int(sizes.sum())].astype(np.int64)
+        previous = np.arange(-1, len(ring_vertices) - 1)
+        previous[offsets] = offsets + sizes - 1
+        tris = []
+        for s in sizes.tolist():
+            fan = np.array([[0, i, i + 1] for i in range(1, s - 1)], dtype=np.uint32)
+            choice = rng.random()
+            if choice < 0.2:
+                fan[rng.integers(len(fan))] = rng.integers(0, s, 3)  # a wrong triangle
+            elif choice < 0.3:
+                fan = np.vstack([fan, fan[:1], fan[:1]])  # an edge used three times and more
+            tris.append(fan.reshape(-1))
+        new_faces, bad = _planar_batch.outline(
+            np.concatenate(tris), offsets, sizes, [len(t) // 3 for t in tris],
+            ring_vertices, previous, k,
+        )  # fmt: skip
+        expected = reference_outline(tris, offsets, sizes, ring_vertices, previous, k)
+        assert same(new_faces, expected[0]) and same(bad, expected[1])
+        broken += int(bad.sum())
+    assert broken > 50
+
+
+@pytest.mark.parametrize("on_border", [True, False])
+def test_straight_equals_the_numpy_straight_vertices(on_border):
+    rng = np.random.default_rng(59)
+    found = edges = 0
+    for positions, faces, _, charts in meshes():
+        regions, _ = regions_of(positions, faces, charts)
+        locked = rng.random(len(positions)) < 0.1
+        for noise in (0.0, 1e-7, 1e-6, 1e-3):
+            # Jitter around the tolerance: the comparisons must agree at their edges too.
+            moved = positions + noise * rng.normal(size=positions.shape)
+            got = straight_vertices(moved, faces, regions, locked, on_border=on_border)
+            expected = reference_straight(moved, faces, regions, locked, on_border=on_border)
+            assert same(got, expected)
+            found += int(got.sum())
+        # Tolerances equal to distances found: the strict comparison decides on the last bit.
+        distances: list = []
+        moved = positions + 1e-4 * rng.normal(size=positions.shape)
+        reference_straight(moved, faces, regions, locked, 1.0, on_border, distances)
+        for tolerance in rng.choice(distances, min(len(distances), 8), replace=False).tolist():
+            for nudge in (np.nextafter(tolerance, 0), tolerance, np.nextafter(tolerance, 1)):
+                args = (moved, faces, regions, locked, float(nudge), on_border)
+                assert same(straight_vertices(*args), reference_straight(*args))
+                edges += 1
+    assert found > 50 and edges > 100
+
+
+def test_bad_inputs_are_value_errors():
+    faces = np.array([[0, 1, 2]])
+    with pytest.raises(ValueError, match="sums"):
+        _planar_batch.sums(np.eye(3), faces + 1, np.array([1]))
+    with pytest.raises(ValueError, match="sums"):
+        _planar_batch.sums(np.eye(3), faces, np.array([2]))
+    with pytest.raises(ValueError, match="uvs"):
+        _planar_batch.uvs(faces, np.zeros((1, 3, 2), np.float32), np.array([1]), 2)
+    with pytest.raises(ValueError, match="rings"):
+        _planar_batch.rings(
+            np.array([0, 1, 5]), np.array([0, 3]), np.array([0, 1]), np.ones(1, bool),
+            np.array([0]), np.zeros(3, bool),
+        )  # fmt: skip
+    with pytest.raises(ValueError, match="rings"):
+        _planar_batch.rings(
+            np.array([0, 1, 2]), np.array([0, 3]), np.array([0, 1]), np.ones(1, bool),
+            np.array([1]), np.zeros(3, bool),
+        )  # fmt: skip
+    ring = np.array([0, 1, 2])
+    previous = np.array([2, 0, 1])
+    with pytest.raises(ValueError, match="outline"):
+        _planar_batch.outline(np.array([0, 1, 3]), [0], [3], [1], ring, previous, 3)
+    with pytest.raises(ValueError, match="outline"):
+        _planar_batch.outline(np.array([0, 1, 2]), [1], [3], [1], ring, previous, 3)
+    with pytest.raises(ValueError, match="outline"):
+        _planar_batch.outline(np.array([0, 1, 2]), [0], [3], [2], ring, previous, 3)
+    keys, order = sorted_edge_keys(faces, 3)
+    with pytest.raises(ValueError, match="straight"):
+        _planar_batch.straight(
+            np.eye(3), keys, order + 1, np.zeros(1, np.int64), np.zeros(3, bool), 1e-6, True
+        )
+    with pytest.raises(ValueError, match="straight"):
+        _planar_batch.straight(
+            np.eye(3),
+            keys[::-1].copy(),
+            order,
+            np.zeros(1, np.int64),
+            np.zeros(3, bool),
+            1e-6,
+            True,
+        )
+    with pytest.raises(ValueError, match="straight"):
+        _planar_batch.straight(
+            np.eye(2, 3), keys, order, np.zeros(1, np.int64), np.zeros(2, bool), 1e-6, True
+        )
