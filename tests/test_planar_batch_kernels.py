@@ -17,7 +17,13 @@ from exporter.mesh import _planar_batch
 from exporter.mesh.geometry import cross_rows, row_norms, sorted_edge_keys
 from exporter.mesh.topology import planar_regions
 from exporter.samplegen import generate_buildings
-from exporter.simplify.planar import _region_loops, region_setup, straight_vertices
+from exporter.simplify.planar import (
+    _plane_basis,
+    _region_loops,
+    _row_dots,
+    region_setup,
+    straight_vertices,
+)
 
 
 def reference_region_sums(rows, sizes, row_region, bounds):
@@ -44,6 +50,20 @@ def reference_uvs(region_faces, face_uvs, sizes, k):
     conflict = np.zeros(len(sizes), dtype=bool)
     conflict[ordered[1:][differs] // k] = True
     return ordered[first], corner_uv[first], conflict
+
+
+def reference_spans(faces, regions, k):
+    """The former numpy form: (one region, used, by region, region start)."""
+    corner_region = np.repeat(regions, 3)
+    low = np.full(k, np.iinfo(np.int64).max)
+    high = np.full(k, -1)
+    np.minimum.at(low, faces.reshape(-1), corner_region)
+    np.maximum.at(high, faces.reshape(-1), corner_region)
+    used = np.zeros(k, dtype=bool)
+    used[faces.reshape(-1)] = True
+    by_region = np.argsort(regions, kind="stable")
+    region_start = np.searchsorted(regions[by_region], np.arange(regions.max() + 2))
+    return low == high, used, by_region, region_start
 
 
 def reference_straight(
@@ -113,7 +133,15 @@ def reference_rings(loops, setup_ok, ids, droppable):
     previous = np.arange(-1, len(ring_vertices) - 1)
     previous[ring_ends - np.array(ring_sizes, dtype=np.int64)] = ring_ends - 1
     region_rings = np.array([0, *itertools.accumulate(len(r) for r in rings_of)], dtype=np.int64)
-    return ok, ring_vertices, previous, ring_ends, region_rings, todo
+    return (
+        ok,
+        ring_vertices,
+        previous,
+        ring_ends,
+        region_rings,
+        todo,
+        np.array(ring_sizes, dtype=np.uint32),
+    )
 
 
 def reference_outline(tris, offsets, sizes, ring_vertices, previous, k):
@@ -227,7 +255,8 @@ def test_rings_equal_the_filtered_loops():
             )
             expected = reference_rings(loops, setup_ok, ids, droppable)
             assert all(np.array_equal(a, b) for a, b in zip(got, expected))
-            assert got[0].dtype == bool and all(a.dtype == np.int64 for a in got[1:])
+            assert got[0].dtype == bool and all(a.dtype == np.int64 for a in got[1:6])
+            assert got[6].dtype == np.uint32
             checked += len(expected[5])
     assert checked > 100
 
@@ -288,6 +317,43 @@ def test_straight_equals_the_numpy_straight_vertices(on_border):
     assert found > 50 and edges > 100
 
 
+def test_plane_and_basis_equal_the_one_region_plane_bases():
+    # The one-region reference _retriangulate's arithmetic: np.linalg.norm, _plane_basis.
+    rng = np.random.default_rng(61)
+    sums = rng.normal(size=(3000, 3)) * rng.choice([1e-150, 1e-3, 1.0, 1e100], (3000, 1))
+    sums[rng.random(sums.shape) < 0.2] = -0.0
+    sums[rng.random(sums.shape) < 0.1] = 0.0
+    sums[:20] = 0.0  # zero area: refused by the caller
+    sums[20:40, 0] = rng.choice([0.9, -0.9], 20) * np.sqrt((sums[20:40, 1:] ** 2).sum(1) / 0.19)
+    area, normal, u = _planar_batch.plane(sums, _row_dots(sums))
+    basis = _planar_batch.basis(normal, u, _row_dots(u))
+    assert (area[:20] == 0).all() and np.isnan(basis[:20]).all()
+    for r in range(20, len(sums)):
+        expected_area = 0.5 * np.linalg.norm(sums[r])
+        assert area[r] == expected_area
+        if expected_area > 0:
+            expected_normal = sums[r] / (2 * expected_area)
+            assert same(normal[r], expected_normal)
+            assert same(basis[r], np.stack(_plane_basis(expected_normal), axis=1))
+
+
+def test_spans_and_held_equal_the_numpy_forms():
+    rng = np.random.default_rng(67)
+    for _ in range(300):
+        m, k = int(rng.integers(1, 60)), int(rng.integers(3, 50))
+        faces = rng.integers(0, k, (m, 3))
+        count = int(rng.integers(1, m + 1))
+        regions = np.concatenate([np.arange(count), rng.integers(0, count, m - count)])
+        regions = regions[rng.permutation(m)]
+        got = _planar_batch.spans(faces, regions, count, k)
+        expected = reference_spans(faces, regions, k)
+        assert all(same(a, b) for a, b in zip(got, expected))
+        droppable = rng.random(k) < rng.choice([0.02, 0.2])
+        region_faces = faces[expected[2]]
+        held = np.logical_or.reduceat(droppable[region_faces].any(axis=1), expected[3][:-1])
+        assert same(_planar_batch.held(droppable, region_faces, expected[3]), held)
+
+
 def test_bad_inputs_are_value_errors():
     faces = np.array([[0, 1, 2]])
     with pytest.raises(ValueError, match="sums"):
@@ -314,6 +380,18 @@ def test_bad_inputs_are_value_errors():
         _planar_batch.outline(np.array([0, 1, 2]), [1], [3], [1], ring, previous, 3)
     with pytest.raises(ValueError, match="outline"):
         _planar_batch.outline(np.array([0, 1, 2]), [0], [3], [2], ring, previous, 3)
+    with pytest.raises(ValueError, match="plane"):
+        _planar_batch.plane(np.zeros((2, 3)), np.zeros(3))
+    with pytest.raises(ValueError, match="basis"):
+        _planar_batch.basis(np.zeros((2, 3)), np.zeros((3, 3)), np.zeros(2))
+    with pytest.raises(ValueError, match="spans"):
+        _planar_batch.spans(faces, np.array([1]), 1, 3)
+    with pytest.raises(ValueError, match="spans"):
+        _planar_batch.spans(faces, np.array([0]), 1, 2)
+    with pytest.raises(ValueError, match="held"):
+        _planar_batch.held(np.zeros(2, bool), faces, np.array([0, 1]))
+    with pytest.raises(ValueError, match="held"):
+        _planar_batch.held(np.zeros(3, bool), faces, np.array([1, 0, 1]))
     keys, order = sorted_edge_keys(faces, 3)
     with pytest.raises(ValueError, match="straight"):
         _planar_batch.straight(

@@ -255,23 +255,11 @@ def region_setup(positions, faces, corner_uvs, members: list) -> RegionSetup | N
         ok &= ~conflict
         uv_keys, uv_values = keys[:n], values[:n]
     normal = _planar_batch.sums(positions, region_faces, sizes)
-    area = 0.5 * np.sqrt(_row_dots(normal))
+    # _plane_basis per row with helper (1, 0, 0) or (0, 1, 0), the same IEEE operations
+    # (compiled); the dot products, which np.dot may do in BLAS, stay numpy's.
+    area, normal, u = _planar_batch.plane(normal, _row_dots(normal))
     ok &= area > 0
-    with np.errstate(invalid="ignore", divide="ignore"):
-        normal = normal / (2 * area)[:, None]
-        x, y, z = normal[:, 0], normal[:, 1], normal[:, 2]
-        # _plane_basis with helper (1, 0, 0) or (0, 1, 0), the same IEEE operations per row.
-        hx = np.where(np.abs(x) < 0.9, 1.0, 0.0)
-        hy = 1.0 - hx
-        u = np.stack([y * 0.0 - z * hy, z * hx - x * 0.0, x * hy - y * hx], axis=1)
-        u = u / np.sqrt(_row_dots(u))[:, None]
-        v = np.stack(
-            [y * u[:, 2] - z * u[:, 1], z * u[:, 0] - x * u[:, 2], x * u[:, 1] - y * u[:, 0]],
-            axis=1,
-        )
-    basis = np.stack(
-        [u, v], axis=2
-    )  # (regions, 3, 2): each [r] C-contiguous like np.stack([u, v], axis=1)
+    basis = _planar_batch.basis(normal, u, _row_dots(u))  # (regions, 3, 2): axes as columns
     return RegionSetup(
         loop_vertices, loop_bounds, region_loops, ok, normal, area, basis, uv_keys, uv_values
     )
@@ -313,13 +301,15 @@ def _retriangulate_many(
     assert ids is not None
     # The loops with the droppable vertices removed, flat (compiled): the ok regions (todo)'s
     # ring vertices, each one's predecessor in its ring, the rings' ends and each region's rings.
-    ok, ring_vertices, previous, ring_ends, region_rings, todo_slots = _planar_batch.rings(
-        setup.loop_vertices,
-        setup.loop_bounds,
-        setup.region_loops,
-        setup.ok,
-        np.asarray(ids, dtype=np.int64),
-        droppable,
+    ok, ring_vertices, previous, ring_ends, region_rings, todo_slots, ring_sizes = (
+        _planar_batch.rings(
+            setup.loop_vertices,
+            setup.loop_bounds,
+            setup.region_loops,
+            setup.ok,
+            np.asarray(ids, dtype=np.int64),
+            droppable,
+        )
     )
     normal, area = setup.normal[ids], setup.area[ids]
     todo = todo_slots.tolist()
@@ -327,8 +317,6 @@ def _retriangulate_many(
         return [None] * count
     projected_from = positions[ring_vertices]
     first_ring, ends_of = region_rings.tolist(), [0, *ring_ends.tolist()]
-    # Earcut's ring ends of a one-ring region: a view of this array.
-    one_ring_ends = np.diff(ring_ends, prepend=0).astype(np.uint32)
     tris, offsets, sizes, done = [], [], [], []
     for j, r in enumerate(todo):
         lo_ring, hi_ring = first_ring[j], first_ring[j + 1]
@@ -348,7 +336,7 @@ def _retriangulate_many(
             points = np.concatenate([flat[i] for i in order])
             ring_end = np.array(list(itertools.accumulate(len(flat[i]) for i in order)), np.uint32)
         else:
-            ring_end = one_ring_ends[lo_ring : lo_ring + 1]
+            ring_end = ring_sizes[lo_ring : lo_ring + 1]  # earcut's ends of one ring
         tri = mapbox_earcut.triangulate_float64(points, ring_end)
         if len(tri) != 3 * (size - 2 + 2 * (hi_ring - lo_ring - 1)):
             continue
@@ -477,26 +465,21 @@ def _retriangulate_keeping_boundary(
     edge_keys = sorted_edge_keys(faces, k)
     regions = planar_regions(positions, faces, face_chart, edge_keys)
     # Vertices inside one region (off the open border) go; so do straight outline vertices.
-    corner_region = np.repeat(regions, 3)
-    low = np.full(k, np.iinfo(np.int64).max)
-    high = np.full(k, -1)
-    np.minimum.at(low, faces.reshape(-1), corner_region)
-    np.maximum.at(high, faces.reshape(-1), corner_region)
+    # Faces of every region, ascending (one stable counting sort instead of a scan per region).
+    one_region, used, by_region, region_start = _planar_batch.spans(
+        faces, regions, int(regions.max()) + 1, k
+    )
     border = border_vertices(faces, k)
-    interior = (low == high) & ~border & ~locked
-    used = np.zeros(k, dtype=bool)
-    used[faces.reshape(-1)] = True
+    interior = one_region & ~border & ~locked
     straight = straight_vertices(
         positions, faces, regions, locked, on_border=True, edge_keys=edge_keys
     )
-    # Faces of every region, ascending (one stable sort instead of a scan per region).
-    by_region = np.argsort(regions, kind="stable")
-    region_start = np.searchsorted(regions[by_region], np.arange(regions.max() + 2))
     done: dict = {}  # both passes share the regions their different border choice does not touch
     droppable = (interior | straight) & used
     # Droppable vertices only ever become fewer (failures keep theirs; the second pass drops a
     # subset), so only regions holding one now are ever redone: the setup is theirs only.
-    held = np.logical_or.reduceat(droppable[faces[by_region]].any(axis=1), region_start[:-1])
+    faces_by_region = faces[by_region]
+    held = _planar_batch.held(droppable, faces_by_region, region_start)
     candidates = np.flatnonzero(held).tolist()
     members = [by_region[region_start[r] : region_start[r + 1]] for r in candidates]
     setup = region_setup(positions, faces, corner_uvs, members) if members else None
@@ -557,9 +540,8 @@ def _retriangulate_regions(
 
     def drop_state() -> tuple[np.ndarray, list]:
         """The droppable bits (m, 3) of the faces in region order and the regions holding one."""
-        bits = droppable[faces_by_region]
-        held = np.logical_or.reduceat(bits.any(axis=1), region_start[:-1])
-        return bits, np.flatnonzero(held).tolist()
+        held = _planar_batch.held(droppable, faces_by_region, region_start)
+        return droppable[faces_by_region], np.flatnonzero(held).tolist()
 
     # Every region holding a droppable vertex is redone; a region that cannot be done exactly
     # keeps its vertices, so its neighbours must keep them too: repeat until consistent.

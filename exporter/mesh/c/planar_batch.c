@@ -9,6 +9,9 @@
  *   every ring vertex's predecessor in its ring; a region with a loop under 3 vertices fails.
  * - outline: earcut's triangles as vertex ids, and per region whether the edges used once are
  *   exactly its rings' edges and none is used more than twice.
+ * - plane / basis: areas, unit normals and plane axes of the normal sums (the dot products,
+ *   which numpy may do in BLAS, stay numpy calls between them).
+ * - spans / held: vertices of one region, faces by region, regions holding a droppable vertex.
  * - straight: unlocked vertices on exactly two outline edges that run straight through them.
  * Data: positions (k, 3) float64 metres (building-local East/Up/North), faces int64 ids below k.
  * The former numpy and Python form is kept in tests/test_planar_batch_kernels.py as reference.
@@ -160,7 +163,8 @@ done:
 
 /* rings(loop_vertices (v,) int64, loop_bounds (l + 1,) int64, region_loops (s + 1,) int64,
  * setup_ok (s,) bool, ids (count,) int64 below s, droppable (k,) bool) -> (ok (count,) bool,
- * ring_vertices (n,), previous (n,), ring_ends (rings,), region_rings (t + 1,), todo (t,)):
+ * ring_vertices (n,), previous (n,), ring_ends (rings,), region_rings (t + 1,), todo (t,),
+ * ring_sizes (rings,) uint32 (earcut's ends of a one-ring region)):
  * region ids[j]'s loops are loop_bounds[region_loops[i]:region_loops[i + 1] + 1] slices of
  * loop_vertices; ok: setup_ok and every loop keeps 3 vertices; the ok regions' (todo, ascending)
  * kept ring vertices in order, each one's predecessor (index into ring_vertices), the rings'
@@ -169,7 +173,7 @@ static PyObject *rings(PyObject *self, PyObject *args) {
     PyObject *v_obj, *b_obj, *r_obj, *ok_obj, *ids_obj, *drop_obj, *result = NULL;
     const char *kernel = "planar_batch.rings";
     PyArrayObject *ok = NULL, *ring_vertices = NULL, *previous = NULL, *ring_ends = NULL,
-                  *region_rings = NULL, *todo = NULL;
+                  *region_rings = NULL, *todo = NULL, *ring_sizes = NULL;
     if (!PyArg_ParseTuple(args, "OOOOOO:rings", &v_obj, &b_obj, &r_obj, &ok_obj, &ids_obj,
                           &drop_obj))
         return NULL;
@@ -231,14 +235,16 @@ static PyObject *rings(PyObject *self, PyObject *args) {
     ring_vertices = k_empty(1, &n, NPY_INT64);
     previous = k_empty(1, &n, NPY_INT64);
     ring_ends = k_empty(1, &ring_count, NPY_INT64);
+    ring_sizes = k_empty(1, &ring_count, NPY_UINT32);
     region_rings = k_empty(1, &t1, NPY_INT64);
     todo = k_empty(1, &t, NPY_INT64);
     if (ring_vertices == NULL || previous == NULL || ring_ends == NULL || region_rings == NULL ||
-        todo == NULL)
+        todo == NULL || ring_sizes == NULL)
         goto done;
     Py_BEGIN_ALLOW_THREADS
     int64_t *rv = K_I64(ring_vertices), *prev = K_I64(previous), *ends = K_I64(ring_ends);
     int64_t *first_ring = K_I64(region_rings), *todo_out = K_I64(todo);
+    uint32_t *ring_size = (uint32_t *)PyArray_DATA(ring_sizes);
     int64_t at = 0, ring = 0, slot = 0;
     for (npy_intp j = 0; j < count; j++) {
         if (!good[j]) continue;
@@ -254,12 +260,14 @@ static PyObject *rings(PyObject *self, PyObject *args) {
                 at++;
             }
             prev[start] = at - 1;
+            ring_size[ring] = (uint32_t)(at - start);
             ends[ring++] = at;
         }
     }
     first_ring[slot] = ring;
     Py_END_ALLOW_THREADS
-    result = Py_BuildValue("(OOOOOO)", ok, ring_vertices, previous, ring_ends, region_rings, todo);
+    result = Py_BuildValue("(OOOOOOO)", ok, ring_vertices, previous, ring_ends, region_rings, todo,
+                           ring_sizes);
 done:
     Py_XDECREF(loop_vertices);
     Py_XDECREF(loop_bounds);
@@ -273,6 +281,7 @@ done:
     Py_XDECREF(ring_ends);
     Py_XDECREF(region_rings);
     Py_XDECREF(todo);
+    Py_XDECREF(ring_sizes);
     return result;
 }
 
@@ -520,7 +529,206 @@ done:
     return (PyObject *)out;
 }
 
+/* plane(sums (c, 3) float64, dots (c,) float64: each sum's dot with itself) -> (area (c,),
+ * normal (c, 3), u (c, 3)): area 0.5 sqrt(dot) m², the unit normal sum / (2 area) and the
+ * first plane axis before its normalisation (normal x helper, helper (1, 0, 0) or (0, 1, 0)),
+ * the operations of planar._plane_basis per row. */
+static PyObject *plane(PyObject *self, PyObject *args) {
+    PyObject *sums_obj, *dots_obj, *result = NULL;
+    const char *kernel = "planar_batch.plane";
+    PyArrayObject *area = NULL, *normal = NULL, *u = NULL;
+    if (!PyArg_ParseTuple(args, "OO:plane", &sums_obj, &dots_obj)) return NULL;
+    PyArrayObject *sums_in = k_array(sums_obj, NPY_FLOAT64, 2, 0, kernel, "sums");
+    PyArrayObject *dots = k_array(dots_obj, NPY_FLOAT64, 1, 0, kernel, "dots");
+    if (sums_in == NULL || dots == NULL) goto done;
+    npy_intp c = PyArray_DIM(sums_in, 0), dims[2] = {c, 3};
+    if (k_dim(sums_in, 1, 3, kernel, "sums") || k_dim(dots, 0, c, kernel, "dots")) goto done;
+    area = k_empty(1, &c, NPY_FLOAT64);
+    normal = k_empty(2, dims, NPY_FLOAT64);
+    u = k_empty(2, dims, NPY_FLOAT64);
+    if (area == NULL || normal == NULL || u == NULL) goto done;
+    Py_BEGIN_ALLOW_THREADS
+    const double *sum = K_F64(sums_in), *dot = K_F64(dots);
+    double *a = K_F64(area), *nrm = K_F64(normal), *axis = K_F64(u);
+    for (npy_intp r = 0; r < c; r++) {
+        a[r] = 0.5 * sqrt(dot[r]);
+        double twice = 2 * a[r];
+        double x = sum[3 * r] / twice, y = sum[3 * r + 1] / twice, z = sum[3 * r + 2] / twice;
+        double hx = fabs(x) < 0.9 ? 1.0 : 0.0, hy = 1.0 - hx;
+        nrm[3 * r] = x;
+        nrm[3 * r + 1] = y;
+        nrm[3 * r + 2] = z;
+        axis[3 * r] = y * 0.0 - z * hy;
+        axis[3 * r + 1] = z * hx - x * 0.0;
+        axis[3 * r + 2] = x * hy - y * hx;
+    }
+    Py_END_ALLOW_THREADS
+    result = Py_BuildValue("(OOO)", area, normal, u);
+done:
+    Py_XDECREF(sums_in);
+    Py_XDECREF(dots);
+    Py_XDECREF(area);
+    Py_XDECREF(normal);
+    Py_XDECREF(u);
+    return result;
+}
+
+/* basis(normal (c, 3), u (c, 3), dots (c,): each u's dot with itself) -> (c, 3, 2): the plane
+ * axes u / sqrt(dot) and normal x that as columns. */
+static PyObject *basis(PyObject *self, PyObject *args) {
+    PyObject *normal_obj, *u_obj, *dots_obj;
+    const char *kernel = "planar_batch.basis";
+    PyArrayObject *out = NULL;
+    if (!PyArg_ParseTuple(args, "OOO:basis", &normal_obj, &u_obj, &dots_obj)) return NULL;
+    PyArrayObject *normal = k_array(normal_obj, NPY_FLOAT64, 2, 0, kernel, "normal");
+    PyArrayObject *u = k_array(u_obj, NPY_FLOAT64, 2, 0, kernel, "u");
+    PyArrayObject *dots = k_array(dots_obj, NPY_FLOAT64, 1, 0, kernel, "dots");
+    if (normal == NULL || u == NULL || dots == NULL) goto done;
+    npy_intp c = PyArray_DIM(normal, 0), dims[3] = {c, 3, 2};
+    if (k_dim(normal, 1, 3, kernel, "normal") || k_dim(u, 0, c, kernel, "u") ||
+        k_dim(u, 1, 3, kernel, "u") || k_dim(dots, 0, c, kernel, "dots"))
+        goto done;
+    out = k_empty(3, dims, NPY_FLOAT64);
+    if (out == NULL) goto done;
+    Py_BEGIN_ALLOW_THREADS
+    const double *n = K_F64(normal), *axis = K_F64(u), *dot = K_F64(dots);
+    double *b = K_F64(out);
+    for (npy_intp r = 0; r < c; r++) {
+        double length = sqrt(dot[r]);
+        double x = n[3 * r], y = n[3 * r + 1], z = n[3 * r + 2];
+        double u0 = axis[3 * r] / length, u1 = axis[3 * r + 1] / length,
+               u2 = axis[3 * r + 2] / length;
+        b[6 * r] = u0;
+        b[6 * r + 2] = u1;
+        b[6 * r + 4] = u2;
+        b[6 * r + 1] = y * u2 - z * u1;
+        b[6 * r + 3] = z * u0 - x * u2;
+        b[6 * r + 5] = x * u1 - y * u0;
+    }
+    Py_END_ALLOW_THREADS
+done:
+    Py_XDECREF(normal);
+    Py_XDECREF(u);
+    Py_XDECREF(dots);
+    return (PyObject *)out;
+}
+
+/* spans(faces (m, 3) int64, regions (m,) int64 in [0, count), count, k) -> (one_region (k,)
+ * bool, used (k,) bool, by_region (m,) int64, region_start (count + 1,) int64): the vertices
+ * used by faces of one region only, the vertices used at all, the faces in stable region order
+ * and where each region's faces start in it. */
+static PyObject *spans(PyObject *self, PyObject *args) {
+    PyObject *faces_obj, *regions_obj, *result = NULL;
+    long long count, k;
+    const char *kernel = "planar_batch.spans";
+    PyArrayObject *one = NULL, *used = NULL, *by_region = NULL, *region_start = NULL;
+    if (!PyArg_ParseTuple(args, "OOLL:spans", &faces_obj, &regions_obj, &count, &k)) return NULL;
+    PyArrayObject *faces = k_array(faces_obj, NPY_INT64, 2, 0, kernel, "faces");
+    PyArrayObject *regions = k_array(regions_obj, NPY_INT64, 1, 0, kernel, "regions");
+    if (faces == NULL || regions == NULL) goto done;
+    npy_intp m = PyArray_DIM(faces, 0), kk = (npy_intp)k, c1 = (npy_intp)count + 1;
+    if (k < 0 || count < 0 || k_dim(faces, 1, 3, kernel, "faces") ||
+        k_indices(faces, k, kernel, "faces") || k_dim(regions, 0, m, kernel, "regions") ||
+        k_indices(regions, count, kernel, "regions"))
+        goto done;
+    one = k_empty(1, &kk, NPY_BOOL);
+    used = k_zeros(1, &kk, NPY_BOOL);
+    by_region = k_empty(1, &m, NPY_INT64);
+    region_start = k_zeros(1, &c1, NPY_INT64);
+    if (one == NULL || used == NULL || by_region == NULL || region_start == NULL) goto done;
+    int64_t *first = malloc((size_t)(k + 1) * sizeof(int64_t)); /* each vertex's first region */
+    int64_t *slot = malloc((size_t)(count + 1) * sizeof(int64_t)); /* each region's next slot */
+    if (first == NULL || slot == NULL) {
+        free(first);
+        free(slot);
+        PyErr_NoMemory();
+        goto done;
+    }
+    Py_BEGIN_ALLOW_THREADS
+    const int64_t *face = K_I64(faces), *region = K_I64(regions);
+    npy_bool *single = K_BOOL(one), *in_use = K_BOOL(used);
+    int64_t *start = K_I64(region_start), *sorted = K_I64(by_region);
+    for (int64_t v = 0; v < k; v++) single[v] = 1;
+    for (npy_intp f = 0; f < m; f++) {
+        for (int c = 0; c < 3; c++) {
+            int64_t v = face[3 * f + c];
+            if (!in_use[v]) {
+                in_use[v] = 1;
+                first[v] = region[f];
+            } else if (first[v] != region[f]) {
+                single[v] = 0;
+            }
+        }
+        start[region[f] + 1]++;
+    }
+    for (int64_t v = 0; v < k; v++) single[v] &= in_use[v];
+    for (int64_t r = 0; r < count; r++) start[r + 1] += start[r];
+    /* Counting sort by region: stable, as np.argsort(kind="stable"). */
+    for (int64_t r = 0; r < count; r++) slot[r] = start[r];
+    for (npy_intp f = 0; f < m; f++) sorted[slot[region[f]]++] = f;
+    Py_END_ALLOW_THREADS
+    free(first);
+    free(slot);
+    result = Py_BuildValue("(OOOO)", one, used, by_region, region_start);
+done:
+    Py_XDECREF(faces);
+    Py_XDECREF(regions);
+    Py_XDECREF(one);
+    Py_XDECREF(used);
+    Py_XDECREF(by_region);
+    Py_XDECREF(region_start);
+    return result;
+}
+
+/* held(droppable (k,) bool, faces (m, 3) int64 in region order, region_start (count + 1,)
+ * int64 ascending) -> (count,) bool: whether region r's faces hold a droppable vertex
+ * (np.logical_or.reduceat of the faces' any, so an empty region gives its next face's). */
+static PyObject *held(PyObject *self, PyObject *args) {
+    PyObject *drop_obj, *faces_obj, *start_obj;
+    const char *kernel = "planar_batch.held";
+    PyArrayObject *out = NULL;
+    if (!PyArg_ParseTuple(args, "OOO:held", &drop_obj, &faces_obj, &start_obj)) return NULL;
+    PyArrayObject *droppable = k_array(drop_obj, NPY_BOOL, 1, 0, kernel, "droppable");
+    PyArrayObject *faces = k_array(faces_obj, NPY_INT64, 2, 0, kernel, "faces");
+    PyArrayObject *region_start = k_array(start_obj, NPY_INT64, 1, 0, kernel, "region_start");
+    if (droppable == NULL || faces == NULL || region_start == NULL) goto done;
+    npy_intp m = PyArray_DIM(faces, 0), count = PyArray_DIM(region_start, 0) - 1;
+    if (count < 0 || k_dim(faces, 1, 3, kernel, "faces") ||
+        k_indices(faces, PyArray_DIM(droppable, 0), kernel, "faces"))
+        goto done;
+    const int64_t *start = K_I64(region_start);
+    for (npy_intp r = 0; r < count; r++) {
+        if (start[r] < 0 || start[r] > start[r + 1] || start[r + 1] > m || start[r] >= m) {
+            PyErr_Format(PyExc_ValueError, "%s: region_start is not ascending within [0, %zd)",
+                         kernel, (Py_ssize_t)m);
+            goto done;
+        }
+    }
+    out = k_empty(1, &count, NPY_BOOL);
+    if (out == NULL) goto done;
+    Py_BEGIN_ALLOW_THREADS
+    const npy_bool *drop = K_BOOL(droppable);
+    const int64_t *face = K_I64(faces);
+    npy_bool *any = K_BOOL(out);
+    for (npy_intp r = 0; r < count; r++) {
+        int64_t hi = start[r + 1] > start[r] ? start[r + 1] : start[r] + 1;
+        npy_bool found = 0;
+        for (int64_t c = 3 * start[r]; c < 3 * hi && !found; c++) found = drop[face[c]] != 0;
+        any[r] = found;
+    }
+    Py_END_ALLOW_THREADS
+done:
+    Py_XDECREF(droppable);
+    Py_XDECREF(faces);
+    Py_XDECREF(region_start);
+    return (PyObject *)out;
+}
+
 static PyMethodDef methods[] = {
+    {"plane", plane, METH_VARARGS, "Areas, unit normals and unnormalised first plane axes."},
+    {"basis", basis, METH_VARARGS, "Plane axes as columns."},
+    {"spans", spans, METH_VARARGS, "One-region and used vertices, faces by region."},
+    {"held", held, METH_VARARGS, "Regions holding a droppable vertex."},
     {"straight", straight, METH_VARARGS, "Unlocked vertices on two straight outline edges."},
     {"sums", sums, METH_VARARGS, "Per-region sums of the faces' cross products."},
     {"uvs", uvs, METH_VARARGS, "Per-region first UV per vertex and UV conflicts."},
