@@ -15,7 +15,7 @@ from test_perf_simplify import planar_cases, same, welded_mesh
 
 from exporter.mesh import _planar_batch
 from exporter.mesh.geometry import cross_rows, row_norms, sorted_edge_keys
-from exporter.mesh.topology import planar_regions
+from exporter.mesh.topology import edge_use, planar_regions
 from exporter.samplegen import generate_buildings
 from exporter.simplify.planar import (
     _plane_basis,
@@ -171,6 +171,29 @@ def reference_outline(tris, offsets, sizes, ring_vertices, previous, k):
     broken[np.setxor1d(single, loop_key) // (k * k)] = True
     broken[overused // (k * k)] = True
     return new_faces, broken
+
+
+def reference_finish(positions, new_faces, face_counts, normal, total):
+    """The former numpy tail of ``_retriangulate_many`` before the matmul recheck: (n, flip,
+    bad, recheck) per face / region (regions are 0..d-1, all done)."""
+    face_bounds = [0, *itertools.accumulate(face_counts)]
+    new_region = np.repeat(np.arange(len(face_counts)), face_counts)
+    corners = positions[new_faces]
+    n = cross_rows(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    areas = 0.5 * row_norms(n)
+    starts = face_bounds[:-1]
+    smallest = np.minimum.reduceat(areas, starts)
+    scale = np.maximum(total, 1.0)
+    off = np.abs(np.add.reduceat(areas, starts) - total) - 1e-6 * scale
+    for i in np.flatnonzero(np.abs(off) <= 1e-9 * scale).tolist():
+        lo, hi = face_bounds[i], face_bounds[i + 1]
+        off[i] = abs(areas[lo:hi].sum() - total[i]) - 1e-6 * scale[i]
+    bad = (off > 0) | (smallest < 1e-9 * scale)
+    dots = (n * normal[new_region]).sum(axis=1)
+    edge_on = np.abs(dots) <= 1e-12 * areas
+    recheck = np.zeros(len(face_counts), dtype=bool)
+    recheck[new_region[edge_on]] = True
+    return n, dots < 0, bad, recheck
 
 
 def meshes():
@@ -354,6 +377,63 @@ def test_spans_and_held_equal_the_numpy_forms():
         assert same(_planar_batch.held(droppable, region_faces, expected[3]), held)
 
 
+def test_pairwise_is_numpy_sum():
+    rng = np.random.default_rng(71)
+    for n in [*range(300), 511, 512, 513, 1023, 1025, 8191, 8193, 20000]:
+        values = rng.normal(size=n) * rng.choice([1e-8, 1.0, 1e8], n)
+        values[rng.random(n) < 0.1] = -0.0
+        assert same(np.float64(_planar_batch.pairwise(values)), np.float64(np.sum(values)))
+
+
+def test_border_length_is_the_numpy_boundary_length():
+    rng = np.random.default_rng(73)
+    for positions, faces, _, _ in meshes():
+        for drop in (0.0, 0.3):
+            kept = faces[rng.random(len(faces)) >= drop]
+            edges, counts = edge_use(kept)
+            border = edges[counts == 1]
+            expected = np.linalg.norm(positions[border[:, 0]] - positions[border[:, 1]], axis=1)
+            got = _planar_batch.border_length(positions, edges, counts)
+            assert same(np.float64(got), np.float64(expected.sum()))
+
+
+def test_finish_and_uv_lookup_equal_the_numpy_forms():
+    rng = np.random.default_rng(79)
+    bad = rechecked = 0
+    for _ in range(300):
+        d, k = int(rng.integers(1, 8)), int(rng.integers(4, 30))
+        positions = rng.normal(size=(k, 3)) * rng.choice([1e-6, 1.0, 1e3])
+        positions[rng.random(k) < 0.2, 1] = 0.0  # some faces in the plane y = 0
+        face_counts = rng.integers(1, 12, d)
+        new_faces = rng.integers(0, k, (int(face_counts.sum()), 3))
+        normal = rng.normal(size=(d, 3))
+        normal[rng.random(d) < 0.4] = [0.0, 1.0, 0.0]  # edge-on faces for the recheck
+        normal /= np.linalg.norm(normal, axis=1)[:, None]
+        bounds = np.concatenate([[0], np.cumsum(face_counts)])
+        areas = 0.5 * row_norms(
+            cross_rows(
+                positions[new_faces[:, 1]] - positions[new_faces[:, 0]],
+                positions[new_faces[:, 2]] - positions[new_faces[:, 0]],
+            )
+        )
+        # Totals at the tolerance's edges and off them.
+        total = np.array([areas[bounds[i] : bounds[i + 1]].sum() for i in range(d)])
+        total *= rng.choice([1.0, 1 + 1e-6, 1 - 1e-6, 1 + 2e-6, 1.5], d)
+        got = _planar_batch.finish(positions, new_faces, face_counts, normal, total)
+        expected = reference_finish(positions, new_faces, face_counts, normal, total)
+        assert all(same(a, b) for a, b in zip(got, expected))
+        bad += int(got[2].sum())
+        rechecked += int(got[3].sum())
+        region = rng.permutation(d) + 3
+        keys = np.unique(np.concatenate([region * k + v for v in range(k)]))
+        values = rng.normal(size=(len(keys), 2)).astype(np.float32)
+        uvs = _planar_batch.uv_lookup(keys, values, region, face_counts, new_faces, k)
+        face_region = np.repeat(region, face_counts)
+        expected_uvs = values[np.searchsorted(keys, face_region[:, None] * k + new_faces)]
+        assert same(uvs, expected_uvs.astype(np.float32))
+    assert bad > 50 and rechecked > 50
+
+
 def test_bad_inputs_are_value_errors():
     faces = np.array([[0, 1, 2]])
     with pytest.raises(ValueError, match="sums"):
@@ -392,6 +472,14 @@ def test_bad_inputs_are_value_errors():
         _planar_batch.held(np.zeros(2, bool), faces, np.array([0, 1]))
     with pytest.raises(ValueError, match="held"):
         _planar_batch.held(np.zeros(3, bool), faces, np.array([1, 0, 1]))
+    with pytest.raises(ValueError, match="border_length"):
+        _planar_batch.border_length(np.eye(3), np.array([[0, 3]]), np.array([1]))
+    with pytest.raises(ValueError, match="finish"):
+        _planar_batch.finish(np.eye(3), faces, [2], np.eye(3)[:1], np.ones(1))
+    with pytest.raises(ValueError, match="uv_lookup"):
+        _planar_batch.uv_lookup(
+            np.arange(3), np.zeros((3, 2), np.float32), np.array([5]), [1], faces, 3
+        )
     keys, order = sorted_edge_keys(faces, 3)
     with pytest.raises(ValueError, match="straight"):
         _planar_batch.straight(

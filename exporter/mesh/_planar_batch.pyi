@@ -39,3 +39,22 @@ def spans(
     faces: np.ndarray, regions: np.ndarray, count: int, k: int, /
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]: ...
 def held(droppable: np.ndarray, faces: np.ndarray, region_start: np.ndarray, /) -> np.ndarray: ...
+def border_length(positions: np.ndarray, edges: np.ndarray, counts: np.ndarray, /) -> float: ...
+def pairwise(values: np.ndarray, /) -> float: ...
+def finish(
+    positions: np.ndarray,
+    new_faces: np.ndarray,
+    face_counts: np.ndarray | list[int],
+    normal: np.ndarray,
+    total: np.ndarray,
+    /,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]: ...
+def uv_lookup(
+    keys: np.ndarray,
+    values: np.ndarray,
+    region: np.ndarray,
+    face_counts: np.ndarray | list[int],
+    faces: np.ndarray,
+    k: int,
+    /,
+) -> np.ndarray: ...

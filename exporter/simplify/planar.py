@@ -36,7 +36,7 @@ import mapbox_earcut
 import numpy as np
 
 from ..mesh import _planar_batch
-from ..mesh.geometry import cross3, cross_rows, row_norms, sorted_edge_keys
+from ..mesh.geometry import cross3, cross_rows, sorted_edge_keys
 from ..mesh.outline_kernels import outline_loops
 from ..mesh.slits import close_slits, slit_vertices
 from ..mesh.topology import border_vertices, edge_use, planar_regions
@@ -354,42 +354,31 @@ def _retriangulate_many(
     new_faces, broken = _planar_batch.outline(
         np.concatenate(tris), offsets, sizes, face_counts, ring_vertices, previous, k
     )
-    ok[np.array(done)[broken]] = False
+    done_array = np.array(done)
+    ok[done_array[broken]] = False
     face_bounds = [0, *itertools.accumulate(face_counts)]
-    new_region = np.repeat(done, face_counts)
-    corners = positions[new_faces]
-    n = cross_rows(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    areas = 0.5 * row_norms(n)  # reversing a face keeps its area
-    starts = face_bounds[:-1]
-    smallest = np.minimum.reduceat(areas, starts)
-    # Earcut may emit zero-area slivers along collinear outline vertices: not exact, refuse. The
-    # per-region sums in one reduceat (its summation order may differ from the one-region
-    # reference's ``areas.sum()`` in the last bits: recomputed that way where it could matter).
-    total = area[done]
-    scale = np.maximum(total, 1.0)
-    off = np.abs(np.add.reduceat(areas, starts) - total) - 1e-6 * scale
-    for i in np.flatnonzero(np.abs(off) <= 1e-9 * scale).tolist():
+    # Cross products, the area checks and the orientation (compiled, the reference's
+    # arithmetic): earcut may emit zero-area slivers along collinear outline vertices, not
+    # exact, refused. Faces almost edge-on to the plane take their orientation from the
+    # reference's per-region matmul (numpy: it may go through BLAS).
+    n, flip, bad, recheck = _planar_batch.finish(
+        positions, new_faces, face_counts, normal[done], area[done]
+    )
+    ok[done_array[bad]] = False
+    for i in np.flatnonzero(recheck).tolist():
         lo, hi = face_bounds[i], face_bounds[i + 1]
-        off[i] = abs(areas[lo:hi].sum() - total[i]) - 1e-6 * scale[i]
-    ok[np.array(done)[(off > 0) | (smallest < 1e-9 * scale)]] = False
-    # Orientation: the sign of each face's normal . region normal. The row sums differ from the
-    # reference's per-region matmul by a few ulps of |n| at most, so only faces almost edge-on
-    # to the plane are recomputed the reference's way.
-    dots = (n * normal[new_region]).sum(axis=1)
-    flip = dots < 0
-    edge_on = np.abs(dots) <= 1e-12 * areas
-    if edge_on.any():
-        for i in np.unique(
-            np.searchsorted(face_bounds, np.flatnonzero(edge_on), "right") - 1
-        ).tolist():
-            lo, hi = face_bounds[i], face_bounds[i + 1]
-            flip[lo:hi] = (n[lo:hi] @ normal[done[i]]) < 0
+        flip[lo:hi] = (n[lo:hi] @ normal[done[i]]) < 0
     new_faces = np.where(flip[:, None], new_faces[:, ::-1], new_faces)
     new_uvs = None
     if setup.uv_keys is not None and setup.uv_values is not None:
-        new_uvs = setup.uv_values[
-            np.searchsorted(setup.uv_keys, np.array(ids)[new_region][:, None] * k + new_faces)
-        ].astype(np.float32)
+        new_uvs = _planar_batch.uv_lookup(
+            setup.uv_keys,
+            setup.uv_values,
+            np.array(ids)[done_array],
+            face_counts,
+            new_faces,
+            k,
+        )
     kept = ok.tolist()
     for i, r in enumerate(done):
         if kept[r]:
@@ -398,13 +387,11 @@ def _retriangulate_many(
     return results
 
 
-def _boundary(positions: np.ndarray, faces: np.ndarray) -> tuple[float, int]:
-    """Open-boundary length (metres) and edge count."""
+def _boundary(positions: np.ndarray, faces: np.ndarray) -> float:
+    """Open-boundary length (metres): the edges used once, np.linalg.norm and np.sum's
+    arithmetic (compiled: ``planar_batch.border_length``)."""
     edges, counts = edge_use(faces)
-    border = edges[counts == 1]
-    return float(
-        np.linalg.norm(positions[border[:, 0]] - positions[border[:, 1]], axis=1).sum()
-    ), len(border)
+    return _planar_batch.border_length(positions, edges, counts)
 
 
 def retriangulate_planar(
@@ -496,11 +483,11 @@ def _retriangulate_keeping_boundary(
         setup,
         slot,
     )
-    length, _ = _boundary(positions, result[0])
+    length = _boundary(positions, result[0])
     # A slit closed: keep the straight border vertices inside a slit, then, if the boundary
     # still changes, every straight border vertex (straight_vertices(on_border=False)).
     fallbacks = [lambda: straight & ~slit_vertices(positions, faces), lambda: straight & ~border]
-    while abs(length - before[0]) > 1e-9 * max(before[0], 1.0) and fallbacks:
+    while abs(length - before) > 1e-9 * max(before, 1.0) and fallbacks:
         result = _retriangulate_regions(
             positions,
             faces,
@@ -513,8 +500,8 @@ def _retriangulate_keeping_boundary(
             setup,
             slot,
         )
-        length, _ = _boundary(positions, result[0])
-    return (*result, abs(length - before[0]) <= 1e-9 * max(before[0], 1.0))
+        length = _boundary(positions, result[0])
+    return (*result, abs(length - before) <= 1e-9 * max(before, 1.0))
 
 
 def _retriangulate_regions(

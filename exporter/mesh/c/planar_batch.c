@@ -12,6 +12,8 @@
  * - plane / basis: areas, unit normals and plane axes of the normal sums (the dot products,
  *   which numpy may do in BLAS, stay numpy calls between them).
  * - spans / held: vertices of one region, faces by region, regions holding a droppable vertex.
+ * - finish / uv_lookup: the new faces' cross products, orientation and area checks, UVs.
+ * - border_length: the open boundary's length with np.sum's pairwise arithmetic.
  * - straight: unlocked vertices on exactly two outline edges that run straight through them.
  * Data: positions (k, 3) float64 metres (building-local East/Up/North), faces int64 ids below k.
  * The former numpy and Python form is kept in tests/test_planar_batch_kernels.py as reference.
@@ -19,7 +21,19 @@
 #include "kernels.h"
 #include "sorted.h"
 
-/* 0 when the region sizes (count,) int64 sum to f faces, else -1 with a ValueError. */
+/* (b - a) x (c - a) of the face corner ids `face` (3) into positions p (k, 3): cross_rows's
+ * operations. */
+static inline void face_cross(const double *p, const int64_t *face, double *out) {
+    const double *pa = p + 3 * face[0], *pb = p + 3 * face[1], *pc = p + 3 * face[2];
+    double ux = pb[0] - pa[0], uy = pb[1] - pa[1], uz = pb[2] - pa[2];
+    double vx = pc[0] - pa[0], vy = pc[1] - pa[1], vz = pc[2] - pa[2];
+    out[0] = uy * vz - uz * vy;
+    out[1] = uz * vx - ux * vz;
+    out[2] = ux * vy - uy * vx;
+}
+
+/* 0 when the region sizes (faces per region, (count,) int64) sum to f, else -1 with a
+ * ValueError. */
 static int check_sizes(PyArrayObject *sizes, npy_intp f, const char *kernel) {
     int64_t total = 0;
     for (npy_intp r = 0; r < PyArray_DIM(sizes, 0); r++) total += K_I64(sizes)[r];
@@ -56,13 +70,11 @@ static PyObject *sums(PyObject *self, PyObject *args) {
     for (npy_intp r = 0; r < count; r++) {
         double sx = 0.0, sy = 0.0, sz = 0.0;
         for (int64_t e = at + size[r]; at < e; at++) {
-            const double *pa = p + 3 * face[3 * at], *pb = p + 3 * face[3 * at + 1],
-                         *pc = p + 3 * face[3 * at + 2];
-            double ux = pb[0] - pa[0], uy = pb[1] - pa[1], uz = pb[2] - pa[2];
-            double vx = pc[0] - pa[0], vy = pc[1] - pa[1], vz = pc[2] - pa[2];
-            sx += uy * vz - uz * vy;
-            sy += uz * vx - ux * vz;
-            sz += ux * vy - uy * vx;
+            double n[3];
+            face_cross(p, face + 3 * at, n);
+            sx += n[0];
+            sy += n[1];
+            sz += n[2];
         }
         normal[3 * r] = sx;
         normal[3 * r + 1] = sy;
@@ -724,7 +736,232 @@ done:
     return (PyObject *)out;
 }
 
+/* numpy's pairwise summation of a[0:n] (loops_utils.h: below 8 one after the other, up to 128 in
+ * eight interleaved partial sums, above that the halves at a multiple of 8), onto 0.0 as
+ * np.add.reduce of a contiguous float64 array without buffering. */
+static double pairwise_sum(const double *a, int64_t n) {
+    if (n < 8) {
+        double res = -0.0;
+        for (int64_t i = 0; i < n; i++) res += a[i];
+        return res;
+    }
+    if (n <= 128) {
+        double r[8];
+        int64_t i;
+        for (int j = 0; j < 8; j++) r[j] = a[j];
+        for (i = 8; i < n - (n % 8); i += 8)
+            for (int j = 0; j < 8; j++) r[j] += a[i + j];
+        double res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]));
+        for (; i < n; i++) res += a[i];
+        return res;
+    }
+    int64_t half = n / 2;
+    half -= half % 8;
+    return pairwise_sum(a, half) + pairwise_sum(a + half, n - half);
+}
+
+/* border_length(positions (k, 3) float64, edges (e, 2) int64, counts (e,) int64) -> float: the
+ * summed length (metres) of the edges used once, np.linalg.norm(..., axis=1).sum() of them. */
+static PyObject *border_length(PyObject *self, PyObject *args) {
+    PyObject *p_obj, *e_obj, *c_obj, *result = NULL;
+    const char *kernel = "planar_batch.border_length";
+    if (!PyArg_ParseTuple(args, "OOO:border_length", &p_obj, &e_obj, &c_obj)) return NULL;
+    PyArrayObject *positions = k_array(p_obj, NPY_FLOAT64, 2, 0, kernel, "positions");
+    PyArrayObject *edges = k_array(e_obj, NPY_INT64, 2, 0, kernel, "edges");
+    PyArrayObject *counts = k_array(c_obj, NPY_INT64, 1, 0, kernel, "counts");
+    if (positions == NULL || edges == NULL || counts == NULL) goto done;
+    npy_intp k = PyArray_DIM(positions, 0), e = PyArray_DIM(edges, 0);
+    if (k_dim(positions, 1, 3, kernel, "positions") || k_dim(edges, 1, 2, kernel, "edges") ||
+        k_indices(edges, k, kernel, "edges") || k_dim(counts, 0, e, kernel, "counts"))
+        goto done;
+    double *length = malloc((size_t)(e + 1) * sizeof(double));
+    if (length == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    double total;
+    Py_BEGIN_ALLOW_THREADS
+    const double *p = K_F64(positions);
+    const int64_t *edge = K_I64(edges), *count = K_I64(counts);
+    int64_t n = 0;
+    for (npy_intp i = 0; i < e; i++) {
+        if (count[i] != 1) continue;
+        const double *a = p + 3 * edge[2 * i], *b = p + 3 * edge[2 * i + 1];
+        double d0 = a[0] - b[0], d1 = a[1] - b[1], d2 = a[2] - b[2];
+        length[n++] = sqrt(d0 * d0 + d1 * d1 + d2 * d2);
+    }
+    total = 0.0 + pairwise_sum(length, n);
+    Py_END_ALLOW_THREADS
+    free(length);
+    result = PyFloat_FromDouble(total);
+done:
+    Py_XDECREF(positions);
+    Py_XDECREF(edges);
+    Py_XDECREF(counts);
+    return result;
+}
+
+/* pairwise(values (n,) float64) -> float: numpy's np.sum of them (exposed for the tests). */
+static PyObject *pairwise(PyObject *self, PyObject *args) {
+    PyObject *v_obj, *result = NULL;
+    if (!PyArg_ParseTuple(args, "O:pairwise", &v_obj)) return NULL;
+    PyArrayObject *values = k_array(v_obj, NPY_FLOAT64, 1, 0, "planar_batch.pairwise", "values");
+    if (values == NULL) return NULL;
+    result = PyFloat_FromDouble(0.0 + pairwise_sum(K_F64(values), PyArray_DIM(values, 0)));
+    Py_DECREF(values);
+    return result;
+}
+
+/* finish(positions (k, 3) float64, new_faces (F, 3) int64, face_counts (d,) int64, normal
+ * (d, 3) float64 unit, total (d,) float64 m²) -> (n (F, 3), flip (F,) bool, bad (d,) bool,
+ * recheck (d,) bool): every new face's cross product (b - a) x (c - a); whether its dot with
+ * its region's normal is negative; a region is bad when its faces' areas (|n| / 2) do not sum
+ * to total within 1e-6 max(total, 1) (np.sum's arithmetic: where numpy's reduceat could differ
+ * in the last bits the comparison is far from its edge) or its smallest is below
+ * 1e-9 max(total, 1); recheck: a face of the region almost edge-on (|dot| <= 1e-12 area), whose
+ * sign the caller takes from numpy's matmul as the one-region reference does. */
+static PyObject *finish(PyObject *self, PyObject *args) {
+    PyObject *p_obj, *f_obj, *c_obj, *n_obj, *t_obj, *result = NULL;
+    const char *kernel = "planar_batch.finish";
+    PyArrayObject *cross = NULL, *flip = NULL, *bad = NULL, *recheck = NULL;
+    double *areas = NULL;
+    if (!PyArg_ParseTuple(args, "OOOOO:finish", &p_obj, &f_obj, &c_obj, &n_obj, &t_obj))
+        return NULL;
+    PyArrayObject *positions = k_array(p_obj, NPY_FLOAT64, 2, 0, kernel, "positions");
+    PyArrayObject *new_faces = k_array(f_obj, NPY_INT64, 2, 0, kernel, "new_faces");
+    PyArrayObject *counts = k_array(c_obj, NPY_INT64, 1, 0, kernel, "face_counts");
+    PyArrayObject *normal = k_array(n_obj, NPY_FLOAT64, 2, 0, kernel, "normal");
+    PyArrayObject *total = k_array(t_obj, NPY_FLOAT64, 1, 0, kernel, "total");
+    if (positions == NULL || new_faces == NULL || counts == NULL || normal == NULL ||
+        total == NULL)
+        goto done;
+    npy_intp k = PyArray_DIM(positions, 0), f = PyArray_DIM(new_faces, 0);
+    npy_intp d = PyArray_DIM(counts, 0), dims[2] = {f, 3};
+    if (k_dim(positions, 1, 3, kernel, "positions") ||
+        k_dim(new_faces, 1, 3, kernel, "new_faces") ||
+        k_indices(new_faces, k, kernel, "new_faces") || k_dim(normal, 0, d, kernel, "normal") ||
+        k_dim(normal, 1, 3, kernel, "normal") || k_dim(total, 0, d, kernel, "total") ||
+        k_indices(counts, f + 1, kernel, "face_counts"))
+        goto done;
+    if (check_sizes(counts, f, kernel)) goto done;
+    cross = k_empty(2, dims, NPY_FLOAT64);
+    flip = k_empty(1, &f, NPY_BOOL);
+    bad = k_empty(1, &d, NPY_BOOL);
+    recheck = k_empty(1, &d, NPY_BOOL);
+    areas = malloc((size_t)(f + 1) * sizeof(double));
+    if (cross == NULL || flip == NULL || bad == NULL || recheck == NULL) goto done;
+    if (areas == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    Py_BEGIN_ALLOW_THREADS
+    const double *p = K_F64(positions), *unit = K_F64(normal), *want = K_F64(total);
+    const int64_t *face = K_I64(new_faces), *count = K_I64(counts);
+    double *n = K_F64(cross);
+    npy_bool *reverse = K_BOOL(flip), *broken = K_BOOL(bad), *again = K_BOOL(recheck);
+    int64_t at = 0;
+    for (npy_intp i = 0; i < d; i++) {
+        double smallest = 0.0;
+        int nan = 0;
+        again[i] = 0;
+        for (int64_t g = at; g < at + count[i]; g++) {
+            face_cross(p, face + 3 * g, n + 3 * g);
+            double nx = n[3 * g], ny = n[3 * g + 1], nz = n[3 * g + 2];
+            areas[g] = 0.5 * sqrt(nx * nx + ny * ny + nz * nz);
+            /* np.minimum: a NaN wins. */
+            if (isnan(areas[g])) nan = 1;
+            else if (g == at || areas[g] < smallest) smallest = areas[g];
+            double dot = nx * unit[3 * i] + ny * unit[3 * i + 1] + nz * unit[3 * i + 2];
+            reverse[g] = dot < 0;
+            again[i] |= fabs(dot) <= 1e-12 * areas[g];
+        }
+        double scale = want[i] > 1.0 || isnan(want[i]) ? want[i] : 1.0;
+        double off = fabs((0.0 + pairwise_sum(areas + at, count[i])) - want[i]) - 1e-6 * scale;
+        broken[i] = (npy_bool)(off > 0 || (!nan && count[i] > 0 && smallest < 1e-9 * scale));
+        at += count[i];
+    }
+    Py_END_ALLOW_THREADS
+    result = Py_BuildValue("(OOOO)", cross, flip, bad, recheck);
+done:
+    free(areas);
+    Py_XDECREF(positions);
+    Py_XDECREF(new_faces);
+    Py_XDECREF(counts);
+    Py_XDECREF(normal);
+    Py_XDECREF(total);
+    Py_XDECREF(cross);
+    Py_XDECREF(flip);
+    Py_XDECREF(bad);
+    Py_XDECREF(recheck);
+    return result;
+}
+
+/* uv_lookup(keys (c,) int64 ascending, values (c, 2) float32, region (d,) int64, face_counts
+ * (d,) int64, faces (F, 3) int64, k) -> (F, 3, 2) float32: each corner's UV, the value at
+ * np.searchsorted(keys, region * k + vertex) (a key past the end is a ValueError). */
+static PyObject *uv_lookup(PyObject *self, PyObject *args) {
+    PyObject *k_obj, *v_obj, *r_obj, *c_obj, *f_obj;
+    long long k;
+    const char *kernel = "planar_batch.uv_lookup";
+    PyArrayObject *out = NULL;
+    if (!PyArg_ParseTuple(args, "OOOOOL:uv_lookup", &k_obj, &v_obj, &r_obj, &c_obj, &f_obj, &k))
+        return NULL;
+    PyArrayObject *keys = k_array(k_obj, NPY_INT64, 1, 0, kernel, "keys");
+    PyArrayObject *values = k_array(v_obj, NPY_FLOAT32, 2, 0, kernel, "values");
+    PyArrayObject *region = k_array(r_obj, NPY_INT64, 1, 0, kernel, "region");
+    PyArrayObject *counts = k_array(c_obj, NPY_INT64, 1, 0, kernel, "face_counts");
+    PyArrayObject *faces = k_array(f_obj, NPY_INT64, 2, 0, kernel, "faces");
+    if (keys == NULL || values == NULL || region == NULL || counts == NULL || faces == NULL)
+        goto done;
+    npy_intp c = PyArray_DIM(keys, 0), d = PyArray_DIM(region, 0), f = PyArray_DIM(faces, 0);
+    npy_intp dims[3] = {f, 3, 2};
+    if (k_dim(values, 0, c, kernel, "values") || k_dim(values, 1, 2, kernel, "values") ||
+        k_dim(counts, 0, d, kernel, "face_counts") || k_dim(faces, 1, 3, kernel, "faces") ||
+        k_indices(counts, f + 1, kernel, "face_counts"))
+        goto done;
+    const int64_t *key = K_I64(keys), *reg = K_I64(region), *count = K_I64(counts);
+    const int64_t *face = K_I64(faces);
+    if (check_sizes(counts, f, kernel)) goto done;
+    out = k_empty(3, dims, NPY_FLOAT32);
+    if (out == NULL) goto done;
+    int past = 0;
+    Py_BEGIN_ALLOW_THREADS
+    const float *uv = K_F32(values);
+    float *o = K_F32(out);
+    int64_t at = 0;
+    for (npy_intp i = 0; i < d && !past; i++) {
+        for (int64_t g = at; g < at + count[i] && !past; g++) {
+            for (int corner = 0; corner < 3; corner++) {
+                int64_t slot = lower_bound(key, 0, c, reg[i] * k + face[3 * g + corner]);
+                if (slot >= c) {
+                    past = 1;
+                    break;
+                }
+                o[6 * g + 2 * corner] = uv[2 * slot];
+                o[6 * g + 2 * corner + 1] = uv[2 * slot + 1];
+            }
+        }
+        at += count[i];
+    }
+    Py_END_ALLOW_THREADS
+    if (past) {
+        PyErr_Format(PyExc_ValueError, "%s: a corner's key is past the keys", kernel);
+        Py_CLEAR(out);
+    }
+done:
+    Py_XDECREF(keys);
+    Py_XDECREF(values);
+    Py_XDECREF(region);
+    Py_XDECREF(counts);
+    Py_XDECREF(faces);
+    return (PyObject *)out;
+}
+
 static PyMethodDef methods[] = {
+    {"finish", finish, METH_VARARGS, "Cross products, orientation and area checks of new faces."},
+    {"uv_lookup", uv_lookup, METH_VARARGS, "Corner UVs of new faces."},
+    {"border_length", border_length, METH_VARARGS, "Summed length of the edges used once."},
+    {"pairwise", pairwise, METH_VARARGS, "numpy's pairwise sum."},
     {"plane", plane, METH_VARARGS, "Areas, unit normals and unnormalised first plane axes."},
     {"basis", basis, METH_VARARGS, "Plane axes as columns."},
     {"spans", spans, METH_VARARGS, "One-region and used vertices, faces by region."},
