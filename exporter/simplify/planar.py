@@ -275,9 +275,11 @@ def _retriangulate_many(
     ids: list | None = None,
 ) -> list:
     """``[_retriangulate(positions, faces[m], corner_uvs[m], droppable) for m in members]``, bit for
-    bit, with the per-region work batched: loops, UV checks, cross products, the outline check and
-    the UV lookup run once over all regions; per region only the float reductions whose summation
-    order numpy fixes per call (normal sum, projection, area sum, orientation) and earcut remain.
+    bit, with the per-region work batched: the loops, the outline check, cross products, area
+    sums and orientation, the UV lookup run once over all regions (compiled:
+    ``exporter/mesh/c/planar_batch.c``); per region only numpy's projection (``@``, which may go
+    through BLAS, as the reference's), earcut, and for faces almost edge-on to the plane the
+    reference's matmul remain.
 
     ``setup``: :func:`region_setup` of a list of regions of which ``members`` are those at ``ids``
     (made here when not given).

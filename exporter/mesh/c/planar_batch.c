@@ -2,7 +2,8 @@
  * retriangulation (exporter.simplify.planar: region_setup and _retriangulate_many).
  *
  * - sums: per region the outward normal sum of its faces' cross products, (b - a) x (c - a)
- *   added row after row onto 0.0 (as planar._region_sums / cross_rows, operation for operation).
+ *   added row after row onto 0.0 (cross_rows and the former planar._region_sums, operation for
+ *   operation).
  * - uvs: per region one UV per vertex (the first corner's in face order) and whether any corner
  *   of a vertex has another UV (!= compared, so a NaN differs); keys region * k + vertex.
  * - rings: the outline loops of some regions with the droppable vertices removed, flat, with
