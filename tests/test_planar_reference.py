@@ -19,7 +19,6 @@ from exporter.mesh.slits import close_slits, slit_vertices
 from exporter.mesh.topology import border_vertices, edge_use, nonmanifold_vertices, unique_rows
 from exporter.samplegen import generate_buildings
 from exporter.simplify.planar import (
-    _region_sums,
     _retriangulate,
     _retriangulate_keeping_boundary,
     retriangulate_planar_checked,
@@ -175,22 +174,6 @@ def test_retriangulate_planar_checked_equals_the_reference(with_uvs):
             second_passes += second
     # The comparison covered re-triangulated meshes and the border-keeping passes.
     assert changed > 20 and second_passes > 3
-
-
-def test_region_sums_equal_the_per_region_sums():
-    # Sums onto 0.0 one row after the other: signed zeros, tiny and huge rows included.
-    rng = np.random.default_rng(19)
-    for _ in range(300):
-        sizes = rng.integers(1, 40, int(rng.integers(1, 20)))
-        rows = rng.normal(size=(int(sizes.sum()), 3)) * rng.choice([1e-300, 1e-3, 1.0, 1e4], (1, 3))
-        rows[rng.random(rows.shape) < 0.2] = -0.0
-        rows[rng.random(rows.shape) < 0.1] = 0.0
-        bounds = np.concatenate([[0], np.cumsum(sizes)]).tolist()
-        region = np.repeat(np.arange(len(sizes)), sizes)
-        expected = np.stack(
-            [rows[bounds[r] : bounds[r + 1]].sum(axis=0) for r in range(len(sizes))]
-        )
-        assert same(_region_sums(rows, sizes, region, bounds), expected)
 
 
 def test_row_norms_equal_numpy_norms():

@@ -21,7 +21,10 @@ Regions are done in batches (:func:`_retriangulate_many`, ~19 regions per buildi
 but earcut and the per-region float reductions runs once per batch, with the results of the
 one-region reference :func:`_retriangulate` bit for bit (``tests/test_perf_simplify.py``,
 ``tests/test_planar_reference.py``). What does not depend on the droppable vertices (outline
-loops, UV check, normals, plane bases) is computed once per call (:func:`region_setup`).
+loops, UV check, normals, plane bases) is computed once per call (:func:`region_setup`). The
+integer bookkeeping (loops, UV check, outline check, straight vertices) and the exact sequential
+normal sums are compiled (``exporter/mesh/c/planar_batch.c``, ``outline.c``); the projections
+(``@``, which may go through BLAS) and the other numpy float reductions stay numpy calls.
 """
 
 from __future__ import annotations
@@ -32,7 +35,8 @@ from typing import NamedTuple
 import mapbox_earcut
 import numpy as np
 
-from ..mesh.geometry import cross3, cross_rows, row_norms, sorted_edge_keys
+from ..mesh import _planar_batch
+from ..mesh.geometry import cross3, cross_rows, sorted_edge_keys
 from ..mesh.outline_kernels import outline_loops
 from ..mesh.slits import close_slits, slit_vertices
 from ..mesh.topology import border_vertices, edge_use, planar_regions
@@ -87,46 +91,12 @@ def straight_vertices(
     between two regions) that run straight through them (collinear within ``tolerance``
     metres): dropping such a vertex from every region that has it changes no outline.
     ``edge_keys``: :func:`~exporter.mesh.geometry.sorted_edge_keys` of ``faces`` and k when the caller has them."""
-    k = len(positions)
-    keys, order = edge_keys if edge_keys is not None else sorted_edge_keys(faces, k)
-    # Unique edges (ascending keys), how many sides use each and the lowest / highest region
-    # among them.
-    start = np.flatnonzero(np.concatenate([[True], keys[1:] != keys[:-1]]))
-    counts = np.concatenate([start[1:], [len(keys)]]) - start
-    owner = regions[order // 3]
-    existing = keys[start]
-    low, high = np.divmod(existing, k)
-    outline = (counts == 1) | (
-        np.minimum.reduceat(owner, start) != np.maximum.reduceat(owner, start)
+    keys, order = edge_keys if edge_keys is not None else sorted_edge_keys(faces, len(positions))
+    # Compiled (exporter/mesh/c/planar_batch.c): the outline edges from the sorted keys, each
+    # degree-2 vertex's two outline neighbours (edges ascending, low ends first) and the test.
+    return _planar_batch.straight(
+        positions, keys, order, regions, locked, float(tolerance), bool(on_border)
     )
-    ends = np.concatenate([low[outline], high[outline]])
-    degree = np.bincount(ends, minlength=k)
-    # The two outline neighbours of every degree-2 vertex: outline half-edges (both directions)
-    # by source, stable.
-    half = np.argsort(ends, kind="stable")
-    source = ends[half]
-    target = np.concatenate([high[outline], low[outline]])[half]
-    straight = np.zeros(k, dtype=bool)
-    two = np.flatnonzero(degree == 2)
-    if not on_border:
-        border = np.zeros(k, dtype=bool)
-        border[low[counts == 1]] = True
-        border[high[counts == 1]] = True
-        two = two[~border[two]]
-    if len(two):
-        first = np.searchsorted(source, two)
-        left, right = target[first], target[first + 1]
-        a, b = positions[left], positions[right]
-        p = positions[two]
-        direction = b - a
-        length = row_norms(direction)
-        off_line = row_norms(cross_rows(direction, p - a)) / np.maximum(length, 1e-30)
-        between = ((p - a) * direction).sum(1) / np.maximum(length**2, 1e-30)
-        # Not where the two neighbours already share an edge (a slit / T-junction of the source):
-        # dropping would close it and change the open boundary.
-        closes = _member(np.minimum(left, right) * k + np.maximum(left, right), existing)
-        straight[two] = (off_line < tolerance) & (between > 0) & (between < 1) & ~closes
-    return straight & ~locked
 
 
 def _retriangulate(positions, region_faces, region_uvs, droppable):
@@ -211,25 +181,6 @@ def _row_dots(rows: np.ndarray) -> np.ndarray:
     return np.matmul(rows[:, None, :], rows[:, :, None])[:, 0, 0]
 
 
-def _region_sums(rows: np.ndarray, sizes: np.ndarray, row_region: np.ndarray, bounds: list):
-    """(count, 3) ``rows[bounds[r]:bounds[r + 1]].sum(axis=0)`` of (n, 3) C-contiguous rows, bit
-    for bit: that sum adds the rows one after the other onto 0.0, so does ``np.add.accumulate``
-    over every region's rows after a 0.0 and before -0.0 padding (x + -0.0 is x, signed zeros
-    included), in one call instead of one per region (unless the padding would be large)."""
-    count, longest = len(sizes), int(sizes.max())
-    if count * longest > 4 * len(rows) + 256:
-        return np.stack([rows[bounds[r] : bounds[r + 1]].sum(axis=0) for r in range(count)])
-    padded = np.full((count, longest + 1, 3), -0.0)
-    padded[:, 0] = 0.0
-    padded[row_region, np.arange(1, len(rows) + 1) - np.repeat(bounds[:-1], sizes)] = rows
-    return np.add.accumulate(padded, axis=1)[:, -1]
-
-
-def _member(values: np.ndarray, ordered: np.ndarray) -> np.ndarray:
-    """``np.isin(values, ordered)`` for an ascending non-empty ``ordered`` (one binary search)."""
-    return ordered[np.minimum(np.searchsorted(ordered, values), len(ordered) - 1)] == values
-
-
 def _region_loops(
     half: np.ndarray, half_region: np.ndarray, region_count: int, k: int, droppable
 ) -> list:
@@ -265,7 +216,9 @@ class RegionSetup(NamedTuple):
     vertices, for regions ``0..count-1`` (the ``members`` it was made from): computed once per
     :func:`retriangulate_planar_checked` call, shared by every batch of both passes."""
 
-    loops: list  # per region its outline loops (vertex lists, nothing dropped) or None (pinched)
+    loop_vertices: np.ndarray  # (v,) int64 the outline loops' vertices (nothing dropped), flat
+    loop_bounds: np.ndarray  # (l + 1,) int64 loop i is loop_vertices[loop_bounds[i]:...[i + 1]]
+    region_loops: np.ndarray  # (count + 1,) int64 region r's loops (none used when not ok)
     ok: np.ndarray  # (count,) bool: loops closed, one UV per vertex, area > 0
     normal: np.ndarray  # (count, 3) unit normal (outward sum of the faces' cross products)
     area: np.ndarray  # (count,) m²
@@ -276,58 +229,40 @@ class RegionSetup(NamedTuple):
 
 def region_setup(positions, faces, corner_uvs, members: list) -> RegionSetup | None:
     """:class:`RegionSetup` of the regions ``members`` (list of (f_r,) face indices), or None
-    when its int64 keys could overflow (then batches go one region at a time)."""
+    when its int64 keys could overflow (then batches go one region at a time). Loops, the UV
+    check and the normal sums are compiled (``exporter/mesh/c/outline.c``, ``planar_batch.c``)."""
     count, k = len(members), len(positions)
     if count * k * k >= 2**62:
         return None
-    sizes = np.array([len(m) for m in members])
+    sizes = np.array([len(m) for m in members], dtype=np.int64)
     member_faces = np.concatenate(members)
     region_faces = faces[member_faces]
-    face_region = np.repeat(np.arange(count), sizes)
-    bounds = [0, *itertools.accumulate(len(m) for m in members)]
-    loops = _region_loops(
+    bad, loop_vertices, loop_bounds, loop_region = outline_loops(  # compiled
         region_faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2),
-        np.repeat(face_region, 3),
+        np.repeat(np.arange(count), 3 * sizes),
         count,
         k,
         np.zeros(k, dtype=bool),
     )
-    ok = np.array([loop is not None for loop in loops])
+    region_loops = np.searchsorted(loop_region, np.arange(count + 1))
+    ok = ~bad
     uv_keys = uv_values = None
     if corner_uvs is not None:
         # One UV per vertex in each region (the first corner's in face order, compared exactly).
-        corner_key = np.repeat(face_region, 3) * k + region_faces.reshape(-1)
-        order = np.argsort(corner_key, kind="stable")
-        ordered = corner_key[order]
-        first = np.ones(len(order), dtype=bool)
-        first[1:] = ordered[1:] != ordered[:-1]
-        corner_uv = corner_uvs[member_faces].reshape(-1, 2)[order]
-        # All corners equal to the first of their vertex exactly when each equals the one before
-        # (== is transitive; a NaN differs from its neighbour as from the first).
-        differs = ~first[1:] & (corner_uv[1:] != corner_uv[:-1]).any(axis=1)
-        ok[ordered[1:][differs] // k] = False
-        uv_keys, uv_values = ordered[first], corner_uv[first]
-    a, b, c = (positions[region_faces[:, i]] for i in range(3))
-    cross = cross_rows(b - a, c - a)
-    normal = _region_sums(cross, sizes, face_region, bounds)
-    area = 0.5 * np.sqrt(_row_dots(normal))
-    ok &= area > 0
-    with np.errstate(invalid="ignore", divide="ignore"):
-        normal = normal / (2 * area)[:, None]
-        x, y, z = normal[:, 0], normal[:, 1], normal[:, 2]
-        # _plane_basis with helper (1, 0, 0) or (0, 1, 0), the same IEEE operations per row.
-        hx = np.where(np.abs(x) < 0.9, 1.0, 0.0)
-        hy = 1.0 - hx
-        u = np.stack([y * 0.0 - z * hy, z * hx - x * 0.0, x * hy - y * hx], axis=1)
-        u = u / np.sqrt(_row_dots(u))[:, None]
-        v = np.stack(
-            [y * u[:, 2] - z * u[:, 1], z * u[:, 0] - x * u[:, 2], x * u[:, 1] - y * u[:, 0]],
-            axis=1,
+        keys, values, conflict, n = _planar_batch.uvs(
+            region_faces, corner_uvs[member_faces], sizes, k
         )
-    basis = np.stack(
-        [u, v], axis=2
-    )  # (regions, 3, 2): each [r] C-contiguous like np.stack([u, v], axis=1)
-    return RegionSetup(loops, ok, normal, area, basis, uv_keys, uv_values)
+        ok &= ~conflict
+        uv_keys, uv_values = keys[:n], values[:n]
+    normal = _planar_batch.sums(positions, region_faces, sizes)
+    # _plane_basis per row with helper (1, 0, 0) or (0, 1, 0), the same IEEE operations
+    # (compiled); the dot products, which np.dot may do in BLAS, stay numpy's.
+    area, normal, u = _planar_batch.plane(normal, _row_dots(normal))
+    ok &= area > 0
+    basis = _planar_batch.basis(normal, u, _row_dots(u))  # (regions, 3, 2): axes as columns
+    return RegionSetup(
+        loop_vertices, loop_bounds, region_loops, ok, normal, area, basis, uv_keys, uv_values
+    )
 
 
 def _retriangulate_many(
@@ -340,9 +275,11 @@ def _retriangulate_many(
     ids: list | None = None,
 ) -> list:
     """``[_retriangulate(positions, faces[m], corner_uvs[m], droppable) for m in members]``, bit for
-    bit, with the per-region work batched: loops, UV checks, cross products, the outline check and
-    the UV lookup run once over all regions; per region only the float reductions whose summation
-    order numpy fixes per call (normal sum, projection, area sum, orientation) and earcut remain.
+    bit, with the per-region work batched: the loops, the outline check, cross products, area
+    sums and orientation, the UV lookup run once over all regions (compiled:
+    ``exporter/mesh/c/planar_batch.c``); per region only numpy's projection (``@``, which may go
+    through BLAS, as the reference's), earcut, and for faces almost edge-on to the plane the
+    reference's matmul remain.
 
     ``setup``: :func:`region_setup` of a list of regions of which ``members`` are those at ``ids``
     (made here when not given).
@@ -364,129 +301,86 @@ def _retriangulate_many(
             for m in members
         ]
     assert ids is not None
-    # The loops with the droppable vertices removed (None when one falls under 3 vertices).
-    drop = droppable.tolist()
-    loops: list = []
-    for i in ids:
-        rings = setup.loops[i]
-        if rings is not None:
-            rings = [[v for v in ring if not drop[v]] for ring in rings]
-            if any(len(ring) < 3 for ring in rings):
-                rings = None
-        loops.append(rings)
-    ok = setup.ok[ids] & np.array([rings is not None for rings in loops])
+    # The loops with the droppable vertices removed, flat (compiled): the ok regions (todo)'s
+    # ring vertices, each one's predecessor in its ring, the rings' ends and each region's rings.
+    ok, ring_vertices, previous, ring_ends, region_rings, todo_slots, ring_sizes = (
+        _planar_batch.rings(
+            setup.loop_vertices,
+            setup.loop_bounds,
+            setup.region_loops,
+            setup.ok,
+            np.asarray(ids, dtype=np.int64),
+            droppable,
+        )
+    )
     normal, area = setup.normal[ids], setup.area[ids]
-    todo = np.flatnonzero(ok).tolist()
+    todo = todo_slots.tolist()
     if not todo:
         return [None] * count
-    rings_of = [loops[r] for r in todo]
-    ring_sizes = [len(ring) for rings in rings_of for ring in rings]
-    ring_vertices = np.array(
-        [v for rings in rings_of for ring in rings for v in ring], dtype=np.int64
-    )
     projected_from = positions[ring_vertices]
-    # Every ring vertex's predecessor in its ring (the outline edges, keyed below).
-    ring_ends = np.array(list(itertools.accumulate(ring_sizes)))
-    previous = np.arange(-1, len(ring_vertices) - 1)
-    previous[ring_ends - np.array(ring_sizes)] = ring_ends - 1
-    region_sizes = [sum(len(ring) for ring in rings) for rings in rings_of]
-    # Earcut's ring ends of a one-ring region: a view of this array.
-    one_ring_ends = np.array(region_sizes, dtype=np.uint32)
-    tris, offsets, done, at = [], [], [], 0
-    for j, (r, rings, size) in enumerate(zip(todo, rings_of, region_sizes)):
+    first_ring, ends_of = region_rings.tolist(), [0, *ring_ends.tolist()]
+    tris, offsets, sizes, done = [], [], [], []
+    for j, r in enumerate(todo):
+        lo_ring, hi_ring = first_ring[j], first_ring[j + 1]
+        at, size = ends_of[lo_ring], ends_of[hi_ring] - ends_of[lo_ring]
         points = projected_from[at : at + size] @ setup.basis[ids[r]]
         local = None
-        if len(rings) > 1:
+        if hi_ring - lo_ring > 1:
             # Outer ring first (largest area), then the holes.
-            ends = np.cumsum([0] + [len(ring) for ring in rings])
-            flat = [points[ends[i] : ends[i + 1]] for i in range(len(rings))]
+            ends = np.array(ends_of[lo_ring : hi_ring + 1]) - at
+            flat = [points[ends[i] : ends[i + 1]] for i in range(hi_ring - lo_ring)]
             signed = [
                 0.5 * np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1])
                 for p in flat
             ]
             order = np.argsort(-np.abs(signed))
-            rings = [rings[i] for i in order]
             local = np.concatenate([np.arange(ends[i], ends[i + 1]) for i in order])
             points = np.concatenate([flat[i] for i in order])
-            ends = np.array(list(itertools.accumulate(len(ring) for ring in rings)), np.uint32)
+            ring_end = np.array(list(itertools.accumulate(len(flat[i]) for i in order)), np.uint32)
         else:
-            ends = one_ring_ends[j : j + 1]
-        tri = mapbox_earcut.triangulate_float64(points, ends)
-        if len(tri) != 3 * (size - 2 + 2 * (len(rings) - 1)):
-            at += size
+            ring_end = ring_sizes[lo_ring : lo_ring + 1]  # earcut's ends of one ring
+        tri = mapbox_earcut.triangulate_float64(points, ring_end)
+        if len(tri) != 3 * (size - 2 + 2 * (hi_ring - lo_ring - 1)):
             continue
         # Earcut's indices into this region's slice of ring_vertices (in the original ring order).
         tris.append(tri if local is None else local[tri])
         offsets.append(at)
+        sizes.append(size)
         done.append(r)
-        at += size
     results: list = [None] * count
     if not done:
         return results
     face_counts = [len(t) // 3 for t in tris]
-    new_faces = ring_vertices[
-        np.concatenate(tris).astype(np.int64) + np.repeat(offsets, 3 * np.array(face_counts))
-    ].reshape(-1, 3)
+    # Vertex ids and the outline check (compiled): the new triangles' outline must be exactly
+    # the (dropped) loops, no edge across a hole, none used by three triangles.
+    new_faces, broken = _planar_batch.outline(
+        np.concatenate(tris), offsets, sizes, face_counts, ring_vertices, previous, k
+    )
+    done_array = np.array(done)
+    ok[done_array[broken]] = False
     face_bounds = [0, *itertools.accumulate(face_counts)]
-    new_region = np.repeat(done, face_counts)
-    # The new triangles' outline must be exactly the (dropped) loops: no edge across a hole.
-    ahead = new_faces[:, [1, 2, 0]]
-    edge_key = np.sort(
-        (
-            (new_region[:, None] * k + np.minimum(new_faces, ahead)) * k
-            + np.maximum(new_faces, ahead)
-        ).reshape(-1)
+    # Cross products, the area checks and the orientation (compiled, the reference's
+    # arithmetic): earcut may emit zero-area slivers along collinear outline vertices, not
+    # exact, refused. Faces almost edge-on to the plane take their orientation from the
+    # reference's per-region matmul (numpy: it may go through BLAS).
+    n, flip, bad, recheck = _planar_batch.finish(
+        positions, new_faces, face_counts, normal[done], area[done]
     )
-    # Edges used once (equal to neither sorted neighbour) and more than twice.
-    differs = np.concatenate([[True], edge_key[1:] != edge_key[:-1], [True]])
-    single = edge_key[differs[:-1] & differs[1:]]
-    overused = edge_key[2:][edge_key[2:] == edge_key[:-2]]
-    # The loops' edges of the regions earcut did (ring vertex and predecessor; order is free).
-    vertex_region = np.repeat(todo, region_sizes)
-    did = np.zeros(count, dtype=bool)
-    did[done] = True
-    in_done = did[vertex_region]
-    ends_a, ends_b = ring_vertices[in_done], ring_vertices[previous[in_done]]
-    loop_key = (vertex_region[in_done] * k + np.minimum(ends_a, ends_b)) * k + np.maximum(
-        ends_a, ends_b
-    )
-    loop_key.sort()
-    if len(single) != len(loop_key) or (single != loop_key).any():  # usually every region's agree
-        ok[np.setxor1d(single, loop_key) // (k * k)] = False
-    ok[overused // (k * k)] = False
-    corners = positions[new_faces]
-    n = cross_rows(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    areas = 0.5 * row_norms(n)  # reversing a face keeps its area
-    starts = face_bounds[:-1]
-    smallest = np.minimum.reduceat(areas, starts)
-    # Earcut may emit zero-area slivers along collinear outline vertices: not exact, refuse. The
-    # per-region sums in one reduceat (its summation order may differ from the one-region
-    # reference's ``areas.sum()`` in the last bits: recomputed that way where it could matter).
-    total = area[done]
-    scale = np.maximum(total, 1.0)
-    off = np.abs(np.add.reduceat(areas, starts) - total) - 1e-6 * scale
-    for i in np.flatnonzero(np.abs(off) <= 1e-9 * scale).tolist():
+    ok[done_array[bad]] = False
+    for i in np.flatnonzero(recheck).tolist():
         lo, hi = face_bounds[i], face_bounds[i + 1]
-        off[i] = abs(areas[lo:hi].sum() - total[i]) - 1e-6 * scale[i]
-    ok[np.array(done)[(off > 0) | (smallest < 1e-9 * scale)]] = False
-    # Orientation: the sign of each face's normal . region normal. The row sums differ from the
-    # reference's per-region matmul by a few ulps of |n| at most, so only faces almost edge-on
-    # to the plane are recomputed the reference's way.
-    dots = (n * normal[new_region]).sum(axis=1)
-    flip = dots < 0
-    edge_on = np.abs(dots) <= 1e-12 * areas
-    if edge_on.any():
-        for i in np.unique(
-            np.searchsorted(face_bounds, np.flatnonzero(edge_on), "right") - 1
-        ).tolist():
-            lo, hi = face_bounds[i], face_bounds[i + 1]
-            flip[lo:hi] = (n[lo:hi] @ normal[done[i]]) < 0
+        flip[lo:hi] = (n[lo:hi] @ normal[done[i]]) < 0
     new_faces = np.where(flip[:, None], new_faces[:, ::-1], new_faces)
     new_uvs = None
     if setup.uv_keys is not None and setup.uv_values is not None:
-        new_uvs = setup.uv_values[
-            np.searchsorted(setup.uv_keys, np.array(ids)[new_region][:, None] * k + new_faces)
-        ].astype(np.float32)
+        new_uvs = _planar_batch.uv_lookup(
+            setup.uv_keys,
+            setup.uv_values,
+            np.array(ids)[done_array],
+            face_counts,
+            new_faces,
+            k,
+        )
     kept = ok.tolist()
     for i, r in enumerate(done):
         if kept[r]:
@@ -495,13 +389,11 @@ def _retriangulate_many(
     return results
 
 
-def _boundary(positions: np.ndarray, faces: np.ndarray) -> tuple[float, int]:
-    """Open-boundary length (metres) and edge count."""
+def _boundary(positions: np.ndarray, faces: np.ndarray) -> float:
+    """Open-boundary length (metres): the edges used once, np.linalg.norm and np.sum's
+    arithmetic (compiled: ``planar_batch.border_length``)."""
     edges, counts = edge_use(faces)
-    border = edges[counts == 1]
-    return float(
-        np.linalg.norm(positions[border[:, 0]] - positions[border[:, 1]], axis=1).sum()
-    ), len(border)
+    return _planar_batch.border_length(positions, edges, counts)
 
 
 def retriangulate_planar(
@@ -562,26 +454,21 @@ def _retriangulate_keeping_boundary(
     edge_keys = sorted_edge_keys(faces, k)
     regions = planar_regions(positions, faces, face_chart, edge_keys)
     # Vertices inside one region (off the open border) go; so do straight outline vertices.
-    corner_region = np.repeat(regions, 3)
-    low = np.full(k, np.iinfo(np.int64).max)
-    high = np.full(k, -1)
-    np.minimum.at(low, faces.reshape(-1), corner_region)
-    np.maximum.at(high, faces.reshape(-1), corner_region)
+    # Faces of every region, ascending (one stable counting sort instead of a scan per region).
+    one_region, used, by_region, region_start = _planar_batch.spans(
+        faces, regions, int(regions.max()) + 1, k
+    )
     border = border_vertices(faces, k)
-    interior = (low == high) & ~border & ~locked
-    used = np.zeros(k, dtype=bool)
-    used[faces.reshape(-1)] = True
+    interior = one_region & ~border & ~locked
     straight = straight_vertices(
         positions, faces, regions, locked, on_border=True, edge_keys=edge_keys
     )
-    # Faces of every region, ascending (one stable sort instead of a scan per region).
-    by_region = np.argsort(regions, kind="stable")
-    region_start = np.searchsorted(regions[by_region], np.arange(regions.max() + 2))
     done: dict = {}  # both passes share the regions their different border choice does not touch
     droppable = (interior | straight) & used
     # Droppable vertices only ever become fewer (failures keep theirs; the second pass drops a
     # subset), so only regions holding one now are ever redone: the setup is theirs only.
-    held = np.logical_or.reduceat(droppable[faces[by_region]].any(axis=1), region_start[:-1])
+    faces_by_region = faces[by_region]
+    held = _planar_batch.held(droppable, faces_by_region, region_start)
     candidates = np.flatnonzero(held).tolist()
     members = [by_region[region_start[r] : region_start[r + 1]] for r in candidates]
     setup = region_setup(positions, faces, corner_uvs, members) if members else None
@@ -598,11 +485,11 @@ def _retriangulate_keeping_boundary(
         setup,
         slot,
     )
-    length, _ = _boundary(positions, result[0])
+    length = _boundary(positions, result[0])
     # A slit closed: keep the straight border vertices inside a slit, then, if the boundary
     # still changes, every straight border vertex (straight_vertices(on_border=False)).
     fallbacks = [lambda: straight & ~slit_vertices(positions, faces), lambda: straight & ~border]
-    while abs(length - before[0]) > 1e-9 * max(before[0], 1.0) and fallbacks:
+    while abs(length - before) > 1e-9 * max(before, 1.0) and fallbacks:
         result = _retriangulate_regions(
             positions,
             faces,
@@ -615,8 +502,8 @@ def _retriangulate_keeping_boundary(
             setup,
             slot,
         )
-        length, _ = _boundary(positions, result[0])
-    return (*result, abs(length - before[0]) <= 1e-9 * max(before[0], 1.0))
+        length = _boundary(positions, result[0])
+    return (*result, abs(length - before) <= 1e-9 * max(before, 1.0))
 
 
 def _retriangulate_regions(
@@ -642,9 +529,8 @@ def _retriangulate_regions(
 
     def drop_state() -> tuple[np.ndarray, list]:
         """The droppable bits (m, 3) of the faces in region order and the regions holding one."""
-        bits = droppable[faces_by_region]
-        held = np.logical_or.reduceat(bits.any(axis=1), region_start[:-1])
-        return bits, np.flatnonzero(held).tolist()
+        held = _planar_batch.held(droppable, faces_by_region, region_start)
+        return droppable[faces_by_region], np.flatnonzero(held).tolist()
 
     # Every region holding a droppable vertex is redone; a region that cannot be done exactly
     # keeps its vertices, so its neighbours must keep them too: repeat until consistent.
