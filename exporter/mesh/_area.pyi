@@ -1,0 +1,3 @@
+import numpy as np
+
+def face_areas(positions: np.ndarray, faces: np.ndarray, /) -> np.ndarray: ...
