@@ -1,4 +1,5 @@
-"""The simplifier's glue moved off per-call numpy work: compiled face areas (exporter/mesh/c/area.c)
+"""The simplifier's glue moved off per-call numpy work: compiled face areas and UV signs
+(exporter/mesh/c/area.c), the slit pairs between back-to-back faces (exporter/mesh/c/facing.c)
 and the exact-match shortcut of the split's normal lookup, each against the numpy form it
 replaces, bit for bit, on generated buildings and on random and degenerate input."""
 
@@ -9,9 +10,13 @@ import pytest
 from scipy.spatial import cKDTree
 
 from exporter.mesh.geometry import cross_rows, row_norms
+from exporter.mesh.slit_kernels import inside_sides
+from exporter.mesh.slits import SLIT_M, _facing_partner, border_sides
+from exporter.quality import joined
 from exporter.samplegen import generate_buildings
 from exporter.simplify import nearest_rows
 from exporter.simplify.protect import face_areas
+from exporter.simplify.quadric import uv_signs
 
 
 def reference_face_areas(positions, faces):
@@ -81,3 +86,91 @@ def test_nearest_rows_give_the_tree_s_values():
         nearest = nearest_rows(src, query, values)
         expected = cKDTree(src).query(query)[1]
         assert same_bits(values[nearest], values[expected])
+
+
+def reference_facing_partner(positions, faces, sides, start, end, side, vertex):
+    """The former numpy _facing_partner (slits.py before facing.c)."""
+    if not len(side):
+        return np.zeros(0, dtype=bool)
+    border_faces = np.unique(sides // 3)
+    a, b, c = (positions[faces[border_faces, i]] for i in range(3))
+    normal = np.zeros((len(faces), 3))
+    cross = cross_rows(b - a, c - a)
+    normal[border_faces] = cross / np.maximum(row_norms(cross), 1e-30)[:, None]
+    ends = np.concatenate([start, end])
+    owner = np.concatenate([sides, sides])
+    order = np.argsort(ends, kind="stable")
+    ends, owner = ends[order], owner[order]
+    lo = np.searchsorted(ends, vertex, "left")
+    count = np.searchsorted(ends, vertex, "right") - lo
+    pair = np.repeat(np.arange(len(side)), count)
+    partner = owner[np.arange(len(pair)) - np.repeat(np.cumsum(count) - count, count) + lo[pair]]
+    against = (normal[partner // 3] * normal[side[pair] // 3]).sum(axis=1) < -0.5
+    facing = np.zeros(len(side), dtype=bool)
+    facing[pair[against]] = True
+    return facing
+
+
+def _pairs(positions, faces, rng=None):
+    """Inputs of _facing_partner: slit_points' own on a mesh, or random border sides and pairs."""
+    sides = border_sides(faces, len(positions))
+    start = faces.reshape(-1)[sides]
+    end = faces[sides // 3, (sides % 3 + 1) % 3]
+    if rng is None:
+        points = np.unique(np.concatenate([start, end]))
+        column, vertex, _ = inside_sides(positions, points, start, end, SLIT_M)
+        return sides, start, end, sides[column], vertex
+    count = int(rng.integers(0, 3 * len(sides) + 1))
+    side = sides[rng.integers(0, len(sides), count)] if len(sides) else np.zeros(0, np.int64)
+    return sides, start, end, side, rng.integers(0, len(positions), len(side))
+
+
+def test_facing_partner_equals_numpy(buildings):
+    rng = np.random.default_rng(3)
+    meshes = [joined(b.parts)[:2] for b in buildings]
+    for _ in range(30):
+        positions = np.round(rng.normal(size=(12, 3)), 1)
+        faces = rng.integers(0, 12, size=(int(rng.integers(1, 20)), 3))
+        # back-to-back copies (reversed winding) and degenerate faces
+        faces = np.concatenate([faces, faces[: len(faces) // 2, ::-1], [[0, 0, 1], [2, 2, 2]]])
+        meshes.append((positions, faces))
+    tested = 0
+    for positions, faces in meshes:
+        for args in (_pairs(positions, faces), _pairs(positions, faces, rng)):
+            got = _facing_partner(positions, faces, *args)
+            expected = reference_facing_partner(positions, faces, *args)
+            assert same_bits(got, expected)
+            tested += int(expected.sum())
+    assert tested > 0  # some pairs do face each other
+
+
+def test_facing_partner_refuses_bad_indices():
+    positions, faces = np.zeros((3, 3)), np.array([[0, 1, 2]])
+    one = np.array([0])
+    with pytest.raises(ValueError, match="outside"):
+        _facing_partner(positions, faces, np.array([3]), one, one, one, one)
+    with pytest.raises(ValueError, match="outside"):
+        _facing_partner(positions, faces, one, one, one, one, np.array([-1]))
+
+
+def reference_uv_signs(corner_uvs):
+    """The former numpy uv_signs (quadric.py before area.c)."""
+    d1 = (corner_uvs[:, 1] - corner_uvs[:, 0]).astype(np.float64)
+    d2 = (corner_uvs[:, 2] - corner_uvs[:, 0]).astype(np.float64)
+    cross = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]
+    return np.sign(np.where(np.abs(cross) < 1e-12, 0.0, cross)).astype(np.int8)
+
+
+def test_uv_signs_equal_numpy(buildings):
+    rng = np.random.default_rng(6)
+    uvs = [p.uvs[p.triangles] for b in buildings for p in b.parts if p.uvs is not None]
+    scale = 10.0 ** rng.integers(-7, 2, size=(5000, 1, 1))
+    random = (rng.random((5000, 3, 2)) * scale).astype(np.float32)
+    random[:50, 1] = random[:50, 0]  # degenerate in UV
+    random[50:60, 2] = np.nan
+    for corner_uvs in [*uvs, random, np.zeros((0, 3, 2), np.float32)]:
+        with np.errstate(invalid="ignore"):
+            expected = reference_uv_signs(corner_uvs)
+        assert same_bits(uv_signs(corner_uvs), expected)
+    float64 = random[60:].astype(np.float64)  # other dtypes keep numpy's own arithmetic
+    assert same_bits(uv_signs(float64), reference_uv_signs(float64))

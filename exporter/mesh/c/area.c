@@ -1,7 +1,9 @@
-/* Triangle areas of an indexed mesh: 0.5 |(b - a) x (c - a)| per face, the arithmetic of the
+/* Triangle areas: 0.5 |(b - a) x (c - a)| per face of an indexed mesh, the arithmetic of the
  * numpy form (exporter/simplify/protect.py's former face_areas: geometry.cross_rows, then
- * geometry.row_norms' sqrt of the squares summed left to right), so the areas are the same bits.
- * positions (n, 3) float64 metres in any one frame, faces (m, 3) int64.
+ * geometry.row_norms' sqrt of the squares summed left to right), so the areas are the same bits;
+ * positions (n, 3) float64 metres in any one frame, faces (m, 3) int64. And the sign of every
+ * face's UV area (quadric.uv_signs' former numpy form): corner_uvs (m, 3, 2) float32, glTF UV
+ * convention.
  */
 #include "kernels.h"
 
@@ -43,10 +45,46 @@ done:
     return result;
 }
 
+/* uv_signs(corner_uvs (m, 3, 2) float32) -> (m,) int8: the sign of (uv1 - uv0) x (uv2 - uv0),
+ * differences in float32 widened to float64 (as numpy's astype after the subtraction), 0 below
+ * 1e-12 in magnitude and for NaN (numpy's int8 cast of sign(NaN) on x86-64). */
+static PyObject *uv_signs(PyObject *self, PyObject *args) {
+    PyObject *uvs_obj, *result = NULL;
+    if (!PyArg_ParseTuple(args, "O:uv_signs", &uvs_obj)) return NULL;
+    PyArrayObject *uvs = k_array(uvs_obj, NPY_FLOAT32, 3, 0, "area.uv_signs", "corner_uvs");
+    PyArrayObject *signs = NULL;
+    if (uvs == NULL) goto done;
+    if (k_dim(uvs, 1, 3, "area.uv_signs", "corner_uvs") ||
+        k_dim(uvs, 2, 2, "area.uv_signs", "corner_uvs"))
+        goto done;
+    npy_intp m = PyArray_DIM(uvs, 0);
+    npy_intp dims[1] = {m};
+    signs = k_empty(1, dims, NPY_INT8);
+    if (signs == NULL) goto done;
+    const float *uv = K_F32(uvs);
+    int8_t *out = (int8_t *)PyArray_DATA(signs);
+    Py_BEGIN_ALLOW_THREADS
+    for (npy_intp i = 0; i < m; i++) {
+        const float *c = uv + 6 * i;
+        float d1u = c[2] - c[0], d1v = c[3] - c[1], d2u = c[4] - c[0], d2v = c[5] - c[1];
+        double cross = (double)d1u * (double)d2v - (double)d1v * (double)d2u;
+        out[i] = fabs(cross) < 1e-12 ? 0 : cross > 0 ? 1 : cross < 0 ? -1 : 0;
+    }
+    Py_END_ALLOW_THREADS
+    result = (PyObject *)signs;
+    signs = NULL;
+done:
+    Py_XDECREF(uvs);
+    Py_XDECREF(signs);
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"face_areas", face_areas, METH_VARARGS,
      "face_areas(positions, faces) -> (m,) float64: the area of every triangle"},
+    {"uv_signs", uv_signs, METH_VARARGS,
+     "uv_signs(corner_uvs) -> (m,) int8: the sign of every face's UV area"},
     {NULL, NULL, 0, NULL},
 };
 
-K_MODULE(area, "Triangle areas of an indexed mesh, numpy's arithmetic.", methods)
+K_MODULE(area, "Triangle areas (3-D, and the sign in UV space), numpy's arithmetic.", methods)
