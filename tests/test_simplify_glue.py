@@ -10,11 +10,12 @@ import pytest
 from scipy.spatial import cKDTree
 
 from exporter.mesh.geometry import cross_rows, row_norms
+from exporter.mesh.raster import rasterise
 from exporter.mesh.slit_kernels import inside_sides
 from exporter.mesh.slits import SLIT_M, _facing_partner, border_sides
 from exporter.quality import joined
 from exporter.samplegen import generate_buildings
-from exporter.simplify import nearest_rows
+from exporter.simplify import nearest_rows, uv_charts
 from exporter.simplify.protect import face_areas
 from exporter.simplify.quadric import uv_signs
 
@@ -174,3 +175,52 @@ def test_uv_signs_equal_numpy(buildings):
         assert same_bits(uv_signs(corner_uvs), expected)
     float64 = random[60:].astype(np.float64)  # other dtypes keep numpy's own arithmetic
     assert same_bits(uv_signs(float64), reference_uv_signs(float64))
+
+
+@pytest.mark.parametrize("size", [1, 2, 128])
+def test_rasterise_clips_rows_and_columns_as_numpy(size):
+    """raster.c's integer ceil / floor with clipping, at their boundaries: coordinates on and
+    next to 0, the last pixel and one past it (k +- 0.5, their neighbouring doubles) and far
+    outside, against the numpy reference of tests/test_perf_quality.py (which parts from the
+    kernel where slopes overflow: coordinates near 1e300 or infinite)."""
+    from test_perf_quality import reference_rasterise
+
+    top = size - 1.0
+    edges = [-1e9, -1.5, -1.0, -0.5, -0.0, 0.0, 0.5, 1.0, top - 0.5, top, top + 0.5]
+    edges += [top + 1.0, top + 1.5, 2.0**40, 1e9]
+    edges += [k / 2 for k in range(-4, 2 * size + 4)]  # whole and half pixels everywhere
+    values = np.array(edges + [np.nextafter(v, w) for v in edges for w in (-np.inf, np.inf)])
+    rng = np.random.default_rng(size)
+    for _ in range(100):
+        xy = rng.choice(values, size=(30, 2))
+        xy[::2] = rng.random((15, 2)) * (size + 2) - 1  # with ordinary corners
+        faces = rng.integers(0, len(xy), size=(60, 3))
+        with np.errstate(over="ignore", invalid="ignore"):  # the reference's far slopes
+            expected = reference_rasterise(xy, faces, size)
+        assert np.array_equal(rasterise(xy, faces, size), expected)
+
+
+def test_uv_charts_refuse_out_of_range_faces():
+    for bad in (-1, 3):
+        with pytest.raises(ValueError, match="out of range"):
+            uv_charts(np.array([[0, 1, 2], [0, 1, bad]]), 3)
+
+
+def reference_cross_rows(u, v):
+    """The numpy cross_rows (geometry.py; still its form for other dtypes and broadcasting)."""
+    out = np.empty(np.broadcast_shapes(u.shape, v.shape))
+    out[:, 0] = u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1]
+    out[:, 1] = u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2]
+    out[:, 2] = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
+    return out
+
+
+def test_cross_rows_equal_numpy():
+    rng = np.random.default_rng(9)
+    u = rng.normal(size=(500, 3)) * 10.0 ** rng.integers(-9, 9, size=(500, 1))
+    v = rng.normal(size=(500, 3)) * 10.0 ** rng.integers(-9, 9, size=(500, 1))
+    v[:20] = u[:20] * 3.0  # parallel: zero up to rounding
+    cases = [(u, v), (u[::-1], v[::2].repeat(2, axis=0)), (u[:0], v[:0])]  # strided, empty
+    cases += [(u.astype(np.float32), v.astype(np.float32)), (u, v[:1]), (u[:1], v)]  # fallbacks
+    for a, b in cases:
+        assert same_bits(cross_rows(a, b), reference_cross_rows(a, b))

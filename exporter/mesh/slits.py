@@ -70,7 +70,11 @@ def slit_points(
         return empty, empty, np.zeros(0)
     start = faces.reshape(-1)[sides]
     end = faces[sides // 3, (sides % 3 + 1) % 3]
-    points = np.unique(np.concatenate([start, end]))
+    # The vertices the border sides end at, ascending (np.unique of both ends, without its sort).
+    ends = np.zeros(len(positions), dtype=bool)
+    ends[start] = True
+    ends[end] = True
+    points = np.flatnonzero(ends)
     column, vertex, t = inside_sides(positions, points, start, end, tolerance)  # compiled
     side = sides[column]
     # Not between back-to-back faces (two parts' walls standing against each other): that seam

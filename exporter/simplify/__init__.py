@@ -35,7 +35,7 @@ from scipy.spatial import cKDTree
 
 from ..config import LodSpec, SimplifyOptions
 from ..errors import ProcessError
-from ..mesh.component_kernels import lowest_member
+from ..mesh._component import lowest
 from ..mesh.geometry import longest_edges, triangle_cross, unique_float_rows
 from ..mesh.topology import border_vertices, nonmanifold_vertices
 from ..mesh.weld import weld_positions
@@ -99,13 +99,15 @@ def uv_charts(faces: np.ndarray, vertex_count: int) -> np.ndarray:
 
     Components of the face-vertex graph (faces are nodes 0..m-1, vertex v is node m + v),
     numbered in the order of their lowest face (as ``connected_components`` of the face-face
-    graph numbers them): union-find (:func:`~exporter.mesh.component_kernels.lowest_member`)
-    labels each face with its component's lowest node, a face."""
+    graph numbers them): union-find (``exporter/mesh/c/component.c``) labels each face with its
+    component's lowest node, a face."""
     m = len(faces)
     if m == 0:
         return np.zeros(0, np.int64)
     faces = np.ascontiguousarray(faces, np.int64).reshape(-1, 3)
-    labels = lowest_member(m + vertex_count, np.repeat(np.arange(m), 3), faces.reshape(-1) + m)[:m]
+    if faces.min() < 0 or faces.max() >= vertex_count:
+        raise ValueError("uv_charts: a face's vertex index is out of range")
+    labels = lowest(m + vertex_count, np.repeat(np.arange(m), 3), faces.reshape(-1) + m)[:m]
     root = labels == np.arange(m)
     return (np.cumsum(root) - 1)[labels]
 
@@ -137,9 +139,7 @@ def _join_welded(parts: list[Part], link_distance: float):
         if parts
         else np.zeros((0, 3), np.int64)
     )
-    face_part = np.concatenate([np.full(p.triangle_count, i) for i, p in enumerate(parts)]).astype(
-        np.int64
-    )
+    face_part = np.repeat(np.arange(len(parts), dtype=np.int64), [p.triangle_count for p in parts])
     has_uv = any(p.uvs is not None for p in parts)
     uvs = (
         np.concatenate(
@@ -236,7 +236,7 @@ def nearest_rows(src: np.ndarray, query: np.ndarray, values: np.ndarray) -> np.n
     A query row equal to src rows (every column ``==``) takes the first of them when they all
     hold the same value bytes: its nearest rows are those at distance 0 (an other row would need
     every coordinate difference below ~1e-162 for its squared distance to round to 0); the other
-    rows are queried from the tree."""
+    rows are queried from the tree (which alone knows which of equal rows it returns)."""
     first, group = unique_float_rows(np.concatenate([src, query]))
     n = len(src)
     src_group, query_group = group[:n], group[n:]

@@ -50,7 +50,6 @@ import importlib.metadata
 
 import meshoptimizer._loader as _binding
 import numpy as np
-from numpy.ctypeslib import ndpointer
 
 from ..mesh.geometry import compact_vertices, unique_float_rows, vertex_normals
 from .protect import face_areas
@@ -76,9 +75,9 @@ if importlib.metadata.version("meshoptimizer") != WHEEL_VERSION:
         f"(pip install meshoptimizer=={WHEEL_VERSION}, or check the new header and update it)"
     )
 _lib = ctypes.CDLL(_binding.lib_path)
-_F32 = ndpointer(np.float32, flags="C_CONTIGUOUS")
-_U32 = ndpointer(np.uint32, flags="C_CONTIGUOUS")
-_U8 = ndpointer(np.uint8, flags="C_CONTIGUOUS")
+# Arrays go in as their data addresses: the wrappers below make every one C-contiguous of the
+# declared type first (numpy.ctypeslib.ndpointer's check of each costs more than the call).
+_F32 = _U32 = _U8 = ctypes.c_void_p
 # size_t meshopt_simplifyWithAttributes(unsigned int* destination, const unsigned int* indices,
 #   size_t index_count, const float* vertex_positions, size_t vertex_count,
 #   size_t vertex_positions_stride, const float* vertex_attributes, size_t vertex_attributes_stride,
@@ -150,17 +149,17 @@ def simplify_with_attributes(
     destination = np.empty(len(indices), np.uint32)
     error = ctypes.c_float(0.0)
     kept = _lib.meshopt_simplifyWithAttributes(
-        destination,
-        indices,
+        destination.ctypes.data,
+        indices.ctypes.data,
         len(indices),
-        positions,
+        positions.ctypes.data,
         count,
         12,
-        attributes,
+        attributes.ctypes.data,
         4 * attributes.shape[1],
-        weights,
+        weights.ctypes.data,
         len(weights),
-        lock,
+        lock.ctypes.data,
         int(target_index_count),
         float(target_error),
         int(options),
@@ -182,10 +181,10 @@ def simplify(
     destination = np.empty(len(indices), np.uint32)
     error = ctypes.c_float(0.0)
     kept = _lib.meshopt_simplify(
-        destination,
-        indices,
+        destination.ctypes.data,
+        indices.ctypes.data,
         len(indices),
-        positions,
+        positions.ctypes.data,
         len(positions),
         12,
         int(target_index_count),

@@ -3,7 +3,7 @@
  * geometry.row_norms' sqrt of the squares summed left to right), so the areas are the same bits;
  * positions (n, 3) float64 metres in any one frame, faces (m, 3) int64. And the sign of every
  * face's UV area (quadric.uv_signs' former numpy form): corner_uvs (m, 3, 2) float32, glTF UV
- * convention.
+ * convention. And the row-wise cross product of two (m, 3) float64 arrays.
  */
 #include "kernels.h"
 
@@ -45,6 +45,40 @@ done:
     return result;
 }
 
+/* cross_rows(u (m, 3) float64, v (m, 3) float64) -> (m, 3) float64: u x v row by row, the
+ * expressions of geometry.cross_rows' numpy form. */
+static PyObject *cross_rows(PyObject *self, PyObject *args) {
+    PyObject *u_obj, *v_obj, *result = NULL;
+    if (!PyArg_ParseTuple(args, "OO:cross_rows", &u_obj, &v_obj)) return NULL;
+    PyArrayObject *u = k_array(u_obj, NPY_FLOAT64, 2, 0, "area.cross_rows", "u");
+    PyArrayObject *v = k_array(v_obj, NPY_FLOAT64, 2, 0, "area.cross_rows", "v");
+    PyArrayObject *out = NULL;
+    if (u == NULL || v == NULL) goto done;
+    npy_intp m = PyArray_DIM(u, 0);
+    if (k_dim(u, 1, 3, "area.cross_rows", "u") || k_dim(v, 0, m, "area.cross_rows", "v") ||
+        k_dim(v, 1, 3, "area.cross_rows", "v"))
+        goto done;
+    npy_intp dims[2] = {m, 3};
+    out = k_empty(2, dims, NPY_FLOAT64);
+    if (out == NULL) goto done;
+    const double *a = K_F64(u), *b = K_F64(v);
+    double *o = K_F64(out);
+    Py_BEGIN_ALLOW_THREADS
+    for (npy_intp i = 0; i < 3 * m; i += 3) {
+        o[i] = a[i + 1] * b[i + 2] - a[i + 2] * b[i + 1];
+        o[i + 1] = a[i + 2] * b[i] - a[i] * b[i + 2];
+        o[i + 2] = a[i] * b[i + 1] - a[i + 1] * b[i];
+    }
+    Py_END_ALLOW_THREADS
+    result = (PyObject *)out;
+    out = NULL;
+done:
+    Py_XDECREF(u);
+    Py_XDECREF(v);
+    Py_XDECREF(out);
+    return result;
+}
+
 /* uv_signs(corner_uvs (m, 3, 2) float32) -> (m,) int8: the sign of (uv1 - uv0) x (uv2 - uv0),
  * differences in float32 widened to float64 (as numpy's astype after the subtraction), 0 below
  * 1e-12 in magnitude and for NaN (numpy's int8 cast of sign(NaN) on x86-64). */
@@ -82,6 +116,8 @@ done:
 static PyMethodDef methods[] = {
     {"face_areas", face_areas, METH_VARARGS,
      "face_areas(positions, faces) -> (m,) float64: the area of every triangle"},
+    {"cross_rows", cross_rows, METH_VARARGS,
+     "cross_rows(u, v) -> (m, 3) float64: u x v row by row"},
     {"uv_signs", uv_signs, METH_VARARGS,
      "uv_signs(corner_uvs) -> (m,) int8: the sign of every face's UV area"},
     {NULL, NULL, 0, NULL},

@@ -10,11 +10,29 @@
  */
 #include "kernels.h"
 
+/* (int64_t)min(max(ceil(v), 0), top) for v not NaN, top >= 0 an integer, without the
+ * libm-free ceil's instruction sequence: ceil(v) <= 0 exactly when v <= 0, ceil(v) > top
+ * exactly when v > top, and ceil of v in (0, top] is its truncation, plus one unless whole. */
+static inline int64_t ceil_clip(double v, int64_t top) {
+    if (!(v > 0)) return 0;
+    if (v > (double)top) return top;
+    int64_t t = (int64_t)v;
+    return t + ((double)t < v);
+}
+
+/* (int64_t)min(max(floor(w), 0), top) likewise: floor(w) <= 0 exactly when w < 1, floor(w) >
+ * top exactly when w >= top + 1, and floor of w in [1, top + 1) is its truncation. */
+static inline int64_t floor_clip(double w, int64_t top) {
+    if (!(w >= 1)) return 0;
+    if (w >= (double)top + 1) return top;
+    return (int64_t)w;
+}
+
 /* Spans of one view: +1 at a span's first column, -1 past its last, summed per row at the end,
  * so each triangle costs its rows, not its pixels. spans is (size, size + 1). */
 static void view_spans(const double *xy, const int64_t *faces, npy_intp m, int64_t size,
                        int32_t *spans) {
-    double top = (double)(size - 1);
+    int64_t top = size - 1;
     double px[3], py[3], qx[3], qy[3], slope[3];
     for (npy_intp f = 0; f < m; f++) {
         double y_min = INFINITY, y_max = -INFINITY;
@@ -32,8 +50,8 @@ static void view_spans(const double *xy, const int64_t *faces, npy_intp m, int64
             slope[k] = dy > 0 ? (qx[k] - px[k]) / dy : 0.0;
         }
         if (isnan(y_min) || isnan(y_max)) continue; /* no row: a NaN corner covers nothing */
-        int64_t r0 = (int64_t)k_min(k_max(ceil(y_min - 0.5), 0.0), top);
-        int64_t r1 = (int64_t)k_min(k_max(floor(y_max + 0.5), 0.0), top);
+        int64_t r0 = ceil_clip(y_min - 0.5, top);
+        int64_t r1 = floor_clip(y_max + 0.5, top);
         for (int64_t r = r0; r <= r1; r++) {
             double bottom = (double)r - 0.5, upper = (double)r + 0.5;
             double lo = INFINITY, hi = -INFINITY;
@@ -49,8 +67,8 @@ static void view_spans(const double *xy, const int64_t *faces, npy_intp m, int64
                 hi = k_max(hi, k_max(at, at_top));
             }
             if (lo <= hi) {
-                int64_t c0 = (int64_t)k_min(k_max(ceil(lo - 0.5), 0.0), top);
-                int64_t c1 = (int64_t)k_min(k_max(floor(hi + 0.5), 0.0), top);
+                int64_t c0 = ceil_clip(lo - 0.5, top);
+                int64_t c1 = floor_clip(hi + 0.5, top);
                 spans[r * (size + 1) + c0] += 1;
                 spans[r * (size + 1) + c1 + 1] -= 1;
             }
@@ -93,11 +111,14 @@ static PyObject *rasterise(PyObject *self, PyObject *args) {
         view_spans(xyp + view * n * 2, f, m, size, spans);
         npy_bool *plane = o + view * size * size;
         for (npy_intp r = 0; r < size; r++) {
-            int64_t total = 0;
+            /* The running sum in place, then the coverage test (a loop the compiler vectorises). */
+            int32_t *row = spans + r * (size + 1);
+            int32_t total = 0;
             for (npy_intp c = 0; c < size; c++) {
-                total += spans[r * (size + 1) + c];
-                plane[r * size + c] = total > 0;
+                total += row[c];
+                row[c] = total;
             }
+            for (npy_intp c = 0; c < size; c++) plane[r * size + c] = row[c] > 0;
         }
     }
     Py_END_ALLOW_THREADS
