@@ -9,8 +9,10 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
+from exporter.mesh._foldover import expected as wedge_orientation
+from exporter.mesh._foldover import flipped as flipped_faces
 from exporter.mesh.geometry import cross_rows, row_norms
-from exporter.mesh.raster import rasterise
+from exporter.mesh.raster import min_iou, rasterise
 from exporter.mesh.slit_kernels import inside_sides
 from exporter.mesh.slits import SLIT_M, _facing_partner, border_sides
 from exporter.quality import joined
@@ -224,3 +226,58 @@ def test_cross_rows_equal_numpy():
     cases += [(u.astype(np.float32), v.astype(np.float32)), (u, v[:1]), (u[:1], v)]  # fallbacks
     for a, b in cases:
         assert same_bits(cross_rows(a, b), reference_cross_rows(a, b))
+
+
+def reference_expected(wedge_faces, signs, w):
+    """The former numpy orientation per wedge (meshopt.collapse before foldover.c)."""
+    signs = np.repeat(signs.astype(np.int64), 3)
+    low, high = np.full(w, 2), np.full(w, -2)
+    np.minimum.at(low, wedge_faces.reshape(-1), signs)
+    np.maximum.at(high, wedge_faces.reshape(-1), signs)
+    return np.where(low == high, low, 0)
+
+
+def reference_flipped(expected, out, signs):
+    """The former numpy foldover test (meshopt.collapse before foldover.c)."""
+    want = expected[out]
+    agreed = np.where(want[:, 0] != 0, want[:, 0], np.where(want[:, 1] != 0, *want[:, 1:].T))
+    return (agreed != 0) & (signs == -agreed)
+
+
+def test_foldover_equals_numpy():
+    rng = np.random.default_rng(12)
+    for _ in range(50):
+        w = int(rng.integers(1, 40))
+        faces = rng.integers(0, w, size=(int(rng.integers(0, 60)), 3))
+        signs = rng.integers(-1, 2, size=len(faces)).astype(np.int8)
+        signs[: len(signs) // 2] = 1  # mostly agreeing wedges
+        expected = wedge_orientation(faces, signs, w + 3)  # unused wedges: 0
+        assert same_bits(expected, reference_expected(faces, signs, w + 3))
+        out = rng.integers(0, w + 3, size=(int(rng.integers(0, 40)), 3))
+        out_signs = rng.integers(-1, 2, size=len(out)).astype(np.int8)
+        assert same_bits(
+            flipped_faces(expected, out, out_signs), reference_flipped(expected, out, out_signs)
+        )
+    with pytest.raises(ValueError, match="outside"):
+        wedge_orientation(np.array([[0, 1, 5]]), np.ones(1, np.int8), 5)
+    with pytest.raises(ValueError, match="outside"):
+        flipped_faces(np.zeros(3, np.int64), np.array([[0, 1, 3]]), np.ones(1, np.int8))
+
+
+def reference_min_iou(source, level):
+    """The former numpy min_iou (raster.py before raster.c's overlaps)."""
+    unions = (source | level).sum(axis=(1, 2))
+    overlaps = (source & level).sum(axis=(1, 2))
+    return min(float(o / u) if u else 1.0 for o, u in zip(overlaps.tolist(), unions.tolist()))
+
+
+def test_min_iou_equals_numpy():
+    rng = np.random.default_rng(13)
+    for density in (0.0, 0.01, 0.5, 1.0):
+        a = rng.random((3, 32, 32)) < density
+        b = rng.random((3, 32, 32)) < density
+        b[1] = a[1]
+        for x, y in ((a, b), (a, a), (a[:1], b[:1]), (np.zeros((3, 8, 8), bool), a[:, :8, :8])):
+            assert min_iou(x, y) == reference_min_iou(x, y)
+    with pytest.raises(ValueError):
+        min_iou(a, b[:, :4])

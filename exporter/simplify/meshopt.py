@@ -51,6 +51,8 @@ import importlib.metadata
 import meshoptimizer._loader as _binding
 import numpy as np
 
+from ..mesh._foldover import expected as wedge_orientation
+from ..mesh._foldover import flipped as flipped_faces
 from ..mesh.geometry import compact_vertices, unique_float_rows, vertex_normals
 from .protect import face_areas
 from .quadric import Collapsed, assign_uvs, uv_signs
@@ -275,12 +277,7 @@ def collapse(
     # The UV orientation each wedge's source faces agree on (0 where they disagree or are flat).
     expected = None
     if refuse_foldovers and corner_uvs is not None:
-        signs = np.repeat(uv_signs(corner_uvs).astype(np.int64), 3)
-        low = np.full(len(vertex_of), 2)
-        high = np.full(len(vertex_of), -2)
-        np.minimum.at(low, wedge_faces.reshape(-1), signs)
-        np.maximum.at(high, wedge_faces.reshape(-1), signs)
-        expected = np.where(low == high, low, 0)
+        expected = wedge_orientation(wedge_faces, uv_signs(corner_uvs), len(vertex_of))  # compiled
     for _ in range(max_iterations):
         kept, _error = simplify_with_attributes(
             wedge_faces.reshape(-1),
@@ -311,12 +308,9 @@ def collapse(
                 project=True,
             )
         if expected is not None and uvs is not None:
-            want = expected[out]
-            # The orientation the face's corners agree on (any one of them, when the others are 0).
-            agreed = np.where(
-                want[:, 0] != 0, want[:, 0], np.where(want[:, 1] != 0, *want[:, 1:].T)
-            )
-            flipped = (agreed != 0) & (uv_signs(uvs) == -agreed)
+            # Against the orientation the face's corners agree on (any one of them, when the
+            # others are 0); compiled (exporter/mesh/c/foldover.c).
+            flipped = flipped_faces(expected, out, uv_signs(uvs))
             if flipped.any():
                 offenders = out_faces[flipped].reshape(-1)
                 offenders = offenders[~vertex_locked[offenders]]

@@ -6,7 +6,8 @@
  * line y is px + (clip(y, py, qy) - py) * slope (p its lower end, q its upper end); a flat edge
  * gives its two end x. This is the arithmetic of the former vectorised numpy form, so the pixels
  * are the same bit for bit (tests/test_perf_quality.py checks them against a plain reference).
- * Pixel coordinates, any view.
+ * Pixel coordinates, any view. And the pixel counts of two stacks of views' intersections and
+ * unions (their IoU).
  */
 #include "kernels.h"
 
@@ -131,9 +132,48 @@ done:
     return result;
 }
 
+/* overlaps(a (v, n, n) bool, b (v, n, n) bool) -> (v, 2) int64: per view, the pixels set in
+ * both and the pixels set in either. */
+static PyObject *overlaps(PyObject *self, PyObject *args) {
+    PyObject *a_obj, *b_obj, *result = NULL;
+    if (!PyArg_ParseTuple(args, "OO:overlaps", &a_obj, &b_obj)) return NULL;
+    PyArrayObject *a = k_array(a_obj, NPY_BOOL, 3, 0, "raster.overlaps", "a");
+    PyArrayObject *b = k_array(b_obj, NPY_BOOL, 3, 0, "raster.overlaps", "b");
+    PyArrayObject *out = NULL;
+    if (a == NULL || b == NULL) goto done;
+    for (int axis = 0; axis < 3; axis++)
+        if (k_dim(b, axis, PyArray_DIM(a, axis), "raster.overlaps", "b")) goto done;
+    npy_intp views = PyArray_DIM(a, 0), pixels = PyArray_DIM(a, 1) * PyArray_DIM(a, 2);
+    npy_intp dims[2] = {views, 2};
+    out = k_empty(2, dims, NPY_INT64);
+    if (out == NULL) goto done;
+    const npy_bool *p = K_BOOL(a), *q = K_BOOL(b);
+    int64_t *o = K_I64(out);
+    Py_BEGIN_ALLOW_THREADS
+    for (npy_intp view = 0; view < views; view++) {
+        int64_t both = 0, either = 0;
+        for (npy_intp i = view * pixels; i < (view + 1) * pixels; i++) {
+            both += (p[i] != 0) & (q[i] != 0);
+            either += (p[i] != 0) | (q[i] != 0);
+        }
+        o[2 * view] = both;
+        o[2 * view + 1] = either;
+    }
+    Py_END_ALLOW_THREADS
+    result = (PyObject *)out;
+    out = NULL;
+done:
+    Py_XDECREF(a);
+    Py_XDECREF(b);
+    Py_XDECREF(out);
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"rasterise", rasterise, METH_VARARGS,
      "rasterise(xy, faces, size, out): each view's conservative coverage of the triangles"},
+    {"overlaps", overlaps, METH_VARARGS,
+     "overlaps(a, b) -> (v, 2) int64: per view, the pixels set in both and in either"},
     {NULL, NULL, 0, NULL},
 };
 
