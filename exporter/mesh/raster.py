@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._raster import overlaps
 from .raster_kernels import rasterise_views
 
 RESOLUTION = 128  # silhouette raster side, pixels
@@ -43,6 +44,5 @@ def silhouettes(
 def min_iou(source: np.ndarray, level: np.ndarray) -> float:
     """The smallest intersection over union of two stacks of views (v, n, n) bool (1 for two
     empty views)."""
-    unions = (source | level).sum(axis=(1, 2))
-    overlaps = (source & level).sum(axis=(1, 2))
-    return min(float(o / u) if u else 1.0 for o, u in zip(overlaps.tolist(), unions.tolist()))
+    counts = overlaps(source, level)  # compiled: (v, 2) intersection and union pixels
+    return min(float(o / u) if u else 1.0 for o, u in counts.tolist())

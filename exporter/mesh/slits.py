@@ -37,9 +37,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._facing import facing
 from .boundary_kernels import once_sides
 from .distance import row_lengths
-from .geometry import cross_rows, row_norms
+from .geometry import row_norms
 from .slit_kernels import inside_sides
 from .split_kernels import split_fans
 from .topology import boundary_loops
@@ -69,7 +70,11 @@ def slit_points(
         return empty, empty, np.zeros(0)
     start = faces.reshape(-1)[sides]
     end = faces[sides // 3, (sides % 3 + 1) % 3]
-    points = np.unique(np.concatenate([start, end]))
+    # The vertices the border sides end at, ascending (np.unique of both ends, without its sort).
+    ends = np.zeros(len(positions), dtype=bool)
+    ends[start] = True
+    ends[end] = True
+    points = np.flatnonzero(ends)
     column, vertex, t = inside_sides(positions, points, start, end, tolerance)  # compiled
     side = sides[column]
     # Not between back-to-back faces (two parts' walls standing against each other): that seam
@@ -82,29 +87,17 @@ def slit_points(
 
 def _facing_partner(positions, faces, sides, start, end, side, vertex) -> np.ndarray:
     """(p,) bool: pairs whose vertex has a border side along the pair's side (the other side of
-    the slit) on a face turned against the side's face (unit normals' dot product < -0.5)."""
-    if not len(side):
-        return np.zeros(0, dtype=bool)
-    # Unit normals of the faces on the border only (every face asked about is one).
-    border_faces = np.unique(sides // 3)
-    a, b, c = (positions[faces[border_faces, i]] for i in range(3))
-    normal = np.zeros((len(faces), 3))
-    cross = cross_rows(b - a, c - a)
-    normal[border_faces] = cross / np.maximum(row_norms(cross), 1e-30)[:, None]
-    # Border sides by vertex (each side listed under both its ends).
-    ends = np.concatenate([start, end])
-    owner = np.concatenate([sides, sides])
-    order = np.argsort(ends, kind="stable")
-    ends, owner = ends[order], owner[order]
-    lo = np.searchsorted(ends, vertex, "left")
-    count = np.searchsorted(ends, vertex, "right") - lo
-    # Every (pair, partner side) in one array: pair p repeated count[p] times.
-    pair = np.repeat(np.arange(len(side)), count)
-    partner = owner[np.arange(len(pair)) - np.repeat(np.cumsum(count) - count, count) + lo[pair]]
-    against = (normal[partner // 3] * normal[side[pair] // 3]).sum(axis=1) < -0.5
-    facing = np.zeros(len(side), dtype=bool)
-    facing[pair[against]] = True
-    return facing
+    the slit) on a face turned against the side's face (unit normals' dot product < -0.5),
+    compiled (``exporter/mesh/c/facing.c``)."""
+    return facing(
+        np.ascontiguousarray(positions, np.float64),
+        np.ascontiguousarray(faces, np.int64).reshape(-1, 3),
+        sides,
+        start,
+        end,
+        side,
+        vertex,
+    )
 
 
 def slit_vertices(positions: np.ndarray, faces: np.ndarray) -> np.ndarray:

@@ -35,6 +35,7 @@ from scipy.spatial import cKDTree
 
 from ..config import LodSpec, SimplifyOptions
 from ..errors import ProcessError
+from ..mesh._component import lowest
 from ..mesh.geometry import longest_edges, triangle_cross, unique_float_rows
 from ..mesh.topology import border_vertices, nonmanifold_vertices
 from ..mesh.weld import weld_positions
@@ -96,23 +97,17 @@ def degenerate_only(parts: list[Part]) -> bool:
 def uv_charts(faces: np.ndarray, vertex_count: int) -> np.ndarray:
     """(m,) int64 chart of every face: faces sharing a (split, per-UV) vertex are one texture island.
 
-    Components of the face-vertex graph, numbered by their lowest face (as ``connected_components``
-    of the face-face graph numbers them): every face takes the lowest face label among its
-    vertices' faces until nothing changes, with pointer jumping between rounds."""
+    Components of the face-vertex graph (faces are nodes 0..m-1, vertex v is node m + v),
+    numbered in the order of their lowest face (as ``connected_components`` of the face-face
+    graph numbers them): union-find (``exporter/mesh/c/component.c``) labels each face with its
+    component's lowest node, a face."""
     m = len(faces)
     if m == 0:
         return np.zeros(0, np.int64)
-    corners = faces.reshape(-1)
-    corner_face = np.repeat(np.arange(m), 3)
-    labels = np.arange(m)
-    while True:
-        at_vertex = np.full(vertex_count, m)
-        np.minimum.at(at_vertex, corners, labels[corner_face])
-        new = at_vertex[faces].min(axis=1)
-        new = new[new]
-        if np.array_equal(new, labels):
-            break
-        labels = new
+    faces = np.ascontiguousarray(faces, np.int64).reshape(-1, 3)
+    if faces.min() < 0 or faces.max() >= vertex_count:
+        raise ValueError("uv_charts: a face's vertex index is out of range")
+    labels = lowest(m + vertex_count, np.repeat(np.arange(m), 3), faces.reshape(-1) + m)[:m]
     root = labels == np.arange(m)
     return (np.cumsum(root) - 1)[labels]
 
@@ -144,9 +139,7 @@ def _join_welded(parts: list[Part], link_distance: float):
         if parts
         else np.zeros((0, 3), np.int64)
     )
-    face_part = np.concatenate([np.full(p.triangle_count, i) for i, p in enumerate(parts)]).astype(
-        np.int64
-    )
+    face_part = np.repeat(np.arange(len(parts), dtype=np.int64), [p.triangle_count for p in parts])
     has_uv = any(p.uvs is not None for p in parts)
     uvs = (
         np.concatenate(
@@ -223,9 +216,7 @@ def _split(parts: list[Part], result, face_part_in) -> list[Part]:
                 part.positions if part.uvs is None else np.column_stack([part.positions, part.uvs])
             )
             query = positions if uvs is None else np.column_stack([positions, uvs])
-
-            _, nearest = cKDTree(src).query(query)
-            normals = part.normals[nearest]
+            normals = part.normals[nearest_rows(src, query, part.normals)]
         out.append(
             dataclasses.replace(
                 part,
@@ -236,6 +227,29 @@ def _split(parts: list[Part], result, face_part_in) -> list[Part]:
             )
         )
     return out
+
+
+def nearest_rows(src: np.ndarray, query: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """(q,) int64: for every ``query`` row (q, w) float, a ``src`` row (n, w) nearest to it
+    whose ``values`` row (n, ...) is the value ``cKDTree(src).query(query)``'s nearest row has.
+
+    A query row equal to src rows (every column ``==``) takes the first of them when they all
+    hold the same value bytes: its nearest rows are those at distance 0 (an other row would need
+    every coordinate difference below ~1e-162 for its squared distance to round to 0); the other
+    rows are queried from the tree (which alone knows which of equal rows it returns)."""
+    first, group = unique_float_rows(np.concatenate([src, query]))
+    n = len(src)
+    src_group, query_group = group[:n], group[n:]
+    count = np.bincount(src_group, minlength=len(first))
+    # Groups whose src rows all hold their first row's value bytes.
+    raw = np.ascontiguousarray(values).view(np.uint8).reshape(n, -1)
+    uniform = np.ones(len(first), dtype=bool)
+    uniform[src_group[(raw[first[src_group]] != raw).any(axis=1)]] = False
+    nearest = first[query_group]  # a src row: src rows precede the queries in their group
+    other = (count[query_group] == 0) | ~uniform[query_group]
+    if other.any():
+        nearest[other] = cKDTree(src).query(query[other])[1]
+    return nearest
 
 
 # Bisection steps of the error guard on the pymeshlab engine (the target is raised at most this

@@ -50,8 +50,9 @@ import importlib.metadata
 
 import meshoptimizer._loader as _binding
 import numpy as np
-from numpy.ctypeslib import ndpointer
 
+from ..mesh._foldover import expected as wedge_orientation
+from ..mesh._foldover import flipped as flipped_faces
 from ..mesh.geometry import compact_vertices, unique_float_rows, vertex_normals
 from .protect import face_areas
 from .quadric import Collapsed, assign_uvs, uv_signs
@@ -76,9 +77,9 @@ if importlib.metadata.version("meshoptimizer") != WHEEL_VERSION:
         f"(pip install meshoptimizer=={WHEEL_VERSION}, or check the new header and update it)"
     )
 _lib = ctypes.CDLL(_binding.lib_path)
-_F32 = ndpointer(np.float32, flags="C_CONTIGUOUS")
-_U32 = ndpointer(np.uint32, flags="C_CONTIGUOUS")
-_U8 = ndpointer(np.uint8, flags="C_CONTIGUOUS")
+# Arrays go in as their data addresses: the wrappers below make every one C-contiguous of the
+# declared type first (numpy.ctypeslib.ndpointer's check of each costs more than the call).
+_F32 = _U32 = _U8 = ctypes.c_void_p
 # size_t meshopt_simplifyWithAttributes(unsigned int* destination, const unsigned int* indices,
 #   size_t index_count, const float* vertex_positions, size_t vertex_count,
 #   size_t vertex_positions_stride, const float* vertex_attributes, size_t vertex_attributes_stride,
@@ -150,17 +151,17 @@ def simplify_with_attributes(
     destination = np.empty(len(indices), np.uint32)
     error = ctypes.c_float(0.0)
     kept = _lib.meshopt_simplifyWithAttributes(
-        destination,
-        indices,
+        destination.ctypes.data,
+        indices.ctypes.data,
         len(indices),
-        positions,
+        positions.ctypes.data,
         count,
         12,
-        attributes,
+        attributes.ctypes.data,
         4 * attributes.shape[1],
-        weights,
+        weights.ctypes.data,
         len(weights),
-        lock,
+        lock.ctypes.data,
         int(target_index_count),
         float(target_error),
         int(options),
@@ -182,10 +183,10 @@ def simplify(
     destination = np.empty(len(indices), np.uint32)
     error = ctypes.c_float(0.0)
     kept = _lib.meshopt_simplify(
-        destination,
-        indices,
+        destination.ctypes.data,
+        indices.ctypes.data,
         len(indices),
-        positions,
+        positions.ctypes.data,
         len(positions),
         12,
         int(target_index_count),
@@ -276,12 +277,7 @@ def collapse(
     # The UV orientation each wedge's source faces agree on (0 where they disagree or are flat).
     expected = None
     if refuse_foldovers and corner_uvs is not None:
-        signs = np.repeat(uv_signs(corner_uvs).astype(np.int64), 3)
-        low = np.full(len(vertex_of), 2)
-        high = np.full(len(vertex_of), -2)
-        np.minimum.at(low, wedge_faces.reshape(-1), signs)
-        np.maximum.at(high, wedge_faces.reshape(-1), signs)
-        expected = np.where(low == high, low, 0)
+        expected = wedge_orientation(wedge_faces, uv_signs(corner_uvs), len(vertex_of))  # compiled
     for _ in range(max_iterations):
         kept, _error = simplify_with_attributes(
             wedge_faces.reshape(-1),
@@ -312,12 +308,9 @@ def collapse(
                 project=True,
             )
         if expected is not None and uvs is not None:
-            want = expected[out]
-            # The orientation the face's corners agree on (any one of them, when the others are 0).
-            agreed = np.where(
-                want[:, 0] != 0, want[:, 0], np.where(want[:, 1] != 0, *want[:, 1:].T)
-            )
-            flipped = (agreed != 0) & (uv_signs(uvs) == -agreed)
+            # Against the orientation the face's corners agree on (any one of them, when the
+            # others are 0); compiled (exporter/mesh/c/foldover.c).
+            flipped = flipped_faces(expected, out, uv_signs(uvs))
             if flipped.any():
                 offenders = out_faces[flipped].reshape(-1)
                 offenders = offenders[~vertex_locked[offenders]]

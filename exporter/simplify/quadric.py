@@ -37,6 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..mesh._area import uv_signs as _uv_signs
 from ..mesh.geometry import compact_vertices
 
 # Offsets (metres) of an anchor's two extra corners; odd values so they never hit a real vertex.
@@ -224,7 +225,10 @@ def assign_uvs(positions, faces, corner_uvs, face_chart, out_faces, face_ids, pr
 
 
 def uv_signs(corner_uvs: np.ndarray) -> np.ndarray:
-    """(m,) int8 sign of every face's signed area in UV space (0 when degenerate in UV)."""
+    """(m,) int8 sign of every face's signed area in UV space (0 when degenerate in UV):
+    compiled (``exporter/mesh/c/area.c``) for float32 UVs, the arithmetic below."""
+    if corner_uvs.dtype == np.float32 and corner_uvs.ndim == 3:
+        return _uv_signs(corner_uvs)
     d1 = (corner_uvs[:, 1] - corner_uvs[:, 0]).astype(np.float64)
     d2 = (corner_uvs[:, 2] - corner_uvs[:, 0]).astype(np.float64)
     cross = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]

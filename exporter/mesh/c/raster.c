@@ -6,15 +6,34 @@
  * line y is px + (clip(y, py, qy) - py) * slope (p its lower end, q its upper end); a flat edge
  * gives its two end x. This is the arithmetic of the former vectorised numpy form, so the pixels
  * are the same bit for bit (tests/test_perf_quality.py checks them against a plain reference).
- * Pixel coordinates, any view.
+ * Pixel coordinates, any view. And the pixel counts of two stacks of views' intersections and
+ * unions (their IoU).
  */
 #include "kernels.h"
+
+/* (int64_t)min(max(ceil(v), 0), top) for v not NaN, top >= 0 an integer, without the
+ * libm-free ceil's instruction sequence: ceil(v) <= 0 exactly when v <= 0, ceil(v) > top
+ * exactly when v > top, and ceil of v in (0, top] is its truncation, plus one unless whole. */
+static inline int64_t ceil_clip(double v, int64_t top) {
+    if (!(v > 0)) return 0;
+    if (v > (double)top) return top;
+    int64_t t = (int64_t)v;
+    return t + ((double)t < v);
+}
+
+/* (int64_t)min(max(floor(w), 0), top) likewise: floor(w) <= 0 exactly when w < 1, floor(w) >
+ * top exactly when w >= top + 1, and floor of w in [1, top + 1) is its truncation. */
+static inline int64_t floor_clip(double w, int64_t top) {
+    if (!(w >= 1)) return 0;
+    if (w >= (double)top + 1) return top;
+    return (int64_t)w;
+}
 
 /* Spans of one view: +1 at a span's first column, -1 past its last, summed per row at the end,
  * so each triangle costs its rows, not its pixels. spans is (size, size + 1). */
 static void view_spans(const double *xy, const int64_t *faces, npy_intp m, int64_t size,
                        int32_t *spans) {
-    double top = (double)(size - 1);
+    int64_t top = size - 1;
     double px[3], py[3], qx[3], qy[3], slope[3];
     for (npy_intp f = 0; f < m; f++) {
         double y_min = INFINITY, y_max = -INFINITY;
@@ -32,8 +51,8 @@ static void view_spans(const double *xy, const int64_t *faces, npy_intp m, int64
             slope[k] = dy > 0 ? (qx[k] - px[k]) / dy : 0.0;
         }
         if (isnan(y_min) || isnan(y_max)) continue; /* no row: a NaN corner covers nothing */
-        int64_t r0 = (int64_t)k_min(k_max(ceil(y_min - 0.5), 0.0), top);
-        int64_t r1 = (int64_t)k_min(k_max(floor(y_max + 0.5), 0.0), top);
+        int64_t r0 = ceil_clip(y_min - 0.5, top);
+        int64_t r1 = floor_clip(y_max + 0.5, top);
         for (int64_t r = r0; r <= r1; r++) {
             double bottom = (double)r - 0.5, upper = (double)r + 0.5;
             double lo = INFINITY, hi = -INFINITY;
@@ -49,8 +68,8 @@ static void view_spans(const double *xy, const int64_t *faces, npy_intp m, int64
                 hi = k_max(hi, k_max(at, at_top));
             }
             if (lo <= hi) {
-                int64_t c0 = (int64_t)k_min(k_max(ceil(lo - 0.5), 0.0), top);
-                int64_t c1 = (int64_t)k_min(k_max(floor(hi + 0.5), 0.0), top);
+                int64_t c0 = ceil_clip(lo - 0.5, top);
+                int64_t c1 = floor_clip(hi + 0.5, top);
                 spans[r * (size + 1) + c0] += 1;
                 spans[r * (size + 1) + c1 + 1] -= 1;
             }
@@ -93,11 +112,14 @@ static PyObject *rasterise(PyObject *self, PyObject *args) {
         view_spans(xyp + view * n * 2, f, m, size, spans);
         npy_bool *plane = o + view * size * size;
         for (npy_intp r = 0; r < size; r++) {
-            int64_t total = 0;
+            /* The running sum in place, then the coverage test (a loop the compiler vectorises). */
+            int32_t *row = spans + r * (size + 1);
+            int32_t total = 0;
             for (npy_intp c = 0; c < size; c++) {
-                total += spans[r * (size + 1) + c];
-                plane[r * size + c] = total > 0;
+                total += row[c];
+                row[c] = total;
             }
+            for (npy_intp c = 0; c < size; c++) plane[r * size + c] = row[c] > 0;
         }
     }
     Py_END_ALLOW_THREADS
@@ -110,9 +132,48 @@ done:
     return result;
 }
 
+/* overlaps(a (v, n, n) bool, b (v, n, n) bool) -> (v, 2) int64: per view, the pixels set in
+ * both and the pixels set in either. */
+static PyObject *overlaps(PyObject *self, PyObject *args) {
+    PyObject *a_obj, *b_obj, *result = NULL;
+    if (!PyArg_ParseTuple(args, "OO:overlaps", &a_obj, &b_obj)) return NULL;
+    PyArrayObject *a = k_array(a_obj, NPY_BOOL, 3, 0, "raster.overlaps", "a");
+    PyArrayObject *b = k_array(b_obj, NPY_BOOL, 3, 0, "raster.overlaps", "b");
+    PyArrayObject *out = NULL;
+    if (a == NULL || b == NULL) goto done;
+    for (int axis = 0; axis < 3; axis++)
+        if (k_dim(b, axis, PyArray_DIM(a, axis), "raster.overlaps", "b")) goto done;
+    npy_intp views = PyArray_DIM(a, 0), pixels = PyArray_DIM(a, 1) * PyArray_DIM(a, 2);
+    npy_intp dims[2] = {views, 2};
+    out = k_empty(2, dims, NPY_INT64);
+    if (out == NULL) goto done;
+    const npy_bool *p = K_BOOL(a), *q = K_BOOL(b);
+    int64_t *o = K_I64(out);
+    Py_BEGIN_ALLOW_THREADS
+    for (npy_intp view = 0; view < views; view++) {
+        int64_t both = 0, either = 0;
+        for (npy_intp i = view * pixels; i < (view + 1) * pixels; i++) {
+            both += (p[i] != 0) & (q[i] != 0);
+            either += (p[i] != 0) | (q[i] != 0);
+        }
+        o[2 * view] = both;
+        o[2 * view + 1] = either;
+    }
+    Py_END_ALLOW_THREADS
+    result = (PyObject *)out;
+    out = NULL;
+done:
+    Py_XDECREF(a);
+    Py_XDECREF(b);
+    Py_XDECREF(out);
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"rasterise", rasterise, METH_VARARGS,
      "rasterise(xy, faces, size, out): each view's conservative coverage of the triangles"},
+    {"overlaps", overlaps, METH_VARARGS,
+     "overlaps(a, b) -> (v, 2) int64: per view, the pixels set in both and in either"},
     {NULL, NULL, 0, NULL},
 };
 
