@@ -331,6 +331,34 @@ def test_silhouettes_of_buildings_equal_the_reference():
             )
 
 
+def test_silhouettes_are_reused_for_the_same_triangles_only():
+    """The guard and measure_lod rasterise the same triangles on vertex arrays numbered
+    differently: the second call is the first's result; another box, dtype or triangle is not."""
+    positions, faces = joined(crafted_building(2))
+    low, high = positions.min(0), positions.max(0)
+    first = silhouettes(positions, faces, low, high)
+    order = np.random.default_rng(0).permutation(len(positions))  # vertices renumbered
+    renumbered = np.empty_like(order)
+    renumbered[order] = np.arange(len(order))
+    again = silhouettes(positions[order], renumbered[faces], low, high)
+    assert again is first and not first.flags.writeable
+    moved = positions.copy()
+    moved[faces[0, 0]] += 0.25 * (high - low)  # one corner moved
+    for other in (
+        silhouettes(positions, faces, low - 1.0, high),
+        silhouettes(positions, faces[::-1], low, high),
+        silhouettes(positions.astype(np.float32), faces, low, high),
+        silhouettes(moved, faces, low, high),
+    ):
+        assert other is not first
+    span = np.maximum(high - low, 1e-9)
+    pixels = (moved - low) / span * 127
+    expected = [
+        reference_rasterise(pixels[:, [u, v]], faces, 128) for u, v in ((0, 2), (0, 1), (2, 1))
+    ]
+    assert all(np.array_equal(a, b) for a, b in zip(silhouettes(moved, faces, low, high), expected))
+
+
 def test_flat_top_edge_ends_are_exact_where_the_slanted_edges_round():
     """A flat edge contributes both its end x; the slanted edge reaching the same corner gives it
     only up to rounding, which moves a span's end when the corner sits on a pixel border."""
