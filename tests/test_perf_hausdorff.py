@@ -19,7 +19,7 @@ from exporter.mesh import coverage, hausdorff
 from exporter.mesh.band_kernels import _band_width, _walk
 from exporter.mesh.coverage import SLIVER
 from exporter.mesh.distance import SurfaceIndex, point_triangle_distance
-from exporter.mesh.geometry import cross_rows
+from exporter.mesh.geometry import cross_rows, isin_int
 from exporter.mesh.hausdorff import (
     CANDIDATES,
     LOOSE,
@@ -682,3 +682,16 @@ def test_cycles_equal_the_former_walk(seed):
         assert compiled_cycles(rows) == expected
         closed += expected is not None
     assert closed > 100
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_isin_int_is_numpys_isin(seed):
+    """The face-key membership of region_certificate and _identical: np.isin's answer, with
+    repeats, negative and extreme keys, and empty sides."""
+    rng = np.random.default_rng(seed)
+    extremes = np.array([np.iinfo(np.int64).min, -1, 0, np.iinfo(np.int64).max])
+    for n, m in ((0, 5), (5, 0), (1, 1), (40, 7), (300, 300)):
+        values = np.concatenate([rng.integers(-50, 50, n), extremes[: min(n, 4)]])
+        of = np.concatenate([rng.integers(-50, 50, m), extremes[rng.integers(0, 4, min(m, 2))]])
+        assert np.array_equal(isin_int(values, of), np.isin(values, of))
+        assert isin_int(values, of).dtype == bool and len(isin_int(values, of)) == len(values)

@@ -52,6 +52,7 @@ import dataclasses
 
 import numpy as np
 
+from .geometry import isin_int
 from .region_kernels import settle_regions
 from .topology import planar_regions
 from .weld import weld_positions
@@ -108,7 +109,7 @@ def region_certificate(
     la, lb = ida[fa], idb[fb]
     # 1. faces on both sides
     ka, kb = _face_keys(la, k), _face_keys(lb, k)
-    shared_a, shared_b = np.isin(ka, kb), np.isin(kb, ka)
+    shared_a, shared_b = isin_int(ka, kb), isin_int(kb, ka)
     # Degenerate faces (two corners welded together) are never settled here.
     degenerate_a = (la[:, 0] == la[:, 1]) | (la[:, 1] == la[:, 2]) | (la[:, 0] == la[:, 2])
     degenerate_b = (lb[:, 0] == lb[:, 1]) | (lb[:, 1] == lb[:, 2]) | (lb[:, 0] == lb[:, 2])

@@ -52,7 +52,7 @@ import numpy as np
 
 from . import _plane_boundary, _surface, coverage
 from .distance import SurfaceIndex
-from .geometry import cross_rows, longest_edges, unique_float_rows
+from .geometry import cross_rows, isin_int, longest_edges, unique_float_rows
 from .planar_bound_kernels import planar_bound
 from .straight_run_kernels import straight_runs
 from .topology import planar_regions
@@ -478,7 +478,7 @@ def _identical(tri: np.ndarray, target: Surface) -> np.ndarray:
     ids = np.sort(inverse.reshape(-1, 3), axis=1)
     k = int(inverse.max()) + 1
     keys = (ids[:, 0] * k + ids[:, 1]) * k + ids[:, 2]
-    return np.isin(keys[: len(tri)], keys[len(tri) :])
+    return isin_int(keys[: len(tri)], keys[len(tri) :])
 
 
 def directed_bounds(
