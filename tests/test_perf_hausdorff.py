@@ -695,3 +695,24 @@ def test_isin_int_is_numpys_isin(seed):
         of = np.concatenate([rng.integers(-50, 50, m), extremes[rng.integers(0, 4, min(m, 2))]])
         assert np.array_equal(isin_int(values, of), np.isin(values, of))
         assert isin_int(values, of).dtype == bool and len(isin_int(values, of)) == len(values)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_components_are_scipys_connected_components(seed):
+    """_Regions' plane merge, _Chains and _spanning label components by the union-find: scipy's
+    count and numbering (components in the order of their lowest node), self-loops and repeated
+    edges included; _spanning's edges join the same components."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    rng = np.random.default_rng(seed)
+    for n, edges in ((0, 0), (1, 0), (5, 0), (30, 12), (200, 150), (200, 400)):
+        rows, cols = rng.integers(0, max(n, 1), (2, edges))
+        graph = coo_matrix((np.ones(edges, bool), (rows, cols)), shape=(n, n))
+        count, label = connected_components(graph, directed=False)
+        got_count, got = hausdorff._components(n, rows, cols)
+        assert got_count == count and np.array_equal(got, label) and got.dtype == np.int64
+        if n:
+            (left,), (right,) = hausdorff._spanning(rows, cols, n)
+            spanned = coo_matrix((np.ones(len(left), bool), (left, right)), shape=(n, n))
+            assert np.array_equal(connected_components(spanned, directed=False)[1], label)

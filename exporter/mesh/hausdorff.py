@@ -51,6 +51,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _plane_boundary, _surface, coverage
+from .component_kernels import lowest_member
 from .distance import SurfaceIndex
 from .geometry import cross_rows, isin_int, longest_edges, unique_float_rows
 from .planar_bound_kernels import planar_bound
@@ -181,18 +182,13 @@ class _Regions:
                     <= tolerance
                 )
                 merge = same.sum() > r
+                if merge:
+                    rows, cols = np.nonzero(same)
             else:  # a merged tile's thousands: an (r, r) block would be gigabytes
                 rows, cols, pairs, alone = _same_plane_pairs(normal, offset, slack, tolerance)
                 merge = r - alone + 2 * pairs > r  # the count of the same r x r relation
-                if merge:
-                    from scipy.sparse import coo_matrix
-
-                    same = coo_matrix((np.ones(len(rows), bool), (rows, cols)), shape=(r, r))
             if merge:
-                from scipy.sparse.csgraph import connected_components
-
-                _, label = connected_components(same, directed=False)
-                region = label[region]
+                region = _components(r, rows, cols)[1][region]
                 normal, offset, slack = _planes(tri, cross, region)
         r = len(normal)
         self.offset, self.slack = offset, slack
@@ -263,9 +259,6 @@ class _Chains:
     ``slack`` (they are connected and lie within ``slack`` of the line)."""
 
     def __init__(self, positions: np.ndarray, faces: np.ndarray) -> None:
-        from scipy.sparse import coo_matrix
-        from scipy.sparse.csgraph import connected_components
-
         m = len(faces)
         half = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
         k = max(len(positions), 1)
@@ -291,10 +284,7 @@ class _Chains:
         owner, item = _ranges(np.arange(len(vertex)) + 1, counts)
         del first
         straight = (away[owner] * away[item]).sum(1) < -STRAIGHT
-        graph = coo_matrix(
-            (np.ones(straight.sum()), (edge[owner[straight]], edge[item[straight]])), shape=(e, e)
-        )
-        count, chain = connected_components(graph, directed=False)
+        count, chain = _components(e, edge[owner[straight]], edge[item[straight]])
         self.face_chain = chain[self.face_chain]
         # Each chain's line: through its lowest edge's first end, along that edge.
         lead = np.full(count, e)
@@ -370,20 +360,24 @@ def _same_plane_pairs(
     return rows[0], cols[0], pairs, alone
 
 
+def _components(n: int, rows: np.ndarray, cols: np.ndarray) -> tuple[int, np.ndarray]:
+    """``(count, label (n,) int64)`` of the undirected graph on n nodes with edges ``rows[i] --
+    cols[i]``: scipy's ``connected_components(directed=False)`` numbering (components in the
+    order of their lowest node), from the compiled union-find without building a sparse graph."""
+    lowest = lowest_member(n, rows, cols)
+    root = lowest == np.arange(n)
+    rank = np.cumsum(root) - 1
+    return int(root.sum()), rank[lowest]
+
+
 def _spanning(rows: np.ndarray, cols: np.ndarray, r: int):
     """Edges ``(rows (q,), cols (q,))`` among r nodes replaced by as few with the same connected
     components (each node of a component joined to its lowest member), each wrapped in a list."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
     if len(rows) == 0:
         return [rows], [cols]
-    graph = coo_matrix((np.ones(len(rows), bool), (rows, cols)), shape=(r, r))
-    _, label = connected_components(graph, directed=False)
-    lowest = np.full(label.max() + 1, r)
-    np.minimum.at(lowest, label, np.arange(r))
-    node = np.flatnonzero(lowest[label] != np.arange(r))
-    return [lowest[label[node]]], [node]
+    lowest = lowest_member(r, rows, cols)
+    node = np.flatnonzero(lowest != np.arange(r))
+    return [lowest[node]], [node]
 
 
 def _planes(tri: np.ndarray, cross: np.ndarray, region: np.ndarray):
