@@ -14,6 +14,7 @@ the triangles' corner coordinates in face order and the box, which is all the ra
 from __future__ import annotations
 
 import hashlib
+import threading
 from collections import OrderedDict
 
 import numpy as np
@@ -45,22 +46,27 @@ def silhouettes(
     on the box [low, high] (metres, local East/Up/North). Read-only: the same array may be
     returned for the same triangles again."""
     key = _silhouette_key(positions, faces, low, high)
-    if key is not None and key in _SILHOUETTES:
-        _SILHOUETTES.move_to_end(key)
-        return _SILHOUETTES[key]
+    if key is not None:
+        with _SILHOUETTES_LOCK:  # a Dask worker runs buildings in several threads
+            kept = _SILHOUETTES.get(key)
+            if kept is not None:
+                _SILHOUETTES.move_to_end(key)
+                return kept
     span = np.maximum(high - low, 1e-9)
     pixels = (positions - low) / span * (RESOLUTION - 1)
     views = rasterise_views(pixels[:, VIEWS].transpose(1, 0, 2), faces, RESOLUTION)
     if key is not None:
         views.setflags(write=False)
-        _SILHOUETTES[key] = views
-        if len(_SILHOUETTES) > _KEPT:
-            _SILHOUETTES.popitem(last=False)
+        with _SILHOUETTES_LOCK:
+            _SILHOUETTES[key] = views
+            if len(_SILHOUETTES) > _KEPT:
+                _SILHOUETTES.popitem(last=False)
     return views
 
 
 _KEPT = 16  # silhouette stacks kept (a building's guard trials and levels)
 _SILHOUETTES: OrderedDict[bytes, np.ndarray] = OrderedDict()
+_SILHOUETTES_LOCK = threading.Lock()
 
 
 def _silhouette_key(
