@@ -44,7 +44,7 @@ def _chunks(data: bytes, name: str, whole: bool = True) -> tuple[dict, bytes]:
     return header, blob
 
 
-def read_header(path: Path) -> dict:
+def read_header(path: str | Path) -> dict:
     """The JSON chunk of the ``.glb`` at ``path`` (reads only the file's start)."""
     with open(path, "rb") as handle:
         start = handle.read(20)

@@ -35,6 +35,8 @@ import hashlib
 import io
 import json
 import math
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -100,7 +102,9 @@ def _cell_image(primitive: GlbPrimitive, cell: int) -> Image.Image | None:
     try:
         with Image.open(io.BytesIO(primitive.image)) as image:
             size = image.size
-            tile = image.convert("RGB").resize((cell, cell), Image.Resampling.BOX)
+            # convert() copies even an RGB image (the files' JPEGs are): only other modes need it
+            rgb = image if image.mode == "RGB" else image.convert("RGB")
+            tile = rgb.resize((cell, cell), Image.Resampling.BOX)
     except (OSError, ValueError, Image.DecompressionBombError):
         return None
     tile.info["source_size"] = size
@@ -118,9 +122,12 @@ def pack_atlas(
     atlas = Image.new("RGB", (size, size), (255, 255, 255))
     uvs, shrink = [], []
     inset = 0.5 / cell  # half a texel: bilinear filtering stays inside the cell
-    for index, primitive in enumerate(primitives):
+    # Decoding and box-filtering are most of a proxy's time; Pillow releases the GIL in both, so
+    # threads use the cores the finished building workers left idle (map keeps the order).
+    with ThreadPoolExecutor(max_workers=max(1, min(len(primitives), os.cpu_count() or 1))) as pool:
+        tiles = pool.map(_cell_image, primitives, [cell] * len(primitives))
+    for index, (primitive, tile) in enumerate(zip(primitives, tiles)):
         row, col = divmod(index, side)
-        tile = _cell_image(primitive, cell)
         if tile is not None and primitive.uvs is not None:
             shrink.append(max(tile.info["source_size"]) / cell)
             local = np.clip(primitive.uvs.astype(np.float64), 0.0, 1.0)

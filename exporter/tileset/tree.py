@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -88,9 +89,10 @@ def read_chain(
     """The building of manifest ``record`` as a chain, or None (reason appended to ``left_out``)."""
     name = f"{tile.name}/{record.get('folder') or record.get('id')}"
     bounds: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    folder = os.path.join(out_dir, tile.name)  # a str: pathlib costs more than the read here
     for lod in record.get("lods", []):
         try:
-            bounds[lod["level"]] = position_bounds(read_header(out_dir / tile.name / lod["file"]))
+            bounds[lod["level"]] = position_bounds(read_header(os.path.join(folder, lod["file"])))
         except (OSError, ValueError, KeyError, TypeError) as problem:
             left_out.append(
                 f"{name}: LOD{lod.get('level')} file {lod.get('file')} unusable ({problem})"
