@@ -27,7 +27,6 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from . import __version__
 from .atomic import remove_stale_temporaries, write_text_atomic
 from .config import Config
 from .distributed import ClusterOptions, batch_size_for, cluster_results, cluster_session
@@ -125,13 +124,19 @@ def _sha256_once(name: str, size: int, mtime_ns: int) -> tuple[str | None, int]:
     return _hashed[key]
 
 
+# The release whose building outputs (.glb files and records) this version writes byte for byte:
+# part of every input_hash, so a release that changes no output byte (0.4.1: the kernels in C)
+# redoes nothing of an earlier run, and one that changes any must set this to its own version.
+OUTPUT_VERSION = "0.4.0"
+
+
 def input_hash(entry: Entry, config_hash: str, fingerprints: list[dict]) -> str:
     """Content hash of a building's inputs (the sha256 of every input file's bytes, from
-    :func:`input_fingerprints`), the effective config and the generator version; missing input
+    :func:`input_fingerprints`), the effective config and :data:`OUTPUT_VERSION`; missing input
     files hash as missing (the load reports them)."""
     digest = hashlib.sha256()
     digest.update(
-        f"vworld-lod {__version__}\n{config_hash}\n{entry.format}\n{entry.id}\n{entry.key!r}\n".encode()
+        f"vworld-lod {OUTPUT_VERSION}\n{config_hash}\n{entry.format}\n{entry.id}\n{entry.key!r}\n".encode()
     )
     for fingerprint in fingerprints:
         digest.update(
