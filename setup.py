@@ -15,7 +15,9 @@ from setuptools import Extension, setup
 if sys.platform == "win32":
     FLAGS = ["/O2", "/fp:precise"]  # MSVC contracts to FMA only under /fp:contract
 else:
-    FLAGS = ["-O2", "-std=c99", "-ffp-contract=off", "-fno-fast-math", "-Wall"]
+    # -fwrapv: int64 keys such as (region * k + v) * k + v wrap as numba's did instead of being
+    # undefined behaviour should a mesh ever be large enough to overflow them.
+    FLAGS = ["-O2", "-std=c99", "-ffp-contract=off", "-fno-fast-math", "-fwrapv", "-Wall"]
 
 SOURCES = sorted(Path("exporter/mesh/c").glob("*.c"))
 
