@@ -5,7 +5,7 @@
  * face's UV area (quadric.uv_signs' former numpy form): corner_uvs (m, 3, 2) float32, glTF UV
  * convention. And the row-wise cross product of two (m, 3) float64 arrays.
  */
-#include "kernels.h"
+#include "faces.h"
 
 /* face_areas(positions (n, 3) float64, faces (m, 3) int64) -> (m,) float64 square metres.
  * Every face index is checked against n. */
@@ -29,11 +29,9 @@ static PyObject *face_areas(PyObject *self, PyObject *args) {
     double *out = K_F64(areas);
     Py_BEGIN_ALLOW_THREADS
     for (npy_intp i = 0; i < m; i++) {
-        const double *a = p + 3 * f[3 * i], *b = p + 3 * f[3 * i + 1], *c = p + 3 * f[3 * i + 2];
-        double u0 = b[0] - a[0], u1 = b[1] - a[1], u2 = b[2] - a[2];
-        double v0 = c[0] - a[0], v1 = c[1] - a[1], v2 = c[2] - a[2];
-        double x = u1 * v2 - u2 * v1, y = u2 * v0 - u0 * v2, z = u0 * v1 - u1 * v0;
-        out[i] = 0.5 * sqrt((x * x + y * y) + z * z);
+        double n[3];
+        face_cross(p, f + 3 * i, n);
+        out[i] = 0.5 * sqrt((n[0] * n[0] + n[1] * n[1]) + n[2] * n[2]);
     }
     Py_END_ALLOW_THREADS
     result = (PyObject *)areas;

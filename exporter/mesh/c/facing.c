@@ -7,13 +7,12 @@
  * positions (k, 3) float64 metres (building-local East/Up/North), faces (m, 3) int64, sides
  * 3 f + i (from corner i of face f to corner i + 1).
  */
-#include "kernels.h"
+#include "faces.h"
 
 static void unit_normal(const double *p, const int64_t *face, double *n) {
-    const double *a = p + 3 * face[0], *b = p + 3 * face[1], *c = p + 3 * face[2];
-    double u0 = b[0] - a[0], u1 = b[1] - a[1], u2 = b[2] - a[2];
-    double v0 = c[0] - a[0], v1 = c[1] - a[1], v2 = c[2] - a[2];
-    double x = u1 * v2 - u2 * v1, y = u2 * v0 - u0 * v2, z = u0 * v1 - u1 * v0;
+    double cross[3];
+    face_cross(p, face, cross);
+    double x = cross[0], y = cross[1], z = cross[2];
     double length = sqrt((x * x + y * y) + z * z);
     double d = (length >= 1e-30 || isnan(length)) ? length : 1e-30; /* np.maximum */
     n[0] = x / d;

@@ -19,19 +19,8 @@
  * Data: positions (k, 3) float64 metres (building-local East/Up/North), faces int64 ids below k.
  * The former numpy and Python form is kept in tests/test_planar_batch_kernels.py as reference.
  */
-#include "kernels.h"
+#include "faces.h"
 #include "sorted.h"
-
-/* (b - a) x (c - a) of the face corner ids `face` (3) into positions p (k, 3): cross_rows's
- * operations. */
-static inline void face_cross(const double *p, const int64_t *face, double *out) {
-    const double *pa = p + 3 * face[0], *pb = p + 3 * face[1], *pc = p + 3 * face[2];
-    double ux = pb[0] - pa[0], uy = pb[1] - pa[1], uz = pb[2] - pa[2];
-    double vx = pc[0] - pa[0], vy = pc[1] - pa[1], vz = pc[2] - pa[2];
-    out[0] = uy * vz - uz * vy;
-    out[1] = uz * vx - ux * vz;
-    out[2] = ux * vy - uy * vx;
-}
 
 /* 0 when the region sizes (faces per region, (count,) int64) sum to f, else -1 with a
  * ValueError. */

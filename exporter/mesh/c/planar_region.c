@@ -9,7 +9,7 @@
  * operation (tests/test_planar_region_kernels.py keeps it as the reference and checks labels
  * equal).
  */
-#include "kernels.h"
+#include "faces.h"
 #include "union_find.h"
 
 /* The labels (m) of faces (m, 3) into positions; returns -1 when scratch memory is lacking. */
@@ -25,9 +25,9 @@ static int labels_of(const double *positions, const int64_t *faces, int64_t m,
     for (int64_t f = 0; f < m; f++) {
         const double *pa = positions + 3 * faces[3 * f], *pb = positions + 3 * faces[3 * f + 1],
                      *pc = positions + 3 * faces[3 * f + 2];
-        double ux = pb[0] - pa[0], uy = pb[1] - pa[1], uz = pb[2] - pa[2];
-        double vx = pc[0] - pa[0], vy = pc[1] - pa[1], vz = pc[2] - pa[2];
-        double nx = uy * vz - uz * vy, ny = uz * vx - ux * vz, nz = ux * vy - uy * vx;
+        double cross[3];
+        face_cross(positions, faces + 3 * f, cross);
+        double nx = cross[0], ny = cross[1], nz = cross[2];
         double length = k_max(sqrt(nx * nx + ny * ny + nz * nz), 1e-30);
         normal[3 * f] = nx / length;
         normal[3 * f + 1] = ny / length;

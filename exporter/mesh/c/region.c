@@ -16,6 +16,7 @@
  * are the same bits (tests/test_region_kernels.py checks them against the former code).
  */
 #include "bands.h"
+#include "faces.h"
 
 #define KERNEL "region.settle"
 
@@ -54,16 +55,6 @@ static int any(const npy_bool *flags, int64_t n) {
     for (int64_t i = 0; i < n; i++)
         if (flags[i]) return 1;
     return 0;
-}
-
-/* (b - a) x (c - a) of face f (3,) of points, as cross_rows. */
-static void cross(const double *points, const int64_t *f, double *c) {
-    const double *a = points + 3 * f[0], *b = points + 3 * f[1], *cc = points + 3 * f[2];
-    double u0 = b[0] - a[0], u1 = b[1] - a[1], u2 = b[2] - a[2];
-    double v0 = cc[0] - a[0], v1 = cc[1] - a[1], v2 = cc[2] - a[2];
-    c[0] = u1 * v2 - u2 * v1;
-    c[1] = u2 * v0 - u0 * v2;
-    c[2] = u0 * v1 - u1 * v0;
 }
 
 /* Step 3: regions of faces (m, 3) that do not keep their orientation along the region's normal
@@ -309,7 +300,7 @@ static int regions(const certificate *c, double *settled) {
     npy_bool *good = w.good;
     for (int64_t i = 0; i < ms; i++) {
         double *cs = w.cross_s + 3 * i;
-        cross(points, w.fs + 3 * i, cs);
+        face_cross(points, w.fs + 3 * i, cs);
         for (int j = 0; j < 3; j++) normals[3 * c->region[i] + j] += cs[j];
     }
     for (int64_t g = 0; g < r; g++) {
@@ -328,7 +319,7 @@ static int regions(const certificate *c, double *settled) {
     }
     for (int64_t i = 0; i < ml; i++) {
         double *cl = w.cross_l + 3 * i;
-        cross(points, w.fl + 3 * i, cl);
+        face_cross(points, w.fl + 3 * i, cl);
         double length = k_max(sqrt(cl[0] * cl[0] + cl[1] * cl[1] + cl[2] * cl[2]), 1e-300);
         for (int j = 0; j < 3; j++) w.normal_l[3 * i + j] = cl[j] / length;
     }
