@@ -14,7 +14,7 @@ static void unit_normal(const double *p, const int64_t *face, double *n) {
     face_cross(p, face, cross);
     double x = cross[0], y = cross[1], z = cross[2];
     double length = sqrt((x * x + y * y) + z * z);
-    double d = (length >= 1e-30 || isnan(length)) ? length : 1e-30; /* np.maximum */
+    double d = np_maximum(length, 1e-30);
     n[0] = x / d;
     n[1] = y / d;
     n[2] = z / d;

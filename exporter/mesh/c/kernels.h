@@ -26,6 +26,9 @@
  * smaller (larger). A NaN second argument is ignored, a NaN first one kept, as in Python. */
 static inline double k_min(double a, double b) { return b < a ? b : a; }
 static inline double k_max(double a, double b) { return b > a ? b : a; }
+/* numpy's np.minimum and np.maximum of two floats: NaN when either is. */
+static inline double np_minimum(double a, double b) { return (a < b || isnan(a)) ? a : b; }
+static inline double np_maximum(double a, double b) { return (a > b || isnan(a)) ? a : b; }
 static inline int64_t k_imin(int64_t a, int64_t b) { return b < a ? b : a; }
 static inline int64_t k_imax(int64_t a, int64_t b) { return b > a ? b : a; }
 

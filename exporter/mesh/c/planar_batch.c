@@ -865,7 +865,7 @@ static PyObject *finish(PyObject *self, PyObject *args) {
             reverse[g] = dot < 0;
             again[i] |= fabs(dot) <= 1e-12 * areas[g];
         }
-        double scale = want[i] > 1.0 || isnan(want[i]) ? want[i] : 1.0;
+        double scale = np_maximum(want[i], 1.0);
         double off = fabs((0.0 + pairwise_sum(areas + at, count[i])) - want[i]) - 1e-6 * scale;
         broken[i] = (npy_bool)(off > 0 || (!nan && count[i] > 0 && smallest < 1e-9 * scale));
         at += count[i];

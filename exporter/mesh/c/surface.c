@@ -19,8 +19,6 @@
  */
 #include "point_triangle.h"
 
-/* np.minimum of two floats: NaN when either is. */
-static inline double np_minimum(double a, double b) { return (a < b || isnan(a)) ? a : b; }
 
 /* upper(points (p, 3), probe_distance (p, k), nearest (p, k) int64 probe ids, owner (n,) int64
  * the triangle of each probe, tri (m, 3, 3)) -> (p,) float64 metres. */
@@ -185,8 +183,6 @@ done:
     return result;
 }
 
-/* np.maximum of two floats: NaN when either is. */
-static inline double np_maximum(double a, double b) { return (a > b || isnan(a)) ? a : b; }
 
 /* 0 when tri is (n, 3, 3) and cand (n, c >= 1) holds indices below `bound`, else -1 with a
  * ValueError (single_bound and chain_bound take one candidate list per triangle). */
