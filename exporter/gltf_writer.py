@@ -43,6 +43,7 @@ import numpy as np
 import pygltflib
 from PIL import Image
 
+from .mesh import _gltf_arrays
 from .mesh.geometry import unit_vectors, vertex_normals
 from .model import Part
 
@@ -123,24 +124,27 @@ def unit_normals_or_up(normals: np.ndarray) -> np.ndarray:
 def gltf_arrays(part: Part) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """``part``'s vertex data in glTF (West, Up, North): (n, 3) float32 positions (metres), (n, 3)
     float32 unit normals (its own when it has one per vertex, else area-weighted ones of its
-    triangles), the flat index array (uint16, or uint32 past 65535 vertices) with every triangle
-    reversed, and that index array's glTF component type."""
-    positions = local_to_gltf_positions(part.positions)
+    triangles; +Y where a row has no direction), the flat index array (uint16, or uint32 past
+    65535 vertices) with every triangle reversed, and that index array's glTF component type.
+
+    One pass per array in C (``exporter/mesh/c/gltf_arrays.c``), the same bits as the numpy
+    formulation (:func:`local_to_gltf_positions`, :func:`unit_normals_or_up`,
+    :func:`local_to_gltf_triangles`; ``tests/gltf_reference.py`` checks it)."""
+    positions = np.asarray(part.positions).reshape(-1, 3)
     local = (
         part.normals
         if part.normals is not None and len(part.normals) == len(part.positions)
         else vertex_normals(part.positions, part.triangles)
     )
-    normals = unit_normals_or_up(local)
-    normals[:, 0] *= -1.0
     small = len(positions) <= 65535
-    indices = (
-        local_to_gltf_triangles(part.triangles)
-        .astype(np.uint16 if small else np.uint32)
-        .reshape(-1)
+    out_positions, normals, indices = _gltf_arrays.arrays(
+        positions,
+        np.asarray(local).reshape(-1, 3),
+        np.asarray(part.triangles).reshape(-1, 3),
+        not small,
     )
     return (
-        positions,
+        out_positions,
         normals,
         indices,
         pygltflib.UNSIGNED_SHORT if small else pygltflib.UNSIGNED_INT,

@@ -10,9 +10,36 @@ import pygltflib
 
 from exporter.gltf_writer import (
     ALPHA_CUTOFF,
-    gltf_arrays,
+    local_to_gltf_positions,
+    local_to_gltf_triangles,
     texture_alpha_mode,
+    unit_normals_or_up,
 )
+from exporter.mesh.geometry import vertex_normals
+
+
+def reference_gltf_arrays(part):
+    """The numpy formulation of ``gltf_writer.gltf_arrays`` (its C kernel gives the same bits)."""
+    positions = local_to_gltf_positions(part.positions)
+    local = (
+        part.normals
+        if part.normals is not None and len(part.normals) == len(part.positions)
+        else vertex_normals(part.positions, part.triangles)
+    )
+    normals = unit_normals_or_up(local)
+    normals[:, 0] *= -1.0
+    small = len(positions) <= 65535
+    indices = (
+        local_to_gltf_triangles(part.triangles)
+        .astype(np.uint16 if small else np.uint32)
+        .reshape(-1)
+    )
+    return (
+        positions,
+        normals,
+        indices,
+        pygltflib.UNSIGNED_SHORT if small else pygltflib.UNSIGNED_INT,
+    )
 
 
 def reference_glb_bytes(parts, name: str) -> bytes:
@@ -45,7 +72,7 @@ def reference_glb_bytes(parts, name: str) -> bytes:
     texture_of_image: dict[int, int] = {}
     kept = [(index, part) for index, part in enumerate(parts) if part.triangle_count]
     for part_index, part in kept:
-        positions, normals, indices, index_type = gltf_arrays(part)
+        positions, normals, indices, index_type = reference_gltf_arrays(part)
         attributes = pygltflib.Attributes(
             POSITION=accessor(positions, pygltflib.FLOAT, pygltflib.VEC3, 34962, True),
             NORMAL=accessor(normals, pygltflib.FLOAT, pygltflib.VEC3, 34962),

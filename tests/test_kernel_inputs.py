@@ -161,3 +161,15 @@ def test_slit_kernel_checks_its_sides():
         inside_sides(positions, one, one, np.array([1, 2]), 1e-5)
     with pytest.raises(ValueError, match="positions has 2 along axis 1"):
         inside_sides(np.zeros((3, 2)), one, one, np.array([1]), 1e-5)
+
+
+def test_gltf_arrays_kernel_checks_its_shapes():
+    from exporter.mesh import _gltf_arrays
+
+    positions, triangles = np.zeros((4, 3)), np.array([[0, 1, 2]])
+    with pytest.raises(ValueError, match="normals has 3 along axis 0"):
+        _gltf_arrays.arrays(positions, np.zeros((3, 3), np.float32), triangles, False)
+    with pytest.raises(ValueError, match="positions has 2 along axis 1"):
+        _gltf_arrays.arrays(np.zeros((4, 2)), np.zeros((4, 3)), triangles, False)
+    with pytest.raises(ValueError, match="triangles has 4 along axis 1"):
+        _gltf_arrays.arrays(positions, np.zeros((4, 3)), np.zeros((1, 4), np.int64), False)

@@ -12,12 +12,13 @@ import dataclasses
 
 import numpy as np
 import pytest
-from gltf_reference import reference_glb_bytes
+from gltf_reference import reference_glb_bytes, reference_gltf_arrays
 
 import exporter.gltf_writer as gltf_writer
 from exporter.config import ReaderOptions
 from exporter.formats.vworld_binary import parse_xdo, serialise_xdo
 from exporter.mesh.geometry import unit_vectors
+from exporter.model import Part
 from exporter.readers import vworld
 from exporter.samplegen import generate_tile
 
@@ -77,6 +78,59 @@ def test_blob_pieces_are_the_aligned_binary_chunk():
     blob.align()
     assert offsets == [0, 4, 8] and len(blob) == 16
     assert bytes(blob) == b"abc\0de\0\0fghij\0\0\0"
+
+
+def assert_same_arrays(part):
+    fast, reference = gltf_writer.gltf_arrays(part), reference_gltf_arrays(part)
+    assert fast[3] == reference[3]
+    for got, expected in zip(fast[:3], reference[:3]):
+        assert got.dtype == expected.dtype and got.shape == expected.shape
+        assert got.tobytes() == expected.tobytes()  # the same bits, signed zeros included
+
+
+@pytest.mark.parametrize("normal_dtype", [np.float32, np.float64])
+def test_gltf_arrays_kernel_is_the_numpy_formulation(normal_dtype):
+    """The C kernel against numpy: normals of every scale, zero, tiny (<= 1e-12), inf and NaN rows
+    (up), zeros of both signs, float32 and float64 normals, int32 triangles."""
+    rng = np.random.default_rng(24)
+    n = 4000
+    positions = rng.normal(size=(n, 3)) * 10.0 ** rng.integers(-3, 6, size=(n, 1))
+    positions[:5] = [
+        [0.0, -0.0, 1.0],
+        [-0.0, 0.0, -0.0],
+        [1e-30, 3e38, -7.5],
+        [1.0, 2.0, 3.0],
+        [0, 0, 0],
+    ]
+    normals = (rng.normal(size=(n, 3)) * 10.0 ** rng.integers(-14, 8, size=(n, 1))).astype(
+        normal_dtype
+    )
+    normals[:8] = [
+        [0, 0, 0],
+        [-0.0, 0, 0],
+        [1e-13, 0, 0],
+        [np.inf, 0, 0],
+        [np.nan, 1, 0],
+        [0, -0.0, 2],
+        [-3, 0, 0],
+        [0, 0, -1e-7],
+    ]
+    triangles = rng.integers(0, n, size=(3000, 3)).astype(np.int32)
+    assert_same_arrays(Part(positions=positions, triangles=triangles, normals=normals))
+    # no normals of its own: area-weighted ones of its triangles
+    assert_same_arrays(Part(positions=positions, triangles=triangles[:, ::-1]))
+
+
+def test_gltf_arrays_kernel_wide_indices_and_strided_inputs():
+    rng = np.random.default_rng(25)
+    n = 70000  # past 65535 vertices: uint32 indices
+    positions = np.asfortranarray(rng.normal(size=(n, 3)) * 100.0)
+    normals = rng.normal(size=(n, 6)).astype(np.float32)[:, ::2]  # not contiguous
+    triangles = rng.integers(0, n, size=(5000, 3))
+    assert_same_arrays(Part(positions=positions, triangles=triangles, normals=normals))
+    small = Part(positions=positions[:65535], triangles=triangles % 65535, normals=normals[:65535])
+    assert gltf_writer.gltf_arrays(small)[2].dtype == np.uint16
+    assert_same_arrays(small)
 
 
 # --------------------------------------------------------------------------- VWorld reader

@@ -1,0 +1,5 @@
+import numpy as np
+
+def arrays(
+    positions: np.ndarray, normals: np.ndarray, triangles: np.ndarray, wide: bool, /
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
