@@ -30,6 +30,9 @@ cancellation-free tile-relative offsets.
 
 from __future__ import annotations
 
+import functools
+import math
+
 import numpy as np
 
 from .config import GlobeOptions
@@ -42,10 +45,18 @@ Y_AXIS = np.array([0.0, 1.0, 0.0])
 # --------------------------------------------------------------------------- globe frame (eq. 1-2)
 
 
+def _cos_sin(lon: float, lat: float) -> tuple[float, float, float, float]:
+    """``cos(lon), sin(lon), cos(lat), sin(lat)`` of ``lon``, ``lat`` (degrees), by numpy's trig
+    (the numbers the placements have always used); the products built on them below are plain
+    float arithmetic, the same IEEE operations as on numpy scalars at a fraction of the cost."""
+    lam, phi = np.radians(lon), np.radians(lat)
+    return float(np.cos(lam)), float(np.sin(lam)), float(np.cos(phi)), float(np.sin(phi))
+
+
 def unit_position(lon: float, lat: float) -> np.ndarray:
     """(3,) unit vector from the Earth's centre to ``lon``, ``lat`` (degrees), Unity globe frame."""
-    lam, phi = np.radians(lon), np.radians(lat)
-    return np.array([np.cos(phi) * np.sin(lam), np.sin(phi), -np.cos(phi) * np.cos(lam)])
+    cos_lam, sin_lam, cos_phi, sin_phi = _cos_sin(lon, lat)
+    return np.array([cos_phi * sin_lam, sin_phi, -cos_phi * cos_lam])
 
 
 def globe_position(lon: float, lat: float, elev: float, globe: GlobeOptions) -> np.ndarray:
@@ -59,11 +70,16 @@ def enu_matrix(lon: float, lat: float) -> np.ndarray:
 
     Maps local East/Up/North vectors to Unity globe vectors; determinant +1.
     """
-    lam, phi = np.radians(lon), np.radians(lat)
-    east = [np.cos(lam), 0.0, np.sin(lam)]
-    up = [np.cos(phi) * np.sin(lam), np.sin(phi), -np.cos(phi) * np.cos(lam)]
-    north = [-np.sin(phi) * np.sin(lam), np.cos(phi), np.sin(phi) * np.cos(lam)]
-    return np.column_stack([east, up, north])
+    cos_lam, sin_lam, cos_phi, sin_phi = _cos_sin(lon, lat)
+    # columns: East (cos lam, 0, sin lam), Up (unit_position), North (-sin phi sin lam, cos phi,
+    # sin phi cos lam)
+    return np.array(
+        [
+            [cos_lam, cos_phi * sin_lam, -sin_phi * sin_lam],
+            [0.0, sin_phi, cos_phi],
+            [sin_lam, -cos_phi * cos_lam, sin_phi * cos_lam],
+        ]
+    )
 
 
 def axis_angle_matrix(axis: np.ndarray, angle: float) -> np.ndarray:
@@ -103,25 +119,31 @@ def quaternion_from_matrix(m: np.ndarray) -> np.ndarray:
     """(4,) unit quaternion ``[x, y, z, w]`` of rotation matrix ``m`` (3, 3), with ``w >= 0``.
 
     Shepperd's method: build from the largest of ``w, x, y, z`` so no division is by a small number.
+    Plain float arithmetic in numpy's order (``np.trace`` sums left to right, ``np.argmax`` takes
+    the first largest or first NaN); the length is numpy's (``dot``), so the bits are numpy's.
     """
-    m = np.asarray(m, dtype=np.float64)
-    trace = np.trace(m)
-    diag = np.diagonal(m)
-    k = int(np.argmax([trace, *diag]))
+    (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = np.asarray(m, dtype=np.float64).tolist()
+    trace = (m00 + m11) + m22
+    candidates = (trace, m00, m11, m22)
+    k = 0
+    for i in (1, 2, 3):
+        value = candidates[i]
+        if value > candidates[k] or (value != value and candidates[k] == candidates[k]):
+            k = i
     if k == 0:
-        s = 2.0 * np.sqrt(1.0 + trace)  # 4w
-        q = [(m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s, 0.25 * s]
+        s = 2.0 * math.sqrt(1.0 + trace)  # 4w
+        q = [(m21 - m12) / s, (m02 - m20) / s, (m10 - m01) / s, 0.25 * s]
     elif k == 1:
-        s = 2.0 * np.sqrt(1.0 + m[0, 0] - m[1, 1] - m[2, 2])  # 4x
-        q = [0.25 * s, (m[0, 1] + m[1, 0]) / s, (m[0, 2] + m[2, 0]) / s, (m[2, 1] - m[1, 2]) / s]
+        s = 2.0 * math.sqrt(1.0 + m00 - m11 - m22)  # 4x
+        q = [0.25 * s, (m01 + m10) / s, (m02 + m20) / s, (m21 - m12) / s]
     elif k == 2:
-        s = 2.0 * np.sqrt(1.0 + m[1, 1] - m[0, 0] - m[2, 2])  # 4y
-        q = [(m[0, 1] + m[1, 0]) / s, 0.25 * s, (m[1, 2] + m[2, 1]) / s, (m[0, 2] - m[2, 0]) / s]
+        s = 2.0 * math.sqrt(1.0 + m11 - m00 - m22)  # 4y
+        q = [(m01 + m10) / s, 0.25 * s, (m12 + m21) / s, (m02 - m20) / s]
     else:
-        s = 2.0 * np.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1])  # 4z
-        q = [(m[0, 2] + m[2, 0]) / s, (m[1, 2] + m[2, 1]) / s, 0.25 * s, (m[1, 0] - m[0, 1]) / s]
+        s = 2.0 * math.sqrt(1.0 + m22 - m00 - m11)  # 4z
+        q = [(m02 + m20) / s, (m12 + m21) / s, 0.25 * s, (m10 - m01) / s]
     quaternion = np.array(q)
-    quaternion /= np.linalg.norm(quaternion)
+    quaternion /= math.sqrt(quaternion.dot(quaternion))  # np.linalg.norm's own formula
     return -quaternion if quaternion[3] < 0.0 else quaternion
 
 
@@ -205,16 +227,25 @@ def enu_offset(ref: GeoPoint, origin: GeoPoint, earth_radius: float) -> np.ndarr
     return np.array([radius * east, up, radius * north])
 
 
+@functools.lru_cache(maxsize=64)
+def _tile_frame(tile: TileId) -> tuple[GeoPoint, np.ndarray]:
+    """The tile centre (elevation 0) and the transpose of its :func:`enu_matrix` (read-only):
+    shared by every building of the tile."""
+    lon, lat = tile_center(tile)
+    turn = enu_matrix(lon, lat).T
+    turn.flags.writeable = False
+    return GeoPoint(lon, lat, 0.0), turn
+
+
 def relative_placement(ref: GeoPoint, tile: TileId, globe: GlobeOptions) -> dict:
     """The building in its tile's East/Up/North frame: position in metres, curvature rotation, scale 1.
 
     ``compose(tile_placement(tile, globe), relative_placement(ref, tile, globe))`` equals
     ``building_placement(ref, globe)`` (to float64 rounding).
     """
-    lon, lat = tile_center(tile)
-    origin = GeoPoint(lon, lat, 0.0)
+    origin, origin_turn = _tile_frame(tile)
     position = enu_offset(ref, origin, globe.earth_radius)
-    turn = enu_matrix(lon, lat).T @ enu_matrix(ref.lon, ref.lat)
+    turn = origin_turn @ enu_matrix(ref.lon, ref.lat)
     return placement_dict(position, quaternion_from_matrix(turn), 1.0)
 
 

@@ -354,3 +354,67 @@ def test_compose_follows_the_unity_hierarchy_rule_by_hand():
     assert out["position"] == pytest.approx([3.0, 2.0, 3.0], abs=1e-15)
     assert out["rotation"] == pytest.approx([0.0, 1.0, 0.0, 0.0], abs=1e-15)  # 180 deg about y
     assert out["scale"] == 6.0
+
+
+# --------------------------------------------------------------------------- plain-float fast paths
+
+
+def numpy_enu_matrix(lon, lat):
+    """The numpy formulation :func:`enu_matrix` replaced (trig per element, column_stack)."""
+    lam, phi = np.radians(lon), np.radians(lat)
+    east = [np.cos(lam), 0.0, np.sin(lam)]
+    up = [np.cos(phi) * np.sin(lam), np.sin(phi), -np.cos(phi) * np.cos(lam)]
+    north = [-np.sin(phi) * np.sin(lam), np.cos(phi), np.sin(phi) * np.cos(lam)]
+    return np.column_stack([east, up, north])
+
+
+def numpy_quaternion_from_matrix(m):
+    """The numpy formulation :func:`quaternion_from_matrix` replaced (Shepperd's method)."""
+    m = np.asarray(m, dtype=np.float64)
+    trace = np.trace(m)
+    k = int(np.argmax([trace, *np.diagonal(m)]))
+    if k == 0:
+        s = 2.0 * np.sqrt(1.0 + trace)
+        q = [(m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s, 0.25 * s]
+    elif k == 1:
+        s = 2.0 * np.sqrt(1.0 + m[0, 0] - m[1, 1] - m[2, 2])
+        q = [0.25 * s, (m[0, 1] + m[1, 0]) / s, (m[0, 2] + m[2, 0]) / s, (m[2, 1] - m[1, 2]) / s]
+    elif k == 2:
+        s = 2.0 * np.sqrt(1.0 + m[1, 1] - m[0, 0] - m[2, 2])
+        q = [(m[0, 1] + m[1, 0]) / s, 0.25 * s, (m[1, 2] + m[2, 1]) / s, (m[0, 2] - m[2, 0]) / s]
+    else:
+        s = 2.0 * np.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1])
+        q = [(m[0, 2] + m[2, 0]) / s, (m[1, 2] + m[2, 1]) / s, 0.25 * s, (m[1, 0] - m[0, 1]) / s]
+    quaternion = np.array(q)
+    quaternion /= np.linalg.norm(quaternion)
+    return -quaternion if quaternion[3] < 0.0 else quaternion
+
+
+def test_plain_float_placement_math_is_the_numpy_formulation_bit_for_bit():
+    """enu_matrix, quaternion_from_matrix (every Shepperd branch, ties, signed zeros) and the
+    tile-relative turn give numpy's exact bits (the record's placements are byte-identical)."""
+    rng = np.random.default_rng(31)
+    points = [(0.0, 0.0), (180.0, 90.0), (-180.0, -90.0), (127.0, 37.5)]
+    points += list(zip(rng.uniform(-180, 180, 400).tolist(), rng.uniform(-90, 90, 400).tolist()))
+    for lon, lat in points:
+        assert enu_matrix(lon, lat).tobytes() == numpy_enu_matrix(lon, lat).tobytes()
+    rotations = [np.linalg.qr(rng.normal(size=(3, 3)))[0] for _ in range(2000)]
+    rotations = [m * np.sign(np.linalg.det(m)) for m in rotations]
+    rotations += [np.diag(d) for d in ([1.0, -1.0, -1.0], [-1.0, 1.0, -1.0], [-1.0, -1.0, 1.0])]
+    rotations += [np.eye(3), -np.eye(3) + 2 * np.diag([0.0, 0.0, 1.0]), np.zeros((3, 3))]
+    rotations += [
+        numpy_enu_matrix(lon, lat).T @ numpy_enu_matrix(127.0, 37.5) for lon, lat in points
+    ]
+    branches = set()
+    for m in rotations:
+        expected = numpy_quaternion_from_matrix(m)
+        assert quaternion_from_matrix(m).tobytes() == expected.tobytes()
+        branches.add(int(np.argmax([np.trace(m), *np.diagonal(m)])))
+    assert branches == {0, 1, 2, 3}
+    tile = TileId(15, 279418, 116113)
+    lon, lat = tile_center(tile)
+    for ref_lon, ref_lat in points[:50]:
+        turn = numpy_enu_matrix(lon, lat).T @ numpy_enu_matrix(ref_lon, ref_lat)
+        got = relative_placement(GeoPoint(ref_lon, ref_lat, 10.0), tile, GlobeOptions())
+        expected = numpy_quaternion_from_matrix(turn).tolist()
+        assert json.dumps(got["rotation"]) == json.dumps(expected)  # signed zeros too
