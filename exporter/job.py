@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import shutil
 import time
 from dataclasses import dataclass, field
@@ -127,6 +128,19 @@ def level_triangles(level) -> int:
     return sum(p.triangle_count for p in level.parts)
 
 
+def remove_stale_levels(folder: str, count: int) -> None:
+    """Delete the ``lod*.glb`` files of ``folder`` other than ``lod0.glb`` .. ``lod<count-1>.glb``:
+    levels an earlier export (another configuration) wrote and this one did not."""
+    written = {f"lod{level}.glb" for level in range(count)}
+    for name in os.listdir(folder):
+        # the names Path.glob("lod*.glb") matches (case-sensitive, "*" may be empty)
+        if len(name) >= 7 and name[:3] == "lod" and name[-4:] == ".glb" and name not in written:
+            try:
+                os.unlink(os.path.join(folder, name))
+            except FileNotFoundError:
+                pass
+
+
 @dataclass
 class EntryResult:
     """What a worker returns for one entry: a manifest record or a skip, plus stage times (s)."""
@@ -201,22 +215,20 @@ def process_entry(
         lap("quality")
         # The entry's id, not the reader's: the run made entry ids unique across folders and files.
         folder = safe_folder_name(entry.id)
-        building_dir = Path(out_dir) / tile.name / folder
+        building_dir = os.path.join(out_dir, tile.name, folder)
+        # Only a folder that was there before this building can hold an earlier export's levels.
+        existed = os.path.isdir(building_dir)
         lods, files = [], []
         for level, parts in enumerate(parts_by_level):
             data = glb_bytes(parts, f"{entry.id}_LOD{level}")
-            file_name = f"{folder}/lod{level}.glb"
-            write_bytes_atomic(building_dir / f"lod{level}.glb", data)
-            files.append(file_entry(f"lod{level}.glb", data))
-            lods.append(lod_record(level, parts, file_name, data, qualities[level]))
+            name = f"lod{level}.glb"
+            write_bytes_atomic(os.path.join(building_dir, name), data)
+            files.append(file_entry(name, data))
+            lods.append(lod_record(level, parts, f"{folder}/{name}", data, qualities[level]))
             if level:
                 lods[-1].update(level_fields(chain[level], lods[-2]))
-        written = {f"lod{level}.glb" for level in range(len(lods))}
-        for stale in building_dir.glob(
-            "lod*.glb"
-        ):  # levels a previous config had and this one has not
-            if stale.name not in written:
-                stale.unlink(missing_ok=True)
+        if existed:
+            remove_stale_levels(building_dir, len(lods))
         record = {
             "id": entry.id,
             "folder": folder,
@@ -241,8 +253,12 @@ def process_entry(
                 "idy": centre_tile.idy,
             }
         write_record(
-            building_dir / RECORD_NAME,
-            {"tile": dataclasses.asdict(tile), "record": record, "files": files},
+            os.path.join(building_dir, RECORD_NAME),
+            {
+                "tile": {"level": tile.level, "idx": tile.idx, "idy": tile.idy},
+                "record": record,
+                "files": files,
+            },
             list(fingerprints),
         )
         lap("write")

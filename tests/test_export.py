@@ -137,6 +137,37 @@ def test_rerun_skips_unchanged_buildings_force_redoes_and_removed_ones_disappear
     assert not list((out / TILE.name).glob("*/lod2.glb"))
 
 
+def test_stale_levels_are_looked_for_only_in_folders_an_earlier_export_made(
+    tmp_path, small_tile, monkeypatch
+):
+    from exporter import job
+    from exporter.config import Config
+    from exporter.pipeline import export_tiles
+
+    looked = []
+    real = job.remove_stale_levels
+    monkeypatch.setattr(job, "remove_stale_levels", lambda *a: looked.append(a) or real(*a))
+    out = tmp_path / "out"
+    export_tiles([small_tile], out, Config(), jobs=1)
+    assert looked == []  # every building folder was new: nothing of an earlier export in it
+    folder = sorted((out / TILE.name).glob("*/lod2.glb"))[0].parent
+    for name in ("lod7.glb", "lod.glb", "lod1.glb.bak", "notes.txt", "LOD3.glb"):
+        (folder / name).write_bytes(b"old")
+    fewer = Config()
+    fewer.lods = fewer.lods[:2]
+    export_tiles([small_tile], out, fewer, jobs=1, force=True)
+    assert len(looked) == 6
+    left = sorted(p.name for p in folder.iterdir())
+    assert left == [
+        "LOD3.glb",
+        "building.json",
+        "lod0.glb",
+        "lod1.glb",
+        "lod1.glb.bak",
+        "notes.txt",
+    ]
+
+
 def test_inspect_lists_buildings_without_writing(tmp_path, small_tile, capsys):
     before = sorted(p.name for p in small_tile.iterdir())
     assert main(["inspect", str(small_tile)]) == 0
