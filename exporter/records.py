@@ -2,7 +2,7 @@
 
 ``{"tile", "record", "inputs", "files"}``: ``record`` is the building's manifest entry;
 ``inputs`` the input files' ``{path, size, mtime_ns, sha256}``; ``files`` the written files'
-``{file, bytes, crc32}`` (name in the building folder, size in bytes, zlib CRC-32). Nothing in it
+``{file, bytes, crc32}`` (name in the building folder, size in bytes, zlib's CRC-32). Nothing in it
 depends on when the run happened, so two runs over the same input write the same bytes.
 
 When the inputs were hashed is kept as the record file's own modification time instead (set with
@@ -20,8 +20,11 @@ from __future__ import annotations
 
 import json
 import os
-import zlib
 from pathlib import Path
+
+# zlib's CRC-32 (same polynomial and values as zlib.crc32), ~10x faster than zlib 1.2's: 9 against
+# 97 us for 300 KB here, the size of a building's lod0.glb.
+from isal.isal_zlib import crc32
 
 from .atomic import write_text_atomic
 
@@ -31,7 +34,7 @@ FROM_RECORD = "stamp_from_record"  # in-memory only: STAMP is a previous record'
 
 def file_entry(name: str, data: bytes) -> dict:
     """The ``files`` item of one written file: its name in the building folder, size, CRC-32."""
-    return {"file": name, "bytes": len(data), "crc32": zlib.crc32(data)}
+    return {"file": name, "bytes": len(data), "crc32": crc32(data)}
 
 
 def files_intact(folder: Path, files: list[dict]) -> bool:
@@ -42,14 +45,14 @@ def files_intact(folder: Path, files: list[dict]) -> bool:
         try:
             if path.stat().st_size != item.get("bytes"):
                 return False
-            if "crc32" in item and zlib.crc32(path.read_bytes()) != item["crc32"]:
+            if "crc32" in item and crc32(path.read_bytes()) != item["crc32"]:
                 return False
         except OSError:
             return False
     return True
 
 
-def write_record(path: Path, data: dict, inputs: list[dict]) -> None:
+def write_record(path: str | Path, data: dict, inputs: list[dict]) -> None:
     """Write the record file ``path`` holding ``data`` plus ``inputs`` (fingerprints without their
     hash times), atomically, then set its modification time to the earliest time an input was
     hashed in this run (module doc). Inputs trusted from a previous record were last modified
