@@ -153,6 +153,17 @@ def gltf_arrays(part: Part) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     )
 
 
+def position_bounds(positions: np.ndarray) -> tuple[list[float], list[float]]:
+    """The (3,) column maxima and minima of (n, 3) float32 ``positions`` (metres, any frame),
+    exactly ``positions.max(axis=0)`` and ``.min(axis=0)``: one C pass, or numpy's own reduction
+    when a bound is zero (numpy's pick between 0.0 and -0.0 depends on its loop) or there is none."""
+    if len(positions):
+        top, bottom = _gltf_arrays.bounds(positions)
+        if 0.0 not in top and 0.0 not in bottom:
+            return list(top), list(bottom)
+    return positions.max(axis=0).tolist(), positions.min(axis=0).tolist()
+
+
 class _Blob:
     """The binary chunk as its pieces (views and the zero padding that 4-byte aligns them), so the
     GLB is assembled with one copy of the (large) image bytes; ``bytes(blob)`` is the chunk."""
@@ -245,7 +256,8 @@ class _Document:
             f'"normalized":false,"count":{len(array)},"type":{_string(kind)}'
         )
         if with_bounds:
-            text += f',"max":{_numbers(array.max(axis=0))},"min":{_numbers(array.min(axis=0))}'
+            top, bottom = position_bounds(array)
+            text += f',"max":{_numbers(top)},"min":{_numbers(bottom)}'
         self.accessors.append(text + "}")
         return len(self.accessors) - 1
 

@@ -173,3 +173,7 @@ def test_gltf_arrays_kernel_checks_its_shapes():
         _gltf_arrays.arrays(np.zeros((4, 2)), np.zeros((4, 3)), triangles, False)
     with pytest.raises(ValueError, match="triangles has 4 along axis 1"):
         _gltf_arrays.arrays(positions, np.zeros((4, 3)), np.zeros((1, 4), np.int64), False)
+    with pytest.raises(ValueError, match="positions has 2 along axis 1"):
+        _gltf_arrays.bounds(np.zeros((4, 2), np.float32))
+    with pytest.raises(ValueError, match="empty"):
+        _gltf_arrays.bounds(np.zeros((0, 3), np.float32))

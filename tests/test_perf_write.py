@@ -133,6 +133,23 @@ def test_gltf_arrays_kernel_wide_indices_and_strided_inputs():
     assert_same_arrays(small)
 
 
+def test_position_bounds_are_numpys_max_and_min():
+    """The C pass gives numpy's column extremes (JSON text compared: signed zeros included); a NaN
+    wins as in numpy; no rows is numpy's ValueError."""
+    rng = np.random.default_rng(26)
+    cases = [rng.normal(size=(n, 3)).astype(np.float32) * 100 for n in (1, 2, 5, 1000)]
+    signed = np.array([[0.0, -0.0, 1.0], [-0.0, 0.0, -1.0], [-2.0, -0.0, 0.0]], np.float32)
+    cases += [signed, signed[::-1].copy(), -signed, np.full((4, 3), 7.5, np.float32)]
+    with_nan = cases[3].copy()
+    with_nan[500, 1] = np.nan
+    cases.append(with_nan)
+    for positions in cases:
+        expected = (positions.max(axis=0).tolist(), positions.min(axis=0).tolist())
+        assert repr(gltf_writer.position_bounds(positions)) == repr(expected)
+    with pytest.raises(ValueError):
+        gltf_writer.position_bounds(np.zeros((0, 3), np.float32))
+
+
 # --------------------------------------------------------------------------- VWorld reader
 
 

@@ -103,9 +103,40 @@ done:
     return result;
 }
 
+/* bounds(positions (n, 3) float32, n >= 1) -> (max x, max y, max z, min x, min y, min z): the
+ * columns' extremes as np.maximum / np.minimum reduce them (a NaN wins). Which of 0.0 and -0.0 numpy
+ * returns for a tie depends on its loop: the caller asks numpy itself when a bound is zero. */
+static PyObject *bounds(PyObject *self, PyObject *args) {
+    PyObject *positions_obj, *result = NULL;
+    if (!PyArg_ParseTuple(args, "O", &positions_obj)) return NULL;
+    PyArrayObject *positions = k_array(positions_obj, NPY_FLOAT32, 2, 0, "gltf_arrays.bounds", "positions");
+    if (positions == NULL) return NULL;
+    npy_intp n = PyArray_DIM(positions, 0);
+    if (k_dim(positions, 1, 3, "gltf_arrays.bounds", "positions")) goto done;
+    if (n < 1) {
+        PyErr_SetString(PyExc_ValueError, "gltf_arrays.bounds: positions is empty");
+        goto done;
+    }
+    const float *p = K_F32(positions);
+    double top[3], bottom[3];
+    for (int c = 0; c < 3; c++) top[c] = bottom[c] = p[c];
+    for (npy_intp i = 3; i < 3 * n; i += 3) {
+        for (int c = 0; c < 3; c++) {
+            top[c] = np_maximum(top[c], p[i + c]);
+            bottom[c] = np_minimum(bottom[c], p[i + c]);
+        }
+    }
+    result = Py_BuildValue("(ddd)(ddd)", top[0], top[1], top[2], bottom[0], bottom[1], bottom[2]);
+done:
+    Py_DECREF(positions);
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"arrays", arrays, METH_VARARGS,
      "arrays(positions, normals, triangles, wide) -> (positions, normals, indices): glTF frame."},
+    {"bounds", bounds, METH_VARARGS,
+     "bounds(positions) -> ((max x, y, z), (min x, y, z)) of (n, 3) float32 positions."},
     {NULL, NULL, 0, NULL},
 };
 
