@@ -15,8 +15,10 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import TypeVar
 
 TMP_SUFFIX = ".tmp"
+PathT = TypeVar("PathT", str, Path)  # a writer returns the path it was given, str or Path
 
 
 _CREATE = (
@@ -46,11 +48,12 @@ def _create(tmp: str) -> int:
     return os.open(tmp, _CREATE, 0o666)
 
 
-def write_bytes_atomic(path: str | Path, data: bytes, durable: bool = False) -> Path:
+def write_bytes_atomic(path: PathT, data: bytes, durable: bool = False) -> PathT:
     """Write ``data`` to ``path`` atomically (same-folder temporary file, [fsync,] rename).
 
-    Folders are made as needed. Returns ``path`` as a :class:`~pathlib.Path`. An OSError (disk
-    full, read-only or denied folder) names ``path``, not the hidden temporary.
+    Folders are made as needed. Returns ``path`` as given (no Path made for a str: the pipeline
+    writes four files a building). An OSError (disk full, read-only or denied folder) names
+    ``path``, not the hidden temporary.
     """
     target = os.fspath(path)
     tmp = _temporary(target)
@@ -73,10 +76,10 @@ def write_bytes_atomic(path: str | Path, data: bytes, durable: bool = False) -> 
         if isinstance(error, OSError) and error.filename != target:
             raise OSError(error.errno, error.strerror or str(error), target) from error
         raise
-    return path if isinstance(path, Path) else Path(path)
+    return path
 
 
-def write_text_atomic(path: str | Path, text: str, durable: bool = False) -> Path:
+def write_text_atomic(path: PathT, text: str, durable: bool = False) -> PathT:
     return write_bytes_atomic(path, text.encode("utf-8"), durable)
 
 

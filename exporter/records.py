@@ -60,7 +60,7 @@ def write_record(path: str | Path, data: dict, inputs: list[dict]) -> None:
     fresh = [item[STAMP] for item in inputs if STAMP in item and FROM_RECORD not in item]
     stamps = fresh or [item[STAMP] for item in inputs if STAMP in item]
     stable = [{k: v for k, v in item.items() if k not in (STAMP, FROM_RECORD)} for item in inputs]
-    write_text_atomic(path, json.dumps({**data, "inputs": stable}, allow_nan=False))
+    write_text_atomic(os.fspath(path), json.dumps({**data, "inputs": stable}, allow_nan=False))
     if stamps:
         os.utime(path, ns=(min(stamps), min(stamps)))
 

@@ -1,5 +1,7 @@
 """Atomic output: an interrupted write never leaves a truncated file under the final name."""
 
+import os
+
 import pytest
 
 from exporter import atomic
@@ -91,3 +93,12 @@ def test_folder_is_made_once_and_durable_writes_fsync_before_the_rename(tmp_path
         "lod1.glb",
         "lod2.glb",
     ]
+
+
+def test_the_path_comes_back_as_given(tmp_path):
+    """A str path comes back a str (no Path made per file: the pipeline writes four a building)."""
+    as_text = os.path.join(tmp_path, "a", "lod0.glb")
+    assert type(write_bytes_atomic(as_text, b"glb")) is str
+    assert write_bytes_atomic(tmp_path / "b.json", b"{}") == tmp_path / "b.json"
+    with open(as_text, "rb") as written:
+        assert written.read() == b"glb"
