@@ -22,7 +22,7 @@ import numpy as np
 from .atomic import write_bytes_atomic
 from .config import Config
 from .errors import ProcessError, ReadError, error_text
-from .gltf_writer import glb_bytes
+from .gltf_writer import glb_bytes, local_to_gltf_positions
 from .model import Building, Part, Skipped, Texture, TileId
 from .names import name_error, safe_folder_name
 from .placement import building_placement, relative_placement
@@ -99,9 +99,17 @@ def same_geometry(parts: list[Part], other: list[Part]) -> bool:
 def lod_record(
     level: int, parts: list[Part], file_name: str, data: bytes, quality: LevelQuality | None
 ) -> dict:
-    """A level's manifest record; ``quality`` None for LOD0 (the source: only its ratio, 1)."""
+    """A level's manifest record; ``quality`` None for LOD0 (the source: only its ratio, 1).
+
+    ``gltf_bounds``: the file's position bounds (glTF frame: +X = West, +Y = Up, +Z = North,
+    metres), the float32 values its POSITION accessors' min/max store, so the tileset needs no
+    read of the file (:func:`exporter.tileset.tree.read_chain`)."""
     textures = [p.texture for p in parts if p.texture is not None and p.triangle_count]
     largest = max(textures, key=lambda t: t.width * t.height, default=None)
+    # The writer skips parts without triangles and stores float32 glTF-frame positions.
+    written = [local_to_gltf_positions(p.positions) for p in parts if p.triangle_count]
+    low = np.min([a.min(axis=0) for a in written], axis=0)
+    high = np.max([a.max(axis=0) for a in written], axis=0)
     return {
         "level": level,
         "file": file_name,
@@ -110,6 +118,7 @@ def lod_record(
         "texture_size": [largest.width, largest.height] if largest else [0, 0],
         "texture_bytes": sum(len(t.data) for t in {id(t): t for t in textures}.values()),
         "file_bytes": len(data),
+        "gltf_bounds": {"low": [float(v) for v in low], "high": [float(v) for v in high]},
         "quality": quality.to_manifest() if quality is not None else {"triangle_ratio": 1.0},
     }
 

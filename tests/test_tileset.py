@@ -251,6 +251,93 @@ def test_deleted_building_files_are_never_referenced(city, tmp_path):
     assert result.proxies_built == 2  # the west tile's proxy and the one above
 
 
+def test_every_level_record_states_its_file_s_position_bounds_exactly(city):
+    from exporter.tileset.glb import position_bounds, read_header
+
+    levels = 0
+    for path in city.glob("*/lod_manifest.json"):
+        for record in json.loads(path.read_text())["buildings"]:
+            for lod in record["lods"]:
+                low, high = position_bounds(read_header(path.parent / lod["file"]))
+                assert lod["gltf_bounds"] == {"low": low.tolist(), "high": high.tolist()}
+                levels += 1
+    assert levels >= 20
+
+
+def _without_bounds(out: Path, keep: int) -> None:
+    """Remove ``gltf_bounds`` from every level record of ``out``'s manifests but the first
+    ``keep`` buildings' of each (as 0.4.1 wrote them)."""
+    for path in out.glob("*/lod_manifest.json"):
+        manifest = json.loads(path.read_text())
+        for record in manifest["buildings"][keep:]:
+            for lod in record["lods"]:
+                del lod["gltf_bounds"]
+        path.write_text(json.dumps(manifest))
+
+
+def test_recorded_bounds_spare_the_file_reads_and_old_records_give_the_same_tileset(
+    city, tmp_path, monkeypatch
+):
+    from exporter.tileset import tree
+
+    out = tmp_path / "out"
+    shutil.copytree(city, out)
+    _without_bounds(out, keep=2)  # 2 buildings per tile keep theirs
+    read: list[str] = []
+    real = tree.read_header
+
+    def counted(path):
+        read.append(str(path))
+        return real(path)
+
+    monkeypatch.setattr(tree, "read_header", counted)
+    write_tileset(out, TilesetOptions())
+    assert (out / "tileset.json").read_bytes() == (city / "tileset.json").read_bytes()
+    assert len(read) == 2 * 3 * 3  # 3 buildings of each tile without bounds, 3 levels each
+
+
+def test_bad_recorded_bounds_are_not_trusted(city, tmp_path):
+    out = tmp_path / "out"
+    shutil.copytree(city, out)
+    bad = [
+        {"low": [1.0, 2.0], "high": [3.0, 4.0, 5.0]},
+        {"low": [1.0, 2.0, 3.0], "high": [0.0, 4.0, 5.0]},  # low > high
+        {"low": [1.0, "2", 3.0], "high": [4.0, 4.0, 5.0]},
+        {"low": [1.0, 2.0, 3.0], "high": [4.0, True, 5.0]},
+        {"low": [1.0, 2.0, 3.0], "high": [4.0, 1e400, 5.0]},  # json: Infinity
+        {"low": [1.0, 2.0, 3.0]},
+        [1.0, 2.0, 3.0],
+    ]
+    changed = 0
+    for path in out.glob("*/lod_manifest.json"):
+        manifest = json.loads(path.read_text())
+        for record in manifest["buildings"]:
+            for lod in record["lods"]:
+                lod["gltf_bounds"] = bad[changed % len(bad)]
+                changed += 1
+        path.write_text(json.dumps(manifest))
+    assert changed >= len(bad)
+    result = write_tileset(out, TilesetOptions())
+    assert (out / "tileset.json").read_bytes() == (city / "tileset.json").read_bytes()
+    assert result.left_out == []
+
+
+def test_a_missing_or_damaged_level_file_is_left_out_though_its_record_has_bounds(city, tmp_path):
+    out = tmp_path / "out"
+    shutil.copytree(city, out)
+    first, second = sorted((out / SEOUL.name).glob("*/lod1.glb"))[:2]
+    first.unlink()
+    second.write_bytes(second.read_bytes()[:16])  # truncated: not the size its record states
+    result = write_tileset(out, TilesetOptions())
+    tileset = load(out)
+    assert structural_problems(out, tileset) == []
+    uris = {unquote(v.uri) for v in walk(tileset) if v.uri}
+    for path in (first, second):
+        name = f"{SEOUL.name}/{path.parent.name}"
+        assert f"{name}/lod1.glb" not in uris and f"{name}/lod0.glb" in uris
+        assert any(line.startswith(f"{name}: LOD1 file") for line in result.left_out)
+
+
 def test_the_switch_turns_the_tileset_off_and_removes_nothing_else(tmp_path):
     config = Config(tileset=TilesetOptions(enabled=False))
     stats = export([make_tile(tmp_path / "in", SEOUL, 1)], tmp_path / "out", config)

@@ -78,9 +78,47 @@ class Node:
     pieces: list | None = None  # a proxy's [first vertex, vertices, first face, faces, bound m]
 
 
-def rounding_slack(low: np.ndarray, high: np.ndarray) -> float:
-    """Metres: the largest float32 rounding of a point of a file with glTF bounds ``low``/``high``."""
-    return float(np.abs(np.concatenate([low, high])).max()) * FLOAT32_ULP * math.sqrt(3.0)
+def rounding_slack(low, high) -> float:
+    """Metres: the largest float32 rounding of a point of a file with glTF bounds ``low``/``high``
+    (3 floats each)."""
+    return max(abs(float(v)) for v in (*low, *high)) * FLOAT32_ULP * math.sqrt(3.0)
+
+
+Bounds = tuple[list[float], list[float]]  # (low, high): 3 glTF-frame metres each
+
+
+def valid_bounds(low, high) -> Bounds | None:
+    """``low``/``high`` as 3 finite floats each with low <= high, or None (JSON numbers only: not
+    bools, strings or nulls)."""
+    if not (isinstance(low, list) and isinstance(high, list) and len(low) == len(high) == 3):
+        return None
+    if any(type(v) not in (int, float) for v in (*low, *high)):
+        return None
+    try:
+        out = [float(v) for v in low], [float(v) for v in high]
+    except OverflowError:  # an integer beyond float range
+        return None
+    finite = all(math.isfinite(v) for v in (*out[0], *out[1]))
+    return out if finite and all(a <= b for a, b in zip(*out)) else None
+
+
+def level_bounds(path: str, lod: dict) -> Bounds:
+    """(low, high) glTF-frame metres of the level file ``path`` (manifest record ``lod``).
+
+    The record's ``gltf_bounds`` (written since 0.4.2: the file's POSITION min/max) when valid and
+    the file is there with its recorded size; otherwise (records of 0.4.1 and older, a file
+    replaced since its record) the file's header. Raises OSError for a missing file, ValueError
+    for one without usable positions."""
+    found = lod.get("gltf_bounds")
+    if isinstance(found, dict):
+        recorded = valid_bounds(found.get("low"), found.get("high"))
+        if recorded is not None and os.stat(path).st_size == lod.get("file_bytes"):
+            return recorded
+    low, high = position_bounds(read_header(path))
+    read = valid_bounds(low.tolist(), high.tolist())
+    if read is None:
+        raise ValueError("position bounds not finite")
+    return read
 
 
 def read_chain(
@@ -88,11 +126,11 @@ def read_chain(
 ) -> BuildingChain | None:
     """The building of manifest ``record`` as a chain, or None (reason appended to ``left_out``)."""
     name = f"{tile.name}/{record.get('folder') or record.get('id')}"
-    bounds: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    bounds: dict[int, Bounds] = {}
     folder = os.path.join(out_dir, tile.name)  # a str: pathlib costs more than the read here
     for lod in record.get("lods", []):
         try:
-            bounds[lod["level"]] = position_bounds(read_header(os.path.join(folder, lod["file"])))
+            bounds[lod["level"]] = level_bounds(os.path.join(folder, lod["file"]), lod)
         except (OSError, ValueError, KeyError, TypeError) as problem:
             left_out.append(
                 f"{name}: LOD{lod.get('level')} file {lod.get('file')} unusable ({problem})"
@@ -101,7 +139,7 @@ def read_chain(
     if 0 not in lods:
         left_out.append(f"{name}: no readable LOD0 file; building left out")
         return None
-    diagonal = float(np.linalg.norm(bounds[0][1] - bounds[0][0]))
+    diagonal = float(np.linalg.norm(np.subtract(bounds[0][1], bounds[0][0])))
     slack0 = rounding_slack(*bounds[0])
     levels: list[Level] = []
     texture_px = 0
@@ -118,7 +156,10 @@ def read_chain(
             )
         if levels and error >= levels[-1].error:
             continue  # no better than a coarser level: never worth refining to
-        levels.append(Level(f"{tile.name}/{lods[level]['file']}", error, *bounds[level]))
+        low, high = bounds[level]
+        levels.append(
+            Level(f"{tile.name}/{lods[level]['file']}", error, np.array(low), np.array(high))
+        )
         coarsest = levels[0].file == f"{tile.name}/{lods[level]['file']}"
         if coarsest:
             texture_px = max(int(v) for v in lods[level].get("texture_size", [0, 0]))
