@@ -403,6 +403,39 @@ def test_the_atlas_gives_each_primitive_a_cell_and_a_broken_texture_its_colour()
     assert (cell_uvs[0] <= 0.5).all() and (cell_uvs[1][:, 0] > 0.5).all()
 
 
+def test_a_jpeg_cell_is_decoded_at_a_reduced_scale_and_keeps_its_source_s_texel_size():
+    from exporter.tileset.glb import GlbPrimitive
+    from exporter.tileset.proxy import pack_atlas
+
+    rows = np.linspace(0, 255, 256, dtype=np.uint8)
+    pixels = np.stack(
+        [
+            np.add.outer(rows, rows) // 2,
+            np.tile(rows, (256, 1)),
+            255 - np.tile(rows[:, None], (1, 256)),
+        ],
+        axis=-1,
+    )
+    jpeg = io.BytesIO()
+    Image.fromarray(pixels.astype(np.uint8), "RGB").save(jpeg, "JPEG", quality=90)
+    square = np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0]])
+    uvs = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]], np.float32)
+    primitive = GlbPrimitive(
+        square, np.array([[0, 1, 2]]), uvs, jpeg.getvalue(), "image/jpeg", (1, 1, 1, 1)
+    )
+    atlas, _, shrink = pack_atlas([primitive], 48)
+    assert shrink == [256 / 48]  # the texel size is the source's, not the reduced decode's
+    with Image.open(io.BytesIO(jpeg.getvalue())) as image:
+        image.draft("RGB", (48, 48))
+        assert image.size == (64, 64)  # libjpeg's 1/4 scale: the smallest not below the cell
+        scaled = np.asarray(image.resize((48, 48), Image.Resampling.BOX), np.int16)
+    with Image.open(io.BytesIO(jpeg.getvalue())) as image:
+        full = np.asarray(image.resize((48, 48), Image.Resampling.BOX), np.int16)
+    cell = np.asarray(atlas, np.int16)
+    assert np.array_equal(cell, scaled)
+    assert np.abs(cell - full).mean() < 2.0  # the same picture as a full decode, within JPEG noise
+
+
 def test_a_proxy_input_broken_after_it_was_read_leaves_that_proxy_out(city, tmp_path, monkeypatch):
     from exporter.tileset import proxy
 
