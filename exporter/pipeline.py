@@ -178,6 +178,17 @@ def read_record(path: Path) -> dict | None:
         return None
 
 
+def manifest_record(path: str) -> dict | None:
+    """The manifest entry (``record``) of a record file written this run, or None when it cannot
+    be read (no input fingerprints or stat: :func:`read_record` is for reuse)."""
+    try:
+        with open(path, "rb") as handle:
+            record = json.loads(handle.read())["record"]
+        return record if isinstance(record, dict) else None
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
 def previous_records(out_dir: Path) -> dict[tuple[str, str], Path]:
     """Record files a previous run left in ``out_dir``, keyed by (source, id). Only the paths are
     kept: a record is read again when its building comes up (memory stays flat over a city)."""
@@ -446,7 +457,7 @@ def write_tile_output(
     tile_dir.mkdir(parents=True, exist_ok=True)
     records = []
     for folder in folders:
-        found = read_record(tile_dir / folder / RECORD_NAME)
+        found = manifest_record(os.path.join(tile_dir, folder, RECORD_NAME))
         if found is None:  # removed or damaged since this run wrote it: reported, not invented
             skipped = skipped + [
                 Skipped(
@@ -457,11 +468,13 @@ def write_tile_output(
                 )
             ]
         else:
-            records.append(found["record"])
+            records.append(found)
     keep = set(folders)
-    for record_file in tile_dir.glob(f"*/{RECORD_NAME}"):  # only folders this tool made
-        if record_file.parent.name not in keep:
-            shutil.rmtree(record_file.parent, ignore_errors=True)
+    with os.scandir(tile_dir) as found_names:  # a listing: no stat of the folders kept
+        others = [e.path for e in found_names if e.name not in keep and not e.name.startswith(".")]
+    for folder_path in others:  # only folders this tool made (as glob's "*" sees them)
+        if os.path.isfile(os.path.join(folder_path, RECORD_NAME)):
+            shutil.rmtree(folder_path, ignore_errors=True)
     lon, lat = tile_center(tile)
     manifest = build_manifest(
         tile,

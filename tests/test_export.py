@@ -426,6 +426,22 @@ def test_manifest_is_made_from_the_record_files_and_a_vanished_one_is_reported(
     assert (tile_dir / folders[0] / "lod0.glb").is_file()  # its files are left alone
 
 
+def test_the_manifest_removes_building_folders_of_earlier_runs_only(tmp_path, small_tile):
+    import exporter.pipeline as pipeline
+    from exporter.config import Config
+
+    out = tmp_path / "out"
+    pipeline.export_tiles([small_tile], out, Config(), jobs=1)
+    tile_dir = out / manifest_of(out)["tile"]["name"]
+    folders = sorted(p.name for p in tile_dir.iterdir() if (p / "building.json").is_file())
+    (tile_dir / "notes").mkdir()  # not made by this tool: no record file
+    (tile_dir / "notes" / "todo.txt").write_text("mine")
+    pipeline.write_tile_output(out, TILE, Config(), folders[1:], [])
+    assert not (tile_dir / folders[0]).exists()
+    assert (tile_dir / "notes" / "todo.txt").read_text() == "mine"
+    assert [b["folder"] for b in manifest_of(out)["buildings"]] == folders[1:]
+
+
 def test_levels_report_their_error_budget_and_whether_they_shrank(tmp_path, small_tile):
     # Transitions 50/49/48 %: level 2's budget is barely above level 1's, so level 2 mostly finds
     # nothing more to collapse and says so, while level 1 shrinks (mesh caps at 1.0: the budget

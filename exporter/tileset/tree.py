@@ -21,6 +21,7 @@ import json
 import math
 import os
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -57,8 +58,9 @@ class BuildingChain:
         """Metres per texel of the coarsest level's texture (it spans at most the diagonal)."""
         return self.diagonal / self.texture_px if self.texture_px else 0.0
 
-    @property
+    @cached_property
     def world(self) -> np.ndarray:
+        """4 x 4: the building's tile frame -> ECEF (the tree and its tile's proxy both use it)."""
         return frames.world_matrix(*self.center)
 
 

@@ -26,13 +26,16 @@ from .tree import Node
 TILESET_NAME = "tileset.json"
 
 
-def finish(node: Node, parent_world: np.ndarray) -> np.ndarray:
+def finish(node: Node, parent_world: np.ndarray, parent_inverse: np.ndarray) -> np.ndarray:
     """Fill ``node.box`` (in its frame) and ``node.error`` bottom-up; returns the (8, 3) ECEF
-    corners of its box."""
-    frame = node.world if node.world is not None else parent_world
-    to_frame = frames.inverse_rigid(frame)
+    corners of its box. ``parent_inverse``: ECEF -> ``parent_world``'s frame (computed once per
+    frame: a building's levels share its frame)."""
+    if node.world is None:
+        frame, to_frame = parent_world, parent_inverse
+    else:
+        frame, to_frame = node.world, frames.inverse_rigid(node.world)
     points = [] if node.corners is None else [node.corners]
-    points += [finish(child, frame) for child in node.children]
+    points += [finish(child, frame, to_frame) for child in node.children]
     box = frames.box_around(frames.apply(to_frame, np.vstack(points)))
     node.box = box  # type: ignore[attr-defined]
     most = max((child.error for child in node.children), default=0.0)
@@ -48,21 +51,22 @@ def box_diagonal(box: list[float]) -> float:
     return 2.0 * float(np.linalg.norm(np.linalg.norm(np.asarray(box[3:]).reshape(3, 3), axis=1)))
 
 
-def tile_json(node: Node, parent_world: np.ndarray) -> dict:
-    """The 3D Tiles ``tile`` object of ``node`` (recursively)."""
+def tile_json(node: Node, parent_world: np.ndarray, parent_inverse: np.ndarray) -> dict:
+    """The 3D Tiles ``tile`` object of ``node`` (recursively); ``parent_inverse``: ECEF ->
+    ``parent_world``'s frame."""
     out: dict = {
         "boundingVolume": {"box": node.box},  # type: ignore[attr-defined]
         "geometricError": node.error,
         "refine": "REPLACE",
     }
-    frame = parent_world
+    frame, inverse = parent_world, parent_inverse
     if node.world is not None:
-        out["transform"] = frames.column_major(frames.inverse_rigid(parent_world) @ node.world)
-        frame = node.world
+        out["transform"] = frames.column_major(parent_inverse @ node.world)
+        frame, inverse = node.world, frames.inverse_rigid(node.world)
     if node.content is not None:
         out["content"] = {"uri": quote(node.content)}
     if node.children:
-        out["children"] = [tile_json(child, frame) for child in node.children]
+        out["children"] = [tile_json(child, frame, inverse) for child in node.children]
     return out
 
 
@@ -70,12 +74,12 @@ def tileset_json(tops: list[Node], left_out: list[str]) -> dict:
     """The whole tileset: one top node is the root, several hang under a root without content."""
     root = tops[0] if len(tops) == 1 else Node("root", None, children=tops)
     identity = np.eye(4)
-    finish(root, identity)
+    finish(root, identity, frames.inverse_rigid(identity))
     tileset: dict = {
         "asset": {"version": "1.1", "tilesetVersion": f"vworld-lod {__version__}"},
         # The error of drawing nothing (clients draw nothing below it): the whole box's size.
         "geometricError": max(root.error, box_diagonal(root.box)),  # type: ignore[attr-defined]
-        "root": tile_json(root, identity),
+        "root": tile_json(root, identity, frames.inverse_rigid(identity)),
     }
     if left_out:
         tileset["extras"] = {"left_out": sorted(left_out)}
