@@ -38,7 +38,7 @@ from .names import unique_ids
 from .placement import tile_placement
 from .readers import Entry, check_crs_option, scan_folder
 from .records import files_intact, stamped, write_record
-from .tile_index import write_tile_index
+from .tile_index import fresh_facts, write_tile_index
 from .tiles import tile_bounds, tile_center
 from .tileset import TilesetResult, write_tileset
 from .workers import start_worker
@@ -434,7 +434,12 @@ def export_tiles(
     # once, after the tileset, listing its proxies for the streamer, and also when the tileset fails.
     try:
         if config.tileset.enabled:
-            stats.tileset = write_tileset(out_dir, config.tileset, config.textures.jpeg_quality)
+            stats.tileset = write_tileset(
+                out_dir,
+                config.tileset,
+                config.textures.jpeg_quality,
+                fresh_facts(stats.tiles, config.globe),
+            )
     finally:
         proxies = stats.tileset.proxies_index if stats.tileset is not None else []
         write_tile_index(out_dir, stats.tiles, config.globe, proxies)

@@ -338,6 +338,23 @@ def test_a_missing_or_damaged_level_file_is_left_out_though_its_record_has_bound
         assert any(line.startswith(f"{name}: LOD1 file") for line in result.left_out)
 
 
+def test_an_export_reads_each_of_its_manifests_once_for_the_tileset(tmp_path, monkeypatch):
+    from exporter import tile_index
+
+    read: list[str] = []
+    real = tile_index._manifest_facts
+
+    def counted(path):
+        read.append(str(path))
+        return real(path)
+
+    monkeypatch.setattr(tile_index, "_manifest_facts", counted)
+    out = tmp_path / "out"
+    export([make_tile(tmp_path / "in", SEOUL, 2, 9)], out)  # this run's tile: facts known
+    assert read == []
+    assert len(chains(walk(load(out)))) == 2
+
+
 def test_the_switch_turns_the_tileset_off_and_removes_nothing_else(tmp_path):
     config = Config(tileset=TilesetOptions(enabled=False))
     stats = export([make_tile(tmp_path / "in", SEOUL, 1)], tmp_path / "out", config)

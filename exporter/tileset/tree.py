@@ -177,12 +177,15 @@ def read_chain(
     )
 
 
-def read_buildings(out_dir: Path) -> tuple[dict[TileId, list[BuildingChain]], list[str]]:
+def read_buildings(
+    out_dir: Path, fresh: dict[str, tuple[int, dict]] | None = None
+) -> tuple[dict[TileId, list[BuildingChain]], list[str]]:
     """Every building of every tile manifest under ``out_dir`` (also earlier runs'), by tile, and
-    the reasons for what was left out."""
+    the reasons for what was left out. ``fresh``: the index facts of the run's own tiles
+    (:func:`exporter.tile_index.fresh_facts`), so their manifests are read once, here."""
     left_out: list[str] = []
     by_tile: dict[TileId, list[BuildingChain]] = {}
-    for entry in build_index(out_dir)["tiles"]:
+    for entry in build_index(out_dir, fresh)["tiles"]:
         tile = TileId(entry["level"], entry["idx"], entry["idy"])
         try:
             manifest = json.loads((out_dir / entry["manifest"]).read_text(encoding="utf-8"))
