@@ -264,6 +264,19 @@ def test_every_level_record_states_its_file_s_position_bounds_exactly(city):
     assert levels >= 20
 
 
+def _counted(monkeypatch, module, name: str) -> list[str]:
+    """The paths ``module.name(path)`` is called with from now on (it still runs)."""
+    calls: list[str] = []
+    real = getattr(module, name)
+
+    def counted(path):
+        calls.append(str(path))
+        return real(path)
+
+    monkeypatch.setattr(module, name, counted)
+    return calls
+
+
 def _without_bounds(out: Path, keep: int) -> None:
     """Remove ``gltf_bounds`` from every level record of ``out``'s manifests but the first
     ``keep`` buildings' of each (as 0.4.1 wrote them)."""
@@ -283,14 +296,7 @@ def test_recorded_bounds_spare_the_file_reads_and_old_records_give_the_same_tile
     out = tmp_path / "out"
     shutil.copytree(city, out)
     _without_bounds(out, keep=2)  # 2 buildings per tile keep theirs
-    read: list[str] = []
-    real = tree.read_header
-
-    def counted(path):
-        read.append(str(path))
-        return real(path)
-
-    monkeypatch.setattr(tree, "read_header", counted)
+    read = _counted(monkeypatch, tree, "read_header")
     write_tileset(out, TilesetOptions())
     assert (out / "tileset.json").read_bytes() == (city / "tileset.json").read_bytes()
     assert len(read) == 2 * 3 * 3  # 3 buildings of each tile without bounds, 3 levels each
@@ -341,14 +347,7 @@ def test_a_missing_or_damaged_level_file_is_left_out_though_its_record_has_bound
 def test_an_export_reads_each_of_its_manifests_once_for_the_tileset(tmp_path, monkeypatch):
     from exporter import tile_index
 
-    read: list[str] = []
-    real = tile_index._manifest_facts
-
-    def counted(path):
-        read.append(str(path))
-        return real(path)
-
-    monkeypatch.setattr(tile_index, "_manifest_facts", counted)
+    read = _counted(monkeypatch, tile_index, "_manifest_facts")
     out = tmp_path / "out"
     export([make_tile(tmp_path / "in", SEOUL, 2, 9)], out)  # this run's tile: facts known
     assert read == []
