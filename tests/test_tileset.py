@@ -354,6 +354,29 @@ def test_an_export_reads_each_of_its_manifests_once_for_the_tileset(tmp_path, mo
     assert len(chains(walk(load(out)))) == 2
 
 
+def test_batched_building_chains_give_the_bits_of_the_node_by_node_path(city, monkeypatch):
+    from exporter.tileset import frames, write
+    from exporter.tileset.tree import quadtree, read_buildings
+
+    by_tile, left_out = read_buildings(city)
+    lengths = {len(chain.levels) for chains in by_tile.values() for chain in chains}
+    assert len(lengths) > 1  # batches of several lengths
+    tops = quadtree(by_tile)
+    batched = write.tileset_json(tops, left_out)
+    assert len(tops) == 1  # the two tiles under their common ancestor
+    for top in write.building_tops(tops[0]):
+        node, chain = top, top.building
+        assert chain is not None
+        for level in chain.levels:
+            assert node is not None and node.corners is not None
+            one = frames.apply(chain.world, frames.gltf_corners(level.low, level.high))
+            assert np.array_equal(node.corners, one)
+            node = node.children[0] if node.children else None
+    monkeypatch.setattr(write, "finish_chains", lambda tops: None)  # finish() does every node
+    single = write.tileset_json(quadtree(by_tile), left_out)
+    assert json.dumps(batched) == json.dumps(single)
+
+
 def test_the_switch_turns_the_tileset_off_and_removes_nothing_else(tmp_path):
     config = Config(tileset=TilesetOptions(enabled=False))
     stats = export([make_tile(tmp_path / "in", SEOUL, 1)], tmp_path / "out", config)

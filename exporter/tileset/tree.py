@@ -78,6 +78,8 @@ class Node:
     geometric: float = 0.0  # a proxy's certified geometric bound, metres
     texel: float = 0.0  # a proxy's metres per atlas texel
     pieces: list | None = None  # a proxy's [first vertex, vertices, first face, faces, bound m]
+    box: list[float] | None = None  # 3D Tiles box in its frame (set by write.finish)
+    box_ecef: np.ndarray | None = None  # (8, 3) ECEF corners of ``box`` (a building's top)
 
 
 def rounding_slack(low, high) -> float:
@@ -207,18 +209,28 @@ def read_buildings(
     return by_tile, left_out
 
 
-def building_node(chain: BuildingChain) -> Node:
-    """The chain as nested nodes (coarsest on top, one transform at the top)."""
-    world = chain.world
-    nodes = []
-    for level in chain.levels:
-        corners = frames.apply(world, frames.gltf_corners(level.low, level.high))
-        nodes.append(Node(f"{chain.id}/{level.file}", None, level.error, level.file, corners))
-    for parent, child in zip(nodes, nodes[1:]):
-        parent.children = [child]
-    nodes[0].world = world
-    nodes[0].building = chain
-    return nodes[0]
+def building_nodes(chains: list[BuildingChain]) -> list[Node]:
+    """Each chain as nested nodes (coarsest on top, one transform at the top); the levels'
+    corners for all chains at once."""
+    levels = [(chain, level) for chain in chains for level in chain.levels]
+    if not levels:
+        return []
+    lows = np.array([level.low for _, level in levels], np.float64)
+    highs = np.array([level.high for _, level in levels], np.float64)
+    worlds = np.array([chain.world for chain, _ in levels])
+    corners = iter(frames.apply_each(worlds, frames.gltf_corners_each(lows, highs)))
+    tops = []
+    for chain in chains:
+        nodes = [
+            Node(f"{chain.id}/{level.file}", None, level.error, level.file, next(corners))
+            for level in chain.levels
+        ]
+        for parent, child in zip(nodes, nodes[1:]):
+            parent.children = [child]
+        nodes[0].world = chain.world
+        nodes[0].building = chain
+        tops.append(nodes[0])
+    return tops
 
 
 def tile_world(tile: TileId) -> np.ndarray:
@@ -237,6 +249,9 @@ def quadtree(by_tile: dict[TileId, list[BuildingChain]]) -> list[Node]:
 
     A tile node's children: its buildings' chains (by id), then its child tiles' nodes (SW, SE,
     NW, NE); a tile without buildings and with one child tile is replaced by that child."""
+
+    every = [chain for chains in by_tile.values() for chain in chains]
+    node_of = {id(chain): node for chain, node in zip(every, building_nodes(every))}
 
     def build(tile: TileId, leaves: list[TileId]) -> Node | None:
         own = by_tile.get(tile, [])
@@ -257,7 +272,7 @@ def quadtree(by_tile: dict[TileId, list[BuildingChain]]) -> list[Node]:
             return None
         if not own and len(subtiles) == 1:
             return subtiles[0]
-        children = [building_node(chain) for chain in own] + subtiles
+        children = [node_of[id(chain)] for chain in own] + subtiles
         return Node(tile.name, tile_world(tile), children=children, tile=tile)
 
     leaves = sorted(by_tile, key=lambda t: (t.level, t.idx, t.idy))
