@@ -32,12 +32,12 @@ from .config import Config
 from .distributed import ClusterOptions, batch_size_for, cluster_results, cluster_session
 from .errors import InputError
 from .job import RECORD_NAME, STAGES, EntryResult, process_entry
-from .manifest import MANIFEST_NAME, build_manifest, dumps
+from .manifest import MANIFEST_NAME, build_manifest, dumps, record_line
 from .model import Skipped, TileId
 from .names import unique_ids
 from .placement import tile_placement
 from .readers import Entry, check_crs_option, scan_folder
-from .records import files_intact, stamped, write_record
+from .records import files_intact, stamped, top_level_values, write_record
 from .tile_index import fresh_facts, write_tile_index
 from .tiles import tile_bounds, tile_center
 from .tileset import TilesetResult, write_tileset
@@ -178,13 +178,14 @@ def read_record(path: Path) -> dict | None:
         return None
 
 
-def manifest_record(path: str) -> dict | None:
-    """The manifest entry (``record``) of a record file written this run, or None when it cannot
+def manifest_record(path: str) -> tuple[dict, str | None] | None:
+    """The manifest entry (``record``) of a record file written this run and its manifest line
+    when its text can be copied (:func:`exporter.manifest.record_line`), or None when it cannot
     be read (no input fingerprints or stat: :func:`read_record` is for reuse)."""
     try:
-        with open(path, "rb") as handle:
-            record = json.loads(handle.read())["record"]
-        return record if isinstance(record, dict) else None
+        with open(path, encoding="utf-8") as handle:
+            record, text = top_level_values(handle.read())["record"]
+        return (record, record_line(text)) if isinstance(record, dict) else None
     except (OSError, ValueError, KeyError, TypeError):
         return None
 
@@ -461,6 +462,7 @@ def write_tile_output(
     tile_dir = out_dir / tile.name
     tile_dir.mkdir(parents=True, exist_ok=True)
     records = []
+    lines_of: dict[int, str] = {}  # records' manifest lines copied from their files, by id()
     for folder in folders:
         found = manifest_record(os.path.join(tile_dir, folder, RECORD_NAME))
         if found is None:  # removed or damaged since this run wrote it: reported, not invented
@@ -473,7 +475,10 @@ def write_tile_output(
                 )
             ]
         else:
-            records.append(found)
+            record, line = found
+            records.append(record)
+            if line is not None:
+                lines_of[id(record)] = line
     keep = set(folders)
     with os.scandir(tile_dir) as found_names:  # a listing: no stat of the folders kept
         others = [e.path for e in found_names if e.name not in keep and not e.name.startswith(".")]
@@ -490,5 +495,5 @@ def write_tile_output(
         records,
         skipped,
     )
-    path = write_text_atomic(tile_dir / MANIFEST_NAME, dumps(manifest), durable=True)
+    path = write_text_atomic(tile_dir / MANIFEST_NAME, dumps(manifest, lines_of), durable=True)
     return TileResult(tile, path, len(records), len(skipped), reused)
