@@ -112,7 +112,8 @@ def level_bounds(path: str, lod: dict) -> Bounds:
     The record's ``gltf_bounds`` (written since 0.4.2: the file's POSITION min/max) when valid and
     the file is there with its recorded size; otherwise (records of 0.4.1 and older, a file
     replaced since its record) the file's header. Raises OSError for a missing file, ValueError
-    for one without usable positions."""
+    for one without usable positions. A file damaged in place at its recorded size is not seen
+    here (the tileset never read file bodies; a re-run's CRC-32 check redoes such a building)."""
     found = lod.get("gltf_bounds")
     if isinstance(found, dict):
         recorded = valid_bounds(found.get("low"), found.get("high"))
