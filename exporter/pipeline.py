@@ -16,6 +16,7 @@ Output layout: ``OUT/<level>_<idx>_<idy>/lod_manifest.json`` and
 from __future__ import annotations
 
 import dataclasses
+import gc
 import hashlib
 import json
 import os
@@ -322,6 +323,21 @@ def _result_stream(
         yield cluster_results(client, work, total, options)
 
 
+@contextmanager
+def without_gc() -> Iterator[None]:
+    """No cyclic garbage collection inside: the manifests and the tileset allocate about a million
+    short-lived, acyclic objects (parsed records, tree nodes) that reference counting frees, and
+    each collection they trigger would scan the whole heap again (the 1,248-building tile's tail:
+    ~0.1 s of ~0.8 s CPU). Collection resumes as it was after, also on an error."""
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
+
+
 def export_tiles(
     folders: list[str | Path],
     out: str | Path,
@@ -420,30 +436,32 @@ def export_tiles(
         raise InputError(
             f"{', '.join(map(str, folders))}: no building could be read; first problem: {unplaced[0].source}: {unplaced[0].reason}"
         )
-    for tile in sorted(tiles, key=lambda t: (t.level, t.idx, t.idy)):
-        stats.tiles.append(
-            write_tile_output(
-                out_dir,
-                tile,
-                config,
-                folders_of.get(tile, []),
-                skipped.get(tile, []) + unplaced,
-                reused.get(tile, 0),
+    with without_gc():
+        for tile in sorted(tiles, key=lambda t: (t.level, t.idx, t.idy)):
+            stats.tiles.append(
+                write_tile_output(
+                    out_dir,
+                    tile,
+                    config,
+                    folders_of.get(tile, []),
+                    skipped.get(tile, []) + unplaced,
+                    reused.get(tile, 0),
+                )
             )
-        )
-    # After the manifests (the tileset and tiles.json reference only complete files); tiles.json
-    # once, after the tileset, listing its proxies for the streamer, and also when the tileset fails.
-    try:
-        if config.tileset.enabled:
-            stats.tileset = write_tileset(
-                out_dir,
-                config.tileset,
-                config.textures.jpeg_quality,
-                fresh_facts(stats.tiles, config.globe),
-            )
-    finally:
-        proxies = stats.tileset.proxies_index if stats.tileset is not None else []
-        write_tile_index(out_dir, stats.tiles, config.globe, proxies)
+        # After the manifests (the tileset and tiles.json reference only complete files);
+        # tiles.json once, after the tileset, listing its proxies for the streamer, and also when
+        # the tileset fails.
+        try:
+            if config.tileset.enabled:
+                stats.tileset = write_tileset(
+                    out_dir,
+                    config.tileset,
+                    config.textures.jpeg_quality,
+                    fresh_facts(stats.tiles, config.globe),
+                )
+        finally:
+            proxies = stats.tileset.proxies_index if stats.tileset is not None else []
+            write_tile_index(out_dir, stats.tiles, config.globe, proxies)
     stats.wall_seconds = time.perf_counter() - started
     return stats
 

@@ -377,6 +377,32 @@ def test_batched_building_chains_give_the_bits_of_the_node_by_node_path(city, mo
     assert json.dumps(batched) == json.dumps(single)
 
 
+def test_the_export_tail_runs_without_cyclic_gc_and_restores_it(tmp_path, monkeypatch):
+    import gc
+
+    from exporter import pipeline
+
+    seen: list[bool] = []
+    real = pipeline.write_tileset
+
+    def watched(*args, **kwargs):
+        seen.append(gc.isenabled())
+        return real(*args, **kwargs)
+
+    def broken(*args, **kwargs):
+        seen.append(gc.isenabled())
+        raise OSError("disk full")
+
+    monkeypatch.setattr(pipeline, "write_tileset", watched)
+    folder = make_tile(tmp_path / "in", SEOUL, 1, 10)
+    export([folder], tmp_path / "out")
+    monkeypatch.setattr(pipeline, "write_tileset", broken)
+    with pytest.raises(OSError):
+        export([folder], tmp_path / "out2")
+    assert seen == [False, False] and gc.isenabled()
+    assert (tmp_path / "out2" / "tiles.json").is_file()  # still written when the tileset fails
+
+
 def test_the_switch_turns_the_tileset_off_and_removes_nothing_else(tmp_path):
     config = Config(tileset=TilesetOptions(enabled=False))
     stats = export([make_tile(tmp_path / "in", SEOUL, 1)], tmp_path / "out", config)
