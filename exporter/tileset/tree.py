@@ -8,8 +8,10 @@ Data form: :class:`Node` (one 3D Tiles tile). ``world`` is the node's tile frame
 - A building is a chain, coarsest level first, each level the only child of the one above
   (``REPLACE``); a level's error is its certified Hausdorff bound against LOD0 in metres: the
   manifest's ``hausdorff_rel`` (relative to LOD0's bounding-box diagonal, exporter/quality.py)
-  times that diagonal, read from LOD0's file, plus the float32 rounding of both files. A level no
-  better than a coarser one is left out (the errors then strictly decrease to LOD0's 0).
+  times that diagonal, plus the float32 rounding of both files. Each file's glTF-frame bounds come
+  from its record's ``gltf_bounds`` (:func:`level_bounds`; from the file's header for records
+  without them). A level no better than a coarser one is left out (the errors then strictly
+  decrease to LOD0's 0).
 - Tiles holding buildings have the buildings as children; above them the quadtree, compressed: a
   tile with one child is that child. Several top tiles hang under one root without content.
 - Buildings or levels whose files are missing are left out and listed (never referenced).
