@@ -108,8 +108,11 @@ def lod_record(
     largest = max(textures, key=lambda t: t.width * t.height, default=None)
     # The writer skips parts without triangles and stores float32 glTF-frame positions.
     written = [local_to_gltf_positions(p.positions) for p in parts if p.triangle_count]
-    low = np.min([a.min(axis=0) for a in written], axis=0)
-    high = np.max([a.max(axis=0) for a in written], axis=0)
+    bounds = {}
+    if written:  # always (a level keeps a triangle); else the tileset reads the file and says so
+        low = np.min([a.min(axis=0) for a in written], axis=0)
+        high = np.max([a.max(axis=0) for a in written], axis=0)
+        bounds["gltf_bounds"] = {"low": [float(v) for v in low], "high": [float(v) for v in high]}
     return {
         "level": level,
         "file": file_name,
@@ -118,7 +121,7 @@ def lod_record(
         "texture_size": [largest.width, largest.height] if largest else [0, 0],
         "texture_bytes": sum(len(t.data) for t in {id(t): t for t in textures}.values()),
         "file_bytes": len(data),
-        "gltf_bounds": {"low": [float(v) for v in low], "high": [float(v) for v in high]},
+        **bounds,
         "quality": quality.to_manifest() if quality is not None else {"triangle_ratio": 1.0},
     }
 
