@@ -106,13 +106,15 @@ def lod_record(
     read of the file (:func:`exporter.tileset.tree.read_chain`)."""
     textures = [p.texture for p in parts if p.texture is not None and p.triangle_count]
     largest = max(textures, key=lambda t: t.width * t.height, default=None)
-    # The writer skips parts without triangles and stores float32 glTF-frame positions.
+    # Exactly what the writer stores: float32 glTF-frame positions of the parts with triangles.
     written = [local_to_gltf_positions(p.positions) for p in parts if p.triangle_count]
     bounds = {}
     if written:  # always (a level keeps a triangle); else the tileset reads the file and says so
-        low = np.min([a.min(axis=0) for a in written], axis=0)
-        high = np.max([a.max(axis=0) for a in written], axis=0)
-        bounds["gltf_bounds"] = {"low": [float(v) for v in low], "high": [float(v) for v in high]}
+        stored = written[0] if len(written) == 1 else np.concatenate(written)
+        bounds["gltf_bounds"] = {
+            "low": stored.min(axis=0).tolist(),
+            "high": stored.max(axis=0).tolist(),
+        }
     return {
         "level": level,
         "file": file_name,
