@@ -23,7 +23,7 @@ import numpy as np
 from .atomic import write_bytes_atomic
 from .config import Config
 from .errors import ProcessError, ReadError, error_text
-from .gltf_writer import glb_bytes
+from .gltf_writer import glb_bytes, local_to_gltf_positions
 from .model import Building, Part, Skipped, Texture, TileId
 from .names import name_error, safe_folder_name
 from .placement import building_placement, relative_placement
@@ -100,9 +100,22 @@ def same_geometry(parts: list[Part], other: list[Part]) -> bool:
 def lod_record(
     level: int, parts: list[Part], file_name: str, data: bytes, quality: LevelQuality | None
 ) -> dict:
-    """A level's manifest record; ``quality`` None for LOD0 (the source: only its ratio, 1)."""
+    """A level's manifest record; ``quality`` None for LOD0 (the source: only its ratio, 1).
+
+    ``gltf_bounds``: the file's position bounds (glTF frame: +X = West, +Y = Up, +Z = North,
+    metres), the float32 values its POSITION accessors' min/max store, so the tileset needs no
+    read of the file (:func:`exporter.tileset.tree.read_chain`)."""
     textures = [p.texture for p in parts if p.texture is not None and p.triangle_count]
     largest = max(textures, key=lambda t: t.width * t.height, default=None)
+    # Exactly what the writer stores: float32 glTF-frame positions of the parts with triangles.
+    written = [local_to_gltf_positions(p.positions) for p in parts if p.triangle_count]
+    bounds = {}
+    if written:  # always (a level keeps a triangle); else the tileset reads the file and says so
+        stored = written[0] if len(written) == 1 else np.concatenate(written)
+        bounds["gltf_bounds"] = {
+            "low": stored.min(axis=0).tolist(),
+            "high": stored.max(axis=0).tolist(),
+        }
     return {
         "level": level,
         "file": file_name,
@@ -111,6 +124,7 @@ def lod_record(
         "texture_size": [largest.width, largest.height] if largest else [0, 0],
         "texture_bytes": sum(len(t.data) for t in {id(t): t for t in textures}.values()),
         "file_bytes": len(data),
+        **bounds,
         "quality": quality.to_manifest() if quality is not None else {"triangle_ratio": 1.0},
     }
 

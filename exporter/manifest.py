@@ -151,10 +151,20 @@ def build_manifest(
     }
 
 
-def dumps(manifest: dict) -> str:
+def record_line(text: str) -> str | None:
+    """The manifest line of a building record from its JSON text as
+    :func:`exporter.records.write_record` wrote it (``json.dumps``' default separators, ASCII
+    only): that very text, unless it holds a ``\\u`` escape (the manifest writes non-ASCII
+    characters as they are) or a line break; then None (it is encoded again)."""
+    return None if "\\u" in text or "\n" in text else text
+
+
+def dumps(manifest: dict, lines_of: dict[int, str] | None = None) -> str:
     """The manifest as JSON text: one line per top-level key, and one line per item of the
     ``buildings`` and ``skipped`` lists (readable and diff-friendly per building, and written by
-    json's C encoder: ``indent`` would switch to its pure-Python one, ~10x slower on a city tile)."""
+    json's C encoder: ``indent`` would switch to its pure-Python one, ~10x slower on a city tile).
+    ``lines_of``: items' lines already encoded (:func:`record_line`), by ``id()`` of the item."""
+    known = lines_of or {}
 
     def compact(value) -> str:
         return json.dumps(value, ensure_ascii=False, allow_nan=False, separators=(", ", ": "))
@@ -162,7 +172,7 @@ def dumps(manifest: dict) -> str:
     lines = []
     for key, value in manifest.items():
         if isinstance(value, list) and value and all(isinstance(item, dict) for item in value):
-            items = ",\n  ".join(compact(item) for item in value)
+            items = ",\n  ".join(known.get(id(item)) or compact(item) for item in value)
             lines.append(f"{compact(key)}: [\n  {items}\n ]")
         else:
             lines.append(f"{compact(key)}: {compact(value)}")

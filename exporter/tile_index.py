@@ -207,6 +207,15 @@ def build_index(
     return index
 
 
+def fresh_facts(tiles: Iterable = (), globe=None) -> dict[str, tuple[int, dict]]:
+    """:func:`build_index`'s ``fresh`` for the run's tiles (:class:`exporter.pipeline.TileResult`)
+    written with the globe options ``globe`` (empty without them: their manifests are read)."""
+    if globe is None:
+        return {}
+    radii = {"earth_radius_m": globe.earth_radius, "unity_radius": globe.unity_radius}
+    return {r.tile.name: (r.buildings, radii) for r in tiles}
+
+
 def write_tile_index(
     out_dir: str | Path, tiles: Iterable = (), globe=None, proxies: Iterable[dict] = ()
 ) -> Path:
@@ -216,13 +225,7 @@ def write_tile_index(
     ``globe``: the run's :class:`exporter.config.GlobeOptions` (without it those tiles' manifests
     are read for their radii); ``proxies``: the tileset's proxy records (``TilesetResult.proxies_index``).
     """
-    radii = (
-        {"earth_radius_m": globe.earth_radius, "unity_radius": globe.unity_radius}
-        if globe is not None
-        else None
-    )
-    fresh = {r.tile.name: (r.buildings, radii) for r in tiles} if radii is not None else {}
-    index = build_index(out_dir, fresh, proxies)
+    index = build_index(out_dir, fresh_facts(tiles, globe), proxies)
     text = json.dumps(index, ensure_ascii=False, allow_nan=False, indent=1) + "\n"
     return write_text_atomic(Path(out_dir) / INDEX_NAME, text, durable=True)
 

@@ -457,6 +457,68 @@ def test_manifest_is_made_from_the_record_files_and_a_vanished_one_is_reported(
     assert (tile_dir / folders[0] / "lod0.glb").is_file()  # its files are left alone
 
 
+def test_the_manifest_removes_building_folders_of_earlier_runs_only(tmp_path, small_tile):
+    import exporter.pipeline as pipeline
+    from exporter.config import Config
+
+    out = tmp_path / "out"
+    pipeline.export_tiles([small_tile], out, Config(), jobs=1)
+    tile_dir = out / manifest_of(out)["tile"]["name"]
+    folders = sorted(p.name for p in tile_dir.iterdir() if (p / "building.json").is_file())
+    (tile_dir / "notes").mkdir()  # not made by this tool: no record file
+    (tile_dir / "notes" / "todo.txt").write_text("mine")
+    pipeline.write_tile_output(out, TILE, Config(), folders[1:], [])
+    assert not (tile_dir / folders[0]).exists()
+    assert (tile_dir / "notes" / "todo.txt").read_text() == "mine"
+    assert [b["folder"] for b in manifest_of(out)["buildings"]] == folders[1:]
+
+
+def test_manifest_lines_copied_from_record_files_are_what_encoding_gives(tmp_path, small_tile):
+    import exporter.pipeline as pipeline
+    from exporter.config import Config
+    from exporter.manifest import dumps
+
+    out = tmp_path / "out"
+    pipeline.export_tiles([small_tile], out, Config(), jobs=1)
+    tile_dir = out / manifest_of(out)["tile"]["name"]
+    folders = [b["folder"] for b in manifest_of(out)["buildings"]]
+    files = [tile_dir / folder / "building.json" for folder in folders[:3]]
+    data = [json.loads(path.read_text()) for path in files]
+    data[0]["record"]["source"] = "서울/건물 1.xdo"  # written \uXXXX in the record file
+    data[1]["record"]["problems"] = ["a \\users path"]  # a backslash before a u
+    files[0].write_text(json.dumps(data[0]))
+    files[1].write_text(json.dumps(data[1]))
+    files[2].write_text(json.dumps(data[2], indent=2))  # not one line
+    pipeline.write_tile_output(out, TILE, Config(), folders, [])
+    text = (tile_dir / "lod_manifest.json").read_text(encoding="utf-8")
+    assert text == dumps(json.loads(text))  # every line as encoding the record gives it
+    assert "서울/건물 1.xdo" in text and [d["record"] for d in data[:3]] == [
+        b for b in json.loads(text)["buildings"] if b["folder"] in folders[:3]
+    ]
+
+
+def test_record_file_members_come_with_their_exact_text():
+    from exporter.records import top_level_values
+
+    text = '{"tile": {"level": 15}, "record": {"id": "B1", "x": [1.5, -0.0, 1e-07]}, "files": []}'
+    found = top_level_values(text)
+    assert {key: value for key, (value, _) in found.items()} == json.loads(text)
+    assert found["record"][1] == '{"id": "B1", "x": [1.5, -0.0, 1e-07]}'
+    assert top_level_values(' {\n "a" :1 }\n') == {"a": (1, "1")}
+    for bad in [
+        "",
+        "[]",
+        '{"a": 1',
+        '{"a" 1}',
+        '{"a": 1} x',
+        "{1: 2}",
+        '{"a": 1,}',
+        '{"a": 1 "b": 2}',
+    ]:
+        with pytest.raises(ValueError):
+            top_level_values(bad)
+
+
 def test_levels_report_their_error_budget_and_whether_they_shrank(tmp_path, small_tile):
     # Transitions 50/49/48 %: level 2's budget is barely above level 1's, so level 2 mostly finds
     # nothing more to collapse and says so, while level 1 shrinks (mesh caps at 1.0: the budget

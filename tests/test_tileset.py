@@ -251,6 +251,158 @@ def test_deleted_building_files_are_never_referenced(city, tmp_path):
     assert result.proxies_built == 2  # the west tile's proxy and the one above
 
 
+def test_every_level_record_states_its_file_s_position_bounds_exactly(city):
+    from exporter.tileset.glb import position_bounds, read_header
+
+    levels = 0
+    for path in city.glob("*/lod_manifest.json"):
+        for record in json.loads(path.read_text())["buildings"]:
+            for lod in record["lods"]:
+                low, high = position_bounds(read_header(path.parent / lod["file"]))
+                assert lod["gltf_bounds"] == {"low": low.tolist(), "high": high.tolist()}
+                levels += 1
+    assert levels >= 20
+
+
+def _counted(monkeypatch, module, name: str) -> list[str]:
+    """The paths ``module.name(path)`` is called with from now on (it still runs)."""
+    calls: list[str] = []
+    real = getattr(module, name)
+
+    def counted(path):
+        calls.append(str(path))
+        return real(path)
+
+    monkeypatch.setattr(module, name, counted)
+    return calls
+
+
+def _without_bounds(out: Path, keep: int) -> None:
+    """Remove ``gltf_bounds`` from every level record of ``out``'s manifests but the first
+    ``keep`` buildings' of each (as 0.4.1 wrote them)."""
+    for path in out.glob("*/lod_manifest.json"):
+        manifest = json.loads(path.read_text())
+        for record in manifest["buildings"][keep:]:
+            for lod in record["lods"]:
+                del lod["gltf_bounds"]
+        path.write_text(json.dumps(manifest))
+
+
+def test_recorded_bounds_spare_the_file_reads_and_old_records_give_the_same_tileset(
+    city, tmp_path, monkeypatch
+):
+    from exporter.tileset import tree
+
+    out = tmp_path / "out"
+    shutil.copytree(city, out)
+    _without_bounds(out, keep=2)  # 2 buildings per tile keep theirs
+    read = _counted(monkeypatch, tree, "read_header")
+    write_tileset(out, TilesetOptions())
+    assert (out / "tileset.json").read_bytes() == (city / "tileset.json").read_bytes()
+    assert len(read) == 2 * 3 * 3  # 3 buildings of each tile without bounds, 3 levels each
+
+
+def test_bad_recorded_bounds_are_not_trusted(city, tmp_path):
+    out = tmp_path / "out"
+    shutil.copytree(city, out)
+    bad = [
+        {"low": [1.0, 2.0], "high": [3.0, 4.0, 5.0]},
+        {"low": [1.0, 2.0, 3.0], "high": [0.0, 4.0, 5.0]},  # low > high
+        {"low": [1.0, "2", 3.0], "high": [4.0, 4.0, 5.0]},
+        {"low": [1.0, 2.0, 3.0], "high": [4.0, True, 5.0]},
+        {"low": [1.0, 2.0, 3.0], "high": [4.0, 1e400, 5.0]},  # json: Infinity
+        {"low": [1.0, 2.0, 3.0]},
+        [1.0, 2.0, 3.0],
+    ]
+    changed = 0
+    for path in out.glob("*/lod_manifest.json"):
+        manifest = json.loads(path.read_text())
+        for record in manifest["buildings"]:
+            for lod in record["lods"]:
+                lod["gltf_bounds"] = bad[changed % len(bad)]
+                changed += 1
+        path.write_text(json.dumps(manifest))
+    assert changed >= len(bad)
+    result = write_tileset(out, TilesetOptions())
+    assert (out / "tileset.json").read_bytes() == (city / "tileset.json").read_bytes()
+    assert result.left_out == []
+
+
+def test_a_missing_or_damaged_level_file_is_left_out_though_its_record_has_bounds(city, tmp_path):
+    out = tmp_path / "out"
+    shutil.copytree(city, out)
+    first, second = sorted((out / SEOUL.name).glob("*/lod1.glb"))[:2]
+    first.unlink()
+    second.write_bytes(second.read_bytes()[:16])  # truncated: not the size its record states
+    result = write_tileset(out, TilesetOptions())
+    tileset = load(out)
+    assert structural_problems(out, tileset) == []
+    uris = {unquote(v.uri) for v in walk(tileset) if v.uri}
+    for path in (first, second):
+        name = f"{SEOUL.name}/{path.parent.name}"
+        assert f"{name}/lod1.glb" not in uris and f"{name}/lod0.glb" in uris
+        assert any(line.startswith(f"{name}: LOD1 file") for line in result.left_out)
+
+
+def test_an_export_reads_each_of_its_manifests_once_for_the_tileset(tmp_path, monkeypatch):
+    from exporter import tile_index
+
+    read = _counted(monkeypatch, tile_index, "_manifest_facts")
+    out = tmp_path / "out"
+    export([make_tile(tmp_path / "in", SEOUL, 2, 9)], out)  # this run's tile: facts known
+    assert read == []
+    assert len(chains(walk(load(out)))) == 2
+
+
+def test_batched_building_chains_give_the_bits_of_the_node_by_node_path(city, monkeypatch):
+    from exporter.tileset import frames, write
+    from exporter.tileset.tree import quadtree, read_buildings
+
+    by_tile, left_out = read_buildings(city)
+    lengths = {len(chain.levels) for chains in by_tile.values() for chain in chains}
+    assert len(lengths) > 1  # batches of several lengths
+    tops = quadtree(by_tile)
+    batched = write.tileset_json(tops, left_out)
+    assert len(tops) == 1  # the two tiles under their common ancestor
+    for top in write.building_tops(tops[0]):
+        node, chain = top, top.building
+        assert chain is not None
+        for level in chain.levels:
+            assert node is not None and node.corners is not None
+            one = frames.apply(chain.world, frames.gltf_corners(level.low, level.high))
+            assert np.array_equal(node.corners, one)
+            node = node.children[0] if node.children else None
+    monkeypatch.setattr(write, "finish_chains", lambda tops: None)  # finish() does every node
+    single = write.tileset_json(quadtree(by_tile), left_out)
+    assert json.dumps(batched) == json.dumps(single)
+
+
+def test_the_export_tail_runs_without_cyclic_gc_and_restores_it(tmp_path, monkeypatch):
+    import gc
+
+    from exporter import pipeline
+
+    seen: list[bool] = []
+    real = pipeline.write_tileset
+
+    def watched(*args, **kwargs):
+        seen.append(gc.isenabled())
+        return real(*args, **kwargs)
+
+    def broken(*args, **kwargs):
+        seen.append(gc.isenabled())
+        raise OSError("disk full")
+
+    monkeypatch.setattr(pipeline, "write_tileset", watched)
+    folder = make_tile(tmp_path / "in", SEOUL, 1, 10)
+    export([folder], tmp_path / "out")
+    monkeypatch.setattr(pipeline, "write_tileset", broken)
+    with pytest.raises(OSError):
+        export([folder], tmp_path / "out2")
+    assert seen == [False, False] and gc.isenabled()
+    assert (tmp_path / "out2" / "tiles.json").is_file()  # still written when the tileset fails
+
+
 def test_the_switch_turns_the_tileset_off_and_removes_nothing_else(tmp_path):
     config = Config(tileset=TilesetOptions(enabled=False))
     stats = export([make_tile(tmp_path / "in", SEOUL, 1)], tmp_path / "out", config)
@@ -314,6 +466,39 @@ def test_the_atlas_gives_each_primitive_a_cell_and_a_broken_texture_its_colour()
     assert shrink == [2.0, 0.0]  # 64 px into a 32 px cell; the broken one has no texture
     assert atlas.getpixel((10, 10)) == (0, 0, 255) and atlas.getpixel((42, 10)) == (255, 0, 0)
     assert (cell_uvs[0] <= 0.5).all() and (cell_uvs[1][:, 0] > 0.5).all()
+
+
+def test_a_jpeg_cell_is_decoded_at_a_reduced_scale_and_keeps_its_source_s_texel_size():
+    from exporter.tileset.glb import GlbPrimitive
+    from exporter.tileset.proxy import pack_atlas
+
+    rows = np.linspace(0, 255, 256, dtype=np.uint8)
+    pixels = np.stack(
+        [
+            np.add.outer(rows, rows) // 2,
+            np.tile(rows, (256, 1)),
+            255 - np.tile(rows[:, None], (1, 256)),
+        ],
+        axis=-1,
+    )
+    jpeg = io.BytesIO()
+    Image.fromarray(pixels.astype(np.uint8), "RGB").save(jpeg, "JPEG", quality=90)
+    square = np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0]])
+    uvs = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]], np.float32)
+    primitive = GlbPrimitive(
+        square, np.array([[0, 1, 2]]), uvs, jpeg.getvalue(), "image/jpeg", (1, 1, 1, 1)
+    )
+    atlas, _, shrink = pack_atlas([primitive], 48)
+    assert shrink == [256 / 48]  # the texel size is the source's, not the reduced decode's
+    with Image.open(io.BytesIO(jpeg.getvalue())) as image:
+        image.draft("RGB", (48, 48))
+        assert image.size == (64, 64)  # libjpeg's 1/4 scale: the smallest not below the cell
+        scaled = np.asarray(image.resize((48, 48), Image.Resampling.BOX), np.int16)
+    with Image.open(io.BytesIO(jpeg.getvalue())) as image:
+        full = np.asarray(image.resize((48, 48), Image.Resampling.BOX), np.int16)
+    cell = np.asarray(atlas, np.int16)
+    assert np.array_equal(cell, scaled)
+    assert np.abs(cell - full).mean() < 2.0  # the same picture as a full decode, within JPEG noise
 
 
 def test_a_proxy_input_broken_after_it_was_read_leaves_that_proxy_out(city, tmp_path, monkeypatch):

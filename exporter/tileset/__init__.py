@@ -81,11 +81,15 @@ def proxy_records(tops: list[Node]) -> list[dict]:
 
 
 def write_tileset(
-    out_dir: str | Path, options: TilesetOptions, jpeg_quality: int = TextureOptions.jpeg_quality
+    out_dir: str | Path,
+    options: TilesetOptions,
+    jpeg_quality: int = TextureOptions.jpeg_quality,
+    fresh: dict[str, tuple[int, dict]] | None = None,
 ) -> TilesetResult:
-    """Write ``OUT/tileset.json`` for every building of ``out_dir``; see the module doc."""
+    """Write ``OUT/tileset.json`` for every building of ``out_dir``; see the module doc.
+    ``fresh``: the index facts of the run's tiles (:func:`exporter.tile_index.fresh_facts`)."""
     out_dir = Path(out_dir)
-    by_tile, left_out = read_buildings(out_dir)
+    by_tile, left_out = read_buildings(out_dir, fresh)
     tops = quadtree(by_tile)
     if not options.proxies or not tops:
         from .proxy import PROXY_DIR, remove_stale

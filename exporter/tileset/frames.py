@@ -69,6 +69,13 @@ def apply(matrix: np.ndarray, points: np.ndarray) -> np.ndarray:
     return points @ matrix[:3, :3].T + matrix[:3, 3]
 
 
+def apply_each(matrices: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """(N, k, 3): each point set of ``points`` (N, k, 3) mapped by its own 4 x 4 affine matrix of
+    ``matrices`` (N, 4, 4). The same bits as :func:`apply` per set (numpy's matmul runs the same
+    product per matrix), without a Python call per set."""
+    return np.matmul(points, matrices[:, :3, :3].transpose(0, 2, 1)) + matrices[:, None, :3, 3]
+
+
 def inverse_rigid(matrix: np.ndarray) -> np.ndarray:
     """Inverse of a rotation + translation 4 x 4 (exact transpose, no general inversion)."""
     out = np.eye(4)
@@ -77,11 +84,22 @@ def inverse_rigid(matrix: np.ndarray) -> np.ndarray:
     return out
 
 
+_PICK = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)], dtype=bool)
+# A box's corners from its centre and half-axes: centre + SIGNS @ half_axes.
+SIGNS = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], np.float64)
+
+
 def gltf_corners(low: np.ndarray, high: np.ndarray) -> np.ndarray:
     """(8, 3) corners, in the tile frame, of the glTF-frame axis-aligned box ``low``..``high``."""
-    pick = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)], dtype=bool)
-    corners = np.where(pick, np.asarray(high, np.float64), np.asarray(low, np.float64))
+    corners = np.where(_PICK, np.asarray(high, np.float64), np.asarray(low, np.float64))
     return apply(Y_UP, corners)
+
+
+def gltf_corners_each(lows: np.ndarray, highs: np.ndarray) -> np.ndarray:
+    """(N, 8, 3): :func:`gltf_corners` of each box ``lows[i]``..``highs[i]`` ((N, 3) each), with
+    the same bits."""
+    corners = np.where(_PICK, highs[:, None, :], lows[:, None, :])
+    return np.matmul(corners, Y_UP[:3, :3].T) + Y_UP[:3, 3]
 
 
 def box_around(points: np.ndarray) -> list[float]:
@@ -97,8 +115,7 @@ def box_corners(box: list[float]) -> np.ndarray:
     """(8, 3) corners of a 3D Tiles ``box`` (in its own frame)."""
     values = np.asarray(box, dtype=np.float64)
     centre, axes = values[:3], values[3:].reshape(3, 3)
-    signs = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], np.float64)
-    return centre + signs @ axes
+    return centre + SIGNS @ axes
 
 
 def column_major(matrix: np.ndarray) -> list[float]:

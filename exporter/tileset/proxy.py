@@ -9,8 +9,9 @@ A tile holding buildings merges their coarsest chain levels as they are; a tile 
 child tiles' proxies, each building's piece of them collapsed by meshoptimizer towards
 ``proxy_error_ratio`` x the tile's north-south size (so a tile without a proxy has no proxied
 ancestor). Each input's texture (or base colour) gets a cell of one atlas (``proxy_atlas_size``
-pixels, box-filtered down): one mesh, one material, one draw call. A proxy with more than
-``proxy_max_triangles`` is not written (nor are its ancestors').
+pixels, box-filtered down; a JPEG decoded at the smallest libjpeg scale not below the cell): one
+mesh, one material, one draw call. A proxy with more than ``proxy_max_triangles`` is not written
+(nor are its ancestors').
 
 Its error (metres) is the larger of
 - the geometric bound, kept per building piece: a building's coarsest level starts with its
@@ -55,7 +56,7 @@ from .glb import GlbPrimitive, read_primitives
 from .tree import Node, rounding_slack
 
 PROXY_DIR = "tileset_proxies"
-PROXY_FORMAT = "vworld-lod-proxy 4"
+PROXY_FORMAT = "vworld-lod-proxy 5"  # 5: cells from the JPEG scaled IDCT
 METRES_PER_DEGREE = math.pi / 180.0 * 6378137.0  # along a meridian, on the sphere
 CERTIFY_RTOL = 0.05  # a piece's bound is refined to 5 % of its certified lower bound
 TRANSFORM_SLACK_M = 1e-6  # float64 rounding of the frame changes (ECEF-sized numbers), metres
@@ -102,6 +103,9 @@ def _cell_image(primitive: GlbPrimitive, cell: int) -> Image.Image | None:
     try:
         with Image.open(io.BytesIO(primitive.image)) as image:
             size = image.size
+            # A JPEG is decoded at the smallest DCT scale (1/2, 1/4, 1/8) not below the cell
+            # (libjpeg's scaled IDCT): a 256 px texture for a 56 px cell decodes 64 px, not 256.
+            image.draft("RGB", (cell, cell))
             # convert() copies even an RGB image (the files' JPEGs are): only other modes need it
             rgb = image if image.mode == "RGB" else image.convert("RGB")
             tile = rgb.resize((cell, cell), Image.Resampling.BOX)

@@ -8,8 +8,10 @@ Data form: :class:`Node` (one 3D Tiles tile). ``world`` is the node's tile frame
 - A building is a chain, coarsest level first, each level the only child of the one above
   (``REPLACE``); a level's error is its certified Hausdorff bound against LOD0 in metres: the
   manifest's ``hausdorff_rel`` (relative to LOD0's bounding-box diagonal, exporter/quality.py)
-  times that diagonal, read from LOD0's file, plus the float32 rounding of both files. A level no
-  better than a coarser one is left out (the errors then strictly decrease to LOD0's 0).
+  times that diagonal, plus the float32 rounding of both files. Each file's glTF-frame bounds come
+  from its record's ``gltf_bounds`` (:func:`level_bounds`; from the file's header for records
+  without them). A level no better than a coarser one is left out (the errors then strictly
+  decrease to LOD0's 0).
 - Tiles holding buildings have the buildings as children; above them the quadtree, compressed: a
   tile with one child is that child. Several top tiles hang under one root without content.
 - Buildings or levels whose files are missing are left out and listed (never referenced).
@@ -21,6 +23,7 @@ import json
 import math
 import os
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -57,8 +60,9 @@ class BuildingChain:
         """Metres per texel of the coarsest level's texture (it spans at most the diagonal)."""
         return self.diagonal / self.texture_px if self.texture_px else 0.0
 
-    @property
+    @cached_property
     def world(self) -> np.ndarray:
+        """4 x 4: the building's tile frame -> ECEF (the tree and its tile's proxy both use it)."""
         return frames.world_matrix(*self.center)
 
 
@@ -76,11 +80,52 @@ class Node:
     geometric: float = 0.0  # a proxy's certified geometric bound, metres
     texel: float = 0.0  # a proxy's metres per atlas texel
     pieces: list | None = None  # a proxy's [first vertex, vertices, first face, faces, bound m]
+    box: list[float] | None = None  # 3D Tiles box in its frame (set by write.finish)
+    box_ecef: np.ndarray | None = None  # (8, 3) ECEF corners of ``box`` (a building's top)
 
 
-def rounding_slack(low: np.ndarray, high: np.ndarray) -> float:
-    """Metres: the largest float32 rounding of a point of a file with glTF bounds ``low``/``high``."""
-    return float(np.abs(np.concatenate([low, high])).max()) * FLOAT32_ULP * math.sqrt(3.0)
+def rounding_slack(low, high) -> float:
+    """Metres: the largest float32 rounding of a point of a file with glTF bounds ``low``/``high``
+    (3 floats each)."""
+    return max(abs(float(v)) for v in (*low, *high)) * FLOAT32_ULP * math.sqrt(3.0)
+
+
+Bounds = tuple[list[float], list[float]]  # (low, high): 3 glTF-frame metres each
+
+
+def valid_bounds(low, high) -> Bounds | None:
+    """``low``/``high`` as 3 finite floats each with low <= high, or None (JSON numbers only: not
+    bools, strings or nulls)."""
+    if not (isinstance(low, list) and isinstance(high, list) and len(low) == len(high) == 3):
+        return None
+    if any(type(v) not in (int, float) for v in (*low, *high)):
+        return None
+    try:
+        out = [float(v) for v in low], [float(v) for v in high]
+    except OverflowError:  # an integer beyond float range
+        return None
+    finite = all(math.isfinite(v) for v in (*out[0], *out[1]))
+    return out if finite and all(a <= b for a, b in zip(*out)) else None
+
+
+def level_bounds(path: str, lod: dict) -> Bounds:
+    """(low, high) glTF-frame metres of the level file ``path`` (manifest record ``lod``).
+
+    The record's ``gltf_bounds`` (written since 0.4.2: the file's POSITION min/max) when valid and
+    the file is there with its recorded size; otherwise (records of 0.4.1 and older, a file
+    replaced since its record) the file's header. Raises OSError for a missing file, ValueError
+    for one without usable positions. A file damaged in place at its recorded size is not seen
+    here (the tileset never read file bodies; a re-run's CRC-32 check redoes such a building)."""
+    found = lod.get("gltf_bounds")
+    if isinstance(found, dict):
+        recorded = valid_bounds(found.get("low"), found.get("high"))
+        if recorded is not None and os.stat(path).st_size == lod.get("file_bytes"):
+            return recorded
+    low, high = position_bounds(read_header(path))
+    read = valid_bounds(low.tolist(), high.tolist())
+    if read is None:
+        raise ValueError("position bounds not finite")
+    return read
 
 
 def read_chain(
@@ -88,11 +133,11 @@ def read_chain(
 ) -> BuildingChain | None:
     """The building of manifest ``record`` as a chain, or None (reason appended to ``left_out``)."""
     name = f"{tile.name}/{record.get('folder') or record.get('id')}"
-    bounds: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    bounds: dict[int, Bounds] = {}
     folder = os.path.join(out_dir, tile.name)  # a str: pathlib costs more than the read here
     for lod in record.get("lods", []):
         try:
-            bounds[lod["level"]] = position_bounds(read_header(os.path.join(folder, lod["file"])))
+            bounds[lod["level"]] = level_bounds(os.path.join(folder, lod["file"]), lod)
         except (OSError, ValueError, KeyError, TypeError) as problem:
             left_out.append(
                 f"{name}: LOD{lod.get('level')} file {lod.get('file')} unusable ({problem})"
@@ -101,7 +146,7 @@ def read_chain(
     if 0 not in lods:
         left_out.append(f"{name}: no readable LOD0 file; building left out")
         return None
-    diagonal = float(np.linalg.norm(bounds[0][1] - bounds[0][0]))
+    diagonal = float(np.linalg.norm(np.subtract(bounds[0][1], bounds[0][0])))
     slack0 = rounding_slack(*bounds[0])
     levels: list[Level] = []
     texture_px = 0
@@ -118,7 +163,10 @@ def read_chain(
             )
         if levels and error >= levels[-1].error:
             continue  # no better than a coarser level: never worth refining to
-        levels.append(Level(f"{tile.name}/{lods[level]['file']}", error, *bounds[level]))
+        low, high = bounds[level]
+        levels.append(
+            Level(f"{tile.name}/{lods[level]['file']}", error, np.array(low), np.array(high))
+        )
         coarsest = levels[0].file == f"{tile.name}/{lods[level]['file']}"
         if coarsest:
             texture_px = max(int(v) for v in lods[level].get("texture_size", [0, 0]))
@@ -134,12 +182,15 @@ def read_chain(
     )
 
 
-def read_buildings(out_dir: Path) -> tuple[dict[TileId, list[BuildingChain]], list[str]]:
+def read_buildings(
+    out_dir: Path, fresh: dict[str, tuple[int, dict]] | None = None
+) -> tuple[dict[TileId, list[BuildingChain]], list[str]]:
     """Every building of every tile manifest under ``out_dir`` (also earlier runs'), by tile, and
-    the reasons for what was left out."""
+    the reasons for what was left out. ``fresh``: the index facts of the run's own tiles
+    (:func:`exporter.tile_index.fresh_facts`), so their manifests are read once, here."""
     left_out: list[str] = []
     by_tile: dict[TileId, list[BuildingChain]] = {}
-    for entry in build_index(out_dir)["tiles"]:
+    for entry in build_index(out_dir, fresh)["tiles"]:
         tile = TileId(entry["level"], entry["idx"], entry["idy"])
         try:
             manifest = json.loads((out_dir / entry["manifest"]).read_text(encoding="utf-8"))
@@ -161,18 +212,28 @@ def read_buildings(out_dir: Path) -> tuple[dict[TileId, list[BuildingChain]], li
     return by_tile, left_out
 
 
-def building_node(chain: BuildingChain) -> Node:
-    """The chain as nested nodes (coarsest on top, one transform at the top)."""
-    world = chain.world
-    nodes = []
-    for level in chain.levels:
-        corners = frames.apply(world, frames.gltf_corners(level.low, level.high))
-        nodes.append(Node(f"{chain.id}/{level.file}", None, level.error, level.file, corners))
-    for parent, child in zip(nodes, nodes[1:]):
-        parent.children = [child]
-    nodes[0].world = world
-    nodes[0].building = chain
-    return nodes[0]
+def building_nodes(chains: list[BuildingChain]) -> list[Node]:
+    """Each chain as nested nodes (coarsest on top, one transform at the top); the levels'
+    corners for all chains at once."""
+    levels = [(chain, level) for chain in chains for level in chain.levels]
+    if not levels:
+        return []
+    lows = np.array([level.low for _, level in levels], np.float64)
+    highs = np.array([level.high for _, level in levels], np.float64)
+    worlds = np.array([chain.world for chain, _ in levels])
+    corners = iter(frames.apply_each(worlds, frames.gltf_corners_each(lows, highs)))
+    tops = []
+    for chain in chains:
+        nodes = [
+            Node(f"{chain.id}/{level.file}", None, level.error, level.file, next(corners))
+            for level in chain.levels
+        ]
+        for parent, child in zip(nodes, nodes[1:]):
+            parent.children = [child]
+        nodes[0].world = chain.world
+        nodes[0].building = chain
+        tops.append(nodes[0])
+    return tops
 
 
 def tile_world(tile: TileId) -> np.ndarray:
@@ -191,6 +252,9 @@ def quadtree(by_tile: dict[TileId, list[BuildingChain]]) -> list[Node]:
 
     A tile node's children: its buildings' chains (by id), then its child tiles' nodes (SW, SE,
     NW, NE); a tile without buildings and with one child tile is replaced by that child."""
+
+    every = [chain for chains in by_tile.values() for chain in chains]
+    node_of = {id(chain): node for chain, node in zip(every, building_nodes(every))}
 
     def build(tile: TileId, leaves: list[TileId]) -> Node | None:
         own = by_tile.get(tile, [])
@@ -211,7 +275,7 @@ def quadtree(by_tile: dict[TileId, list[BuildingChain]]) -> list[Node]:
             return None
         if not own and len(subtiles) == 1:
             return subtiles[0]
-        children = [building_node(chain) for chain in own] + subtiles
+        children = [node_of[id(chain)] for chain in own] + subtiles
         return Node(tile.name, tile_world(tile), children=children, tile=tile)
 
     leaves = sorted(by_tile, key=lambda t: (t.level, t.idx, t.idy))

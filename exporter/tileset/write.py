@@ -26,15 +26,20 @@ from .tree import Node
 TILESET_NAME = "tileset.json"
 
 
-def finish(node: Node, parent_world: np.ndarray) -> np.ndarray:
+def finish(node: Node, parent_world: np.ndarray, parent_inverse: np.ndarray) -> np.ndarray:
     """Fill ``node.box`` (in its frame) and ``node.error`` bottom-up; returns the (8, 3) ECEF
-    corners of its box."""
-    frame = node.world if node.world is not None else parent_world
-    to_frame = frames.inverse_rigid(frame)
+    corners of its box. ``parent_inverse``: ECEF -> ``parent_world``'s frame (computed once per
+    frame). Building chains must be done first (:func:`finish_chains`)."""
+    if node.box_ecef is not None:
+        return node.box_ecef
+    if node.world is None:
+        frame, to_frame = parent_world, parent_inverse
+    else:
+        frame, to_frame = node.world, frames.inverse_rigid(node.world)
     points = [] if node.corners is None else [node.corners]
-    points += [finish(child, frame) for child in node.children]
+    points += [finish(child, frame, to_frame) for child in node.children]
     box = frames.box_around(frames.apply(to_frame, np.vstack(points)))
-    node.box = box  # type: ignore[attr-defined]
+    node.box = box
     most = max((child.error for child in node.children), default=0.0)
     if node.content is None:
         node.error = max(most, box_diagonal(box))
@@ -43,26 +48,68 @@ def finish(node: Node, parent_world: np.ndarray) -> np.ndarray:
     return frames.apply(frame, frames.box_corners(box))
 
 
+def finish_chains(tops: list[Node]) -> None:
+    """:func:`finish` for every building chain (``tops``: their top nodes), chains of the same
+    length as one batch (the same arithmetic, one numpy call per level instead of one per node);
+    each top keeps its box's ECEF corners in ``box_ecef``."""
+    by_length: dict[int, list[list[Node]]] = {}
+    for top in tops:
+        chain = [top]
+        while chain[-1].children:
+            chain.append(chain[-1].children[0])
+        by_length.setdefault(len(chain), []).append(chain)
+    for length, chains in sorted(by_length.items()):
+        worlds = np.array([chain[0].world for chain in chains])
+        inverses = np.array([frames.inverse_rigid(world) for world in worlds])
+        below: np.ndarray | None = None  # (N, 8, 3) ECEF corners of the level below's boxes
+        for depth in reversed(range(length)):
+            nodes = [chain[depth] for chain in chains]
+            points = np.array([node.corners for node in nodes])
+            if below is not None:
+                points = np.concatenate([points, below], axis=1)
+            local = frames.apply_each(inverses, points)
+            low, high = local.min(axis=1), local.max(axis=1)
+            centres, halves = (low + high) / 2.0, (high - low) / 2.0
+            axes = np.zeros((len(nodes), 3, 3))
+            axes[:, [0, 1, 2], [0, 1, 2]] = halves
+            for node, centre, half in zip(nodes, centres.tolist(), halves.tolist()):
+                node.box = [*centre, half[0], 0.0, 0.0, 0.0, half[1], 0.0, 0.0, 0.0, half[2]]
+                most = node.children[0].error if node.children else 0.0
+                node.error = max(node.error, most)
+            below = frames.apply_each(worlds, centres[:, None, :] + np.matmul(frames.SIGNS, axes))
+        assert below is not None
+        for chain, corners in zip(chains, below):
+            chain[0].box_ecef = corners
+
+
+def building_tops(node: Node) -> list[Node]:
+    """The top nodes of the building chains under ``node``."""
+    if node.building is not None:
+        return [node]
+    return [top for child in node.children for top in building_tops(child)]
+
+
 def box_diagonal(box: list[float]) -> float:
     """Metres: the diagonal of a 3D Tiles box whose half-axes are orthogonal."""
     return 2.0 * float(np.linalg.norm(np.linalg.norm(np.asarray(box[3:]).reshape(3, 3), axis=1)))
 
 
-def tile_json(node: Node, parent_world: np.ndarray) -> dict:
-    """The 3D Tiles ``tile`` object of ``node`` (recursively)."""
+def tile_json(node: Node, parent_world: np.ndarray, parent_inverse: np.ndarray) -> dict:
+    """The 3D Tiles ``tile`` object of ``node`` (recursively); ``parent_inverse``: ECEF ->
+    ``parent_world``'s frame."""
     out: dict = {
-        "boundingVolume": {"box": node.box},  # type: ignore[attr-defined]
+        "boundingVolume": {"box": node.box},
         "geometricError": node.error,
         "refine": "REPLACE",
     }
-    frame = parent_world
+    frame, inverse = parent_world, parent_inverse
     if node.world is not None:
-        out["transform"] = frames.column_major(frames.inverse_rigid(parent_world) @ node.world)
-        frame = node.world
+        out["transform"] = frames.column_major(parent_inverse @ node.world)
+        frame, inverse = node.world, frames.inverse_rigid(node.world)
     if node.content is not None:
         out["content"] = {"uri": quote(node.content)}
     if node.children:
-        out["children"] = [tile_json(child, frame) for child in node.children]
+        out["children"] = [tile_json(child, frame, inverse) for child in node.children]
     return out
 
 
@@ -70,12 +117,14 @@ def tileset_json(tops: list[Node], left_out: list[str]) -> dict:
     """The whole tileset: one top node is the root, several hang under a root without content."""
     root = tops[0] if len(tops) == 1 else Node("root", None, children=tops)
     identity = np.eye(4)
-    finish(root, identity)
+    finish_chains(building_tops(root))
+    finish(root, identity, frames.inverse_rigid(identity))
+    assert root.box is not None
     tileset: dict = {
         "asset": {"version": "1.1", "tilesetVersion": f"vworld-lod {__version__}"},
         # The error of drawing nothing (clients draw nothing below it): the whole box's size.
-        "geometricError": max(root.error, box_diagonal(root.box)),  # type: ignore[attr-defined]
-        "root": tile_json(root, identity),
+        "geometricError": max(root.error, box_diagonal(root.box)),
+        "root": tile_json(root, identity, frames.inverse_rigid(identity)),
     }
     if left_out:
         tileset["extras"] = {"left_out": sorted(left_out)}
