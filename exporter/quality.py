@@ -234,10 +234,6 @@ def prepare_source(parts: list[Part] | Source) -> Source:
     return source
 
 
-def _source_side(parts: list[Part] | Source) -> Source:
-    return prepare_source(parts)
-
-
 def _boundary_keys(
     src: Source, lod_parts: list[Part], lod_pos: np.ndarray, lod_faces: np.ndarray
 ) -> dict:

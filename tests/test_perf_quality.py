@@ -476,7 +476,7 @@ def test_wall_coverage_is_the_exact_share_whichever_path_gives_it():
     for seed in (1, 3, 6):
         source = crafted_building(seed)
         quality._CACHE.clear()
-        side = quality._source_side(source)
+        side = quality.prepare_source(source)
         assert np.array_equal(side.wall_points, reference_wall_points(source))
         tolerance = quality.COVER_TOLERANCE * side.diagonal
         box = box_building(5, 3, 20.0, (2, 4), 2)
