@@ -28,7 +28,7 @@ from .model import Building, Part, Skipped, Texture, TileId
 from .names import name_error, safe_folder_name
 from .placement import building_placement, relative_placement
 from .plausible import vertex_problem
-from .quality import LevelQuality, boundary_quality, exact_quality, measure_lod
+from .quality import LevelQuality, Source, boundary_quality, exact_quality, measure_lod
 from .readers import Entry, load_entry
 from .records import file_entry, write_record
 from .simplify import build_mesh_chain, degenerate_only
@@ -155,6 +155,26 @@ def remove_stale_levels(folder: str, count: int) -> None:
                 pass
 
 
+def chain_qualities(chain: list, parts_by_level: list[list[Part]]) -> list[LevelQuality | None]:
+    """Each level's quality against LOD0 (None for LOD0 itself), ``chain`` the
+    :func:`~exporter.simplify.build_mesh_chain` levels and ``parts_by_level`` their parts (as
+    textured): the cheapest path that gives measure_lod's values, the source side prepared once."""
+    source = Source(parts_by_level[0])
+    qualities: list[LevelQuality | None] = [None]  # LOD0 is the source
+    for level in range(1, len(parts_by_level)):
+        if level > 1 and same_geometry(parts_by_level[level], parts_by_level[level - 1]):
+            # The level above's mesh (no_smaller_than_above): its metrics, certified once.
+            qualities.append(qualities[-1])
+        elif chain[level].exact:  # a lossless re-triangulation: only the bound to certify
+            qualities.append(exact_quality(source, parts_by_level[level]))
+        elif chain[level].surface_exact:  # same surface, outline changed (a closed slit)
+            qualities.append(boundary_quality(source, parts_by_level[level]))
+        else:
+            # The guard's certified bound when it measured this level: not certified again.
+            qualities.append(measure_lod(source, parts_by_level[level], chain[level].deviation))
+    return qualities
+
+
 @dataclass
 class EntryResult:
     """What a worker returns for one entry: a manifest record or a skip, plus stage times (s)."""
@@ -212,20 +232,7 @@ def process_entry(
         lap("simplify")
         parts_by_level = texture_levels(parts_by_level, config, problems)
         lap("textures")
-        qualities: list[LevelQuality | None] = [None]  # LOD0 is the source
-        for level in range(1, len(parts_by_level)):
-            if level > 1 and same_geometry(parts_by_level[level], parts_by_level[level - 1]):
-                # The level above's mesh (no_smaller_than_above): its metrics, certified once.
-                qualities.append(qualities[-1])
-            elif chain[level].exact:  # a lossless re-triangulation: only the bound to certify
-                qualities.append(exact_quality(parts_by_level[0], parts_by_level[level]))
-            elif chain[level].surface_exact:  # same surface, outline changed (a closed slit)
-                qualities.append(boundary_quality(parts_by_level[0], parts_by_level[level]))
-            else:
-                # The guard's certified bound when it measured this level: not certified again.
-                qualities.append(
-                    measure_lod(parts_by_level[0], parts_by_level[level], chain[level].deviation)
-                )
+        qualities = chain_qualities(chain, parts_by_level)
         lap("quality")
         # The entry's id, not the reader's: the run made entry ids unique across folders and files.
         folder = safe_folder_name(entry.id)

@@ -31,16 +31,18 @@ measures only the boundary keys; ``to_manifest()`` gives the manifest's ``qualit
   changes nothing here.
 - ``new_holes``: how many more boundary loops the level has than the source (never negative).
 
-Cost: the source side (weld, wall samples, silhouettes, outline) is computed once per building
-and cached; a level known to keep the source's surface is not measured (:func:`exact_quality`,
-:func:`boundary_quality`), and wall coverage needs no distance when the certified bound is
-within its tolerance. Measurement history: docs/performance.md.
+Cost: the source side (weld, outline, silhouettes, wall samples, certification surface) is
+prepared once per building (:class:`Source`), each piece when a level first needs it; a level
+known to keep the source's surface is not measured (:func:`exact_quality`,
+:func:`boundary_quality`), and wall coverage needs neither distances nor wall samples when the
+certified bound is within its tolerance. Measurement history: docs/performance.md.
 """
 
 from __future__ import annotations
 
-import dataclasses
+import functools
 import hashlib
+import threading
 from collections import OrderedDict
 from dataclasses import dataclass
 
@@ -72,6 +74,9 @@ __all__ = [
     "measure_lod",
     "exact_quality",
     "boundary_quality",
+    "certified_hausdorff_rel",
+    "prepare_source",
+    "Source",
     "RESOLUTION",
     "COVER_TOLERANCE",
 ]
@@ -90,8 +95,16 @@ class LevelQuality:
     new_holes: int
 
     def to_manifest(self) -> dict:
-        """The manifest's ``quality`` object: ``{"triangle_ratio": ..., ..., "new_holes": ...}``."""
-        return dataclasses.asdict(self)
+        """The manifest's ``quality`` object: ``{"triangle_ratio": ..., ..., "new_holes": ...}``
+        (``dataclasses.asdict``'s, written out: the fields are plain numbers)."""
+        return {
+            "triangle_ratio": self.triangle_ratio,
+            "hausdorff_rel": self.hausdorff_rel,
+            "silhouette_iou": self.silhouette_iou,
+            "wall_coverage": self.wall_coverage,
+            "boundary_length_change": self.boundary_length_change,
+            "new_holes": self.new_holes,
+        }
 
 
 # --------------------------------------------------------------------------- mesh helpers
@@ -106,34 +119,94 @@ def joined(parts: list[Part]) -> WeldedMesh:
 # --------------------------------------------------------------------------- the metrics
 
 
-@dataclass
-class _Source:
-    """Everything measure_lod needs from the source side (computed once per source, cached)."""
+class Source:
+    """A building's source side (its LOD0 parts, local East/Up/North metres), each piece made
+    when a level first needs it and then shared by the building's levels: the welded mesh, its
+    box and diagonal, open boundary, silhouettes, wall samples and certification surface.
 
-    positions: np.ndarray
-    faces: np.ndarray
-    triangles: int
-    low: np.ndarray
-    high: np.ndarray
-    diagonal: float
-    wall_points: np.ndarray  # samples on walls, (w, 3) metres
-    silhouettes: np.ndarray  # (3, RESOLUTION, RESOLUTION) bool
-    border_length: float
-    loops: int
+    The pipeline prepares one per building (:func:`prepare_source`); every function below also
+    takes the parts themselves and then finds the source in a small cache keyed by their bytes.
+    """
+
+    def __init__(self, parts: list[Part]) -> None:
+        self.parts = parts
+        self.triangles = sum(p.triangle_count for p in parts)
+
+    @functools.cached_property
+    def mesh(self) -> WeldedMesh:
+        """``joined(parts)``: positions (k, 3) metres, faces (m, 3) int64."""
+        return joined(self.parts)
+
+    @property
+    def positions(self) -> np.ndarray:
+        return self.mesh.positions
+
+    @property
+    def faces(self) -> np.ndarray:
+        return self.mesh.faces
+
+    @functools.cached_property
+    def box(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(low (3,), high (3,))`` metres, the welded mesh's axis-aligned box."""
+        return self.positions.min(axis=0), self.positions.max(axis=0)
+
+    @property
+    def low(self) -> np.ndarray:
+        return self.box[0]
+
+    @property
+    def high(self) -> np.ndarray:
+        return self.box[1]
+
+    @functools.cached_property
+    def diagonal(self) -> float:
+        """The box's diagonal, metres (1e-9 at least: lengths are divided by it)."""
+        return max(float(np.linalg.norm(self.high - self.low)), 1e-9)
+
+    @functools.cached_property
+    def outline(self) -> tuple[float, int]:
+        """Open boundary length (metres) and loops (:func:`exporter.mesh.slits.open_boundary`)."""
+        return open_boundary(self.positions, self.faces)
+
+    @property
+    def border_length(self) -> float:
+        return self.outline[0]
+
+    @property
+    def loops(self) -> int:
+        return self.outline[1]
+
+    @functools.cached_property
+    def silhouettes(self) -> np.ndarray:
+        """(3, RESOLUTION, RESOLUTION) bool on the source's own box."""
+        return silhouettes(self.positions, self.faces, self.low, self.high)
+
+    @functools.cached_property
+    def wall_points(self) -> np.ndarray:
+        """(w, 3) metres: ``WALL_SAMPLES`` area-weighted samples on the walls (seeded: the
+        same points whenever they are drawn)."""
+        positions, faces = self.mesh
+        rng = np.random.default_rng(SEED)
+        normals = face_normals(positions, faces)
+        lengths = row_lengths(normals)
+        walls = (np.abs(normals[:, 1]) < WALL_MAX_UP * lengths) & (lengths > 0)
+        if lengths.sum() > 0:
+            # The stream skips the SAMPLES surface samples a sampled Hausdorff distance once took
+            # (3 doubles each: rng.choice's uniform, then r1, r2), so the wall samples, and with
+            # them wall_coverage, stay those earlier versions reported.
+            rng.random(3 * SAMPLES)
+        if not walls.any():
+            return np.zeros((0, 3))
+        return sample_surface(positions, faces[walls], WALL_SAMPLES, rng)
+
+    @functools.cached_property
+    def surface(self) -> hausdorff.Surface:
+        """The welded mesh prepared for certified bounds (:class:`exporter.mesh.hausdorff.Surface`)."""
+        return hausdorff.Surface(self.positions, self.faces)
 
 
-_CACHE: OrderedDict[bytes, _Source] = OrderedDict()
-_OUTLINES: OrderedDict[bytes, _Outline] = OrderedDict()
-
-
-@dataclass
-class _Outline:
-    """The source side of :func:`boundary_quality`: what the boundary keys need, nothing more."""
-
-    triangles: int
-    diagonal: float  # metres
-    border_length: float  # metres
-    loops: int
+_CACHE: OrderedDict[bytes, Source] = OrderedDict()
+_CACHE_LOCK = threading.Lock()  # a Dask worker runs buildings in several threads
 
 
 def _source_key(parts: list[Part]) -> bytes:
@@ -144,121 +217,74 @@ def _source_key(parts: list[Part]) -> bytes:
     return digest.digest()
 
 
-def _remember(cache: OrderedDict, key: bytes, value):
-    cache[key] = value
-    if len(cache) > 16:
-        cache.popitem(last=False)
-    return value
-
-
-def _joined_source(parts: list[Part], key: bytes) -> tuple[np.ndarray, np.ndarray]:
-    """``joined(parts)`` of a source, taken from whichever cache already holds it (the source
-    side or the certification surface of the same building): one weld per building."""
-    if key in _CACHE:
-        return _CACHE[key].positions, _CACHE[key].faces
-    if key in _SURFACES:
-        surface = _SURFACES[key][0]
-        return surface.positions, surface.faces
-    return joined(parts)
-
-
-def _source_outline(parts: list[Part]) -> _Outline:
+def prepare_source(parts: list[Part] | Source) -> Source:
+    """The :class:`Source` of LOD0 ``parts``: the one given, or the cached one of the same bytes
+    (the last 16 kept), else a new one."""
+    if isinstance(parts, Source):
+        return parts
     key = _source_key(parts)
-    for cache in (_CACHE, _OUTLINES):
-        if key in cache:
-            cache.move_to_end(key)
-            s = cache[key]
-            return _Outline(s.triangles, s.diagonal, s.border_length, s.loops)
-    positions, faces = _joined_source(parts, key)
-    # The diagonal and the outline exactly as _source_side computes them.
-    diagonal = max(float(np.linalg.norm(positions.max(axis=0) - positions.min(axis=0))), 1e-9)
-    border_length, loops = open_boundary(positions, faces)
-    return _remember(
-        _OUTLINES,
-        key,
-        _Outline(sum(p.triangle_count for p in parts), diagonal, border_length, loops),
-    )
+    with _CACHE_LOCK:
+        source = _CACHE.get(key)
+        if source is not None:
+            _CACHE.move_to_end(key)
+            return source
+        source = _CACHE[key] = Source(parts)
+        if len(_CACHE) > 16:
+            _CACHE.popitem(last=False)
+    return source
 
 
-def _source_side(parts: list[Part]) -> _Source:
-    key = _source_key(parts)
-    if key in _CACHE:
-        _CACHE.move_to_end(key)
-        return _CACHE[key]
-    positions, faces = _joined_source(parts, key)
-    low, high = positions.min(axis=0), positions.max(axis=0)
-    rng = np.random.default_rng(SEED)
-    normals = face_normals(positions, faces)
-    lengths = row_lengths(normals)
-    walls = (np.abs(normals[:, 1]) < WALL_MAX_UP * lengths) & (lengths > 0)
-    border_length, loops = open_boundary(positions, faces)
-    if lengths.sum() > 0:
-        # The stream skips the SAMPLES surface samples a sampled Hausdorff distance once took
-        # (3 doubles each: rng.choice's uniform, then r1, r2), so the wall samples, and with
-        # them wall_coverage, stay those earlier versions reported.
-        rng.random(3 * SAMPLES)
-    source = _Source(
-        positions,
-        faces,
-        sum(p.triangle_count for p in parts),
-        low,
-        high,
-        max(float(np.linalg.norm(high - low)), 1e-9),
-        sample_surface(positions, faces[walls], WALL_SAMPLES, rng)
-        if walls.any()
-        else np.zeros((0, 3)),
-        silhouettes(positions, faces, low, high),
-        border_length,
-        loops,
-    )
-    return _remember(_CACHE, key, source)
-
-
-def _boundary_keys(src, lod_parts: list[Part], lod_pos: np.ndarray, lod_faces: np.ndarray) -> dict:
+def _boundary_keys(
+    src: Source, lod_parts: list[Part], lod_pos: np.ndarray, lod_faces: np.ndarray
+) -> dict:
     """``triangle_ratio``, ``boundary_length_change`` and ``new_holes`` of a welded level
-    (positions metres, local East/Up/North) against a source side (_Source or _Outline)."""
+    (positions metres, local East/Up/North) against the source."""
     lod_tris = sum(p.triangle_count for p in lod_parts)
     lod_length, lod_loops = open_boundary(lod_pos, lod_faces)
+    border_length, loops = src.outline
     change = (
-        (lod_length - src.border_length) / src.border_length
-        if src.border_length > 0
+        (lod_length - border_length) / border_length
+        if border_length > 0
         else lod_length / src.diagonal
     )
     return {
         "triangle_ratio": float(lod_tris / src.triangles) if src.triangles else 1.0,
         "boundary_length_change": float(change),
-        "new_holes": int(max(0, lod_loops - src.loops)),
+        "new_holes": int(max(0, lod_loops - loops)),
     }
 
 
-def _wall_coverage(src: _Source, lod_pos: np.ndarray, lod_faces: np.ndarray, hausdorff: float):
+def _wall_coverage(src: Source, lod_pos: np.ndarray, lod_faces: np.ndarray, hausdorff: float):
     """Share of the source's wall samples within ``COVER_TOLERANCE`` x diagonal of the welded
     level (positions metres, local East/Up/North), given a certified upper bound of the
     Hausdorff distance (metres).
 
     No source point is farther from the level than the bound: when the bound (plus the rounding
     margin of a computed distance) is within the tolerance, every sample is covered and the
-    exact distances (:meth:`SurfaceIndex.within`) would only confirm it.
+    exact distances (:meth:`SurfaceIndex.within`) would only confirm it (nor are the samples
+    drawn).
     """
     tolerance = COVER_TOLERANCE * src.diagonal
-    if len(src.wall_points) == 0 or hausdorff + PROBE_MARGIN_M * (1.0 + hausdorff) <= tolerance:
+    if hausdorff + PROBE_MARGIN_M * (1.0 + hausdorff) <= tolerance or len(src.wall_points) == 0:
         return 1.0
     covered = SurfaceIndex(lod_pos, lod_faces).within(src.wall_points, tolerance)
     return float(covered.mean())
 
 
 def measure_lod(
-    source_parts: list[Part], lod_parts: list[Part], hausdorff_m: float | None = None
+    source_parts: list[Part] | Source, lod_parts: list[Part], hausdorff_m: float | None = None
 ) -> LevelQuality:
-    """Quality of ``lod_parts`` against ``source_parts`` (both local East/Up/North metres).
+    """Quality of ``lod_parts`` against ``source_parts`` (both local East/Up/North metres; the
+    source's parts or their :class:`Source`).
 
     Returns a :class:`LevelQuality` (floats, ``new_holes`` an int); see the module doc.
-    Deterministic: the samples come from a fixed seed. The source side is computed once and
-    cached (keyed by its bytes), so measuring every level of a building costs one source pass.
+    Deterministic: the samples come from a fixed seed. The source side is prepared once per
+    building (:func:`prepare_source`), so measuring every level of a building costs one source pass.
     ``hausdorff_m``: a certified upper bound (metres) of the level's Hausdorff distance to the
     source that the caller has already (the error guard's), used instead of certifying again.
     """
-    if sum(p.triangle_count for p in source_parts) == 0:
+    src = prepare_source(source_parts)
+    if src.triangles == 0:
         return LevelQuality(
             triangle_ratio=1.0,
             hausdorff_rel=0.0,
@@ -267,14 +293,13 @@ def measure_lod(
             boundary_length_change=0.0,
             new_holes=0,
         )
-    src = _source_side(source_parts)
     lod_pos, lod_faces = joined(lod_parts)
 
     # The Hausdorff distance certified from above (exporter.mesh.hausdorff, or the guard's), metres.
     hausdorff = (
         hausdorff_m
         if hausdorff_m is not None
-        else certified_hausdorff_rel(source_parts, lod_parts, (lod_pos, lod_faces)) * src.diagonal
+        else certified_hausdorff_rel(src, lod_parts, (lod_pos, lod_faces)) * src.diagonal
     )
     wall_coverage = _wall_coverage(src, lod_pos, lod_faces, hausdorff)
 
@@ -291,47 +316,34 @@ def measure_lod(
     )
 
 
-_SURFACES: OrderedDict[bytes, tuple] = OrderedDict()
-
-
-def _source_surface(parts: list[Part]):
-    """The source as a :class:`exporter.mesh.hausdorff.Surface` and its diagonal (metres), cached
-    like the source side (one per building, shared by its levels)."""
-    key = _source_key(parts)
-    if key in _SURFACES:
-        _SURFACES.move_to_end(key)
-        return _SURFACES[key]
-    positions, faces = _joined_source(parts, key)
-    diagonal = max(float(np.linalg.norm(positions.max(axis=0) - positions.min(axis=0))), 1e-9)
-    return _remember(_SURFACES, key, (hausdorff.Surface(positions, faces), diagonal))
-
-
 def certified_hausdorff_rel(
-    source_parts: list[Part],
+    source_parts: list[Part] | Source,
     lod_parts: list[Part],
     lod_mesh: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> float:
     """Certified upper bound of the symmetric Hausdorff distance between the level and the source
-    (both local East/Up/North metres) / the source's diagonal: refined until it is within
-    ``HAUSDORFF_RTOL`` of the lower bound or below ``HAUSDORFF_ATOL`` (then its value is what the
-    refinement reached; :func:`exporter.mesh.hausdorff.hausdorff_bounds`); inf for an empty level,
-    0 for an empty source and level. ``lod_mesh``: ``joined(lod_parts)`` when the caller has it
-    (not welded twice)."""
-    if not any(p.triangle_count for p in source_parts):
+    (both local East/Up/North metres; the source's parts or their :class:`Source`) / the
+    source's diagonal: refined until it is within ``HAUSDORFF_RTOL`` of the lower bound or below
+    ``HAUSDORFF_ATOL`` (then its value is what the refinement reached;
+    :func:`exporter.mesh.hausdorff.hausdorff_bounds`); inf for an empty level, 0 for an empty
+    source and level. ``lod_mesh``: ``joined(lod_parts)`` when the caller has it (not welded
+    twice)."""
+    src = prepare_source(source_parts)
+    if not src.triangles:
         return 0.0 if not any(p.triangle_count for p in lod_parts) else float("inf")
-    surface, diagonal = _source_surface(source_parts)
     upper = hausdorff.hausdorff_bounds(
-        surface,
+        src.surface,
         joined(lod_parts) if lod_mesh is None else lod_mesh,
         rtol=HAUSDORFF_RTOL,
-        atol=HAUSDORFF_ATOL * diagonal,
+        atol=HAUSDORFF_ATOL * src.diagonal,
     )[1]
-    return upper / diagonal
+    return upper / src.diagonal
 
 
-def boundary_quality(source_parts: list[Part], lod_parts: list[Part]) -> LevelQuality:
+def boundary_quality(source_parts: list[Part] | Source, lod_parts: list[Part]) -> LevelQuality:
     """:func:`measure_lod`'s metrics for a level whose *surface* is the source's but whose open
-    boundary may not be (both local East/Up/North metres).
+    boundary may not be (both local East/Up/North metres; the source's parts or their
+    :class:`Source`).
 
     The lossless planar pass can close a zero-width slit or T-junction of the source: the
     surface stays the same, part of the open boundary becomes shared edges. The surface keys are
@@ -341,9 +353,9 @@ def boundary_quality(source_parts: list[Part], lod_parts: list[Part]) -> LevelQu
     measure_lod's certified bound (the re-triangulated polygons are flat only to rounding). The
     caller vouches that the surface is unchanged (not checked).
     """
-    if sum(p.triangle_count for p in source_parts) == 0:
-        return measure_lod(source_parts, lod_parts)
-    src = _source_outline(source_parts)
+    src = prepare_source(source_parts)
+    if src.triangles == 0:
+        return measure_lod(src, lod_parts)
     lod_pos, lod_faces = joined(lod_parts)
     keys = _boundary_keys(src, lod_parts, lod_pos, lod_faces)
     if src.triangles and not keys["triangle_ratio"]:
@@ -352,7 +364,7 @@ def boundary_quality(source_parts: list[Part], lod_parts: list[Part]) -> LevelQu
         )
     return LevelQuality(
         triangle_ratio=keys["triangle_ratio"],
-        hausdorff_rel=certified_hausdorff_rel(source_parts, lod_parts, (lod_pos, lod_faces)),
+        hausdorff_rel=certified_hausdorff_rel(src, lod_parts, (lod_pos, lod_faces)),
         silhouette_iou=1.0,
         wall_coverage=1.0,
         boundary_length_change=keys["boundary_length_change"],
@@ -360,7 +372,7 @@ def boundary_quality(source_parts: list[Part], lod_parts: list[Part]) -> LevelQu
     )
 
 
-def exact_quality(source_parts: list[Part], lod_parts: list[Part]) -> LevelQuality:
+def exact_quality(source_parts: list[Part] | Source, lod_parts: list[Part]) -> LevelQuality:
     """What :func:`measure_lod` would ideally give for a level whose surface *is* the source's.
 
     For a lossless level (the source re-triangulated: same surface, same outline, same UV
@@ -374,7 +386,8 @@ def exact_quality(source_parts: list[Part], lod_parts: list[Part]) -> LevelQuali
     exactness (this function does not check it); every other metric agrees with measure_lod's
     within 2e-13 (see tests/test_quality.py).
     """
-    source_tris = sum(p.triangle_count for p in source_parts)
+    src = prepare_source(source_parts)
+    source_tris = src.triangles
     lod_tris = sum(p.triangle_count for p in lod_parts)
     if source_tris and not lod_tris:
         raise ValueError(
@@ -382,7 +395,7 @@ def exact_quality(source_parts: list[Part], lod_parts: list[Part]) -> LevelQuali
         )
     return LevelQuality(
         triangle_ratio=float(lod_tris / source_tris) if source_tris else 1.0,
-        hausdorff_rel=certified_hausdorff_rel(source_parts, lod_parts),
+        hausdorff_rel=certified_hausdorff_rel(src, lod_parts),
         silhouette_iou=1.0,
         wall_coverage=1.0,
         boundary_length_change=0.0,

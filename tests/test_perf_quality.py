@@ -430,14 +430,13 @@ def reference_boundary_keys(source_parts, lod_parts):
 @pytest.mark.parametrize("boundary_first", [True, False])
 def test_boundary_quality_keys_are_measure_lods_bit_for_bit(boundary_first):
     """On random face subsets of buildings (open boundaries that grow, split and close),
-    whichever of the two runs first (boundary_quality keeps its own light cache of the source
-    side; after measure_lod it reads measure_lod's)."""
+    whichever of the two runs first (both read the one cached source side, each piece made by
+    whichever needs it first)."""
     rng = np.random.default_rng(31)
     sources = [box_building(5, 3, 20.0, (2, 4), 2), crafted_building(3), crafted_building(6)]
     checked = 0
     for source in sources:
         quality._CACHE.clear()
-        quality._OUTLINES.clear()
         for keep in (1.0, 0.9, 0.6, 0.3):
             part = source[0]
             mask = rng.random(part.triangle_count) < keep
@@ -477,7 +476,7 @@ def test_wall_coverage_is_the_exact_share_whichever_path_gives_it():
     for seed in (1, 3, 6):
         source = crafted_building(seed)
         quality._CACHE.clear()
-        side = quality._source_side(source)
+        side = quality.prepare_source(source)
         assert np.array_equal(side.wall_points, reference_wall_points(source))
         tolerance = quality.COVER_TOLERANCE * side.diagonal
         box = box_building(5, 3, 20.0, (2, 4), 2)
@@ -504,8 +503,7 @@ def former_quality(source, level, kind, deviation, monkeypatch):
             "certified_hausdorff_rel",
             lambda s, lod, mesh=None, inner=quality.certified_hausdorff_rel: inner(s, lod),
         )
-        for cache in (quality._CACHE, quality._OUTLINES, quality._SURFACES):
-            cache.clear()
+        quality._CACHE.clear()
         if kind == "exact":
             return quality.exact_quality(source, level)
         if kind == "boundary":
@@ -526,8 +524,7 @@ def test_export_quality_equals_the_former_code_bit_for_bit(tmp_path, monkeypatch
     for entry in scan_folder(str(tmp_path / "tile"), config.readers).entries:
         parts = load_entry(entry, config.readers).parts
         chain = build_mesh_chain(parts, config.lods, config.simplify)
-        for cache in (quality._CACHE, quality._OUTLINES, quality._SURFACES):
-            cache.clear()
+        quality._CACHE.clear()
         levels = []
         for level in chain[1:]:
             kind = "exact" if level.exact else "boundary" if level.surface_exact else "measured"
@@ -549,6 +546,53 @@ def test_export_quality_equals_the_former_code_bit_for_bit(tmp_path, monkeypatch
                     former_quality(chain[0].parts, level.parts, kind, None, monkeypatch)
                 )
     assert {"exact", "measured"} <= kinds
+
+
+def test_chain_qualities_equal_the_per_level_calls_bit_for_bit(tmp_path, monkeypatch):
+    """The pipeline's quality loop (:func:`exporter.job.chain_qualities`: one prepared source
+    per building, its pieces made on demand) gives every level's values exactly as the former
+    code measuring each level from the parts with every cache emptied; wall samples are drawn
+    only for a level whose certified bound leaves the wall tolerance open."""
+    import exporter.job
+    from exporter.job import chain_qualities, same_geometry
+    from exporter.readers import load_entry, scan_folder
+    from exporter.samplegen import generate_tile
+    from exporter.simplify import build_mesh_chain
+
+    generate_tile(str(tmp_path / "tile"), count=24, seed=5, atlas_size=64)
+    config = Config()
+    kinds: dict[str, int] = {}
+    for entry in scan_folder(str(tmp_path / "tile"), config.readers).entries:
+        parts = load_entry(entry, config.readers).parts
+        chain = build_mesh_chain(parts, config.lods, config.simplify)
+        made: list[quality.Source] = []
+
+        def recorded(parts, made=made):
+            made.append(quality.Source(parts))
+            return made[-1]
+
+        with monkeypatch.context() as patch:
+            patch.setattr(exporter.job, "Source", recorded)
+            got = chain_qualities(chain, [level.parts for level in chain])
+        assert got[0] is None and len(got) == len(chain)
+        for k in range(1, len(chain)):
+            if k > 1 and same_geometry(chain[k].parts, chain[k - 1].parts):
+                assert got[k] is got[k - 1]
+                continue
+            level = chain[k]
+            kind = "exact" if level.exact else "boundary" if level.surface_exact else "measured"
+            former = former_quality(chain[0].parts, level.parts, kind, level.deviation, monkeypatch)
+            assert repr(got[k]) == repr(former), (entry.id, k, kind)
+            assert got[k].to_manifest() == dataclasses.asdict(former)
+            assert list(got[k].to_manifest()) == list(dataclasses.asdict(former))
+            kinds[kind] = kinds.get(kind, 0) + 1
+        # Wall samples are drawn only when a level's bound leaves the coverage open.
+        (source,) = made
+        needed = any(
+            q is not None and q.hausdorff_rel > 0.9 * quality.COVER_TOLERANCE for q in got[1:]
+        )
+        assert ("wall_points" in source.__dict__) <= needed
+    assert kinds.get("exact", 0) and kinds.get("measured", 0)
 
 
 @pytest.mark.parametrize("strict", [False, True])
