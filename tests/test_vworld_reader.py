@@ -382,3 +382,26 @@ def test_vworld_box_arrives_in_unity_facing_outward(tmp_path):
     unity_positions = np.asarray(mesh.vertices) * [-1.0, 1.0, 1.0]
     unity_triangles = np.asarray(mesh.faces)[:, ::-1]
     assert outward_share(unity_positions, unity_triangles, np.array([0.0, 6.0, 0.0])) == 1.0
+
+
+def fancy_index_votes(positions, triangles, directions) -> tuple:
+    """``winding_votes`` as first written: (m, 3, 3) corner gathers, a sum over the corners."""
+    corners = positions[triangles]
+    face = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    dots = np.einsum("ij,ij->i", face, directions[triangles].sum(axis=1))
+    return int((dots > 0).sum()), int((dots < 0).sum()), dots
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_winding_votes_equal_the_fancy_index_formulation(seed):
+    """Per-corner ``take`` gathers count the same votes from the same dot products, also on
+    near-flat triangles and directions summing to about zero (where a reordered sum would flip)."""
+    rng = np.random.default_rng(seed)
+    positions = rng.normal(size=(200, 3)) * 10.0 ** rng.integers(-6, 4)
+    positions[::7] = positions[1::7] + rng.normal(size=positions[::7].shape) * 1e-12
+    directions = rng.normal(size=(200, 3))
+    directions[1::3] = -directions[::3][: len(directions[1::3])] + 1e-17
+    triangles = rng.integers(0, 200, size=(700, 3))
+    agree, disagree, dots = fancy_index_votes(positions, triangles, directions)
+    assert (np.abs(dots) < 1e-9).any()  # the data does reach the near-zero cases
+    assert vworld.winding_votes(positions, triangles, directions) == (agree, disagree)

@@ -115,11 +115,13 @@ def lonlat_of(points: np.ndarray) -> tuple:
 def winding_votes(positions: np.ndarray, triangles: np.ndarray, directions: np.ndarray) -> tuple:
     """(agree, disagree): triangles whose ``(b-a)x(c-a)`` has a positive / negative dot with
     the sum of the corner ``directions`` ((n, 3), any frame shared with ``positions``)."""
-    corners = positions[triangles]  # (m, 3 corners, 3)
-    face = cross_rows(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    reference = directions[triangles].sum(axis=1)
-    dots = np.einsum("ij,ij->i", face, reference)
-    return int((dots > 0).sum()), int((dots < 0).sum())
+    # One gather per corner (``take`` on an index row: several times faster than fancy indexing
+    # into (m, 3, 3) and summing over its middle axis), same sums in the same order.
+    a, b, c = (positions.take(corner, axis=0) for corner in triangles.T)
+    face = cross_rows(b - a, c - a)
+    d0, d1, d2 = (directions.take(corner, axis=0) for corner in triangles.T)
+    dots = np.einsum("ij,ij->i", face, d0 + d1 + d2)
+    return int(np.count_nonzero(dots > 0)), int(np.count_nonzero(dots < 0))
 
 
 def outward_triangles(
