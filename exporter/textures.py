@@ -611,7 +611,9 @@ def build_texture_lods(
     if not all(0.0 < s <= 1.0 for s in scales):
         raise ValueError(f"texture scales must be in (0, 1], got {scales!r}")
     data = bytes(texture.data)
-    key = (_Content(data), tuple(float(s) for s in scales), dataclasses.astuple(options))
+    # The options' field values (scalars): astuple's deep copy costs five times as much.
+    fields = tuple(getattr(options, f.name) for f in dataclasses.fields(options))
+    key = (_Content(data), tuple(float(s) for s in scales), fields)
     cached = _cache.get(key)
     if cached is None:
         try:

@@ -405,3 +405,40 @@ def test_winding_votes_equal_the_fancy_index_formulation(seed):
     agree, disagree, dots = fancy_index_votes(positions, triangles, directions)
     assert (np.abs(dots) < 1e-9).any()  # the data does reach the near-zero cases
     assert vworld.winding_votes(positions, triangles, directions) == (agree, disagree)
+
+
+@pytest.mark.parametrize(
+    "dat_shift, xdo_shift, reported",
+    [
+        (0.5, 0.0, None),
+        (0.0, 2.25, "2.2 m"),  # the largest of the six differences, in metres
+        (-3.0, 0.0, "3.0 m"),
+        (math.nan, 0.0, None),  # the .dat box unusable: not compared
+        (0.0, math.nan, ReadError),  # the .xdo box is the one used: refused when not finite
+        (0.0, math.inf, ReadError),
+    ],
+)
+def test_bounding_box_mismatch_reports_the_largest_difference(
+    tmp_path, dat_shift, xdo_shift, reported
+):
+    vworld.write_tile(tmp_path, TILE, [building([textured_box()])])
+    dat_path = next(tmp_path.glob("*.dat"))
+    dat = parse_dat(dat_path.read_bytes(), str(dat_path))
+    record = dat.objects[0]
+    record.bbox = (record.bbox[0] + dat_shift, *record.bbox[1:])
+    dat_path.write_bytes(serialise_dat(dat))
+    xdo_path = tmp_path / record.data_file.decode()
+    xdo = parse_xdo(xdo_path.read_bytes(), str(xdo_path))
+    xdo.bbox = (*xdo.bbox[:4], xdo.bbox[4] + xdo_shift, xdo.bbox[5])
+    xdo_path.write_bytes(serialise_xdo(xdo))
+    if reported is ReadError:
+        with pytest.raises(ReadError, match="bounding box is not finite"):
+            load_all(tmp_path)
+        return
+    problems = [p for p in load_all(tmp_path)[0].problems if "bounding box" in p]
+    if reported is None:
+        assert problems == []
+    else:
+        assert problems == [
+            f"{xdo_path.name}: bounding box differs from the .dat's by {reported}; used the .xdo's"
+        ]
