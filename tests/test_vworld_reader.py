@@ -442,3 +442,21 @@ def test_bounding_box_mismatch_reports_the_largest_difference(
         assert problems == [
             f"{xdo_path.name}: bounding box differs from the .dat's by {reported}; used the .xdo's"
         ]
+
+
+def test_lonlat_of_is_sphere_lonlath_bit_for_bit():
+    """Its own two-angle arithmetic equals geodesy's inverse (VWorld Y mirrored) exactly,
+    poles and points straight above them included."""
+    from exporter.geodesy import sphere_lonlath
+
+    rng = np.random.default_rng(7)
+    points = np.concatenate(
+        [
+            rng.normal(size=(500, 3)) * EARTH_RADIUS_M,
+            local_to_global(rng.normal(size=(300, 3)) * 50.0, SEOUL),
+            [[0.0, 0.0, EARTH_RADIUS_M], [1e-9, -1e-9, -EARTH_RADIUS_M], [3.0, 4.0, 0.0]],
+        ]
+    )
+    lon, lat = lonlat_of(points)
+    expected = sphere_lonlath(points * np.array([1.0, -1.0, 1.0]))
+    assert np.array_equal(lon, expected[:, 0]) and np.array_equal(lat, expected[:, 1])
