@@ -6,6 +6,7 @@ aerial atlas from ``../shared/data/real`` (skipped when absent)."""
 from __future__ import annotations
 
 import io
+import math
 
 import numpy as np
 import pytest
@@ -261,3 +262,51 @@ def test_auto_fallback_keeps_lanczos_where_the_box_check_fails_on_lod1():
     half = full(data).resize((256, 256), LANCZOS)
     assert textures.sampled_box_psnr(half, 2) < textures.AUTO_MIN_PSNR_DB
     assert levels_of(data, "auto") == [data, q90(half), q90(half.resize((128, 128), LANCZOS))]
+
+
+def public_api_sampled_psnr(image: Image.Image, k: int) -> float:
+    """``sampled_box_psnr`` as first written: the mosaic cut and pasted with ``Image.crop`` and
+    ``Image.paste`` (rows into a band, then columns), the mean of float64 squares."""
+    block, margin = textures.SAMPLE_BLOCK_OUT * k, textures.LANCZOS_REACH * k
+    cell, n = block + 2 * margin, textures.SAMPLE_BLOCKS
+    width, height = image.size
+    rows = [
+        image.crop((0, y - margin, width, y + block + margin))
+        for y in textures.sample_origins(height, n, block, margin, k)
+    ]
+    band = Image.new(image.mode, (width, n * cell))
+    for i, row in enumerate(rows):
+        band.paste(row, (0, i * cell))
+    mosaic = Image.new(image.mode, (n * cell, n * cell))
+    for j, x in enumerate(textures.sample_origins(width, n, block, margin, k)):
+        mosaic.paste(band.crop((x - margin, 0, x + block + margin, n * cell)), (j * cell, 0))
+    side = n * cell // k
+    difference = np.asarray(mosaic.resize((side, side), LANCZOS)).astype(np.float64) - np.asarray(
+        mosaic.reduce(k)
+    ).astype(np.float64)
+    inner = slice(margin // k, margin // k + textures.SAMPLE_BLOCK_OUT)
+    errors = np.abs(difference).reshape(n, cell // k, n, cell // k, -1)[:, inner, :, inner]
+    mse = float(np.mean(errors * errors))
+    return 10.0 * math.log10(255.0 * 255.0 / mse) if mse else math.inf
+
+
+def sample_images() -> list[Image.Image]:
+    mixed = np.concatenate([sharp_rgb(640, 256, seed=3), smooth_rgb(640, 256, seed=4)])
+    images = [Image.fromarray(a) for a in (sharp_rgb(512, 512), smooth_rgb(512, 512), mixed)]
+    images.append(images[2].convert("L"))
+    images.append(Image.fromarray(np.dstack([mixed, mixed[:, :, 0]]), "RGBA"))
+    for path in sorted(REAL_ATLASES.glob("*.jp*g"))[:6] if REAL_ATLASES.is_dir() else []:
+        data = path.read_bytes()
+        width, height = Image.open(io.BytesIO(data)).size
+        images.append(drafted(data, (width // 2, height // 2)))  # the level auto checks
+    return images
+
+
+@pytest.mark.parametrize("k", [2, 4])
+def test_sampled_check_equals_its_public_api_formulation_bit_for_bit(k):
+    """The core-API mosaic and integer sum give the very float the crop/paste mosaic and the
+    float64 mean gave: ``auto``'s decisions cannot move."""
+    images = [image for image in sample_images() if image.width >= 256]
+    assert len(images) >= 5
+    for image in images:
+        assert textures.sampled_box_psnr(image, k) == public_api_sampled_psnr(image, k)

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from exporter.errors import ReadError
+from exporter.formats import vworld_binary
 from exporter.formats.vworld_binary import (
     DatFile,
     DatObject,
@@ -214,6 +215,65 @@ def test_every_truncation_is_a_read_error():
     for end in range(len(dat)):
         with pytest.raises(ReadError):
             parse_dat(dat[:end], "t.dat")
+
+
+class PerValueCursor(vworld_binary._Cursor):
+    """The cursor as first written: every read through ``need`` and ``take``, ``u8`` by slicing,
+    ``u32`` by ``struct.unpack``."""
+
+    def take(self, size: int, what: str) -> bytes:
+        self.need(size, what)
+        chunk = self.data[self.pos : self.pos + size]
+        self.pos += size
+        return chunk
+
+    def u8(self, what: str) -> int:
+        return self.take(1, what)[0]
+
+    def u32(self, what: str) -> int:
+        return struct.unpack("<I", self.take(4, what))[0]
+
+    def count(self, what: str, item_bytes: int) -> int:
+        start = self.pos
+        count = self.u32(what)
+        if count * item_bytes > self.left:
+            raise vworld_binary._Malformed(
+                f"truncated or corrupt: {what} {count} at offset {start} needs {count * item_bytes} bytes, only {self.left} left",
+                start,
+            )
+        return count
+
+
+def outcome(parse, data: bytes, *args) -> str:
+    try:
+        return repr(parse(data, *args))
+    except ReadError as error:
+        return f"ReadError: {error}"
+
+
+def test_inline_cursor_reads_and_refuses_as_the_per_value_one(monkeypatch):
+    """Every cut, and a flipped byte at every offset, of an .xdo (both layouts, empty and named
+    images) and a .dat: the same parse or the same error text, offsets included."""
+    files = [
+        (parse_xdo, serialise_xdo(xdo(2, [mesh(14, name=b""), mesh(15)])), "t.xdo", None),
+        (parse_xdo, serialise_xdo(xdo(1, [mesh(16, name=b"", thumbnail=None)])), "t.xdo", 1),
+        (
+            parse_dat,
+            serialise_dat(DatFile(15, 1, 2, [dat_object(0, b"K1"), dat_object(1, b"K2")])),
+            "t.dat",
+        ),
+    ]
+    variants = []
+    for parse, data, *args in files:
+        variants += [(parse, data[:end], args) for end in range(len(data) + 1)]
+        variants += [
+            (parse, data[:at] + bytes((data[at] ^ 0xA5,)) + data[at + 1 :], args)
+            for at in range(len(data))
+        ]
+    inline = [outcome(parse, data, *args) for parse, data, args in variants]
+    monkeypatch.setattr(vworld_binary, "_Cursor", PerValueCursor)
+    assert inline == [outcome(parse, data, *args) for parse, data, args in variants]
+    assert sum(text.startswith("ReadError") for text in inline) > len(inline) // 2
 
 
 def test_huge_counts_fail_fast_before_allocating():

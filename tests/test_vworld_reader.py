@@ -382,3 +382,81 @@ def test_vworld_box_arrives_in_unity_facing_outward(tmp_path):
     unity_positions = np.asarray(mesh.vertices) * [-1.0, 1.0, 1.0]
     unity_triangles = np.asarray(mesh.faces)[:, ::-1]
     assert outward_share(unity_positions, unity_triangles, np.array([0.0, 6.0, 0.0])) == 1.0
+
+
+def fancy_index_votes(positions, triangles, directions) -> tuple:
+    """``winding_votes`` as first written: (m, 3, 3) corner gathers, a sum over the corners."""
+    corners = positions[triangles]
+    face = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    dots = np.einsum("ij,ij->i", face, directions[triangles].sum(axis=1))
+    return int((dots > 0).sum()), int((dots < 0).sum()), dots
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_winding_votes_equal_the_fancy_index_formulation(seed):
+    """Per-corner ``take`` gathers count the same votes from the same dot products, also on
+    near-flat triangles and directions summing to about zero (where a reordered sum would flip)."""
+    rng = np.random.default_rng(seed)
+    positions = rng.normal(size=(200, 3)) * 10.0 ** rng.integers(-6, 4)
+    positions[::7] = positions[1::7] + rng.normal(size=positions[::7].shape) * 1e-12
+    directions = rng.normal(size=(200, 3))
+    directions[1::3] = -directions[::3][: len(directions[1::3])] + 1e-17
+    triangles = rng.integers(0, 200, size=(700, 3))
+    agree, disagree, dots = fancy_index_votes(positions, triangles, directions)
+    assert (np.abs(dots) < 1e-9).any()  # the data does reach the near-zero cases
+    assert vworld.winding_votes(positions, triangles, directions) == (agree, disagree)
+
+
+@pytest.mark.parametrize(
+    "dat_shift, xdo_shift, reported",
+    [
+        (0.5, 0.0, None),
+        (0.0, 2.25, "2.2 m"),  # the largest of the six differences, in metres
+        (-3.0, 0.0, "3.0 m"),
+        (math.nan, 0.0, None),  # the .dat box unusable: not compared
+        (0.0, math.nan, ReadError),  # the .xdo box is the one used: refused when not finite
+        (0.0, math.inf, ReadError),
+    ],
+)
+def test_bounding_box_mismatch_reports_the_largest_difference(
+    tmp_path, dat_shift, xdo_shift, reported
+):
+    vworld.write_tile(tmp_path, TILE, [building([textured_box()])])
+    dat_path = next(tmp_path.glob("*.dat"))
+    dat = parse_dat(dat_path.read_bytes(), str(dat_path))
+    record = dat.objects[0]
+    record.bbox = (record.bbox[0] + dat_shift, *record.bbox[1:])
+    dat_path.write_bytes(serialise_dat(dat))
+    xdo_path = tmp_path / record.data_file.decode()
+    xdo = parse_xdo(xdo_path.read_bytes(), str(xdo_path))
+    xdo.bbox = (*xdo.bbox[:4], xdo.bbox[4] + xdo_shift, xdo.bbox[5])
+    xdo_path.write_bytes(serialise_xdo(xdo))
+    if reported is ReadError:
+        with pytest.raises(ReadError, match="bounding box is not finite"):
+            load_all(tmp_path)
+        return
+    problems = [p for p in load_all(tmp_path)[0].problems if "bounding box" in p]
+    if reported is None:
+        assert problems == []
+    else:
+        assert problems == [
+            f"{xdo_path.name}: bounding box differs from the .dat's by {reported}; used the .xdo's"
+        ]
+
+
+def test_lonlat_of_is_sphere_lonlath_bit_for_bit():
+    """Its own two-angle arithmetic equals geodesy's inverse (VWorld Y mirrored) exactly,
+    poles and points straight above them included."""
+    from exporter.geodesy import sphere_lonlath
+
+    rng = np.random.default_rng(7)
+    points = np.concatenate(
+        [
+            rng.normal(size=(500, 3)) * EARTH_RADIUS_M,
+            local_to_global(rng.normal(size=(300, 3)) * 50.0, SEOUL),
+            [[0.0, 0.0, EARTH_RADIUS_M], [1e-9, -1e-9, -EARTH_RADIUS_M], [3.0, 4.0, 0.0]],
+        ]
+    )
+    lon, lat = lonlat_of(points)
+    expected = sphere_lonlath(points * np.array([1.0, -1.0, 1.0]))
+    assert np.array_equal(lon, expected[:, 0]) and np.array_equal(lat, expected[:, 1])

@@ -217,34 +217,50 @@ class _Malformed(Exception):
         self.problem, self.offset = problem, offset
 
 
+_U32 = struct.Struct("<I")
+
+
 class _Cursor:
-    """Reads little-endian fields from ``data``, checking the bytes left before every read."""
+    """Reads little-endian fields from ``data``, checking the bytes left before every read.
+
+    The readers check and advance inline (no call to :meth:`need` on the success path): a file
+    is tens of thousands of fields in a tile, each a few method calls otherwise.
+    """
 
     def __init__(self, data: bytes) -> None:
-        self.data, self.pos = data, 0
+        self.data, self.pos, self.end = data, 0, len(data)
 
     @property
     def left(self) -> int:
-        return len(self.data) - self.pos
+        return self.end - self.pos
 
     def need(self, size: int, what: str) -> None:
-        if size > self.left:
+        if size > self.end - self.pos:
             raise _Malformed(
                 f"truncated: {what} needs {size} bytes at offset {self.pos}, only {self.left} left",
                 self.pos,
             )
 
     def take(self, size: int, what: str) -> bytes:
-        self.need(size, what)
-        chunk = self.data[self.pos : self.pos + size]
-        self.pos += size
-        return chunk
+        pos = self.pos
+        if size > self.end - pos:
+            self.need(size, what)
+        self.pos = pos + size
+        return self.data[pos : pos + size]
 
     def u8(self, what: str) -> int:
-        return self.take(1, what)[0]
+        pos = self.pos
+        if pos >= self.end:
+            self.need(1, what)
+        self.pos = pos + 1
+        return self.data[pos]
 
     def u32(self, what: str) -> int:
-        return struct.unpack("<I", self.take(4, what))[0]
+        pos = self.pos
+        if 4 > self.end - pos:
+            self.need(4, what)
+        self.pos = pos + 4
+        return _U32.unpack_from(self.data, pos)[0]
 
     def f32(self, what: str) -> np.float32:
         return np.frombuffer(self.take(4, what), dtype="<f4")[0]
@@ -259,7 +275,7 @@ class _Cursor:
         """A u32 count of items of ``item_bytes`` each, refused when the bytes left cannot hold it."""
         start = self.pos
         count = self.u32(what)
-        if count * item_bytes > self.left:
+        if count * item_bytes > self.end - self.pos:
             raise _Malformed(
                 f"truncated or corrupt: {what} {count} at offset {start} needs {count * item_bytes} bytes, only {self.left} left",
                 start,
