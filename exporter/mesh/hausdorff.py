@@ -503,7 +503,9 @@ def directed_bounds(
     lower, upper_done = 0.0, 0.0
     if tolerance is None and len(tri):
         # A first lower bound from the corners, so that refining aims at a known value.
-        corners = np.unique(tri.reshape(-1, 3), axis=0)
+        # Distinct corners (np.unique's rows, in its order: compiled, without its void sort).
+        corners = tri.reshape(-1, 3)
+        corners = corners[unique_float_rows(corners)[0]]
         lower = float(index.max_distance(corners))
         if lower > give_up:
             return lower, float("inf")  # a corner is already too far: no triangle bounded
