@@ -116,3 +116,20 @@ def test_the_lower_bounds_distinct_corners_are_np_uniques_rows():
         np.unique(corners, axis=0)
     )
     assert hausdorff.directed_bounds(tri, Surface(positions, faces))[0] >= 0.0
+
+
+def test_an_index_without_samples_draws_none_and_equals_the_sampled_form(monkeypatch):
+    from exporter.mesh import distance
+
+    (positions, faces), _ = wall(3)
+    samples, owners = distance.sample_surface(
+        positions, faces, 0, np.random.default_rng(distance.SEED), with_faces=True
+    )
+    monkeypatch.setattr(distance.np.random, "default_rng", lambda *a: 1 / 0)  # never drawn
+    index = distance.SurfaceIndex(positions, faces, samples_per_face=0)
+    m = len(faces)
+    assert index.tree is not None and index.tree.n == 4 * m
+    probes = np.concatenate([index.tri.reshape(-1, 3), index.centres, samples])
+    assert np.array_equal(index.tree.data, probes)
+    owner = np.concatenate([np.repeat(np.arange(m), 3), np.arange(m), owners])
+    assert np.array_equal(index.owner, owner) and index.owner.dtype == owner.dtype

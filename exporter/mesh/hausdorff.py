@@ -201,9 +201,6 @@ class _Regions:
         self.tri2 = np.stack(
             [np.einsum("mkj,mj->mk", tri, uf), np.einsum("mkj,mj->mk", tri, vf)], axis=-1
         )
-        self.scale = (
-            float(np.linalg.norm(positions.max(axis=0) - positions.min(axis=0))) if m else 0.0
-        )
         self.face_order = np.argsort(region, kind="stable")
         self.face_start = np.searchsorted(region[self.face_order], np.arange(r + 1))
         self._boundary(faces, len(positions))
