@@ -73,9 +73,12 @@ class SurfaceIndex:
     def __init__(self, positions: np.ndarray, faces: np.ndarray, samples_per_face: int = 2) -> None:
         self.tri = positions[faces]
         m = len(faces)
-        samples, sample_faces = sample_surface(
-            positions, faces, samples_per_face * m, np.random.default_rng(SEED), with_faces=True
-        )
+        if samples_per_face * m:
+            samples, sample_faces = sample_surface(
+                positions, faces, samples_per_face * m, np.random.default_rng(SEED), with_faces=True
+            )
+        else:  # what sample_surface gives for no samples, without its generator and area sums
+            samples, sample_faces = np.zeros((0, 3)), np.zeros(0, np.int64)
         self.centres = self.tri.mean(axis=1)
         self.radii = np.sqrt(((self.tri - self.centres[:, None]) ** 2).sum(-1).max(axis=1))
         probes = np.concatenate([self.tri.reshape(-1, 3), self.centres, samples])

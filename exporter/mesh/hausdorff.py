@@ -50,7 +50,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import _plane_boundary, _surface, coverage
+from . import _chains, _plane_boundary, _surface, coverage
 from .component_kernels import lowest_member
 from .distance import SurfaceIndex
 from .geometry import cross_rows, isin_int, longest_edges, unique_float_rows
@@ -201,9 +201,6 @@ class _Regions:
         self.tri2 = np.stack(
             [np.einsum("mkj,mj->mk", tri, uf), np.einsum("mkj,mj->mk", tri, vf)], axis=-1
         )
-        self.scale = (
-            float(np.linalg.norm(positions.max(axis=0) - positions.min(axis=0))) if m else 0.0
-        )
         self.face_order = np.argsort(region, kind="stable")
         self.face_start = np.searchsorted(region[self.face_order], np.arange(r + 1))
         self._boundary(faces, len(positions))
@@ -259,52 +256,13 @@ class _Chains:
     ``slack`` (they are connected and lie within ``slack`` of the line)."""
 
     def __init__(self, positions: np.ndarray, faces: np.ndarray) -> None:
-        m = len(faces)
-        half = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-        k = max(len(positions), 1)
-        edges, edge_of = np.unique(half[:, 0] * k + half[:, 1], return_inverse=True)
-        a, b = edges // k, edges % k
-        self.face_chain = edge_of.reshape(m, 3)
-        e = len(edges)
-        direction = positions[b] - positions[a]
-        length = np.sqrt((direction**2).sum(1))
-        direction = np.divide(
-            direction, length[:, None], out=np.zeros_like(direction), where=length[:, None] > 0
+        # Compiled (c/chains.c): the edges, their directions, the chains (union-find over the
+        # opposite pairs at each vertex) and each chain's segment and slack.
+        self.face_chain, self.start, self.end, self.slack = _chains.chains(
+            np.ascontiguousarray(positions, np.float64).reshape(-1, 3),
+            np.ascontiguousarray(faces, np.int64).reshape(-1, 3),
+            STRAIGHT,
         )
-        # Entries (vertex, edge, direction away from the vertex), grouped by vertex.
-        vertex = np.concatenate([a, b])
-        edge = np.concatenate([np.arange(e), np.arange(e)])
-        away = np.concatenate([direction, -direction])
-        order = np.argsort(vertex, kind="stable")
-        vertex, edge, away = vertex[order], edge[order], away[order]
-        first = np.searchsorted(vertex, vertex, side="left")
-        last = np.searchsorted(vertex, vertex, side="right")
-        # Pairs (i, j > i) within a vertex's entries.
-        counts = last - np.arange(len(vertex)) - 1
-        owner, item = _ranges(np.arange(len(vertex)) + 1, counts)
-        del first
-        straight = (away[owner] * away[item]).sum(1) < -STRAIGHT
-        count, chain = _components(e, edge[owner[straight]], edge[item[straight]])
-        self.face_chain = chain[self.face_chain]
-        # Each chain's line: through its lowest edge's first end, along that edge.
-        lead = np.full(count, e)
-        np.minimum.at(lead, chain, np.arange(e))
-        origin, axis = positions[a[lead]], direction[lead]
-        ends = np.concatenate([a, b])
-        owner_chain = np.concatenate([chain, chain])
-        offset = positions[ends] - origin[owner_chain]
-        along = (offset * axis[owner_chain]).sum(1)
-        across = np.sqrt(np.maximum((offset**2).sum(1) - along**2, 0.0))
-        low = np.full(count, np.inf)
-        high = np.full(count, -np.inf)
-        np.minimum.at(low, owner_chain, along)
-        np.maximum.at(high, owner_chain, along)
-        self.slack = np.zeros(count)
-        np.maximum.at(self.slack, owner_chain, across)
-        # Rounding of the perpendicular distance (sqrt of a difference): a relative margin.
-        self.slack += 1e-7 * np.maximum(high - low, 0.0) + 1e-12
-        self.start = origin + low[:, None] * axis
-        self.end = origin + high[:, None] * axis
 
 
 def _chain_bound(tri: np.ndarray, target: Surface, faces: np.ndarray) -> np.ndarray:
@@ -503,7 +461,9 @@ def directed_bounds(
     lower, upper_done = 0.0, 0.0
     if tolerance is None and len(tri):
         # A first lower bound from the corners, so that refining aims at a known value.
-        corners = np.unique(tri.reshape(-1, 3), axis=0)
+        # Distinct corners (np.unique's rows, in its order: compiled, without its void sort).
+        corners = tri.reshape(-1, 3)
+        corners = corners[unique_float_rows(corners)[0]]
         lower = float(index.max_distance(corners))
         if lower > give_up:
             return lower, float("inf")  # a corner is already too far: no triangle bounded

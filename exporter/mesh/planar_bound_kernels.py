@@ -33,6 +33,41 @@ def _check_regions(regions, m: int) -> None:
         )
 
 
+_FIELDS = ("region", "seg_start", "slack", "offset", "gap", "u", "v", "normal", "tri2")
+_SEGMENTS = ("seg_x0", "seg_y0", "seg_x1", "seg_y1")
+
+
+def _packed(regions, m: int) -> tuple[np.ndarray, np.ndarray]:
+    """``regions`` checked (:func:`_check_regions`) and packed as the kernel reads them: the
+    planes (12, r) (slack, offset, gap, u, v, normal) and the segments (4, s), both float64.
+    Kept on ``regions`` with the arrays they were made of, and remade when any field is another
+    array (the hot loop calls this for every batch of triangles against one prepared target; a
+    field changed in place is caught by the kernel's own index checks)."""
+    fields = tuple(getattr(regions, name) for name in _FIELDS + _SEGMENTS)
+    cached = getattr(regions, "_planar_bound_packed", None)
+    if cached is not None and cached[0] == m and all(a is b for a, b in zip(cached[1], fields)):
+        return cached[2], cached[3]
+    _check_regions(regions, m)
+    planes = np.ascontiguousarray(
+        np.vstack(
+            [
+                regions.slack[None],
+                regions.offset[None],
+                regions.gap[None],
+                regions.u.T,
+                regions.v.T,
+                regions.normal.T,
+            ]
+        ),
+        np.float64,
+    )
+    seg = np.ascontiguousarray(
+        np.vstack([regions.seg_x0, regions.seg_y0, regions.seg_x1, regions.seg_y1]), np.float64
+    )
+    regions._planar_bound_packed = (m, fields, planes, seg)
+    return planes, seg
+
+
 def planar_bound(tri, row, face, regions, cap, constants) -> np.ndarray:
     """(n,) metres: the in-plane bound of each triangle ``tri`` (n, 3, 3) metres over the
     planar regions of its candidate faces (``row``, ``face`` (p,) int64 pairs), inf where none
@@ -52,23 +87,7 @@ def planar_bound(tri, row, face, regions, cap, constants) -> np.ndarray:
         raise ValueError("planar_bound: a triangle or face index is out of range")
     if len(row) != len(face) or np.shape(tri)[1:] != (3, 3):
         raise ValueError("planar_bound: pairs or triangles of the wrong shape")
-    _check_regions(regions, m)
-    planes = np.ascontiguousarray(
-        np.vstack(
-            [
-                regions.slack[None],
-                regions.offset[None],
-                regions.gap[None],
-                regions.u.T,
-                regions.v.T,
-                regions.normal.T,
-            ]
-        ),
-        np.float64,
-    )
-    seg = np.ascontiguousarray(
-        np.vstack([regions.seg_x0, regions.seg_y0, regions.seg_x1, regions.seg_y1]), np.float64
-    )
+    planes, seg = _packed(regions, m)
     _bound(
         np.ascontiguousarray(tri, np.float64),
         row,

@@ -531,8 +531,10 @@ def build_mesh_chain(
         target = int(round(source_triangles * spec.mesh))
         # Level k is shown at most lods[k-1].transition of the screen high.
         tolerance = screen_tolerance(size, lods[k - 1].transition, options)
-        # Level 1 starts from LOD0 welded the same way as the reference: joined once.
-        shared = joined if k == 1 and options.vertex_link_distance <= NOISE_M else None
+        # Level 1 starts from LOD0 welded the same way as the reference: joined once; so does
+        # a level whose level above is LOD0's own parts (nothing changed on the way).
+        from_lod0 = k == 1 or chain[-1].parts is chain[0].parts
+        shared = joined if from_lod0 and options.vertex_link_distance <= NOISE_M else None
         # A level above that kept LOD0's surface is the planar stage's output: not redone.
         planar_done = k > 1 and chain[-1].surface_exact
         # Slits were closed by the first level that is not LOD0's own parts.

@@ -51,6 +51,7 @@ def lossless_twin(
     twin_faces: np.ndarray,
     slack: float,
     surface: Callable[[], hausdorff.Surface] | None = None,
+    made: list[hausdorff.Surface] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, float] | None:
     """LOD0 ``(positions (k, 3) metres, faces (m, 3))`` and ``twin_faces`` (m', 3) on the same
     positions, LOD0's flat polygons re-triangulated from their outlines (the planar stage's
@@ -61,7 +62,9 @@ def lossless_twin(
     added); faces it leaves open are bounded by the general method,
     :func:`exporter.mesh.hausdorff.directed_bounds`, when ``surface`` gives LOD0 as a
     :class:`~exporter.mesh.hausdorff.Surface`. None when the twin has more than ``TWIN_SHARE`` of
-    LOD0's faces or is not certified within ``slack`` metres."""
+    LOD0's faces or is not certified within ``slack`` metres. ``made``: a list the twin's own
+    :class:`~exporter.mesh.hausdorff.Surface` is appended to when one is prepared here (the caller
+    reuses it rather than preparing the same surface again)."""
     if len(faces) == 0 or len(twin_faces) == 0 or len(twin_faces) > TWIN_SHARE * len(faces):
         return None
     used, twin = compact_vertices(twin_faces, len(positions))
@@ -78,13 +81,17 @@ def lossless_twin(
     if settled.open_level.any() or settled.open_source.any():
         if surface is None:
             return None
+
+        def twin_surface() -> hausdorff.Surface:
+            prepared = hausdorff.Surface(twin_positions, twin)
+            if made is not None:
+                made.append(prepared)
+            return prepared
+
         # Only the open faces, each against the whole other side, decided at the slack: the
         # closed mesh's against the twin, the twin's against LOD0 itself.
         for tri, target in (
-            (
-                positions[closed[settled.open_source]],
-                lambda: hausdorff.Surface(twin_positions, twin),
-            ),
+            (positions[closed[settled.open_source]], twin_surface),
             (twin_positions[twin[settled.open_level]], surface),
         ):
             if len(tri):
@@ -126,6 +133,7 @@ class Reference:
         LOD0 itself (0)."""
         if self._twin is None:
             found = None
+            made: list[hausdorff.Surface] = []  # the twin's surface, when lossless_twin made it
             if self._twin_faces is not None:
                 found = lossless_twin(
                     self.positions,
@@ -133,9 +141,10 @@ class Reference:
                     self._twin_faces,
                     TWIN_SLACK * diagonal(self.positions),
                     lambda: self.surface,
+                    made,
                 )
             self._twin = (
-                (hausdorff.Surface(found[0], found[1]), found[2])
+                (made[0] if made else hausdorff.Surface(found[0], found[1]), found[2])
                 if found is not None
                 else (self.surface, 0.0)
             )
