@@ -408,16 +408,17 @@ def _mosaic(
     """The ``cell``-pixel squares around block origins ``xs`` x ``ys`` (source pixels, ``margin``
     pixels before each origin) side by side, rows of ``ys``: one (len(xs) cell, len(ys) cell) image.
 
-    Pillow's core crop and paste, without ``Image.crop``/``Image.paste``'s Python checks (a few
-    microseconds a call, 50 calls: as much as their pixel work); the boxes are inside ``image``.
+    Rows are cut first into one band, then the band's columns: 2 (n + n) crops and pastes instead
+    of 2 n² (Pillow's public API; its per-call checks cost as much as the pixel work here).
     """
-    source = image.im
-    mosaic = Image.core.new(image.mode, (len(xs) * cell, len(ys) * cell))
+    width = image.width
+    band = Image.new(image.mode, (width, len(ys) * cell), None)  # every pixel is pasted over
     for i, y in enumerate(ys):
-        for j, x in enumerate(xs):
-            square = source.crop((x - margin, y - margin, x - margin + cell, y - margin + cell))
-            mosaic.paste(square, (j * cell, i * cell, (j + 1) * cell, (i + 1) * cell))
-    return Image.Image()._new(mosaic)
+        band.paste(image.crop((0, y - margin, width, y - margin + cell)), (0, i * cell))
+    mosaic = Image.new(image.mode, (len(xs) * cell, len(ys) * cell), None)
+    for j, x in enumerate(xs):
+        mosaic.paste(band.crop((x - margin, 0, x - margin + cell, len(ys) * cell)), (j * cell, 0))
+    return mosaic
 
 
 def sampled_box_psnr(image: Image.Image, k: int) -> float:
