@@ -25,12 +25,11 @@ as the texture stage does) leaves partial rims a few pixels wide around clear ho
 Holes reduced below ~2 pixels leave no clear pixel, and such a level is ``BLEND`` (a haze, which
 is what the holes look like at that size).
 
-The JSON document is written as text (:class:`_Document`: each object's JSON built as it is
-added, numbers by ``repr`` and strings by json's own ASCII escaping, which is what ``json.dumps``
-writes): byte for byte what pygltflib's ``save_to_bytes`` writes for the same document built from
-its dataclasses (same keys in the same order, empty values left out; ``tests/gltf_reference.py``
-is that formulation), at a fraction of the cost of building dicts and dumping them. The binary
-chunk is kept as its pieces, so the (large) image bytes are copied once, into the GLB.
+The JSON document is built as plain dicts (:class:`_Document`) and written by ``json.dumps`` in C:
+byte for byte what pygltflib's ``save_to_bytes`` writes for the same document built from its
+dataclasses (same keys in the same order, empty values left out; ``tests/gltf_reference.py`` is
+that formulation), at a fraction of the cost. The binary chunk is kept as its pieces, so the
+(large) image bytes are copied once, into the GLB.
 """
 
 from __future__ import annotations
@@ -38,7 +37,6 @@ from __future__ import annotations
 import functools
 import io
 import json
-import math
 import struct
 
 import numpy as np
@@ -193,53 +191,32 @@ class _Blob:
         return offset
 
 
-# The JSON text of a str as json.dumps writes it (ensure_ascii: quoted, non-ASCII as \\u escapes).
-_string = json.encoder.encode_basestring_ascii
-
-
-def _number(value: float) -> str:
-    """The JSON text of ``float(value)`` as json.dumps writes it (repr); a ValueError for NaN and
-    infinities, as ``json.dumps(allow_nan=False)`` raises."""
-    value = float(value)
-    if not math.isfinite(value):
-        raise ValueError(f"Out of range float values are not JSON compliant: {value!r}")
-    return repr(value)
-
-
-def _numbers(values) -> str:
-    """The JSON array of ``values`` as floats (:func:`_number`)."""
-    return "[" + ",".join([_number(v) for v in values]) + "]"
-
-
-def _named(text: str, name: str | None) -> str:
-    """The JSON object of the members ``text`` with ``"name"`` last when ``name`` is non-empty
-    (glTF leaves empty names out)."""
-    return f'{{{text},"name":{_string(name)}}}' if name else f"{{{text}}}"
-
-
-def _array(items: list[str]) -> str:
-    return "[" + ",".join(items) + "]"
+def _named(item: dict, name: str | None) -> dict:
+    """``item`` with ``"name"`` last when ``name`` is non-empty (glTF leaves empty names out)."""
+    if name:
+        item["name"] = name
+    return item
 
 
 class _Document:
-    """A GLB under construction: the JSON document's lists as the JSON text of their items, each
-    object's keys in the glTF schema's order with absent and empty values left out, numbers and
-    strings written as ``json.dumps`` writes them (what pygltflib writes for the same document;
-    ``tests/gltf_reference.py``), and the binary chunk as a :class:`_Blob`."""
+    """A GLB under construction: the JSON document's lists as plain dicts, each object's keys in
+    the glTF schema's order with absent and empty values left out (what pygltflib writes for the
+    same document), and the binary chunk as a :class:`_Blob`."""
 
     def __init__(self) -> None:
         self.blob = _Blob()
-        self.accessors: list[str] = []
-        self.views: list[str] = []
-        self.images: list[str] = []
-        self.textures: list[str] = []
-        self.materials: list[str] = []
-        self.primitives: list[str] = []
+        self.accessors: list[dict] = []
+        self.views: list[dict] = []
+        self.images: list[dict] = []
+        self.textures: list[dict] = []
+        self.materials: list[dict] = []
+        self.samplers: list[dict] = []
 
     def view(self, data: bytes, target: int | None = None) -> int:
-        offset, size = self.blob.append(data), len(data)
-        target_text = "" if target is None else f',"target":{int(target)}'
-        self.views.append(f'{{"buffer":0,"byteOffset":{offset},"byteLength":{size}{target_text}}}')
+        item = {"buffer": 0, "byteOffset": self.blob.append(data), "byteLength": len(data)}
+        if target is not None:
+            item["target"] = target
+        self.views.append(item)
         return len(self.views) - 1
 
     def accessor(
@@ -250,94 +227,68 @@ class _Document:
         target: int | None,
         with_bounds: bool = False,
     ) -> int:
-        view = self.view(array.tobytes(), target)
-        text = (
-            f'{{"bufferView":{view},"byteOffset":0,"componentType":{int(component)},'
-            f'"normalized":false,"count":{len(array)},"type":{_string(kind)}'
-        )
+        item = {
+            "bufferView": self.view(array.tobytes(), target),
+            "byteOffset": 0,
+            "componentType": component,
+            "normalized": False,
+            "count": int(len(array)),
+            "type": kind,
+        }
         if with_bounds:
             top, bottom = position_bounds(array)
-            text += f',"max":{_numbers(top)},"min":{_numbers(bottom)}'
-        self.accessors.append(text + "}")
+            item["max"] = [float(v) for v in top]
+            item["min"] = [float(v) for v in bottom]
+        self.accessors.append(item)
         return len(self.accessors) - 1
 
     def texture(self, data: bytes, mime: str, name: str) -> int:
         """A texture of the embedded image ``data`` with the document's one sampler."""
-        view = self.view(data)
-        self.images.append(_named(f'"mimeType":{_string(mime)},"bufferView":{view}', name))
-        self.textures.append(f'{{"sampler":0,"source":{len(self.images) - 1}}}')
+        if not self.samplers:
+            self.samplers.append(
+                {
+                    "magFilter": pygltflib.LINEAR,
+                    "minFilter": pygltflib.LINEAR_MIPMAP_LINEAR,
+                    "wrapS": pygltflib.REPEAT,
+                    "wrapT": pygltflib.REPEAT,
+                }
+            )
+        self.images.append(_named({"mimeType": mime, "bufferView": self.view(data)}, name))
+        self.textures.append({"sampler": 0, "source": len(self.images) - 1})
         return len(self.textures) - 1
 
-    def material(
-        self, color, texture: int | None, alpha: str, cutoff: float | None, name: str
-    ) -> int:
-        """A material of base ``color`` (RGB[A] 0-1), base colour ``texture`` (index, or None),
-        ``alpha`` mode and ``cutoff`` (None: left out), single sided."""
-        pbr = f'"baseColorFactor":{_numbers(color)},"metallicFactor":0.0,"roughnessFactor":1.0'
-        if texture is not None:
-            pbr += f',"baseColorTexture":{{"index":{texture},"texCoord":0}}'
-        text = f'"pbrMetallicRoughness":{{{pbr}}},"emissiveFactor":[0.0,0.0,0.0],"alphaMode":{_string(alpha)}'
-        if cutoff is not None:
-            text += f',"alphaCutoff":{_number(cutoff)}'
-        self.materials.append(_named(text + ',"doubleSided":false', name))
-        return len(self.materials) - 1
-
-    def primitive(self, attributes: dict[str, int], indices: int, material: int) -> None:
-        """A triangle-list primitive of the accessors ``attributes`` and ``indices``."""
-        names = ",".join(f"{_string(key)}:{value}" for key, value in attributes.items())
-        self.primitives.append(
-            f'{{"attributes":{{{names}}},"indices":{indices},"mode":{pygltflib.TRIANGLES},'
-            f'"material":{material}}}'
-        )
-
-    def json(self, name: str) -> str:
-        """The document's JSON text: one mesh (the primitives), one node and one scene, all named
-        ``name``; empty lists left out."""
+    def json(self, primitives: list[dict], name: str) -> dict:
+        """The document of one mesh (``primitives``), one node and one scene, all named ``name``."""
         self.blob.align()
-        members: list[tuple[str, str | list[str]]] = [
-            ("accessors", self.accessors),
-            ("asset", '{"generator":"vworld-lod","version":"2.0"}'),
-            ("bufferViews", self.views),
-            ("buffers", f'[{{"byteLength":{len(self.blob)}}}]'),
-            ("images", self.images),
-            ("materials", self.materials),
-            ("meshes", "[" + _named(f'"primitives":{_array(self.primitives)}', name) + "]"),
-            ("nodes", "[" + _named('"mesh":0', name) + "]"),
-            ("samplers", [_SAMPLER] if self.textures else []),
-            ("scene", "0"),
-            ("scenes", f'[{{"name":{_string(name)},"nodes":[0]}}]' if name else '[{"nodes":[0]}]'),
-            ("textures", self.textures),
-        ]
-        return (
-            "{"
-            + ",".join(
-                f'"{key}":{value if isinstance(value, str) else _array(value)}'
-                for key, value in members
-                if value != []
-            )
-            + "}"
-        )
+        document = {
+            "accessors": self.accessors,
+            "asset": {"generator": "vworld-lod", "version": "2.0"},
+            "bufferViews": self.views,
+            "buffers": [{"byteLength": len(self.blob)}],
+            "images": self.images,
+            "materials": self.materials,
+            "meshes": [_named({"primitives": primitives}, name)],
+            "nodes": [_named({"mesh": 0}, name)],
+            "samplers": self.samplers,
+            "scene": 0,
+            "scenes": [{"name": name, "nodes": [0]} if name else {"nodes": [0]}],
+            "textures": self.textures,
+        }
+        return {key: value for key, value in document.items() if value != []}
 
 
-# The document's one sampler (linear, mipmapped, repeating).
-_SAMPLER = (
-    f'{{"magFilter":{pygltflib.LINEAR},"minFilter":{pygltflib.LINEAR_MIPMAP_LINEAR},'
-    f'"wrapS":{pygltflib.REPEAT},"wrapT":{pygltflib.REPEAT}}}'
-)
-
-
-def _glb(text: str, blob: _Blob) -> bytes:
-    """The GLB container (header, JSON chunk padded with spaces, BIN chunk) of the JSON ``text``
-    whose single buffer is ``blob`` (4-byte aligned views): byte for byte what pygltflib writes."""
-    chunk = text.encode("utf-8")
-    chunk += b" " * (-len(chunk) % 4)
-    length = 12 + 8 + len(chunk) + 8 + len(blob)
+def _glb(document: dict, blob: _Blob) -> bytes:
+    """The GLB container (header, JSON chunk padded with spaces, BIN chunk) of ``document`` whose
+    single buffer is ``blob`` (4-byte aligned views): byte for byte what pygltflib writes."""
+    text = json.dumps(document, allow_nan=False, separators=(",", ":")).encode("utf-8")
+    text += b" " * (-len(text) % 4)
+    length = 12 + 8 + len(text) + 8 + len(blob)
     return b"".join(
         [
             b"glTF",
-            struct.pack("<III", 2, length, len(chunk)),
+            struct.pack("<III", 2, length, len(text)),
             b"JSON",
-            chunk,
+            text,
             struct.pack("<I", len(blob)),
             b"BIN\x00",
             *blob.pieces,
@@ -352,6 +303,7 @@ def glb_bytes(parts: list[Part], name: str) -> bytes:
     pipeline guarantees it). Textures must already be JPEG or PNG (the texture stage converts).
     """
     document = _Document()
+    primitives = []
     texture_of_image: dict[int, int] = {}
     for part_index, part in enumerate(parts):
         if part.triangle_count == 0:
@@ -365,9 +317,13 @@ def glb_bytes(parts: list[Part], name: str) -> bytes:
                 normals, pygltflib.FLOAT, pygltflib.VEC3, pygltflib.ARRAY_BUFFER
             ),
         }
+        pbr: dict = {
+            "baseColorFactor": [float(c) for c in part.color],
+            "metallicFactor": 0.0,
+            "roughnessFactor": 1.0,
+        }
         translucent = len(part.color) == 4 and part.color[3] < 1.0
         alpha = pygltflib.BLEND if translucent else pygltflib.OPAQUE
-        texture_index = None
         has_texture = (
             part.texture is not None
             and part.uvs is not None
@@ -387,23 +343,31 @@ def glb_bytes(parts: list[Part], name: str) -> bytes:
                 texture_of_image[key] = document.texture(
                     part.texture.data, part.texture.mime, part.texture.name
                 )
-            texture_index = texture_of_image[key]
+            pbr["baseColorTexture"] = {"index": texture_of_image[key], "texCoord": 0}
             if alpha == pygltflib.OPAQUE and part.texture.has_alpha_channel:
                 # (a translucent colour has made it BLEND already: that stays)
                 alpha = texture_alpha_mode(bytes(part.texture.data))
+        material = {
+            "pbrMetallicRoughness": pbr,
+            "emissiveFactor": [0.0, 0.0, 0.0],
+            "alphaMode": alpha,
+        }
+        if alpha == pygltflib.MASK:
+            material["alphaCutoff"] = ALPHA_CUTOFF
         # Floorless buildings are open at the bottom, but their faces are wound outward: single
         # sided is right (and halves fill cost); the open bottom is never seen from outside.
-        material = document.material(
-            part.color,
-            texture_index,
-            alpha,
-            ALPHA_CUTOFF if alpha == pygltflib.MASK else None,
-            part.name or f"part{part_index}",
+        material["doubleSided"] = False
+        document.materials.append(_named(material, part.name or f"part{part_index}"))
+        primitives.append(
+            {
+                "attributes": attributes,
+                "indices": document.accessor(
+                    indices, index_type, pygltflib.SCALAR, pygltflib.ELEMENT_ARRAY_BUFFER
+                ),
+                "mode": pygltflib.TRIANGLES,
+                "material": len(document.materials) - 1,
+            }
         )
-        indices_accessor = document.accessor(
-            indices, index_type, pygltflib.SCALAR, pygltflib.ELEMENT_ARRAY_BUFFER
-        )
-        document.primitive(attributes, indices_accessor, material)
-    if not document.primitives:
+    if not primitives:
         raise ValueError(f"{name}: nothing to write (no triangles)")
-    return _glb(document.json(name), document.blob)
+    return _glb(document.json(primitives, name), document.blob)
