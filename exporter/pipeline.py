@@ -125,8 +125,9 @@ def _sha256_once(name: str, size: int, mtime_ns: int) -> tuple[str | None, int]:
     return _hashed[key]
 
 
-# The release whose building outputs (.glb files and records) this version writes byte for byte:
-# part of every input_hash, so a release that changes no output byte (0.4.1: the kernels in C)
+# The release whose building outputs this version writes byte for byte (.glb files; records may
+# gain optional fields, as 0.4.2's gltf_bounds, which readers of older records do without): part
+# of every input_hash, so a release that changes no .glb byte (0.4.1: the kernels in C; 0.4.2)
 # redoes nothing of an earlier run, and one that changes any must set this to its own version.
 OUTPUT_VERSION = "0.4.0"
 
