@@ -38,13 +38,14 @@ import functools
 import io
 import json
 import struct
+from dataclasses import dataclass
 
 import numpy as np
 import pygltflib
 from PIL import Image
 
 from .mesh import _gltf_arrays
-from .mesh.geometry import unit_vectors, vertex_normals
+from .mesh.geometry import vertex_normals
 from .model import Part
 
 GLTF_MIMES = ("image/jpeg", "image/png")
@@ -99,28 +100,6 @@ def texture_alpha(data: bytes) -> np.ndarray | None:
         return np.asarray(image.convert("RGBA").getchannel("A"))
 
 
-def local_to_gltf_positions(positions: np.ndarray) -> np.ndarray:
-    """(n, 3) local East/Up/North metres -> (n, 3) glTF (West, Up, North) metres, float32."""
-    out = np.array(positions, dtype=np.float32, copy=True).reshape(-1, 3)
-    out[:, 0] *= -1.0
-    return out
-
-
-def local_to_gltf_triangles(triangles: np.ndarray) -> np.ndarray:
-    """Reverse each triangle (a, b, c) -> (a, c, b): negating X is a reflection, which would
-    otherwise turn every face inside out."""
-    triangles = np.asarray(triangles).reshape(-1, 3)
-    return triangles[:, [0, 2, 1]]
-
-
-def unit_normals_or_up(normals: np.ndarray) -> np.ndarray:
-    """(n, 3) float32 unit normals; rows without a direction get +Y (up) so the glTF stays valid
-    (the validator requires unit-length normals)."""
-    out = unit_vectors(normals)
-    out[~out.any(axis=1)] = (0.0, 1.0, 0.0)
-    return out.astype(np.float32)
-
-
 def gltf_arrays(part: Part) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """``part``'s vertex data in glTF (West, Up, North): (n, 3) float32 positions (metres), (n, 3)
     float32 unit normals (its own when it has one per vertex, else area-weighted ones of its
@@ -128,8 +107,8 @@ def gltf_arrays(part: Part) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     65535 vertices) with every triangle reversed, and that index array's glTF component type.
 
     One pass per array in C (``exporter/mesh/c/gltf_arrays.c``), the same bits as the numpy
-    formulation (:func:`local_to_gltf_positions`, :func:`unit_normals_or_up`,
-    :func:`local_to_gltf_triangles`; ``tests/gltf_reference.py`` checks it)."""
+    formulation kept in ``tests/gltf_reference.py`` (X negated after rounding to float32, normals
+    made unit with rows without a direction +Y, each triangle (a, b, c) written (a, c, b))."""
     positions = np.asarray(part.positions).reshape(-1, 3)
     local = (
         part.normals
@@ -160,6 +139,24 @@ def position_bounds(positions: np.ndarray) -> tuple[list[float], list[float]]:
         if 0.0 not in top and 0.0 not in bottom:
             return list(top), list(bottom)
     return positions.max(axis=0).tolist(), positions.min(axis=0).tolist()
+
+
+def union_bounds(
+    lows: list[list[float]], highs: list[list[float]]
+) -> tuple[np.ndarray, np.ndarray]:
+    """(low (3,), high (3,)) float64 over several primitives' POSITION ``min``/``max`` (metres,
+    glTF frame): what a file's position bounds are, from its writer or from its header."""
+    return np.min(np.array(lows, np.float64), axis=0), np.max(np.array(highs, np.float64), axis=0)
+
+
+@dataclass(frozen=True)
+class Glb:
+    """An encoded GLB and its position bounds (glTF frame: +X = West, +Y = Up, +Z = North, metres;
+    the float32 values its POSITION accessors' ``min``/``max`` store, over every primitive)."""
+
+    data: bytes
+    low: list[float]
+    high: list[float]
 
 
 class _Blob:
@@ -211,6 +208,8 @@ class _Document:
         self.textures: list[dict] = []
         self.materials: list[dict] = []
         self.samplers: list[dict] = []
+        self.position_lows: list[list[float]] = []  # the POSITION accessors' min and max
+        self.position_highs: list[list[float]] = []
 
     def view(self, data: bytes, target: int | None = None) -> int:
         item = {"buffer": 0, "byteOffset": self.blob.append(data), "byteLength": len(data)}
@@ -237,8 +236,10 @@ class _Document:
         }
         if with_bounds:
             top, bottom = position_bounds(array)
-            item["max"] = [float(v) for v in top]
-            item["min"] = [float(v) for v in bottom]
+            high, low = [float(v) for v in top], [float(v) for v in bottom]
+            item["max"], item["min"] = high, low
+            self.position_highs.append(high)
+            self.position_lows.append(low)
         self.accessors.append(item)
         return len(self.accessors) - 1
 
@@ -297,7 +298,14 @@ def _glb(document: dict, blob: _Blob) -> bytes:
 
 
 def glb_bytes(parts: list[Part], name: str) -> bytes:
-    """Encode ``parts`` (local East/Up/North, outward winding) as a self-contained GLB.
+    """Encode ``parts`` (local East/Up/North, outward winding) as a self-contained GLB
+    (:func:`encode_glb`'s bytes)."""
+    return encode_glb(parts, name).data
+
+
+def encode_glb(parts: list[Part], name: str) -> Glb:
+    """Encode ``parts`` (local East/Up/North, outward winding) as a self-contained GLB, with the
+    position bounds it stores.
 
     Parts without triangles are left out; a level must keep at least one triangle overall (the
     pipeline guarantees it). Textures must already be JPEG or PNG (the texture stage converts).
@@ -370,4 +378,5 @@ def glb_bytes(parts: list[Part], name: str) -> bytes:
         )
     if not primitives:
         raise ValueError(f"{name}: nothing to write (no triangles)")
-    return _glb(document.json(primitives, name), document.blob)
+    low, high = union_bounds(document.position_lows, document.position_highs)
+    return Glb(_glb(document.json(primitives, name), document.blob), low.tolist(), high.tolist())

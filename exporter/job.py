@@ -23,7 +23,7 @@ import numpy as np
 from .atomic import write_bytes_atomic
 from .config import Config
 from .errors import ProcessError, ReadError, error_text
-from .gltf_writer import glb_bytes, local_to_gltf_positions
+from .gltf_writer import Glb, encode_glb
 from .model import Building, Part, Skipped, Texture, TileId
 from .names import name_error, safe_folder_name
 from .placement import building_placement, relative_placement
@@ -98,24 +98,15 @@ def same_geometry(parts: list[Part], other: list[Part]) -> bool:
 
 
 def lod_record(
-    level: int, parts: list[Part], file_name: str, data: bytes, quality: LevelQuality | None
+    level: int, parts: list[Part], file_name: str, glb: Glb, quality: LevelQuality | None
 ) -> dict:
-    """A level's manifest record; ``quality`` None for LOD0 (the source: only its ratio, 1).
+    """A level's manifest record of its parts written as ``glb``; ``quality`` None for LOD0 (the
+    source: only its ratio, 1).
 
-    ``gltf_bounds``: the file's position bounds (glTF frame: +X = West, +Y = Up, +Z = North,
-    metres), the float32 values its POSITION accessors' min/max store, so the tileset needs no
-    read of the file (:func:`exporter.tileset.tree.read_chain`)."""
+    ``gltf_bounds``: the file's position bounds as its writer stored them (:class:`Glb`), so the
+    tileset needs no read of the file (:func:`exporter.tileset.tree.read_chain`)."""
     textures = [p.texture for p in parts if p.texture is not None and p.triangle_count]
     largest = max(textures, key=lambda t: t.width * t.height, default=None)
-    # Exactly what the writer stores: float32 glTF-frame positions of the parts with triangles.
-    written = [local_to_gltf_positions(p.positions) for p in parts if p.triangle_count]
-    bounds = {}
-    if written:  # always (a level keeps a triangle); else the tileset reads the file and says so
-        stored = written[0] if len(written) == 1 else np.concatenate(written)
-        bounds["gltf_bounds"] = {
-            "low": stored.min(axis=0).tolist(),
-            "high": stored.max(axis=0).tolist(),
-        }
     return {
         "level": level,
         "file": file_name,
@@ -123,8 +114,8 @@ def lod_record(
         "vertices": sum(p.vertex_count for p in parts if p.triangle_count),
         "texture_size": [largest.width, largest.height] if largest else [0, 0],
         "texture_bytes": sum(len(t.data) for t in {id(t): t for t in textures}.values()),
-        "file_bytes": len(data),
-        **bounds,
+        "file_bytes": len(glb.data),
+        "gltf_bounds": {"low": glb.low, "high": glb.high},
         "quality": quality.to_manifest() if quality is not None else {"triangle_ratio": 1.0},
     }
 
@@ -241,11 +232,11 @@ def process_entry(
         existed = os.path.isdir(building_dir)
         lods, files = [], []
         for level, parts in enumerate(parts_by_level):
-            data = glb_bytes(parts, f"{entry.id}_LOD{level}")
+            glb = encode_glb(parts, f"{entry.id}_LOD{level}")
             name = f"lod{level}.glb"
-            write_bytes_atomic(os.path.join(building_dir, name), data)
-            files.append(file_entry(name, data))
-            lods.append(lod_record(level, parts, f"{folder}/{name}", data, qualities[level]))
+            write_bytes_atomic(os.path.join(building_dir, name), glb.data)
+            files.append(file_entry(name, glb.data))
+            lods.append(lod_record(level, parts, f"{folder}/{name}", glb, qualities[level]))
             if level:
                 lods[-1].update(level_fields(chain[level], lods[-2]))
         if existed:

@@ -8,14 +8,30 @@ from __future__ import annotations
 import numpy as np
 import pygltflib
 
-from exporter.gltf_writer import (
-    ALPHA_CUTOFF,
-    local_to_gltf_positions,
-    local_to_gltf_triangles,
-    texture_alpha_mode,
-    unit_normals_or_up,
-)
-from exporter.mesh.geometry import vertex_normals
+from exporter.gltf_writer import ALPHA_CUTOFF, texture_alpha_mode
+from exporter.mesh.geometry import unit_vectors, vertex_normals
+
+
+def local_to_gltf_positions(positions: np.ndarray) -> np.ndarray:
+    """(n, 3) local East/Up/North metres -> (n, 3) glTF (West, Up, North) metres, float32."""
+    out = np.array(positions, dtype=np.float32, copy=True).reshape(-1, 3)
+    out[:, 0] *= -1.0
+    return out
+
+
+def local_to_gltf_triangles(triangles: np.ndarray) -> np.ndarray:
+    """Reverse each triangle (a, b, c) -> (a, c, b): negating X is a reflection, which would
+    otherwise turn every face inside out."""
+    triangles = np.asarray(triangles).reshape(-1, 3)
+    return triangles[:, [0, 2, 1]]
+
+
+def unit_normals_or_up(normals: np.ndarray) -> np.ndarray:
+    """(n, 3) float32 unit normals; rows without a direction get +Y (up) so the glTF stays valid
+    (the validator requires unit-length normals)."""
+    out = unit_vectors(normals)
+    out[~out.any(axis=1)] = (0.0, 1.0, 0.0)
+    return out.astype(np.float32)
 
 
 def reference_gltf_arrays(part):

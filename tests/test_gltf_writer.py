@@ -7,8 +7,7 @@ import pygltflib
 import pytest
 from PIL import Image
 
-from exporter.gltf_writer import glb_bytes, unit_normals_or_up
-from exporter.mesh.geometry import vertex_normals
+from exporter.gltf_writer import glb_bytes, gltf_arrays
 from exporter.model import Part, Texture
 
 
@@ -91,11 +90,13 @@ def test_untextured_part_and_missing_normals_are_valid(gltf_validator, tmp_path)
 
 
 def test_vertex_normals_are_unit_and_isolated_vertices_point_up():
-    normals = unit_normals_or_up(
-        vertex_normals(
-            np.array([[0, 0, 0], [1, 0, 0], [0, 0, 1], [9, 9, 9]], float), np.array([[0, 2, 1]])
+    # The writer's normals (glTF frame: X negated, which keeps length and +Y).
+    normals = gltf_arrays(
+        Part(
+            positions=np.array([[0, 0, 0], [1, 0, 0], [0, 0, 1], [9, 9, 9]], float),
+            triangles=np.array([[0, 2, 1]]),
         )
-    )
+    )[1]
     assert np.allclose(np.linalg.norm(normals, axis=1), 1)
     assert np.allclose(normals[0], [0, 1, 0]) and np.allclose(normals[3], [0, 1, 0])
 

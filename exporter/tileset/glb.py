@@ -14,6 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..gltf_writer import union_bounds
+
 _COMPONENTS = {5121: np.uint8, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
 _WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}
 
@@ -64,7 +66,7 @@ def position_bounds(header: dict) -> tuple[np.ndarray, np.ndarray]:
             highs.append(accessor["max"])
     if not lows:
         raise ValueError("no positions")
-    return np.min(np.array(lows, np.float64), axis=0), np.max(np.array(highs, np.float64), axis=0)
+    return union_bounds(lows, highs)
 
 
 def _accessor(header: dict, blob: bytes, index: int) -> np.ndarray:
