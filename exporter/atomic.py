@@ -7,6 +7,9 @@ power loss: the pipeline asks for it for the manifest, the file that marks a til
 Temporary files end in ``.tmp`` and carry the writer's pid, so a later run can recognise and
 remove leftovers.
 
+:func:`write_bytes_if_changed` leaves a file that already holds the bytes as it is (a forced
+re-export keeps unchanged levels' modification times).
+
 A write is four system calls (open with O_EXCL, write, close, rename); the folder is made only
 when the open finds it missing, since the pipeline writes several files into each folder.
 """
@@ -77,6 +80,24 @@ def write_bytes_atomic(path: PathT, data: bytes, durable: bool = False) -> PathT
             raise OSError(error.errno, error.strerror or str(error), target) from error
         raise
     return path
+
+
+def write_bytes_if_changed(path: PathT, data: bytes) -> bool:
+    """Write ``data`` to ``path`` atomically unless ``path`` already holds exactly these bytes;
+    True when it wrote.
+
+    A file left as it was keeps its modification time, so tools that look at times (rsync's and
+    cloud ``sync``'s quick check, Unity's asset database) see only the files a re-export changed,
+    and the file system frees and rewrites nothing. Costs a read of the old file when its size is
+    the new one's (none otherwise)."""
+    try:
+        with open(path, "rb") as handle:
+            if os.fstat(handle.fileno()).st_size == len(data) and handle.read() == data:
+                return False
+    except OSError:  # missing or unreadable: written, and a real problem shows there
+        pass
+    write_bytes_atomic(path, data)
+    return True
 
 
 def write_text_atomic(path: PathT, text: str, durable: bool = False) -> PathT:

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import write_bytes_atomic
+from .atomic import write_bytes_atomic, write_bytes_if_changed
 from .config import Config
 from .errors import ProcessError, ReadError, error_text
 from .gltf_writer import Glb, encode_glb
@@ -234,7 +234,9 @@ def process_entry(
         for level, parts in enumerate(parts_by_level):
             glb = encode_glb(parts, f"{entry.id}_LOD{level}")
             name = f"lod{level}.glb"
-            write_bytes_atomic(os.path.join(building_dir, name), glb.data)
+            path = os.path.join(building_dir, name)
+            # A level an earlier export wrote byte for byte is left as it is (mtime kept).
+            (write_bytes_if_changed if existed else write_bytes_atomic)(path, glb.data)
             files.append(file_entry(name, glb.data))
             lods.append(lod_record(level, parts, f"{folder}/{name}", glb, qualities[level]))
             if level:

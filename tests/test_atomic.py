@@ -5,7 +5,11 @@ import os
 import pytest
 
 from exporter import atomic
-from exporter.atomic import remove_stale_temporaries, write_bytes_atomic
+from exporter.atomic import (
+    remove_stale_temporaries,
+    write_bytes_atomic,
+    write_bytes_if_changed,
+)
 
 
 def test_write_creates_folders_and_replaces_content(tmp_path):
@@ -102,3 +106,18 @@ def test_the_path_comes_back_as_given(tmp_path):
     assert write_bytes_atomic(tmp_path / "b.json", b"{}") == tmp_path / "b.json"
     with open(as_text, "rb") as written:
         assert written.read() == b"glb"
+
+
+def test_an_unchanged_file_is_left_as_it_was_and_a_changed_one_replaced(tmp_path):
+    target = tmp_path / "lod0.glb"
+    assert write_bytes_if_changed(target, b"level bytes") is True  # missing: written
+    os.utime(target, ns=(10**18, 10**18))
+    inode = target.stat().st_ino
+    assert write_bytes_if_changed(target, b"level bytes") is False
+    assert target.stat().st_mtime_ns == 10**18 and target.stat().st_ino == inode
+    # Same size, other bytes; then another size: both replace the file.
+    assert write_bytes_if_changed(target, b"level BYTES") is True
+    assert target.read_bytes() == b"level BYTES" and target.stat().st_mtime_ns != 10**18
+    assert write_bytes_if_changed(target, b"longer level bytes") is True
+    assert target.read_bytes() == b"longer level bytes"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["lod0.glb"]

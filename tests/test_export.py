@@ -137,6 +137,36 @@ def test_rerun_skips_unchanged_buildings_force_redoes_and_removed_ones_disappear
     assert not list((out / TILE.name).glob("*/lod2.glb"))
 
 
+def test_a_forced_re_export_leaves_levels_with_unchanged_bytes_untouched(tmp_path, small_tile):
+    from exporter.config import Config
+    from exporter.pipeline import export_tiles
+
+    out = tmp_path / "out"
+    export_tiles([small_tile], out, Config(), jobs=1)
+    old = 10**18  # ns: 2001, so any rewrite shows
+    for path in out.glob("*/*/*"):
+        os.utime(path, ns=(old, old))
+
+    def times() -> dict:
+        return {p.relative_to(out).as_posix(): p.stat().st_mtime_ns for p in out.glob("*/*/*")}
+
+    export_tiles([small_tile], out, Config(), jobs=1, force=True)
+    after = times()
+    assert len(after) == 6 * 4
+    assert all(t == old for name, t in after.items() if name.endswith(".glb"))
+    assert all(t != old for name, t in after.items() if name.endswith("building.json"))
+    # Another JPEG quality changes the reduced atlases only: LOD0 keeps the source's bytes.
+    before = {name: (out / name).read_bytes() for name in after}
+    coarser = Config()
+    coarser.textures.jpeg_quality -= 20
+    export_tiles([small_tile], out, coarser, jobs=1, force=True)
+    for name, t in times().items():
+        if name.endswith("lod0.glb"):
+            assert t == old and (out / name).read_bytes() == before[name]
+        elif name.endswith((".glb", ".json")):
+            assert t != old and (out / name).read_bytes() != before[name], name
+
+
 def test_stale_levels_are_looked_for_only_in_folders_an_earlier_export_made(
     tmp_path, small_tile, monkeypatch
 ):
