@@ -459,6 +459,7 @@ def export_tiles(
                     config.tileset,
                     config.textures.jpeg_quality,
                     fresh_facts(stats.tiles, config.globe),
+                    force,
                 )
         finally:
             proxies = stats.tileset.proxies_index if stats.tileset is not None else []

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import io
 import json
+import os
 import shutil
 from pathlib import Path
 from urllib.parse import unquote
@@ -206,6 +207,28 @@ def test_the_same_input_gives_the_same_bytes_and_a_rerun_rebuilds_nothing(city, 
     assert rerun.tileset is not None and rerun.tileset.proxies_built == 2
     assert structural_problems(again, load(again)) == []
     assert len(chains(walk(load(again)))) == 9
+
+
+def test_force_rebuilds_every_proxy_and_a_damaged_proxy_file_is_rebuilt(city, tmp_path):
+    out = tmp_path / "out"
+    shutil.copytree(city, out)
+    folders = sorted((city.parent / "in").iterdir())
+    proxies = sorted((out / "tileset_proxies").glob("*.glb"))
+    old = 10**18  # ns: 2001
+    for proxy in proxies:
+        os.utime(proxy, ns=(old, old))
+    forced = export_tiles(folders, out, Config(), jobs=1, force=True)
+    assert forced.tileset is not None and forced.tileset.proxies_built == 3
+    for proxy in proxies:  # rebuilt to the same bytes: left as they were
+        assert proxy.stat().st_mtime_ns == old
+        assert proxy.read_bytes() == (city / "tileset_proxies" / proxy.name).read_bytes()
+    # A proxy file cut short (its record intact) is rebuilt by a plain re-run.
+    damaged = proxies[0]
+    damaged.write_bytes(damaged.read_bytes()[:100])
+    rerun = export(folders, out)
+    assert rerun.reused == 10
+    assert rerun.tileset is not None and rerun.tileset.proxies_built == 1
+    assert damaged.read_bytes() == (city / "tileset_proxies" / damaged.name).read_bytes()
 
 
 def test_one_building_gives_a_valid_tileset(tmp_path):

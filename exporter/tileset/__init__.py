@@ -85,9 +85,11 @@ def write_tileset(
     options: TilesetOptions,
     jpeg_quality: int = TextureOptions.jpeg_quality,
     fresh: dict[str, tuple[int, dict]] | None = None,
+    force: bool = False,
 ) -> TilesetResult:
     """Write ``OUT/tileset.json`` for every building of ``out_dir``; see the module doc.
-    ``fresh``: the index facts of the run's tiles (:func:`exporter.tile_index.fresh_facts`)."""
+    ``fresh``: the index facts of the run's tiles (:func:`exporter.tile_index.fresh_facts`);
+    ``force``: rebuild every proxy (``export --force``)."""
     out_dir = Path(out_dir)
     by_tile, left_out = read_buildings(out_dir, fresh)
     tops = quadtree(by_tile)
@@ -102,7 +104,7 @@ def write_tileset(
     if options.proxies:
         from .proxy import add_proxies
 
-        proxies, built = add_proxies(out_dir, tops, options, jpeg_quality, left_out)
+        proxies, built = add_proxies(out_dir, tops, options, jpeg_quality, left_out, force)
     path = write_tileset_json(out_dir, tileset_json(tops, left_out))
     count = sum(len(chains) for chains in by_tile.values())
     return TilesetResult(path, count, proxies, built, left_out, proxy_records(tops))

@@ -44,7 +44,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from ..atomic import write_bytes_atomic, write_text_atomic
+from ..atomic import write_bytes_if_changed, write_text_atomic
 from ..config import TilesetOptions
 from ..gltf_writer import glb_bytes
 from ..mesh.hausdorff import Surface, bounds_within
@@ -278,14 +278,15 @@ def input_key(
 
 def _cached(folder: Path, name: str, key: str) -> tuple[bool, Proxy | None]:
     """(found, proxy): the recorded proxy of tile ``name`` when it was built from ``key`` (None
-    when it was too large); found is False when it must be built."""
+    when it was too large) and its file still has the size recorded; found is False when it must
+    be built."""
     try:
         data = json.loads((folder / f"{name}.json").read_text(encoding="utf-8"))
         if data.get("hash") != key:
             return False, None
         if data.get("too_large"):
             return True, None
-        if not (folder / f"{name}.glb").is_file():
+        if (folder / f"{name}.glb").stat().st_size != data["size"]:
             return False, None
         proxy = Proxy(
             key,
@@ -335,10 +336,12 @@ def add_proxies(
     options: TilesetOptions,
     jpeg_quality: int,
     problems: list[str],
+    force: bool = False,
 ) -> tuple[int, int]:
     """Give every tile node of ``tops`` that can have one its proxy (content, error, corners);
     returns (proxies in the tree, proxies built this time); a proxy that cannot be built is
-    appended to ``problems``. Stale proxy files are removed."""
+    appended to ``problems``. Stale proxy files are removed. ``force``: build every proxy, none
+    taken from an earlier run (a rebuilt file whose bytes come out the same is left as it was)."""
     folder = out_dir / PROXY_DIR
     kept: set[str] = set()
     counts = [0, 0]
@@ -355,7 +358,7 @@ def add_proxies(
         name = node.tile.name
         key = input_key(node.tile, inputs, options, jpeg_quality)
         kept.update({f"{name}.json", f"{name}.glb"})
-        found, proxy = _cached(folder, name, key)
+        found, proxy = (False, None) if force else _cached(folder, name, key)
         if not found:
             counts[1] += 1
             try:
@@ -373,9 +376,10 @@ def add_proxies(
                 (folder / f"{name}.glb").unlink(missing_ok=True)
                 return
             proxy, data = built
-            write_bytes_atomic(folder / f"{name}.glb", data)
+            write_bytes_if_changed(folder / f"{name}.glb", data)
             record = {
                 "hash": key,
+                "size": len(data),
                 "geometric": proxy.geometric,
                 "texel": proxy.texel,
                 "low": proxy.low,
