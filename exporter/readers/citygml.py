@@ -69,6 +69,7 @@ from ..tiles import building_tile
 from . import Entry, Scan
 from .atlas import pack_parts
 from .cityjson import _load_texture, _part, _resolve_image, newell_normal, triangulate_polygon
+from .crs import choose_crs
 
 FORMAT = "citygml"
 SUFFIXES = (".gml", ".gml.gz", ".xml", ".xml.gz")
@@ -511,16 +512,17 @@ class _Walker:
         self.crs_cache: dict = {}
 
     def crs(self, element) -> str:
-        """The CRS to read ``element``'s coordinates in: ``override_crs``, else the declared
-        ``srsName``, else ``options.crs`` (the rule the CityJSON reader follows)."""
+        """The CRS to read ``element``'s coordinates in (:func:`.crs.choose_crs`: ``override_crs``,
+        else the declared ``srsName``, else ``options.crs``)."""
         declared = _inherited(element, "srsName") or self.declared_default
         if declared is not None:
             self.declared.add(declared)
         elif not self.override_crs:
             self.used_option = self.option_crs is not None
-        srs_name = self.override_crs or declared or self.option_crs
-        if srs_name is None:
+        chosen = choose_crs(self.override_crs, declared, self.option_crs)
+        if chosen is None:
             raise ValueError(f"declares no coordinate reference system (srsName); {CRS_HINT}")
+        srs_name = chosen[0]
         if srs_name not in self.crs_cache:
             try:
                 self.crs_cache[srs_name] = crs_of_srs_name(srs_name)

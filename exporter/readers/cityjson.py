@@ -63,6 +63,7 @@ from ..model import Building, Part, Skipped, Texture
 from ..plausible import vertex_problem
 from ..tiles import building_tile
 from . import Entry, Scan
+from .crs import choose_crs
 from .images import TextureFileError, read_texture_file
 
 FORMAT = "cityjson"
@@ -158,17 +159,18 @@ def _crs_of(path: Path, header: dict, options: ReaderOptions) -> str:
     """The CRS to read the file in (module doc); CrsError naming the file when there is none or
     it is unknown. A declared one always wins over ``options.crs`` (see ``Scan.crs_conflicts``)."""
     declared = (header.get("metadata") or {}).get("referenceSystem")
-    if options.override_crs:
-        crs, hint = str(options.override_crs), "check --override-crs / readers.override_crs"
-    elif not declared:
-        if not options.crs:
-            raise CrsError(
-                str(path),
-                f"declares no coordinate reference system (metadata.referenceSystem); {CRS_HINT}",
-            )
-        crs, hint = str(options.crs), CRS_HINT
-    else:
-        crs, hint = str(declared), OVERRIDE_HINT
+    chosen = choose_crs(options.override_crs, declared, options.crs)
+    if chosen is None:
+        raise CrsError(
+            str(path),
+            f"declares no coordinate reference system (metadata.referenceSystem); {CRS_HINT}",
+        )
+    crs, source = chosen
+    hint = {
+        "override": "check --override-crs / readers.override_crs",
+        "declared": OVERRIDE_HINT,
+        "option": CRS_HINT,
+    }[source]
     try:
         geodesy.check_crs(crs)
     except ValueError as error:
