@@ -1,5 +1,5 @@
 """A prepared surface's compiled pieces give their former numpy forms' bits (the forms are kept
-here as references): the triangles' centres and radii (``SurfaceIndex``), the regions' planes
+here as references): the refinement's split4, the triangles' centres and radii (``SurfaceIndex``), the regions' planes
 (``hausdorff._planes``) and projected triangles (``_Regions.tri2``), on generated buildings,
 random and degenerate triangles (zero, -0.0, NaN, inf). The point memo (``c/point_memo.c``,
 ``distance.PointMemo``) gives each distinct point (bit for bit) one row, computes each answer
@@ -41,6 +41,20 @@ def reference_planes(tri: np.ndarray, cross: np.ndarray, region: np.ndarray):
 def reference_project(tri: np.ndarray, u: np.ndarray, v: np.ndarray, region: np.ndarray):
     uf, vf = u[region], v[region]
     return np.stack([np.einsum("mkj,mj->mk", tri, uf), np.einsum("mkj,mj->mk", tri, vf)], axis=-1)
+
+
+def reference_split4(tri: np.ndarray) -> np.ndarray:
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    ab, bc, ca = 0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + a)
+    return np.stack(
+        [
+            np.stack([a, ab, ca], 1),
+            np.stack([ab, b, bc], 1),
+            np.stack([ca, bc, c], 1),
+            np.stack([ab, bc, ca], 1),
+        ],
+        1,
+    ).reshape(-1, 3, 3)
 
 
 def _same_bits(got: np.ndarray, expected: np.ndarray) -> bool:
@@ -100,6 +114,7 @@ def test_prepared_pieces_give_the_numpy_bits_on_random_triangles(awkward):
             m = int(rng.integers(1, 200))
             tri = _random_triangles(rng, m, awkward)
             assert _same(_surface.centres_radii(tri), reference_centres_radii(tri))
+            assert _same([hausdorff.split4(tri)], [reference_split4(tri)])
             cross = cross_rows(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
             cross[rng.random(m) < 0.2] = 0.0  # regions of zero area: the (0, 0, 1) normal
             region = rng.integers(0, max(1, m // 4), size=m)
@@ -124,6 +139,9 @@ def test_prepared_pieces_reject_bad_input():
         _surface.project(tri, np.zeros((1, 3)), np.zeros((1, 3)), np.array([0, 1]))
     with pytest.raises(ValueError, match="tri"):
         _surface.centres_radii(np.zeros((2, 3)))
+    with pytest.raises(ValueError, match="tri"):
+        _surface.split4(np.zeros((2, 3, 2)))
+    assert hausdorff.split4(np.zeros((0, 3, 3))).shape == (0, 3, 3)
 
 
 def test_the_memo_gives_each_distinct_point_one_row_bit_for_bit():

@@ -129,8 +129,15 @@ class SurfaceIndex:
     area-weighted samples, fixed seed) labelled with their triangle.
     """
 
-    def __init__(self, positions: np.ndarray, faces: np.ndarray, samples_per_face: int = 2) -> None:
-        self.tri = positions[faces]
+    def __init__(
+        self,
+        positions: np.ndarray,
+        faces: np.ndarray,
+        samples_per_face: int = 2,
+        tri: np.ndarray | None = None,
+    ) -> None:
+        """``tri``: ``positions[faces]`` (m, 3, 3) when the caller has it."""
+        self.tri = positions[faces] if tri is None else tri
         m = len(faces)
         if samples_per_face * m:
             samples, sample_faces = sample_surface(

@@ -103,6 +103,15 @@ class Surface:
         self._chains: _Chains | None = None
         self._trusted: np.ndarray | None = None
         self._face_planes: tuple[np.ndarray, np.ndarray, float] | None = None
+        self._cross: np.ndarray | None = None
+
+    @property
+    def cross(self) -> np.ndarray:
+        """(m, 3) square metres: each face's (b - a) x (c - a), made once for all the pieces."""
+        if self._cross is None:
+            t = self.tri
+            self._cross = cross_rows(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+        return self._cross
 
     @property
     def empty(self) -> bool:
@@ -111,7 +120,9 @@ class Surface:
     @property
     def index(self) -> SurfaceIndex:
         if self._index is None:
-            self._index = SurfaceIndex(self.positions, self.faces, 2 if self.reference else 0)
+            self._index = SurfaceIndex(
+                self.positions, self.faces, 2 if self.reference else 0, tri=self.tri
+            )
         return self._index
 
     @property
@@ -119,8 +130,7 @@ class Surface:
         """(m,) bool: faces whose point distances keep their digits (smallest altitude at least
         ``TRUSTED`` x the longest edge)."""
         if self._trusted is None:
-            t = self.tri
-            cross = cross_rows(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+            t, cross = self.tri, self.cross
             area2 = np.sqrt((cross**2).sum(1))
             self._trusted = area2 >= TRUSTED * longest_edges(t) ** 2
         return self._trusted
@@ -131,8 +141,7 @@ class Surface:
         (both 0 for untrusted faces: no plane) and the rounding margin (metres) of a point's
         distance to a plane (normals of trusted faces keep ~1e-10 of their direction)."""
         if self._face_planes is None:
-            t = self.tri
-            cross = cross_rows(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+            t, cross = self.tri, self.cross
             length = np.sqrt((cross**2).sum(1))
             ok = self.trusted & (length > 0)
             normal = np.zeros_like(cross)
@@ -151,7 +160,9 @@ class Surface:
     @property
     def regions(self) -> _Regions:
         if self._regions is None:
-            self._regions = _Regions(self.positions, self.faces, self.reference)
+            self._regions = _Regions(
+                self.positions, self.faces, self.reference, (self.tri, self.cross)
+            )
         return self._regions
 
 
@@ -165,12 +176,22 @@ class _Regions:
     metres the boundary edges of each region projected (CSR); ``face_start`` (r + 1,) and
     ``face_order`` (m,) the faces of each region (CSR)."""
 
-    def __init__(self, positions: np.ndarray, faces: np.ndarray, straighten: bool = True) -> None:
+    def __init__(
+        self,
+        positions: np.ndarray,
+        faces: np.ndarray,
+        straighten: bool = True,
+        made: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> None:
+        """``made``: ``(positions[faces], their cross products)`` when the caller has them."""
         self.straighten = straighten
         m = len(faces)
         region = planar_regions(positions, faces) if m else np.zeros(0, np.int64)
-        tri = positions[faces]
-        cross = cross_rows(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        if made is None:
+            tri = positions[faces]
+            cross = cross_rows(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        else:
+            tri, cross = made
         self.scale = (
             float(np.linalg.norm(positions.max(axis=0) - positions.min(axis=0))) if m else 0.0
         )
@@ -352,18 +373,8 @@ def _planes(tri: np.ndarray, cross: np.ndarray, region: np.ndarray):
 
 def split4(tri: np.ndarray) -> np.ndarray:
     """(4n, 3, 3): each triangle (n, 3, 3) split at its edge midpoints (children of triangle i
-    are rows 4i..4i+3)."""
-    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
-    ab, bc, ca = 0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + a)
-    return np.stack(
-        [
-            np.stack([a, ab, ca], 1),
-            np.stack([ab, b, bc], 1),
-            np.stack([ca, bc, c], 1),
-            np.stack([ab, bc, ca], 1),
-        ],
-        1,
-    ).reshape(-1, 3, 3)
+    are rows 4i..4i+3; compiled: c/surface.c, its numpy form in tests/test_surface_prep.py)."""
+    return _surface.split4(tri)
 
 
 def _single_triangle_bound(tri: np.ndarray, target: Surface, nearest: np.ndarray) -> np.ndarray:

@@ -12,6 +12,7 @@
  *   over its candidates of the largest distance of its corners.
  * pair_bound: a triangle's bound over two cells cut where two faces' planes are equally far
  *   (step 1b, _pair_bound).
+ * split4: the refinement's split of each triangle in four (hausdorff.split4).
  * centres_radii, planes, project: a surface's preparation (SurfaceIndex's centres and radii,
  *   hausdorff._planes, _Regions.tri2), the numpy forms' sums in numpy's order
  *   (tests/test_surface_prep.py keeps the forms and checks the bits).
@@ -475,6 +476,44 @@ static inline double einsum_dot(const double *p, const double *a) {
     return ((0.0 + p[0] * a[0]) + p[2] * a[2]) + p[1] * a[1];
 }
 
+/* split4(tri (n, 3, 3)) -> (4n, 3, 3) metres: each triangle a, b, c split at its edge midpoints
+ * ab = 0.5 * (a + b), bc, ca into (a, ab, ca), (ab, b, bc), (ca, bc, c), (ab, bc, ca), rows
+ * 4i..4i+3 (hausdorff.split4's numpy form, float for float). */
+static PyObject *split4(PyObject *self, PyObject *args) {
+    PyObject *tri_obj;
+    const char *kernel = "surface.split4";
+    if (!PyArg_ParseTuple(args, "O:split4", &tri_obj)) return NULL;
+    PyArrayObject *tri = k_array(tri_obj, NPY_FLOAT64, 3, 0, kernel, "tri");
+    if (tri == NULL) return NULL;
+    if (k_dim(tri, 1, 3, kernel, "tri") || k_dim(tri, 2, 3, kernel, "tri")) {
+        Py_DECREF(tri);
+        return NULL;
+    }
+    npy_intp n = PyArray_DIM(tri, 0);
+    npy_intp dims[3] = {4 * n, 3, 3};
+    PyArrayObject *out = k_empty(3, dims, NPY_FLOAT64);
+    if (out != NULL) {
+        const double *t = K_F64(tri);
+        double *o = K_F64(out);
+        Py_BEGIN_ALLOW_THREADS
+        for (npy_intp i = 0; i < n; i++) {
+            const double *a = t + 9 * i, *b = a + 3, *c = a + 6;
+            double ab[3], bc[3], ca[3];
+            for (int k = 0; k < 3; k++) {
+                ab[k] = 0.5 * (a[k] + b[k]);
+                bc[k] = 0.5 * (b[k] + c[k]);
+                ca[k] = 0.5 * (c[k] + a[k]);
+            }
+            const double *rows[12] = {a, ab, ca, ab, b, bc, ca, bc, c, ab, bc, ca};
+            double *child = o + 36 * i;
+            for (int r = 0; r < 12; r++) memcpy(child + 3 * r, rows[r], 3 * sizeof(double));
+        }
+        Py_END_ALLOW_THREADS
+    }
+    Py_DECREF(tri);
+    return (PyObject *)out;
+}
+
 /* project(tri (m, 3, 3), u (r, 3), v (r, 3), region (m,) int64 in [0, r)) -> (m, 3, 2) metres:
  * each corner's coordinates on its region's in-plane axes (hausdorff._Regions.tri2: two
  * np.einsum("mkj,mj->mk") stacked on the last axis). */
@@ -619,6 +658,7 @@ static PyMethodDef methods[] = {
      "pair_bound(tri, nearest, other, trusted, normal, offset, target): two-cell bound"},
     {"centres_radii", centres_radii, METH_VARARGS,
      "centres_radii(tri): each triangle's corner mean and bounding radius"},
+    {"split4", split4, METH_VARARGS, "split4(tri): each triangle split at its edge midpoints"},
     {"project", project, METH_VARARGS,
      "project(tri, u, v, region): each corner on its region's in-plane axes"},
     {"planes", planes, METH_VARARGS,
