@@ -5,17 +5,21 @@ stages use the building-local East/Up/North frame); points (p, 3) in the same fr
 metres. :func:`point_triangle_distance` is Ericson's closest-point test (compiled:
 :mod:`.distance_kernels`);
 :class:`SurfaceIndex` prepares a mesh once (a k-d tree of probes on it) so that many points are
-answered by a few candidate triangles first, then every triangle that could still be closer.
+answered by a few candidate triangles first, then every triangle that could still be closer; a
+large one keeps each distinct point's answers (:class:`PointMemo`), asked again by the certified
+bound's rounds and calls.
 """
 
 from __future__ import annotations
 
 import itertools
+import threading
+from collections.abc import Callable
 
 import numpy as np
 from scipy.spatial import cKDTree
 
-from . import _surface
+from . import _point_memo, _surface
 from .distance_kernels import point_triangle_distance
 from .geometry import cross_rows
 
@@ -62,6 +66,61 @@ def sample_surface(
     return (points, chosen) if with_faces else points
 
 
+class PointMemo:
+    """Per-point answers kept for each distinct point (bit for bit, ``c/point_memo.c``): a
+    prepared surface is asked the same questions about the same points many times (the corners
+    triangles share, those a split hands to its children, those the refinement's rounds and the
+    calls of one building meet again). Each answer depends on the point alone, so it is computed
+    once, for the points first met, in their order: the same values as asking every time."""
+
+    def __init__(self, enabled: bool = True) -> None:
+        self.enabled = enabled  # else every question is computed (a small surface's are cheap)
+        self._memo = _point_memo.memo()
+        self._columns: dict[object, tuple[np.ndarray, list[np.ndarray]]] = {}
+        self._lock = threading.RLock()  # a Dask worker's threads may share a surface
+
+    def get(
+        self,
+        name: object,
+        points: np.ndarray,
+        compute: Callable[[np.ndarray], tuple[np.ndarray, ...]],
+    ) -> tuple[np.ndarray, ...]:
+        """``compute(points)``'s arrays (each (p, ...)) for points (p, 3), from what was kept under
+        ``name``; ``compute`` runs only on the points not met before under it (first of each)."""
+        points = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+        if len(points) == 0 or not self.enabled:
+            return compute(points)
+        with self._lock:
+            column = self._columns.get(name)
+            done, values = column if column is not None else (np.zeros(0, bool), [])
+            need = _point_memo.count(self._memo) + len(points)
+            if len(done) < need:
+                size = max(need, 2 * len(done), 64)
+                done = np.concatenate([done, np.zeros(size - len(done), bool)])
+                values = [_grown(v, size) for v in values]
+                self._columns[name] = done, values
+            rows, first = _point_memo.lookup(self._memo, points, done)
+            if len(first):
+                fresh_rows = rows.take(first)
+                try:
+                    fresh = compute(points.take(first, axis=0))
+                except BaseException:
+                    done[fresh_rows] = False
+                    raise
+                if not values:
+                    values = [np.empty((len(done),) + f.shape[1:], f.dtype) for f in fresh]
+                    self._columns[name] = done, values
+                for value, f in zip(values, fresh):
+                    value[fresh_rows] = f
+            return tuple([v.take(rows, axis=0) for v in values])
+
+
+def _grown(values: np.ndarray, size: int) -> np.ndarray:
+    grown = np.empty((size,) + values.shape[1:], values.dtype)
+    grown[: len(values)] = values
+    return grown
+
+
 class SurfaceIndex:
     """A triangle mesh prepared for exact point-to-surface distances (see :func:`distance_to_surface`).
 
@@ -70,8 +129,15 @@ class SurfaceIndex:
     area-weighted samples, fixed seed) labelled with their triangle.
     """
 
-    def __init__(self, positions: np.ndarray, faces: np.ndarray, samples_per_face: int = 2) -> None:
-        self.tri = positions[faces]
+    def __init__(
+        self,
+        positions: np.ndarray,
+        faces: np.ndarray,
+        samples_per_face: int = 2,
+        tri: np.ndarray | None = None,
+    ) -> None:
+        """``tri``: ``positions[faces]`` (m, 3, 3) when the caller has it."""
+        self.tri = positions[faces] if tri is None else tri
         m = len(faces)
         if samples_per_face * m:
             samples, sample_faces = sample_surface(
@@ -79,14 +145,18 @@ class SurfaceIndex:
             )
         else:  # what sample_surface gives for no samples, without its generator and area sums
             samples, sample_faces = np.zeros((0, 3)), np.zeros(0, np.int64)
-        self.centres = self.tri.mean(axis=1)
-        self.radii = np.sqrt(((self.tri - self.centres[:, None]) ** 2).sum(-1).max(axis=1))
+        # tri.mean(axis=1) and each corner's largest distance to it (compiled: c/surface.c).
+        self.centres, self.radii = _surface.centres_radii(self.tri)
         probes = np.concatenate([self.tri.reshape(-1, 3), self.centres, samples])
         self.owner = np.concatenate([np.repeat(np.arange(m), 3), np.arange(m), sample_faces])
         self.tree = cKDTree(probes) if m else None
         self._centre_tree: cKDTree | None = None  # of the centres, made when first needed
+        # Per-point answers (probes, upper bounds, nearest faces), kept for a surface whose
+        # queries cost more than the keeping.
+        self.memo = PointMemo(m >= self.MEMO_FACES)
 
     CANDIDATES = 6  # nearest probes whose triangles give the upper bound
+    MEMO_FACES = 200  # surfaces of this many triangles keep their per-point answers
     DENSE_PAIRS = 20_000  # point x triangle tests below which all pairs are tested at once
     TREE_SHARE = 8  # the tree's lists are used when they hold under 1/8 of all pairs
     BLOCK_PAIRS = 1 << 20  # candidate pairs held at once (an 8 MiB float64 block)
@@ -183,19 +253,46 @@ class SurfaceIndex:
             start = stop
         return np.concatenate(rows_out), np.concatenate(cols_out)
 
-    def _nearest(self, points: np.ndarray, candidates: int) -> tuple[np.ndarray, np.ndarray]:
-        """Distances (p, k) metres and indices (p, k) of the k nearest probes, k <= candidates."""
+    def _nearest(
+        self, points: np.ndarray, candidates: int, memo: bool = True
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Distances (p, k) metres and indices (p, k) of the k nearest probes, k <= candidates
+        (with ``memo``, each distinct point's kept from an earlier query: the tree answers each
+        point on its own, so the same)."""
         assert self.tree is not None  # callers check for an empty surface first
         k = min(candidates, self.tree.n)
+        if not memo:
+            return self._query(points, k)
+        probe_distance, nearest = self.memo.get(("probes", k), points, lambda x: self._query(x, k))
+        return probe_distance, nearest
+
+    def probes(
+        self, points: np.ndarray, candidates: int, memo: bool = True
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Distances (p, k) metres and indices (p, k) of each point's (p, 3) k nearest probes,
+        k = min(candidates, probes): the tree's answer (with ``memo``, kept per distinct point)."""
+        return self._nearest(points, candidates, memo)
+
+    def _query(self, points: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+        assert self.tree is not None
         probe_distance, nearest = self.tree.query(points, k=k)
         return probe_distance.reshape(len(points), k), nearest.reshape(len(points), k)
 
-    def upper(self, points: np.ndarray, candidates: int = CANDIDATES) -> np.ndarray:
+    def upper(
+        self, points: np.ndarray, candidates: int = CANDIDATES, memo: bool = True
+    ) -> np.ndarray:
         """Upper bound of each point's distance (p,) metres: exact distances to the triangles
-        owning the ``candidates`` nearest probes (inf if the surface is empty)."""
+        owning the ``candidates`` nearest probes (inf if the surface is empty; with ``memo``,
+        kept per distinct point)."""
         if self.tree is None:
             return np.full(len(points), np.inf)
-        return self._upper(points, *self._nearest(points, candidates))
+        if not memo:
+            return self._upper(points, *self._nearest(points, candidates, memo=False))
+        return self.memo.get(
+            ("upper", candidates),
+            points,
+            lambda x: (self._upper(x, *self._nearest(x, candidates, memo=False)),),
+        )[0]
 
     def _upper(
         self, points: np.ndarray, probe_distance: np.ndarray, nearest: np.ndarray
@@ -258,7 +355,7 @@ class SurfaceIndex:
             return np.zeros(len(points), dtype=bool)
         # A probe lies on the surface, so the nearest probe's distance is a first upper bound;
         # the same query's nearest probes give the others their upper bound (one query, not two).
-        probe_distance, nearest = self._nearest(points, self.CANDIDATES)
+        probe_distance, nearest = self._nearest(points, self.CANDIDATES, memo=False)
         inside = probe_distance[:, 0] <= tolerance
         if (~inside).any():
             rest = points[~inside]

@@ -51,9 +51,11 @@ from __future__ import annotations
 import numpy as np
 
 from . import _chains, _plane_boundary, _surface, coverage
+from ._planar_bound import bound as _planar_bound_kernel
 from .component_kernels import lowest_member
 from .distance import SurfaceIndex
 from .geometry import cross_rows, isin_int, longest_edges, unique_float_rows
+from .planar_bound_kernels import _packed as _planar_bound_packed
 from .planar_bound_kernels import planar_bound
 from .straight_run_kernels import straight_runs
 from .topology import planar_regions
@@ -77,6 +79,7 @@ TRUSTED = 1e-6  # faces flatter than this (altitude / longest edge) give no sing
 T_JUNCTION = 1e-6  # a vertex this close to an edge (share of its length) splits it
 PAIR_CHUNK = 1 << 20  # region pairs compared at once when merging regions on one plane
 NEAREST_DENSE = 1 << 18  # point x face tests below which every face is tried (no tree lists)
+_LOOSE = np.asarray(LOOSE, np.float64)
 
 __all__ = ["Surface", "bounds_within", "hausdorff_bounds", "directed_bounds", "exceeds", "split4"]
 
@@ -100,6 +103,15 @@ class Surface:
         self._chains: _Chains | None = None
         self._trusted: np.ndarray | None = None
         self._face_planes: tuple[np.ndarray, np.ndarray, float] | None = None
+        self._cross: np.ndarray | None = None
+
+    @property
+    def cross(self) -> np.ndarray:
+        """(m, 3) square metres: each face's (b - a) x (c - a), made once for all the pieces."""
+        if self._cross is None:
+            t = self.tri
+            self._cross = cross_rows(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+        return self._cross
 
     @property
     def empty(self) -> bool:
@@ -108,7 +120,9 @@ class Surface:
     @property
     def index(self) -> SurfaceIndex:
         if self._index is None:
-            self._index = SurfaceIndex(self.positions, self.faces, 2 if self.reference else 0)
+            self._index = SurfaceIndex(
+                self.positions, self.faces, 2 if self.reference else 0, tri=self.tri
+            )
         return self._index
 
     @property
@@ -116,8 +130,7 @@ class Surface:
         """(m,) bool: faces whose point distances keep their digits (smallest altitude at least
         ``TRUSTED`` x the longest edge)."""
         if self._trusted is None:
-            t = self.tri
-            cross = cross_rows(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+            t, cross = self.tri, self.cross
             area2 = np.sqrt((cross**2).sum(1))
             self._trusted = area2 >= TRUSTED * longest_edges(t) ** 2
         return self._trusted
@@ -128,8 +141,7 @@ class Surface:
         (both 0 for untrusted faces: no plane) and the rounding margin (metres) of a point's
         distance to a plane (normals of trusted faces keep ~1e-10 of their direction)."""
         if self._face_planes is None:
-            t = self.tri
-            cross = cross_rows(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+            t, cross = self.tri, self.cross
             length = np.sqrt((cross**2).sum(1))
             ok = self.trusted & (length > 0)
             normal = np.zeros_like(cross)
@@ -148,7 +160,9 @@ class Surface:
     @property
     def regions(self) -> _Regions:
         if self._regions is None:
-            self._regions = _Regions(self.positions, self.faces, self.reference)
+            self._regions = _Regions(
+                self.positions, self.faces, self.reference, (self.tri, self.cross)
+            )
         return self._regions
 
 
@@ -162,12 +176,22 @@ class _Regions:
     metres the boundary edges of each region projected (CSR); ``face_start`` (r + 1,) and
     ``face_order`` (m,) the faces of each region (CSR)."""
 
-    def __init__(self, positions: np.ndarray, faces: np.ndarray, straighten: bool = True) -> None:
+    def __init__(
+        self,
+        positions: np.ndarray,
+        faces: np.ndarray,
+        straighten: bool = True,
+        made: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> None:
+        """``made``: ``(positions[faces], their cross products)`` when the caller has them."""
         self.straighten = straighten
         m = len(faces)
         region = planar_regions(positions, faces) if m else np.zeros(0, np.int64)
-        tri = positions[faces]
-        cross = cross_rows(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        if made is None:
+            tri = positions[faces]
+            cross = cross_rows(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        else:
+            tri, cross = made
         self.scale = (
             float(np.linalg.norm(positions.max(axis=0) - positions.min(axis=0))) if m else 0.0
         )
@@ -197,10 +221,8 @@ class _Regions:
         u = cross_rows(normal, helper)
         u /= np.linalg.norm(u, axis=1, keepdims=True)
         self.u, self.v = u, cross_rows(normal, u)
-        uf, vf = self.u[region], self.v[region]
-        self.tri2 = np.stack(
-            [np.einsum("mkj,mj->mk", tri, uf), np.einsum("mkj,mj->mk", tri, vf)], axis=-1
-        )
+        # Each corner on its region's (u, v) axes (compiled: c/surface.c).
+        self.tri2 = _surface.project(tri, self.u, self.v, region)
         self.face_order = np.argsort(region, kind="stable")
         self.face_start = np.searchsorted(region[self.face_order], np.arange(r + 1))
         self._boundary(faces, len(positions))
@@ -246,6 +268,8 @@ class _Regions:
         self.seg_x0, self.seg_y0 = seg[:, 0, 0].copy(), seg[:, 0, 1].copy()
         self.seg_x1, self.seg_y1 = seg[:, 1, 0].copy(), seg[:, 1, 1].copy()
         self.seg_start = np.searchsorted(seg_region[order], np.arange(r + 1))
+        # planar_bound's packed planes and segments, made on the first bound (checked then).
+        self.packed: tuple[np.ndarray, np.ndarray] | None = None
 
 
 class _Chains:
@@ -341,36 +365,16 @@ def _spanning(rows: np.ndarray, cols: np.ndarray, r: int):
 def _planes(tri: np.ndarray, cross: np.ndarray, region: np.ndarray):
     """Each region's plane: unit ``normal`` (r, 3) (area-weighted), ``offset`` (r,) metres
     halfway between the extreme corners (the smallest slack for that normal) and ``slack`` (r,)
-    metres, the largest distance of the region's corners to the plane."""
+    metres, the largest distance of the region's corners to the plane (compiled: c/surface.c;
+    the numpy form is tests/test_surface_kernels.py's reference)."""
     r = int(region.max()) + 1 if len(region) else 0
-    normal = np.zeros((r, 3))
-    np.add.at(normal, region, cross)
-    length = np.linalg.norm(normal, axis=1)
-    good = length > 0
-    normal[good] /= length[good, None]
-    normal[~good] = (0.0, 0.0, 1.0)
-    heights = np.einsum("mkj,mj->mk", tri, normal[region])
-    high = np.full(r, -np.inf)
-    low = np.full(r, np.inf)
-    np.maximum.at(high, region, heights.max(axis=1))
-    np.minimum.at(low, region, heights.min(axis=1))
-    return normal, 0.5 * (high + low), 0.5 * (high - low)
+    return _surface.planes(tri, cross, region, r)
 
 
 def split4(tri: np.ndarray) -> np.ndarray:
     """(4n, 3, 3): each triangle (n, 3, 3) split at its edge midpoints (children of triangle i
-    are rows 4i..4i+3)."""
-    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
-    ab, bc, ca = 0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + a)
-    return np.stack(
-        [
-            np.stack([a, ab, ca], 1),
-            np.stack([ab, b, bc], 1),
-            np.stack([ca, bc, c], 1),
-            np.stack([ab, bc, ca], 1),
-        ],
-        1,
-    ).reshape(-1, 3, 3)
+    are rows 4i..4i+3; compiled: c/surface.c, its numpy form in tests/test_surface_prep.py)."""
+    return _surface.split4(tri)
 
 
 def _single_triangle_bound(tri: np.ndarray, target: Surface, nearest: np.ndarray) -> np.ndarray:
@@ -381,8 +385,7 @@ def _single_triangle_bound(tri: np.ndarray, target: Surface, nearest: np.ndarray
     assert index.tree is not None  # callers check for an empty surface first
     n = len(tri)
     points = np.concatenate([tri, _centroid(tri)[:, None]], axis=1)  # (n, 4, 3)
-    k = min(CANDIDATES, index.tree.n)
-    _, probes = index.tree.query(points.reshape(-1, 3), k=k)
+    _, probes = index.probes(points.reshape(-1, 3), CANDIDATES)
     # Each corner's distance to each distinct candidate (compiled: c/surface.c); slivers, whose
     # distances lose digits (Ericson's barycentric products cancel), are no candidates (inf).
     cand = np.column_stack([index.owner[probes.reshape(n, -1)], nearest])  # (n, 4k + 1)
@@ -395,7 +398,32 @@ def _planar_bound(tri: np.ndarray, target: Surface, row: np.ndarray, face: np.nd
     none holds. A pair counts only if the centroid projected on the region's plane lies in the
     face (a point of the shrunk triangle in the region, see the module doc) and, with ``cap``
     (metres), the plane bound stays below it."""
-    return planar_bound(tri, row, face, target.regions, cap, (SHRINK, PLANE_SLACK_MAX, LOOSE))
+    regions = target.regions
+    if regions.packed is None:  # planar_bound's checks and packing, once per target
+        bound = planar_bound(tri, row, face, regions, cap, (SHRINK, PLANE_SLACK_MAX, LOOSE))
+        regions.packed = _planar_bound_packed(regions, len(regions.region))
+        return bound
+    # The kernel itself (c/planar_bound.c) checks every index and shape it follows.
+    bound = np.full(len(tri), np.inf)
+    if len(row):
+        planes, seg = regions.packed
+        _planar_bound_kernel(
+            np.ascontiguousarray(tri, np.float64),
+            np.ascontiguousarray(row, np.int64),
+            np.ascontiguousarray(face, np.int64),
+            regions.region,
+            planes,
+            regions.tri2,
+            regions.seg_start,
+            seg,
+            None if cap is None else np.ascontiguousarray(cap, np.float64),
+            _LOOSE,
+            float(regions.scale),
+            float(SHRINK),
+            float(PLANE_SLACK_MAX),
+            bound,
+        )
+    return bound
 
 
 def _centroid(tri: np.ndarray) -> np.ndarray:
@@ -527,9 +555,9 @@ def _bound(tri: np.ndarray, target: Surface, goal: float) -> np.ndarray:
     n = len(tri)
     # Planar regions of the faces nearest the centroid (probes, then exact for the rest).
     centre = _centroid(tri)
-    k = min(CENTRE_PROBES, index.tree.n)
-    _, near = index.tree.query(centre, k=k)
-    faces = index.owner[near.reshape(n, k)]
+    _, near = index.probes(centre, CENTRE_PROBES, memo=False)  # few centres come again
+    k = near.shape[1]
+    faces = index.owner[near]
     bound = _planar_bound(tri, target, np.repeat(np.arange(n), k), faces.reshape(-1), cap=None)
     open_ = np.flatnonzero(bound > goal)
     extra = None
@@ -590,9 +618,16 @@ def _pair_bound(tri: np.ndarray, target: Surface, nearest: np.ndarray) -> np.nda
 def _nearest_face(target: Surface, points: np.ndarray) -> np.ndarray:
     """(p,) int64: a face of ``target`` at the least distance from each point (p, 3) metres (the
     faces whose bounding sphere and plane both come within the probes' upper bound are all
-    checked; the first in face order of the least distance, compiled: c/surface.c)."""
+    checked; the first in face order of the least distance, compiled: c/surface.c). Each
+    distinct point's face is kept on the index (:class:`~exporter.mesh.distance.PointMemo`)."""
+    return target.index.memo.get("nearest_face", points, lambda x: (_nearest_faces(target, x),))[0]
+
+
+def _nearest_faces(target: Surface, points: np.ndarray) -> np.ndarray:
+    """:func:`_nearest_face` computed (each point's face depends on that point alone: the same
+    faces are tried in the same order whether the tree's lists or the dense test find them)."""
     index = target.index
-    upper = index.upper(points)
+    upper = index.upper(points, memo=False)
     reach = upper * (1 + 1e-9) + 1e-12
     # A face's plane is no farther than the face: faces whose plane is beyond the bound cannot
     # be nearest (the margin covers the rounding of both distances; untrusted slivers, whose

@@ -12,6 +12,10 @@
  *   over its candidates of the largest distance of its corners.
  * pair_bound: a triangle's bound over two cells cut where two faces' planes are equally far
  *   (step 1b, _pair_bound).
+ * split4: the refinement's split of each triangle in four (hausdorff.split4).
+ * centres_radii, planes, project: a surface's preparation (SurfaceIndex's centres and radii,
+ *   hausdorff._planes, _Regions.tri2), the numpy forms' sums in numpy's order
+ *   (tests/test_surface_prep.py keeps the forms and checks the bits).
  *
  * Data form: points (p, 3), triangles (m, 3, 3) corner after corner, in any one Cartesian frame,
  * metres. Each float expression keeps the order of the numpy form it replaces, so the results are
@@ -428,6 +432,218 @@ done:
     return result;
 }
 
+/* centres_radii(tri (m, 3, 3)) -> (centres (m, 3), radii (m,)) metres: each triangle's corner
+ * mean (tri.mean(axis=1): 0.0 + a + b + c in that order, then / 3.0) and the largest distance of
+ * its corners to it (np.sqrt(((tri - centres[:, None]) ** 2).sum(-1)).max(axis=1), NaN wins). */
+static PyObject *centres_radii(PyObject *self, PyObject *args) {
+    PyObject *tri_obj, *result = NULL;
+    const char *kernel = "surface.centres_radii";
+    PyArrayObject *centres = NULL, *radii = NULL;
+    if (!PyArg_ParseTuple(args, "O:centres_radii", &tri_obj)) return NULL;
+    PyArrayObject *tri = k_array(tri_obj, NPY_FLOAT64, 3, 0, kernel, "tri");
+    if (tri == NULL || k_dim(tri, 1, 3, kernel, "tri") || k_dim(tri, 2, 3, kernel, "tri"))
+        goto done;
+    npy_intp m = PyArray_DIM(tri, 0);
+    npy_intp dims[2] = {m, 3};
+    centres = k_empty(2, dims, NPY_FLOAT64);
+    radii = k_empty(1, dims, NPY_FLOAT64);
+    if (centres == NULL || radii == NULL) goto done;
+    const double *t = K_F64(tri);
+    double *c = K_F64(centres), *r = K_F64(radii);
+    Py_BEGIN_ALLOW_THREADS
+    for (npy_intp i = 0; i < m; i++) {
+        const double *v = t + 9 * i;
+        double *ci = c + 3 * i, far[3];
+        for (int a = 0; a < 3; a++) ci[a] = (((0.0 + v[a]) + v[3 + a]) + v[6 + a]) / 3.0;
+        for (int k = 0; k < 3; k++) {
+            double dx = v[3 * k] - ci[0], dy = v[3 * k + 1] - ci[1], dz = v[3 * k + 2] - ci[2];
+            far[k] = sqrt(((0.0 + dx * dx) + dy * dy) + dz * dz);
+        }
+        r[i] = np_maximum(np_maximum(far[0], far[1]), far[2]);
+    }
+    Py_END_ALLOW_THREADS
+    result = Py_BuildValue("OO", centres, radii);
+done:
+    Py_XDECREF(tri);
+    Py_XDECREF(centres);
+    Py_XDECREF(radii);
+    return result;
+}
+
+/* np.einsum("mkj,mj->mk")'s sum for one corner p (3,) and axis a (3,): from 0.0 as x, z, y, the
+ * order numpy's kernel takes (tests/test_surface_kernels.py checks it against numpy). */
+static inline double einsum_dot(const double *p, const double *a) {
+    return ((0.0 + p[0] * a[0]) + p[2] * a[2]) + p[1] * a[1];
+}
+
+/* split4(tri (n, 3, 3)) -> (4n, 3, 3) metres: each triangle a, b, c split at its edge midpoints
+ * ab = 0.5 * (a + b), bc, ca into (a, ab, ca), (ab, b, bc), (ca, bc, c), (ab, bc, ca), rows
+ * 4i..4i+3 (hausdorff.split4's numpy form, float for float). */
+static PyObject *split4(PyObject *self, PyObject *args) {
+    PyObject *tri_obj;
+    const char *kernel = "surface.split4";
+    if (!PyArg_ParseTuple(args, "O:split4", &tri_obj)) return NULL;
+    PyArrayObject *tri = k_array(tri_obj, NPY_FLOAT64, 3, 0, kernel, "tri");
+    if (tri == NULL) return NULL;
+    if (k_dim(tri, 1, 3, kernel, "tri") || k_dim(tri, 2, 3, kernel, "tri")) {
+        Py_DECREF(tri);
+        return NULL;
+    }
+    npy_intp n = PyArray_DIM(tri, 0);
+    npy_intp dims[3] = {4 * n, 3, 3};
+    PyArrayObject *out = k_empty(3, dims, NPY_FLOAT64);
+    if (out != NULL) {
+        const double *t = K_F64(tri);
+        double *o = K_F64(out);
+        Py_BEGIN_ALLOW_THREADS
+        for (npy_intp i = 0; i < n; i++) {
+            const double *a = t + 9 * i, *b = a + 3, *c = a + 6;
+            double ab[3], bc[3], ca[3];
+            for (int k = 0; k < 3; k++) {
+                ab[k] = 0.5 * (a[k] + b[k]);
+                bc[k] = 0.5 * (b[k] + c[k]);
+                ca[k] = 0.5 * (c[k] + a[k]);
+            }
+            const double *rows[12] = {a, ab, ca, ab, b, bc, ca, bc, c, ab, bc, ca};
+            double *child = o + 36 * i;
+            for (int r = 0; r < 12; r++) memcpy(child + 3 * r, rows[r], 3 * sizeof(double));
+        }
+        Py_END_ALLOW_THREADS
+    }
+    Py_DECREF(tri);
+    return (PyObject *)out;
+}
+
+/* project(tri (m, 3, 3), u (r, 3), v (r, 3), region (m,) int64 in [0, r)) -> (m, 3, 2) metres:
+ * each corner's coordinates on its region's in-plane axes (hausdorff._Regions.tri2: two
+ * np.einsum("mkj,mj->mk") stacked on the last axis). */
+static PyObject *project(PyObject *self, PyObject *args) {
+    PyObject *tri_obj, *u_obj, *v_obj, *region_obj, *result = NULL;
+    const char *kernel = "surface.project";
+    PyArrayObject *out = NULL;
+    if (!PyArg_ParseTuple(args, "OOOO:project", &tri_obj, &u_obj, &v_obj, &region_obj))
+        return NULL;
+    PyArrayObject *tri = k_array(tri_obj, NPY_FLOAT64, 3, 0, kernel, "tri");
+    PyArrayObject *u = k_array(u_obj, NPY_FLOAT64, 2, 0, kernel, "u");
+    PyArrayObject *v = k_array(v_obj, NPY_FLOAT64, 2, 0, kernel, "v");
+    PyArrayObject *region = k_array(region_obj, NPY_INT64, 1, 0, kernel, "region");
+    if (tri == NULL || u == NULL || v == NULL || region == NULL) goto done;
+    npy_intp m = PyArray_DIM(tri, 0), r = PyArray_DIM(u, 0);
+    if (k_dim(tri, 1, 3, kernel, "tri") || k_dim(tri, 2, 3, kernel, "tri") ||
+        k_dim(u, 1, 3, kernel, "u") || k_dim(v, 0, r, kernel, "v") ||
+        k_dim(v, 1, 3, kernel, "v") || k_dim(region, 0, m, kernel, "region") ||
+        k_indices(region, r, kernel, "region"))
+        goto done;
+    npy_intp dims[3] = {m, 3, 2};
+    out = k_empty(3, dims, NPY_FLOAT64);
+    if (out == NULL) goto done;
+    const double *t = K_F64(tri), *uu = K_F64(u), *vv = K_F64(v);
+    const int64_t *g = K_I64(region);
+    double *o = K_F64(out);
+    Py_BEGIN_ALLOW_THREADS
+    for (npy_intp i = 0; i < m; i++) {
+        for (int k = 0; k < 3; k++) {
+            const double *p = t + 9 * i + 3 * k;
+            o[6 * i + 2 * k] = einsum_dot(p, uu + 3 * g[i]);
+            o[6 * i + 2 * k + 1] = einsum_dot(p, vv + 3 * g[i]);
+        }
+    }
+    Py_END_ALLOW_THREADS
+    result = (PyObject *)out;
+    out = NULL;
+done:
+    Py_XDECREF(tri);
+    Py_XDECREF(u);
+    Py_XDECREF(v);
+    Py_XDECREF(region);
+    Py_XDECREF(out);
+    return result;
+}
+
+/* planes(tri (m, 3, 3), cross (m, 3), region (m,) int64 in [0, r), r) -> (normal (r, 3), offset
+ * (r,), slack (r,)) metres: hausdorff._planes float for float. The area-weighted normal (np.add.at:
+ * each face's cross added in face order to 0.0), made unit (np.linalg.norm's sqrt of the squares
+ * summed from 0.0 in x, y, z order; (0, 0, 1) for a zero or NaN length), each corner's height
+ * (np.einsum("mkj,mj->mk"), einsum_dot), the highest and lowest per region (np.maximum.at / minimum.at
+ * of each face's np.max / np.min: NaN wins) and halfway between / half the spread. */
+static PyObject *planes(PyObject *self, PyObject *args) {
+    PyObject *tri_obj, *cross_obj, *region_obj, *result = NULL;
+    Py_ssize_t r;
+    const char *kernel = "surface.planes";
+    PyArrayObject *normal = NULL, *offset = NULL, *slack = NULL;
+    double *low = NULL;
+    if (!PyArg_ParseTuple(args, "OOOn:planes", &tri_obj, &cross_obj, &region_obj, &r))
+        return NULL;
+    PyArrayObject *tri = k_array(tri_obj, NPY_FLOAT64, 3, 0, kernel, "tri");
+    PyArrayObject *cross = k_array(cross_obj, NPY_FLOAT64, 2, 0, kernel, "cross");
+    PyArrayObject *region = k_array(region_obj, NPY_INT64, 1, 0, kernel, "region");
+    if (tri == NULL || cross == NULL || region == NULL) goto done;
+    npy_intp m = PyArray_DIM(tri, 0);
+    if (r < 0) {
+        PyErr_Format(PyExc_ValueError, "%s: r must be >= 0", kernel);
+        goto done;
+    }
+    if (k_dim(tri, 1, 3, kernel, "tri") || k_dim(tri, 2, 3, kernel, "tri") ||
+        k_dim(cross, 0, m, kernel, "cross") || k_dim(cross, 1, 3, kernel, "cross") ||
+        k_dim(region, 0, m, kernel, "region") || k_indices(region, r, kernel, "region"))
+        goto done;
+    npy_intp dims[2] = {r, 3};
+    normal = k_zeros(2, dims, NPY_FLOAT64);
+    offset = k_empty(1, dims, NPY_FLOAT64);
+    slack = k_empty(1, dims, NPY_FLOAT64);
+    low = malloc((size_t)(r > 0 ? r : 1) * sizeof(double));
+    if (normal == NULL || offset == NULL || slack == NULL) goto done;
+    if (low == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    const double *t = K_F64(tri), *c = K_F64(cross);
+    const int64_t *g = K_I64(region);
+    double *n = K_F64(normal), *high = K_F64(offset), *o = K_F64(offset), *sl = K_F64(slack);
+    Py_BEGIN_ALLOW_THREADS
+    for (npy_intp i = 0; i < m; i++)
+        for (int a = 0; a < 3; a++) n[3 * g[i] + a] = n[3 * g[i] + a] + c[3 * i + a];
+    for (npy_intp j = 0; j < r; j++) {
+        double *v = n + 3 * j;
+        double length = sqrt(((0.0 + v[0] * v[0]) + v[1] * v[1]) + v[2] * v[2]);
+        if (length > 0) {
+            v[0] = v[0] / length;
+            v[1] = v[1] / length;
+            v[2] = v[2] / length;
+        } else {
+            v[0] = 0.0;
+            v[1] = 0.0;
+            v[2] = 1.0;
+        }
+        high[j] = -INFINITY;
+        low[j] = INFINITY;
+    }
+    for (npy_intp i = 0; i < m; i++) {
+        const double *v = n + 3 * g[i], *p = t + 9 * i;
+        double h[3];
+        for (int k = 0; k < 3; k++)
+            h[k] = einsum_dot(p + 3 * k, v);
+        high[g[i]] = np_maximum(high[g[i]], np_maximum(np_maximum(h[0], h[1]), h[2]));
+        low[g[i]] = np_minimum(low[g[i]], np_minimum(np_minimum(h[0], h[1]), h[2]));
+    }
+    for (npy_intp j = 0; j < r; j++) {
+        double hi = high[j];
+        o[j] = 0.5 * (hi + low[j]);
+        sl[j] = 0.5 * (hi - low[j]);
+    }
+    Py_END_ALLOW_THREADS
+    result = Py_BuildValue("OOO", normal, offset, slack);
+done:
+    free(low);
+    Py_XDECREF(tri);
+    Py_XDECREF(cross);
+    Py_XDECREF(region);
+    Py_XDECREF(normal);
+    Py_XDECREF(offset);
+    Py_XDECREF(slack);
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"upper", upper, METH_VARARGS,
      "upper(points, probe_distance, nearest, owner, tri): each point's upper bound, metres"},
@@ -440,6 +656,13 @@ static PyMethodDef methods[] = {
      "chain_bound(tri, cand, start, end, slack): least largest corner distance to a chain"},
     {"pair_bound", pair_bound, METH_VARARGS,
      "pair_bound(tri, nearest, other, trusted, normal, offset, target): two-cell bound"},
+    {"centres_radii", centres_radii, METH_VARARGS,
+     "centres_radii(tri): each triangle's corner mean and bounding radius"},
+    {"split4", split4, METH_VARARGS, "split4(tri): each triangle split at its edge midpoints"},
+    {"project", project, METH_VARARGS,
+     "project(tri, u, v, region): each corner on its region's in-plane axes"},
+    {"planes", planes, METH_VARARGS,
+     "planes(tri, cross, region, r): each region's unit normal, offset and slack"},
     {NULL, NULL, 0, NULL},
 };
 
