@@ -305,7 +305,8 @@ def load(entry: Entry, options: ReaderOptions | None = None) -> Building:
         triangles = _triangles(mesh, j, xdo_path, problems)
         if triangles is None:
             continue
-        positions = mesh.positions.astype(np.float64) @ rotation.T + center_local
+        with np.errstate(invalid="ignore", over="ignore"):  # non-finite input: refused below
+            positions = mesh.positions.astype(np.float64) @ rotation.T + center_local
         if not np.isfinite(positions).all():
             raise ReadError(str(xdo_path), f"mesh {j}: positions are not finite")
         normals = mesh.normals.astype(np.float64)
