@@ -111,7 +111,7 @@ def test_random_points_near_an_awkward_mesh_give_the_former_values(monkeypatch, 
             ]
         )
         index = target.index
-        probe_distance, nearest = index._nearest(points, index.CANDIDATES)
+        probe_distance, nearest = index.probes(points, index.CANDIDATES)
         assert np.array_equal(
             index._upper(points, probe_distance, nearest),
             reference_upper(index, points, probe_distance, nearest),
@@ -160,7 +160,7 @@ def test_a_bad_index_is_an_error_not_a_crash():
     positions, faces = _awkward_mesh(np.random.default_rng(1))
     index = SurfaceIndex(positions, faces)
     points = np.zeros((2, 3))
-    probe_distance, nearest = index._nearest(points, 3)
+    probe_distance, nearest = index.probes(points, 3)
     with pytest.raises(ValueError, match="nearest"):
         _surface.upper(points, probe_distance, nearest + 10**6, index.owner, index.tri)
     with pytest.raises(ValueError, match="owner"):

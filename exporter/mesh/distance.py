@@ -253,25 +253,18 @@ class SurfaceIndex:
             start = stop
         return np.concatenate(rows_out), np.concatenate(cols_out)
 
-    def _nearest(
+    def probes(
         self, points: np.ndarray, candidates: int, memo: bool = True
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Distances (p, k) metres and indices (p, k) of the k nearest probes, k <= candidates
-        (with ``memo``, each distinct point's kept from an earlier query: the tree answers each
-        point on its own, so the same)."""
+        """Distances (p, k) metres and indices (p, k) of each point's (p, 3) k nearest probes,
+        k = min(candidates, probes): the tree's answer (with ``memo``, each distinct point's kept
+        from an earlier query: the tree answers each point on its own, so the same)."""
         assert self.tree is not None  # callers check for an empty surface first
         k = min(candidates, self.tree.n)
         if not memo:
             return self._query(points, k)
         probe_distance, nearest = self.memo.get(("probes", k), points, lambda x: self._query(x, k))
         return probe_distance, nearest
-
-    def probes(
-        self, points: np.ndarray, candidates: int, memo: bool = True
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """Distances (p, k) metres and indices (p, k) of each point's (p, 3) k nearest probes,
-        k = min(candidates, probes): the tree's answer (with ``memo``, kept per distinct point)."""
-        return self._nearest(points, candidates, memo)
 
     def _query(self, points: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
         assert self.tree is not None
@@ -287,11 +280,11 @@ class SurfaceIndex:
         if self.tree is None:
             return np.full(len(points), np.inf)
         if not memo:
-            return self._upper(points, *self._nearest(points, candidates, memo=False))
+            return self._upper(points, *self.probes(points, candidates, memo=False))
         return self.memo.get(
             ("upper", candidates),
             points,
-            lambda x: (self._upper(x, *self._nearest(x, candidates, memo=False)),),
+            lambda x: (self._upper(x, *self.probes(x, candidates, memo=False)),),
         )[0]
 
     def _upper(
@@ -333,7 +326,7 @@ class SurfaceIndex:
             return best
         if self.tree is None:
             return float("inf")  # no surface: every point is infinitely far
-        probe_distance, nearest = self._nearest(points, self.CANDIDATES)
+        probe_distance, nearest = self.probes(points, self.CANDIDATES)
         # A point whose nearest probe (a point of the surface, up to rounding: the margin, metres)
         # is closer than the floor cannot raise the maximum: no triangle distances for it.
         rest = np.flatnonzero(
@@ -355,7 +348,7 @@ class SurfaceIndex:
             return np.zeros(len(points), dtype=bool)
         # A probe lies on the surface, so the nearest probe's distance is a first upper bound;
         # the same query's nearest probes give the others their upper bound (one query, not two).
-        probe_distance, nearest = self._nearest(points, self.CANDIDATES, memo=False)
+        probe_distance, nearest = self.probes(points, self.CANDIDATES, memo=False)
         inside = probe_distance[:, 0] <= tolerance
         if (~inside).any():
             rest = points[~inside]

@@ -51,11 +51,9 @@ from __future__ import annotations
 import numpy as np
 
 from . import _chains, _plane_boundary, _surface, coverage
-from ._planar_bound import bound as _planar_bound_kernel
 from .component_kernels import lowest_member
 from .distance import SurfaceIndex
 from .geometry import cross_rows, isin_int, longest_edges, unique_float_rows
-from .planar_bound_kernels import _packed as _planar_bound_packed
 from .planar_bound_kernels import planar_bound
 from .straight_run_kernels import straight_runs
 from .topology import planar_regions
@@ -79,7 +77,6 @@ TRUSTED = 1e-6  # faces flatter than this (altitude / longest edge) give no sing
 T_JUNCTION = 1e-6  # a vertex this close to an edge (share of its length) splits it
 PAIR_CHUNK = 1 << 20  # region pairs compared at once when merging regions on one plane
 NEAREST_DENSE = 1 << 18  # point x face tests below which every face is tried (no tree lists)
-_LOOSE = np.asarray(LOOSE, np.float64)
 
 __all__ = ["Surface", "bounds_within", "hausdorff_bounds", "directed_bounds", "exceeds", "split4"]
 
@@ -268,8 +265,6 @@ class _Regions:
         self.seg_x0, self.seg_y0 = seg[:, 0, 0].copy(), seg[:, 0, 1].copy()
         self.seg_x1, self.seg_y1 = seg[:, 1, 0].copy(), seg[:, 1, 1].copy()
         self.seg_start = np.searchsorted(seg_region[order], np.arange(r + 1))
-        # planar_bound's packed planes and segments, made on the first bound (checked then).
-        self.packed: tuple[np.ndarray, np.ndarray] | None = None
 
 
 class _Chains:
@@ -366,7 +361,7 @@ def _planes(tri: np.ndarray, cross: np.ndarray, region: np.ndarray):
     """Each region's plane: unit ``normal`` (r, 3) (area-weighted), ``offset`` (r,) metres
     halfway between the extreme corners (the smallest slack for that normal) and ``slack`` (r,)
     metres, the largest distance of the region's corners to the plane (compiled: c/surface.c;
-    the numpy form is tests/test_surface_kernels.py's reference)."""
+    the numpy form is tests/test_surface_prep.py's reference)."""
     r = int(region.max()) + 1 if len(region) else 0
     return _surface.planes(tri, cross, region, r)
 
@@ -398,32 +393,7 @@ def _planar_bound(tri: np.ndarray, target: Surface, row: np.ndarray, face: np.nd
     none holds. A pair counts only if the centroid projected on the region's plane lies in the
     face (a point of the shrunk triangle in the region, see the module doc) and, with ``cap``
     (metres), the plane bound stays below it."""
-    regions = target.regions
-    if regions.packed is None:  # planar_bound's checks and packing, once per target
-        bound = planar_bound(tri, row, face, regions, cap, (SHRINK, PLANE_SLACK_MAX, LOOSE))
-        regions.packed = _planar_bound_packed(regions, len(regions.region))
-        return bound
-    # The kernel itself (c/planar_bound.c) checks every index and shape it follows.
-    bound = np.full(len(tri), np.inf)
-    if len(row):
-        planes, seg = regions.packed
-        _planar_bound_kernel(
-            np.ascontiguousarray(tri, np.float64),
-            np.ascontiguousarray(row, np.int64),
-            np.ascontiguousarray(face, np.int64),
-            regions.region,
-            planes,
-            regions.tri2,
-            regions.seg_start,
-            seg,
-            None if cap is None else np.ascontiguousarray(cap, np.float64),
-            _LOOSE,
-            float(regions.scale),
-            float(SHRINK),
-            float(PLANE_SLACK_MAX),
-            bound,
-        )
-    return bound
+    return planar_bound(tri, row, face, target.regions, cap, (SHRINK, PLANE_SLACK_MAX, LOOSE))
 
 
 def _centroid(tri: np.ndarray) -> np.ndarray:

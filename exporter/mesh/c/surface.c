@@ -471,7 +471,7 @@ done:
 }
 
 /* np.einsum("mkj,mj->mk")'s sum for one corner p (3,) and axis a (3,): from 0.0 as x, z, y, the
- * order numpy's kernel takes (tests/test_surface_kernels.py checks it against numpy). */
+ * order numpy's kernel takes (tests/test_surface_prep.py checks it against numpy). */
 static inline double einsum_dot(const double *p, const double *a) {
     return ((0.0 + p[0] * a[0]) + p[2] * a[2]) + p[1] * a[1];
 }
