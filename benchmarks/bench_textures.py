@@ -65,8 +65,7 @@ clock = time.process_time
 
 REAL = (
     Path(__file__).resolve().parents[1]
-    / ".."
-    / "shared"
+    / "tests"
     / "data"
     / "real"
     / "rotterdam_textured"

@@ -10,7 +10,7 @@ approaches it as the grid refines), against
   ``hausdorff_rel`` reports for that level): it must never be below the dense value.
 
 Usage: ``python benchmarks/check_budgets.py [--seed 977] [--buildings 60] [--steps 10]
-[--real ../shared/data/real] [--crs EPSG:7415]``; generated buildings of a seed the tests do
+[--real tests/data/real] [--crs EPSG:7415]``; generated buildings of a seed the tests do
 not use, plus every CityJSON file under ``--real`` when that folder exists. Prints one row per
 data set and configuration (default and ``protect_largest: 0%``) and exits 1 if any level is
 above its budget or under-bounded.
@@ -83,7 +83,7 @@ def main() -> int:
     parser.add_argument("--seed", type=int, default=977)
     parser.add_argument("--buildings", type=int, default=60)
     parser.add_argument("--steps", type=int, default=10, help="grid intervals per triangle edge")
-    parser.add_argument("--real", default=str(REPO.parent / "shared" / "data" / "real"))
+    parser.add_argument("--real", default=str(REPO / "tests" / "data" / "real"))
     parser.add_argument("--crs", default="EPSG:7415", help="CRS of CityJSON files declaring none")
     args = parser.parse_args()
     config = Config()

@@ -30,9 +30,9 @@ Usage::
 
     python benchmarks/compare_simplifiers.py --buildings 300 --seed 0
     python benchmarks/compare_simplifiers.py --equal-error --buildings 300 --seed 5
-    python benchmarks/compare_simplifiers.py --equal-error --folder ../shared/data/real --crs EPSG:7415
+    python benchmarks/compare_simplifiers.py --equal-error --folder tests/data/real --crs EPSG:7415
     python benchmarks/compare_simplifiers.py --gltfpack ~/.cache/vworld-lod/npm/node_modules/.bin/gltfpack
-    python benchmarks/compare_simplifiers.py --folder ../shared/data/real --crs EPSG:7415
+    python benchmarks/compare_simplifiers.py --folder tests/data/real --crs EPSG:7415
 
 gltfpack: ``npm install --prefix ~/.cache/vworld-lod/npm gltfpack`` (outside the repository);
 found on PATH, in that folder or in ``benchmarks/.npm``; skipped with a note when absent.
@@ -131,7 +131,7 @@ def gltfpack(parts: list[Part], budget: int, executable: str, workdir: Path) -> 
 
 
 def load_folder(folder: str, crs: str | None) -> list:
-    """Every building a reader finds in ``folder`` (e.g. ../shared/data/real CityJSON)."""
+    """Every building a reader finds in ``folder`` (e.g. tests/data/real CityJSON)."""
     from exporter.config import ReaderOptions
     from exporter.readers import load_entry, scan_folder
 

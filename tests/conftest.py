@@ -18,7 +18,7 @@ if os.environ.get("CI"):
     settings.load_profile("ci")
 
 REPO = Path(__file__).resolve().parents[1]
-SHARED_REAL = REPO.parent / "shared" / "data" / "real"
+SHARED_REAL = REPO / "tests" / "data" / "real"  # carried in the repository (PROVENANCE.md)
 VALIDATOR_DIR = REPO / "tests" / "validator"
 
 

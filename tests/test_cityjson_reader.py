@@ -26,7 +26,7 @@ from exporter.readers import (
     scan_folder,
 )
 
-REAL = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "real"
+REAL = Path(__file__).resolve().parents[1] / "tests" / "data" / "real"
 ZURICH = REAL / "zurich_lod2.city.json"
 BAG = REAL / "bag_multi_lod.city.json"
 ROTTERDAM = REAL / "rotterdam_textured" / "twobuildings.city.json"

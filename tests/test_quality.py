@@ -220,7 +220,7 @@ def test_exact_quality_agrees_with_measure_lod_on_real_exact_levels(tmp_path):
     from exporter.readers import load_entry, scan_folder
     from exporter.simplify import build_mesh_chain
 
-    real = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "real"
+    real = Path(__file__).resolve().parents[1] / "tests" / "data" / "real"
     if not (real / "zurich_lod2.city.json").is_file():
         pytest.skip(
             "../shared/data/real not present: real CityJSON buildings are not in the repository"

@@ -217,7 +217,7 @@ def test_degenerate_and_non_manifold_input_does_not_crash():
     assert [count(level) for level in levels] == [0, 0, 0]
 
 
-REAL = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "real"
+REAL = Path(__file__).resolve().parents[1] / "tests" / "data" / "real"
 
 
 @pytest.mark.parametrize(

@@ -443,7 +443,7 @@ def test_csharp_detects_a_wrong_placement(build, tmp_path):
     )
 
 
-REAL_DATA = REPO / ".." / "shared" / "data" / "real"
+REAL_DATA = REPO / "tests" / "data" / "real"
 
 
 @needs_mono

@@ -11,8 +11,7 @@ import numpy as np
 
 REAL_ATLASES = (
     Path(__file__).resolve().parents[1]
-    / ".."
-    / "shared"
+    / "tests"
     / "data"
     / "real"
     / "rotterdam_textured"
