@@ -57,6 +57,11 @@ namespace VWorldLod.Tests
             h.Visible = visible;
         }
 
+        /// <summary>Texture bytes each loaded proxy reports (the budget's accounting).</summary>
+        public long BytesEach = 1000;
+
+        public long TextureBytes(object loaded) { return BytesEach; }
+
         public void ReleaseProxy(object loaded)
         {
             var h = (Handle)loaded;
@@ -140,10 +145,26 @@ namespace VWorldLod.Tests
                 Assert.Equal("A B C", string.Join(" ", s.Wanted().OrderBy(n => n)), "wanted from 300 m up");
                 Assert.True(events.Contains("load A") && events.Contains("load B"), "A and B requested: " + string.Join(", ", events));
                 Assert.Equal("A B C", Frame(s, b, 0, 300, 0), "finer proxies shown, the root gone");
-                Assert.True(s.Loaded().IndexOf("R") < 0, "the root is unloaded once replaced");
-                Assert.True(b.Handles.Single(h => h.Name == "R").Released, "its handle released");
+                Assert.True(s.Loaded().IndexOf("R") >= 0 && !b.Handles.Single(h => h.Name == "R").Released, "the replaced root stays loaded for the way back (the budget has room)");
+                Assert.Equal(4000, s.Budget.Resident, "texture bytes of the 4 loaded proxies");
+                events.Clear();
+                Assert.Equal("C R", Frame(s, b, 0, 1000, 0), "back up: the cached root shows at once");
+                Assert.True(!events.Contains("load R"), "without loading it again: " + string.Join(", ", events));
                 s.Dispose();
                 Assert.True(b.Handles.All(h => h.Released), "Dispose releases every proxy");
+                Assert.Equal(0, s.Budget.Resident, "nothing resident after Dispose");
+            });
+
+            t.Check("proxies: over the texture budget, proxies not shown are released, farthest first", () =>
+            {
+                var b = new FakeProxyBackend();
+                var s = new ProxyStreamer(Tree(), p => At[p.name], new StreamingSettings { TextureBudgetBytes = 3000 }, b);
+                Frame(s, b, 0, 1000, 0);
+                Frame(s, b, 0, 300, 0);
+                Assert.Equal("A B C", Frame(s, b, 0, 300, 0), "finer proxies shown");
+                Assert.True(s.Loaded().IndexOf("R") < 0 && b.Handles.Single(h => h.Name == "R").Released, "the root, not shown, released to stay within 3000 bytes");
+                Assert.Equal(3000, s.Budget.Resident, "within the budget");
+                s.Dispose();
             });
 
             t.Check("proxies: none is drawn over a tile that shows its buildings", () =>
@@ -157,7 +178,7 @@ namespace VWorldLod.Tests
                 shown.Add("ta");
                 Assert.Equal("B C", Frame(s, b, 0, 300, 0), "A hidden where its buildings show");
                 Assert.Equal("B C", Frame(s, b, 0, 5000, 0), "from far too: the root covers ta, so B stands alone");
-                Assert.True(s.Loaded().IndexOf("A") < 0 && s.Loaded().IndexOf("R") < 0, "A and R not kept: " + string.Join(" ", s.Loaded()));
+                Assert.True(s.Loaded().IndexOf("A") >= 0, "A kept, hidden, for the way back: " + string.Join(" ", s.Loaded()));
                 shown.Clear();
                 Frame(s, b, 0, 5000, 0);
                 Assert.Equal("C R", Frame(s, b, 0, 5000, 0), "buildings gone: the root again");

@@ -10,12 +10,17 @@
 //      its own); otherwise its children are visited. Screen-space error (px) = geometric_error * screenHeight / (d * 2 tan(fov / 2)),
 //      d in metres from the camera to the proxy's bounding sphere (3D Tiles' rule);
 //   3. show: a wanted, loaded proxy shows; until it is loaded, its loaded descendants nearest to
-//      it show instead; a refined proxy whose wanted children are not all shown yet stays shown
-//      itself (when loaded and none of its tiles shows buildings), so a view never gets holes
-//      while finer proxies arrive, and never draws one place twice;
-//   4. unload proxies neither wanted nor shown; cancel loads of proxies no longer wanted;
+//      it show instead; a refined proxy whose region is not complete yet (a wanted child not
+//      loaded) stays shown itself when loaded, also over a tile of it that already shows its
+//      buildings: a view never gets holes while finer proxies arrive (the price: that place drawn
+//      twice meanwhile). A building tile counts as shown (TileShown, TileStreamer.Shows) only once
+//      every building of it the view needs shows a level, so a proxy stays until then;
+//   4. proxies neither wanted nor shown stay loaded for the way back (a cache) while the texture
+//      budget (TextureBudget, shared with TileStreamer) has room; over it they are released,
+//      farthest first; loads of proxies no longer wanted are cancelled, freeing their slot at once;
 //   5. start loads of wanted proxies, coarsest level first, nearer first, while fewer than
-//      MaxConcurrentLoads are in flight (cancelled ones count until they finish).
+//      MaxConcurrentLoads are in flight.
+// Update allocates nothing in a steady state (its buffers are fields).
 // Positions are scene positions of the proxies' frame origins (Unity units), from the caller's
 // function (ProxyEntry.ScenePosition), recomputed by Reposition().
 using System;
@@ -35,6 +40,7 @@ namespace VWorldLod
             public int Parent = -1;
             public object Handle; // loaded
             public Job Loading;
+            public long Bytes; // texture bytes of the loaded proxy (IProxyBackend.TextureBytes)
             public bool Visible, Wanted, Failed, Covered; // Covered: a tile below it shows its buildings
             public double Sse, Distance;
         }
@@ -53,6 +59,13 @@ namespace VWorldLod
         readonly StreamingSettings settings;
         readonly IProxyBackend backend;
         readonly List<Job> inFlight = new List<Job>();
+        readonly List<Job> draining = new List<Job>(); // cancelled, not finished yet
+        readonly List<Node> show = new List<Node>();
+        readonly List<Node> waiting = new List<Node>();
+        readonly bool[] visibleNow;
+        readonly TextureBudget budget;
+        static readonly string[] None = new string[0];
+        static readonly IComparer<Node> CoarsestNearestFirst = new LoadOrder();
         double[][] positions;
         bool disposed;
 
@@ -67,15 +80,34 @@ namespace VWorldLod
 
         public int InFlight { get { return inFlight.Count; } }
 
-        /// <summary>proxies: usable entries (TileIndexReader.Read); children are named among them.</summary>
-        public ProxyStreamer(ProxyEntry[] proxies, Func<ProxyEntry, double[]> position, StreamingSettings settings, IProxyBackend backend)
+        /// <summary>Cancelled loads not finished yet (their results will be released).</summary>
+        public int Draining { get { return draining.Count; } }
+
+        public TextureBudget Budget { get { return budget; } }
+
+        sealed class LoadOrder : IComparer<Node>
         {
+            public int Compare(Node a, Node b)
+            {
+                return a.Entry.level != b.Entry.level ? a.Entry.level.CompareTo(b.Entry.level)
+                    : a.Distance != b.Distance ? a.Distance.CompareTo(b.Distance) : a.Index.CompareTo(b.Index);
+            }
+        }
+
+        /// <summary>
+        /// proxies: usable entries (TileIndexReader.Read); children are named among them. budget:
+        /// shared with the TileStreamer (its Budget); null makes one of settings.
+        /// </summary>
+        public ProxyStreamer(ProxyEntry[] proxies, Func<ProxyEntry, double[]> position, StreamingSettings settings, IProxyBackend backend, TextureBudget budget = null)
+        {
+            this.budget = budget ?? new TextureBudget(settings);
             string problem = settings.Problem();
             if (problem != null) throw new ArgumentException(problem);
             this.position = position;
             this.settings = settings;
             this.backend = backend;
             nodes = new Node[proxies.Length];
+            visibleNow = new bool[proxies.Length];
             var byName = new Dictionary<string, int>();
             for (int i = 0; i < proxies.Length; i++)
             {
@@ -145,9 +177,9 @@ namespace VWorldLod
             }
             foreach (int r in roots) Cover(nodes[r]);
             foreach (int r in roots) Want(nodes[r]);
-            var show = new List<Node>();
-            foreach (int r in roots) Show(nodes[r], show);
-            var visibleNow = new bool[nodes.Length];
+            show.Clear();
+            foreach (int r in roots) Show(nodes[r]);
+            Array.Clear(visibleNow, 0, visibleNow.Length);
             foreach (Node n in show) visibleNow[n.Index] = true;
             foreach (Node n in nodes)
             {
@@ -159,18 +191,29 @@ namespace VWorldLod
                 Event((visible ? "show " : "hide ") + n.Entry.name);
             }
             foreach (Node n in nodes)
-            {
-                if (n.Handle != null && !n.Wanted && !n.Visible) Release(n);
                 if (n.Loading != null && !n.Wanted && !n.Loading.Cancelled) CancelLoad(n.Loading);
-            }
+            Evict();
             Start();
+        }
+
+        // Over the texture budget: proxies neither wanted nor shown go, farthest first.
+        void Evict()
+        {
+            while (budget.Over())
+            {
+                Node farthest = null;
+                foreach (Node n in nodes)
+                    if (n.Handle != null && !n.Wanted && !n.Visible && (farthest == null || n.Distance > farthest.Distance)) farthest = n;
+                if (farthest == null) return;
+                Release(farthest);
+            }
         }
 
         // Marks the proxies with a tile below them showing its buildings (one pass, bottom-up).
         bool Cover(Node n)
         {
             bool covered = false;
-            foreach (string t in n.Entry.tiles ?? new string[0]) covered |= TileShown(t);
+            foreach (string t in n.Entry.tiles ?? None) covered |= TileShown(t);
             foreach (int c in n.Children) covered |= Cover(nodes[c]);
             return n.Covered = covered;
         }
@@ -187,35 +230,37 @@ namespace VWorldLod
             foreach (int c in n.Children) Want(nodes[c]);
         }
 
-        // Adds what shows for n's region; returns whether that region is complete (every wanted
-        // proxy under it shows, or a loaded ancestor stands in).
-        bool Show(Node n, List<Node> show)
+        // Adds what shows for n's region to show; returns whether that region is complete (every
+        // wanted proxy under it shows, or a loaded ancestor stands in).
+        bool Show(Node n)
         {
             if (n.Wanted)
             {
                 if (n.Handle != null) { show.Add(n); return true; }
-                ShowLoadedBelow(n, show);
+                ShowLoadedBelow(n);
                 return false;
             }
-            var below = new List<Node>();
+            int start = show.Count;
             bool complete = true;
-            foreach (int c in n.Children) complete &= Show(nodes[c], below);
-            if (!complete && n.Handle != null && !n.Covered)
+            foreach (int c in n.Children) complete &= Show(nodes[c]);
+            if (!complete && n.Handle != null)
             {
-                show.Add(n); // the coarser proxy holds until its finer ones have all arrived
+                // The coarser proxy holds until its finer ones have all arrived (also over a tile
+                // of it showing its buildings: drawn twice rather than a hole).
+                show.RemoveRange(start, show.Count - start);
+                show.Add(n);
                 return true;
             }
-            show.AddRange(below);
             return complete;
         }
 
-        void ShowLoadedBelow(Node n, List<Node> show)
+        void ShowLoadedBelow(Node n)
         {
             foreach (int c in n.Children)
             {
                 Node child = nodes[c];
                 if (child.Handle != null) show.Add(child);
-                else ShowLoadedBelow(child, show);
+                else ShowLoadedBelow(child);
             }
         }
 
@@ -226,6 +271,13 @@ namespace VWorldLod
                 Job job = inFlight[i];
                 if (!job.Task.IsCompleted) continue;
                 inFlight.RemoveAt(i--);
+                Take(job);
+            }
+            for (int i = 0; i < draining.Count; i++)
+            {
+                Job job = draining[i];
+                if (!job.Task.IsCompleted) continue;
+                draining.RemoveAt(i--);
                 Take(job);
             }
         }
@@ -250,6 +302,10 @@ namespace VWorldLod
                 return;
             }
             job.Node.Handle = result;
+            long bytes = 0;
+            Safe(() => bytes = backend.TextureBytes(result));
+            job.Node.Bytes = Math.Max(bytes, 0);
+            budget.Add(job.Node.Bytes);
         }
 
         void Release(Node n)
@@ -261,6 +317,8 @@ namespace VWorldLod
                 n.Visible = false;
                 Event("hide " + n.Entry.name);
             }
+            budget.Remove(n.Bytes);
+            n.Bytes = 0;
             Safe(() => backend.ReleaseProxy(h));
             Event("unload " + n.Entry.name);
         }
@@ -277,14 +335,14 @@ namespace VWorldLod
                 Safe(() => backend.Report(job.Node.Entry.file + ": cancelling its load: " + Innermost(e).Message));
             }
             if (job.Node.Loading == job) job.Node.Loading = null;
+            if (inFlight.Remove(job)) draining.Add(job); // its slot is free now
         }
 
         void Start()
         {
-            var waiting = new List<Node>();
+            waiting.Clear();
             foreach (Node n in nodes) if (n.Wanted && n.Handle == null && n.Loading == null && !n.Failed) waiting.Add(n);
-            waiting.Sort((a, b) => a.Entry.level != b.Entry.level ? a.Entry.level.CompareTo(b.Entry.level)
-                : a.Distance != b.Distance ? a.Distance.CompareTo(b.Distance) : a.Index.CompareTo(b.Index));
+            if (waiting.Count > 1) waiting.Sort(CoarsestNearestFirst);
             foreach (Node n in waiting)
             {
                 if (inFlight.Count >= settings.MaxConcurrentLoads) return;
@@ -305,14 +363,14 @@ namespace VWorldLod
             if (disposed) return;
             disposed = true;
             foreach (Node n in nodes) if (n.Handle != null) Release(n);
-            foreach (Job job in inFlight)
+            for (int i = inFlight.Count - 1; i >= 0; i--) CancelLoad(inFlight[i]);
+            foreach (Job job in draining)
             {
-                CancelLoad(job);
                 if (job.Task.IsCompleted) { Take(job); continue; }
                 Job pending = job;
                 job.Task.ContinueWith(t => Take(pending), CancellationToken.None, TaskContinuationOptions.ExecuteSynchronously, TaskScheduler.Default);
             }
-            inFlight.Clear();
+            draining.Clear();
         }
 
         void Event(string text)
