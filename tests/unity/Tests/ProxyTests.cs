@@ -145,25 +145,45 @@ namespace VWorldLod.Tests
                 Assert.Equal("A B C", string.Join(" ", s.Wanted().OrderBy(n => n)), "wanted from 300 m up");
                 Assert.True(events.Contains("load A") && events.Contains("load B"), "A and B requested: " + string.Join(", ", events));
                 Assert.Equal("A B C", Frame(s, b, 0, 300, 0), "finer proxies shown, the root gone");
-                Assert.True(s.Loaded().IndexOf("R") >= 0 && !b.Handles.Single(h => h.Name == "R").Released, "the replaced root stays loaded for the way back (the budget has room)");
-                Assert.Equal(4000, s.Budget.Resident, "texture bytes of the 4 loaded proxies");
-                events.Clear();
-                Assert.Equal("C R", Frame(s, b, 0, 1000, 0), "back up: the cached root shows at once");
-                Assert.True(!events.Contains("load R"), "without loading it again: " + string.Join(", ", events));
+                Assert.True(s.Loaded().IndexOf("R") < 0, "the root is unloaded once replaced (no tile under it shows buildings)");
+                Assert.True(b.Handles.Single(h => h.Name == "R").Released, "its handle released");
+                Assert.Equal(3000, s.Budget.Resident, "texture bytes of the 3 loaded proxies");
                 s.Dispose();
                 Assert.True(b.Handles.All(h => h.Released), "Dispose releases every proxy");
                 Assert.Equal(0, s.Budget.Resident, "nothing resident after Dispose");
             });
 
-            t.Check("proxies: over the texture budget, proxies not shown are released, farthest first", () =>
+            t.Check("proxies: the coarser proxy holds over shown buildings while a finer one loads; Covers names the tiles under shown proxies", () =>
             {
                 var b = new FakeProxyBackend();
-                var s = new ProxyStreamer(Tree(), p => At[p.name], new StreamingSettings { TextureBudgetBytes = 3000 }, b);
+                var s = new ProxyStreamer(Tree(), p => At[p.name], new StreamingSettings(), b);
+                var shown = new HashSet<string>();
+                s.TileShown = shown.Contains;
                 Frame(s, b, 0, 1000, 0);
+                Assert.Equal("C R", Frame(s, b, 0, 1000, 0), "from far");
+                Assert.True(s.Covers("ta") && s.Covers("tb") && s.Covers("tc"), "every tile under a shown proxy");
+                shown.Add("ta"); // down at ta: its buildings show
+                Assert.Equal("C R", Frame(s, b, 0, 300, 0), "the root holds over ta's buildings while B loads (drawn twice, no hole)");
+                Assert.Equal("B C", Frame(s, b, 0, 300, 0), "B arrived");
+                Assert.True(!s.Covers("ta") && s.Covers("tb"), "ta is under no shown proxy now");
+                s.Dispose();
+            });
+
+            t.Check("proxies: the leaf proxy of a tile loading its buildings is not loaded while an ancestor stands in", () =>
+            {
+                var b = new FakeProxyBackend();
+                var s = new ProxyStreamer(Tree(), p => At[p.name], new StreamingSettings(), b);
+                var loading = new HashSet<string> { "ta", "tb" };
+                s.TileLoading = loading.Contains;
+                var events = new List<string>();
+                s.OnEvent = events.Add;
+                Frame(s, b, 0, 1000, 0);
+                Assert.Equal("C R", Frame(s, b, 0, 1000, 0), "from far");
+                for (int i = 0; i < 3; i++) Assert.Equal("C R", Frame(s, b, 0, 300, 0), "the root stands in while ta and tb load their buildings");
+                Assert.True(!events.Contains("load A") && !events.Contains("load B"), "no leaf proxy loaded: " + string.Join(", ", events));
+                loading.Remove("tb"); // tb's manifest failed: its proxy is needed after all
                 Frame(s, b, 0, 300, 0);
-                Assert.Equal("A B C", Frame(s, b, 0, 300, 0), "finer proxies shown");
-                Assert.True(s.Loaded().IndexOf("R") < 0 && b.Handles.Single(h => h.Name == "R").Released, "the root, not shown, released to stay within 3000 bytes");
-                Assert.Equal(3000, s.Budget.Resident, "within the budget");
+                Assert.True(events.Contains("load B") && !events.Contains("load A"), "B loaded: " + string.Join(", ", events));
                 s.Dispose();
             });
 
@@ -178,7 +198,7 @@ namespace VWorldLod.Tests
                 shown.Add("ta");
                 Assert.Equal("B C", Frame(s, b, 0, 300, 0), "A hidden where its buildings show");
                 Assert.Equal("B C", Frame(s, b, 0, 5000, 0), "from far too: the root covers ta, so B stands alone");
-                Assert.True(s.Loaded().IndexOf("A") >= 0, "A kept, hidden, for the way back: " + string.Join(" ", s.Loaded()));
+                Assert.True(s.Loaded().IndexOf("A") < 0 && s.Loaded().IndexOf("R") < 0, "A and R not kept: " + string.Join(" ", s.Loaded()));
                 shown.Clear();
                 Frame(s, b, 0, 5000, 0);
                 Assert.Equal("C R", Frame(s, b, 0, 5000, 0), "buildings gone: the root again");

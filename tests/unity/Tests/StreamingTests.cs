@@ -225,9 +225,10 @@ namespace VWorldLod.Tests
                             List<int> resident = streamer.ResidentLevels(plan.TileName, b.Id);
                             string where = plan.TileName + " " + b.Id + " at step " + step + " (h " + h + "): " + string.Join(",", resident);
                             Assert.True(want < 0 || resident.Contains(want), where + " holds level " + want);
-                            // Besides it, only a level within the keep factor (1.25) of being needed, or
-                            // the next finer one prefetched (factor 1.5) when the camera came closer.
-                            Assert.True(resident.All(k => k == want || k == shown(h * 1.25) || k == shown(h / 1.25) || (k == want - 1 && k == shown(h * 1.5))), where + " holds nothing else");
+                            // Besides it, only a level within the keep factor of being needed, or the next
+                            // finer one prefetched when the camera came closer (the default factors).
+                            double keep = new StreamingSettings().KeepFactor, ahead = new StreamingSettings().PrefetchFactor;
+                            Assert.True(resident.All(k => k == want || k == shown(h * keep) || k == shown(h / keep) || (k == want - 1 && k == shown(h * ahead))), where + " holds nothing else");
                         }
                     }
                 }

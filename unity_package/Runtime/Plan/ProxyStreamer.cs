@@ -15,11 +15,15 @@
 //      buildings: a view never gets holes while finer proxies arrive (the price: that place drawn
 //      twice meanwhile). A building tile counts as shown (TileShown, TileStreamer.Shows) only once
 //      every building of it the view needs shows a level, so a proxy stays until then;
-//   4. proxies neither wanted nor shown stay loaded for the way back (a cache) while the texture
-//      budget (TextureBudget, shared with TileStreamer) has room; over it they are released,
-//      farthest first; loads of proxies no longer wanted are cancelled, freeing their slot at once;
+//   4. proxies neither wanted nor shown are released (over the texture budget, TextureBudget,
+//      shared with TileStreamer, none is kept); loads of proxies no longer wanted are cancelled,
+//      freeing their slot at once. The way back needs no cache of covered proxies: a tile leaving
+//      the radius keeps its buildings until a proxy over it shows (Covers, TileStreamer.ProxyShown)
+//      -- its levels are a fraction of a proxy's atlas (2048 texels a side: 21 MiB in RGBA32);
 //   5. start loads of wanted proxies, coarsest level first, nearer first, while fewer than
-//      MaxConcurrentLoads are in flight.
+//      MaxConcurrentLoads are in flight; a proxy whose tiles are all loading their buildings
+//      (TileLoading) is not loaded when a loaded ancestor stands in meanwhile (its buildings
+//      will replace it soon: no 2048-texel atlas downloaded for a few frames).
 // Update allocates nothing in a steady state (its buffers are fields).
 // Positions are scene positions of the proxies' frame origins (Unity units), from the caller's
 // function (ProxyEntry.ScenePosition), recomputed by Reposition().
@@ -42,7 +46,8 @@ namespace VWorldLod
             public Job Loading;
             public long Bytes; // texture bytes of the loaded proxy (IProxyBackend.TextureBytes)
             public bool Visible, Wanted, Failed, Covered; // Covered: a tile below it shows its buildings
-            public double Sse, Distance;
+            public int[] Tiles; // indices (into tileNames) of the building tiles under it, its descendants' included
+            public double Sse, Distance; // Distance: metres to its bounding sphere
         }
 
         sealed class Job
@@ -63,6 +68,9 @@ namespace VWorldLod
         readonly List<Node> show = new List<Node>();
         readonly List<Node> waiting = new List<Node>();
         readonly bool[] visibleNow;
+        readonly Dictionary<string, int> tileIndex = new Dictionary<string, int>();
+        readonly List<string> tileNames = new List<string>();
+        readonly bool[] drawnOver; // per building tile: a visible proxy is over it
         readonly TextureBudget budget;
         static readonly string[] None = new string[0];
         static readonly IComparer<Node> CoarsestNearestFirst = new LoadOrder();
@@ -71,6 +79,9 @@ namespace VWorldLod
 
         /// <summary>Whether a building tile (tiles.json name) shows its buildings; a proxy over it is then hidden.</summary>
         public Func<string, bool> TileShown = name => false;
+
+        /// <summary>Whether a building tile is loading its buildings (within the radius, not shown yet: TileStreamer.Loading).</summary>
+        public Func<string, bool> TileLoading = name => false;
 
         /// <summary>Called with "load &lt;proxy&gt;", "show &lt;proxy&gt;", "hide &lt;proxy&gt;", "unload &lt;proxy&gt;".</summary>
         public Action<string> OnEvent;
@@ -125,6 +136,9 @@ namespace VWorldLod
                 n.Children = children.ToArray();
             }
             for (int i = 0; i < nodes.Length; i++) if (nodes[i].Parent < 0) roots.Add(i);
+            foreach (Node n in nodes)
+            foreach (int r in roots) Gather(nodes[r]);
+            drawnOver = new bool[tileNames.Count];
             Reposition();
         }
 
@@ -181,6 +195,8 @@ namespace VWorldLod
             foreach (int r in roots) Show(nodes[r]);
             Array.Clear(visibleNow, 0, visibleNow.Length);
             foreach (Node n in show) visibleNow[n.Index] = true;
+            Array.Clear(drawnOver, 0, drawnOver.Length);
+            foreach (Node n in show) foreach (int t in n.Tiles) drawnOver[t] = true;
             foreach (Node n in nodes)
             {
                 bool visible = visibleNow[n.Index];
@@ -191,12 +207,15 @@ namespace VWorldLod
                 Event((visible ? "show " : "hide ") + n.Entry.name);
             }
             foreach (Node n in nodes)
+            {
+                if (n.Handle != null && !n.Wanted && !n.Visible) Release(n);
                 if (n.Loading != null && !n.Wanted && !n.Loading.Cancelled) CancelLoad(n.Loading);
+            }
             Evict();
             Start();
         }
 
-        // Over the texture budget: proxies neither wanted nor shown go, farthest first.
+        // Over the texture budget: the proxies kept for the way back go, farthest first.
         void Evict()
         {
             while (budget.Over())
@@ -341,7 +360,11 @@ namespace VWorldLod
         void Start()
         {
             waiting.Clear();
-            foreach (Node n in nodes) if (n.Wanted && n.Handle == null && n.Loading == null && !n.Failed) waiting.Add(n);
+            foreach (Node n in nodes)
+            {
+                if (n.Handle != null || n.Loading != null || n.Failed) continue;
+                if (n.Wanted && !(BuildingsComing(n) && AncestorLoaded(n))) waiting.Add(n);
+            }
             if (waiting.Count > 1) waiting.Sort(CoarsestNearestFirst);
             foreach (Node n in waiting)
             {
@@ -355,6 +378,42 @@ namespace VWorldLod
                 inFlight.Add(job);
                 MaxInFlightSeen = Math.Max(MaxInFlightSeen, inFlight.Count);
             }
+        }
+
+        /// <summary>Whether a proxy shown now (at the last Update) is over the building tile named.</summary>
+        public bool Covers(string tileName)
+        {
+            int t;
+            return tileIndex.TryGetValue(tileName, out t) && drawnOver[t];
+        }
+
+        // n's Tiles: the building tiles under it and its descendants.
+        int[] Gather(Node n)
+        {
+            var all = new List<int>();
+            foreach (string name in n.Entry.tiles ?? None)
+            {
+                int t;
+                if (!tileIndex.TryGetValue(name, out t)) { t = tileNames.Count; tileIndex[name] = t; tileNames.Add(name); }
+                all.Add(t);
+            }
+            foreach (int c in n.Children) all.AddRange(Gather(nodes[c]));
+            return n.Tiles = all.ToArray();
+        }
+
+        // Every building tile directly under n is loading its buildings.
+        bool BuildingsComing(Node n)
+        {
+            string[] tiles = n.Entry.tiles ?? None;
+            if (tiles.Length == 0) return false;
+            foreach (string t in tiles) if (!TileLoading(t)) return false;
+            return true;
+        }
+
+        bool AncestorLoaded(Node n)
+        {
+            for (int p = n.Parent; p >= 0; p = nodes[p].Parent) if (nodes[p].Handle != null) return true;
+            return false;
         }
 
         /// <summary>Cancels every load and releases every proxy; never throws.</summary>

@@ -44,12 +44,12 @@ namespace VWorldLod
         /// While the camera approaches a building, the next finer level is loaded ahead once the
         /// building's screen size times this reaches that level's transition (1 = never ahead).
         /// </summary>
-        public double PrefetchFactor = 1.5;
+        public double PrefetchFactor = 1.25;
         /// <summary>
         /// A resident level no longer needed stays while the building's screen size is within
         /// this factor of where it would be needed (no reloading back and forth at a transition).
         /// </summary>
-        public double KeepFactor = 1.25;
+        public double KeepFactor = 1.1;
 
         /// <summary>Why these settings cannot be used, or null.</summary>
         public string Problem()

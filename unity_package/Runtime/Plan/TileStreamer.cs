@@ -6,8 +6,11 @@
 //   1. finish: loads that completed since the last frame are taken in; cancelled ones that
 //      completed are released;
 //   2. select: tiles whose centre is further than UnloadRadius are unloaded (their loads
-//      cancelled, their levels released), tiles within LoadRadius that are not loaded are loaded,
-//      nearest first (their manifest is requested);
+//      cancelled, their levels released) -- with proxies (ProxyShown), only once a proxy over the
+//      tile shows: meanwhile the tile is "leaving", keeps what it holds and says it does not show
+//      (so the proxy streamer brings its proxy), until 2 x UnloadRadius - LoadRadius at most;
+//      tiles within LoadRadius that are not loaded are loaded, nearest first (their manifest is
+//      requested);
 //   3. choose, per building of each planned tile (LevelChoice): the level it needs at its distance
 //      (the LODGroup's transitions, or finer where that level's error_m would show more than
 //      LevelMaximumScreenSpaceError), and while the camera approaches the next finer one once the
@@ -46,7 +49,7 @@ namespace VWorldLod
             public TileIndexEntry Entry;
             public int Index;
             public readonly CancellationTokenSource Cancel = new CancellationTokenSource();
-            public bool PlanRequested, Failed, Unloaded, Complete;
+            public bool PlanRequested, Failed, Unloaded, Complete, Leaving;
             public TilePlan Plan;
             public Building[] Buildings;
         }
@@ -85,6 +88,9 @@ namespace VWorldLod
             }
         }
 
+        /// <summary>A building's coarsest level is loaded from this factor beyond its culling distance.</summary>
+        public const double CullMargin = 1.1;
+
         readonly TileIndexEntry[] tiles;
         readonly Func<TileIndexEntry, double[]> position;
         readonly StreamingSettings settings;
@@ -110,6 +116,12 @@ namespace VWorldLod
         /// tile centre's scene position, the scene's axes East/Up/North, scale UR/R.
         /// </summary>
         public Func<TilePlan, Placement> TilePose;
+
+        /// <summary>
+        /// Whether a proxy over the tile named shows (ProxyStreamer.Covers): a tile beyond the
+        /// unload radius keeps its buildings until then. Null (no proxies): tiles unload at once.
+        /// </summary>
+        public Func<string, bool> ProxyShown;
 
         /// <summary>The most loads in flight at once so far.</summary>
         public int MaxInFlightSeen { get; private set; }
@@ -178,6 +190,13 @@ namespace VWorldLod
         {
             int i;
             return indexOf.TryGetValue(tileName, out i) && byIndex[i] != null && byIndex[i].Complete;
+        }
+
+        /// <summary>Whether the tile named is loading its buildings: within the radius, its manifest not failed, not shown yet.</summary>
+        public bool Loading(string tileName)
+        {
+            int i;
+            return indexOf.TryGetValue(tileName, out i) && byIndex[i] != null && !byIndex[i].Failed && !byIndex[i].Complete && !byIndex[i].Leaving;
         }
 
         /// <summary>One frame with a 1080-pixel, 60-degree view and LOD bias 1 (see the other overload).</summary>
@@ -339,10 +358,27 @@ namespace VWorldLod
                 double dy = settings.Horizontal ? 0 : p[1] - y;
                 distances[i] = Math.Sqrt((p[0] - x) * (p[0] - x) + dy * dy + (p[2] - z) * (p[2] - z));
             }
+            double farthest = 2 * settings.UnloadRadius - settings.LoadRadius;
             for (int t = 0; t < active.Count; t++)
             {
                 ActiveTile tile = active[t];
-                if (distances[tile.Index] <= settings.UnloadRadius) continue;
+                double d = distances[tile.Index];
+                tile.Leaving = d > settings.UnloadRadius;
+                if (!tile.Leaving) continue;
+                bool standIn = ProxyShown == null || tile.Plan == null || tile.Failed || d > farthest;
+                if (!standIn)
+                {
+                    bool shown = true;
+                    try
+                    {
+                        shown = ProxyShown(tile.Entry.name);
+                    }
+                    catch (Exception e)
+                    {
+                        Safe(() => backend.Report(tile.Entry.name + ": asking for its proxy: " + Innermost(e).Message));
+                    }
+                    if (!shown) continue; // its buildings hold until the proxy over it shows
+                }
                 Unload(tile);
                 active.RemoveAt(t--);
                 byIndex[tile.Index] = null;
@@ -364,7 +400,7 @@ namespace VWorldLod
         // The levels each building of the tile needs, and what it no longer needs released.
         void Choose(ActiveTile tile, double x, double y, double z, double screenHeight, double fov, double lodBias)
         {
-            if (tile.Plan == null)
+            if (tile.Plan == null || tile.Leaving)
             {
                 tile.Complete = false;
                 return;
@@ -379,7 +415,11 @@ namespace VWorldLod
                 if (d != b.Distance) b.Approaching = d < b.Distance;
                 b.Distance = d;
                 BuildingPlan p = b.Plan;
-                b.Needed = Usable(b, LevelChoice.Needed(p, d, screenHeight, fov, lodBias, maxPx));
+                int needed = LevelChoice.Needed(p, d, screenHeight, fov, lodBias, maxPx);
+                // From CullMargin beyond where its LODGroup starts drawing it: Unity's bounds and
+                // distance differ a little from the manifest's, and it should show from the start.
+                if (needed < 0) needed = LevelChoice.Needed(p, d / CullMargin, screenHeight, fov, lodBias, maxPx);
+                b.Needed = Usable(b, needed);
                 b.Prefetch = -1;
                 if (b.Approaching && b.Needed > 0)
                 {
@@ -519,7 +559,7 @@ namespace VWorldLod
                 int bestLevel = -1, bestRank = int.MaxValue;
                 foreach (ActiveTile tile in active)
                 {
-                    if (tile.Failed) continue;
+                    if (tile.Failed || tile.Leaving) continue;
                     if (tile.Plan == null)
                     {
                         if (!tile.PlanRequested && (manifest == null || Closer(tile.Index, manifest.Index))) manifest = tile;

@@ -102,6 +102,8 @@ namespace VWorldLod
             {
                 proxies = new ProxyStreamer(proxyEntries, p => p.ScenePosition(VWorldLodGeoreference.CurrentOrigin), settings, new GltfProxyBackend(transform, url, streamer.Budget), streamer.Budget);
                 proxies.TileShown = streamer.Shows;
+                proxies.TileLoading = streamer.Loading;
+                streamer.ProxyShown = proxies.Covers;
             }
             VWorldLodGeoreference.OriginChanged += Reposition;
         }
