@@ -7,6 +7,7 @@
 //
 //   mono bench_streaming.exe SPEC.json    prints one line per frame after the warm-up:
 //   FRAME <n> <resident texture bytes> <level bytes> <proxy bytes> <holes> <loads started>
+//   HOLE <n> <tile> <no-manifest | buildings-missing>   (one per tile in a hole)
 //
 // A hole: a tile of the export showing neither a visible proxy over it nor its buildings, where
 // "its buildings" means every building its LODGroup would draw at the camera's distance
@@ -221,8 +222,6 @@ public static class BenchStreaming
                 holes++;
                 Console.WriteLine("HOLE " + step + " " + t.name + (levels.Plans.ContainsKey(t.name) ? " buildings-missing" : " no-manifest"));
             }
-            if (Environment.GetEnvironmentVariable("BENCH_DEBUG") != null && step % 40 == 0)
-                Console.WriteLine("PROXIES " + step + " " + string.Join(" ", proxies.Loaded.ConvertAll(h => h.Proxy + (h.Visible ? "*" : ""))));
             Console.WriteLine("FRAME " + step + " " + (levelBytes + proxyBytes) + " " + levelBytes + " " + proxyBytes + " " + holes + " " + loadsStarted);
         }
         tileStreamer.Dispose();

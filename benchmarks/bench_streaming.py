@@ -263,13 +263,18 @@ def measure(
 
 
 def summary(rows: dict) -> dict:
-    """Peaks, their ratio and the holes summed over the path."""
+    """Peaks (all textures, building levels, proxies), the new/old ratios and the holes summed."""
     peak = {k: max(r[1] for r in v) for k, v in rows.items()}
+    levels = {k: max(r[2] for r in v) for k, v in rows.items()}
+    proxies = {k: max(r[3] for r in v) for k, v in rows.items()}
     holes = {k: sum(r[4] for r in v) for k, v in rows.items()}
     frames_with_holes = {k: sum(1 for r in v if r[4]) for k, v in rows.items()}
     return {
         "peak": peak,
         "ratio": peak["new"] / peak["old"],
+        "levels": levels,
+        "levels_ratio": levels["new"] / levels["old"],
+        "proxies": proxies,
         "holes": holes,
         "frames_with_holes": frames_with_holes,
         "loads": {k: v[-1][5] for k, v in rows.items()},
@@ -301,14 +306,25 @@ def main() -> None:
         a.baseline,
     )
     mib = 1024.0 * 1024.0
-    print(f"{'frame':>6} {'old MiB':>9} {'old holes':>9} {'new MiB':>9} {'new holes':>9}")
+    print("resident texture MiB (levels + proxies) and holes per frame, before issue 35 | now")
+    print(
+        f"{'frame':>6} {'MiB':>7} {'levels':>7} {'holes':>5} | {'MiB':>7} {'levels':>7} {'holes':>5}"
+    )
     for old, new in zip(rows["old"], rows["new"]):
         if old[0] % a.every == 0 or old[4] or new[4]:
-            print(f"{old[0]:6d} {old[1] / mib:9.1f} {old[4]:9d} {new[1] / mib:9.1f} {new[4]:9d}")
+            print(
+                f"{old[0]:6d} {old[1] / mib:7.1f} {old[2] / mib:7.1f} {old[4]:5d} | "
+                f"{new[1] / mib:7.1f} {new[2] / mib:7.1f} {new[4]:5d}"
+            )
     s = summary(rows)
     print(
         f"peak resident textures: before {s['peak']['old'] / mib:.1f} MiB, now "
         f"{s['peak']['new'] / mib:.1f} MiB: {s['ratio']:.3f}x (target <= 0.125)"
+    )
+    print(
+        f"  building levels: before {s['levels']['old'] / mib:.1f} MiB, now "
+        f"{s['levels']['new'] / mib:.1f} MiB: {s['levels_ratio']:.3f}x; proxies: before "
+        f"{s['proxies']['old'] / mib:.1f} MiB, now {s['proxies']['new'] / mib:.1f} MiB"
     )
     print(
         f"holes (tile-frames): before {s['holes']['old']} in {s['frames_with_holes']['old']} "

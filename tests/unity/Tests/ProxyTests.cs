@@ -92,7 +92,7 @@ namespace VWorldLod.Tests
 
         // R over A and B (50 m either side); C far away on its own. Screen 1000 px, fov 90 degrees:
         // SSE = 500 error / d, so R (8 m, radius 150 m) refines closer than 400 m from its centre.
-        static ProxyEntry[] Tree()
+        public static ProxyEntry[] Tree()
         {
             return new[]
             {
@@ -103,7 +103,7 @@ namespace VWorldLod.Tests
             };
         }
 
-        static readonly Dictionary<string, double[]> At = new Dictionary<string, double[]>
+        public static readonly Dictionary<string, double[]> At = new Dictionary<string, double[]>
         {
             { "R", new double[] { 0, 0, 0 } }, { "A", new double[] { -50, 0, 0 } }, { "B", new double[] { 50, 0, 0 } }, { "C", new double[] { 5000, 0, 0 } },
         };

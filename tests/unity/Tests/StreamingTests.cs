@@ -378,6 +378,22 @@ namespace VWorldLod.Tests
                 Assert.Equal("jar:file:///app.apk!/assets/city/tiles.json", StreamingPaths.Resolve("city/tiles.json", "jar:file:///app.apk!/assets", "tiles.json"), "Android");
                 Assert.Equal("https://example.org/city/15_1_1/lod_manifest.json", StreamingPaths.Beside("https://example.org/city/tiles.json", "15_1_1/lod_manifest.json"), "manifest beside the index");
             });
+            t.Check("streaming paths: a signed URL keeps its query on the index, manifests, proxies and levels", () =>
+            {
+                const string index = "https://cdn.example.org/city/tiles.json?sig=a/b%3D&exp=9";
+                Assert.Equal(index, StreamingPaths.Resolve(index, "/sa", "tiles.json"), "the index as given");
+                Assert.Equal(index, StreamingPaths.Resolve("https://cdn.example.org/city/?sig=a/b%3D&exp=9", "/sa", "tiles.json"), "a folder URL with a query");
+                string manifest = StreamingPaths.Beside(index, "15_279418_116113/lod_manifest.json");
+                Assert.Equal("https://cdn.example.org/city/15_279418_116113/lod_manifest.json?sig=a/b%3D&exp=9", manifest, "manifest");
+                Assert.Equal("https://cdn.example.org/city/tileset_proxies/15_1_1.glb?sig=a/b%3D&exp=9", StreamingPaths.Beside(index, "tileset_proxies/15_1_1.glb"), "proxy");
+                TilePlan plan = StreamingPaths.PlanAt(PlanTests.Parse(PlanTests.Sample), manifest);
+                Assert.True(plan.Buildings.Length > 0, "planned");
+                foreach (BuildingPlan b in plan.Buildings)
+                    foreach (LevelPlan level in b.Levels)
+                        Assert.True(level.Path.StartsWith("https://cdn.example.org/city/15_279418_116113/") && level.Path.EndsWith(".glb?sig=a/b%3D&exp=9"), "level URL: " + level.Path);
+                Assert.Equal("https://cdn.example.org/city/15_279418_116113/lod_manifest.json", plan.ManifestPath, "errors name the manifest without the signature");
+                Assert.Equal("file:///sa/city/tiles.json", StreamingPaths.Resolve("city", "/sa", "tiles.json"), "paths without a query unchanged");
+            });
             t.Check("streaming: a backend that throws or faults is reported, never thrown", () =>
             {
                 var tiles = TileIndexReader.Read(good, "x/tiles.json", parse, new List<string>());

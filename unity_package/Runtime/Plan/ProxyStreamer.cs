@@ -203,7 +203,7 @@ namespace VWorldLod
                 if (visible == n.Visible) continue;
                 n.Visible = visible;
                 object h = n.Handle;
-                Safe(() => backend.ShowProxy(h, visible));
+                ShowProxy(h, visible);
                 Event((visible ? "show " : "hide ") + n.Entry.name);
             }
             foreach (Node n in nodes)
@@ -430,6 +430,13 @@ namespace VWorldLod
                 job.Task.ContinueWith(t => Take(pending), CancellationToken.None, TaskContinuationOptions.ExecuteSynchronously, TaskScheduler.Default);
             }
             draining.Clear();
+        }
+
+        // The lambda lives here: in Update's loop it would allocate its captured variables for
+        // every proxy at every frame (C# makes the closure where they are declared).
+        void ShowProxy(object handle, bool visible)
+        {
+            Safe(() => backend.ShowProxy(handle, visible));
         }
 
         void Event(string text)

@@ -375,7 +375,7 @@ namespace VWorldLod
                     }
                     catch (Exception e)
                     {
-                        Safe(() => backend.Report(tile.Entry.name + ": asking for its proxy: " + Innermost(e).Message));
+                        Tell(tile.Entry.name + ": asking for its proxy: " + Innermost(e).Message);
                     }
                     if (!shown) continue; // its buildings hold until the proxy over it shows
                 }
@@ -492,8 +492,7 @@ namespace VWorldLod
                     levels[i] = k;
                     handles[i++] = b.Handles[k];
                 }
-                BuildingPlan building = b.Plan;
-                Safe(() => backend.ShowLevels(tile.Plan, building, levels, handles));
+                ShowLevels(tile.Plan, b.Plan, levels, handles);
             }
         }
 
@@ -622,6 +621,18 @@ namespace VWorldLod
         {
             if (job.Level < 0 || job.Tile.Plan == null) return job.Tile.Entry.manifest;
             return job.Building.Plan.Levels[job.Level].Path;
+        }
+
+        // Lambdas live in these helpers: a lambda in Update's own methods would allocate its
+        // captured variables at every call (C# makes the closure where they are declared).
+        void ShowLevels(TilePlan plan, BuildingPlan building, int[] levels, object[] handles)
+        {
+            Safe(() => backend.ShowLevels(plan, building, levels, handles));
+        }
+
+        void Tell(string message)
+        {
+            Safe(() => backend.Report(message));
         }
 
         void Event(string text)
