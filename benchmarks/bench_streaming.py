@@ -22,8 +22,14 @@ Per frame (``--every N`` prints every Nth): resident texture bytes (levels + pro
 LODGroups would draw at that distance); then the peaks, their ratio, and the holes summed.
 Target (issue 35): peak resident bytes of the new streamer at most 1/8 of the baseline's; 0 holes.
 
+``--main-thread``: instead, what stays on Unity's main thread per level load, measured outside
+Unity on the same files: decoding each level's JPEG atlas (PIL's libjpeg; glTFast calls
+``ImageConversion.LoadImage`` there) and building its mip chain (2x2 box filters, PIL's C
+``reduce``, as ``Texture2D.Apply`` does natively), best of ``--repeat``, for one building's levels and one proxy.
+
 Usage: ``python benchmarks/bench_streaming.py [--work /tmp/vworld-streaming] [--side 8]
-[--per-tile 6] [--atlas 512] [--load 500] [--speed 5] [--every 25] [--baseline d76414f]``
+[--per-tile 6] [--atlas 512] [--load 500] [--speed 5] [--every 25] [--baseline d76414f]
+[--main-thread [--repeat 7]]``
 """
 
 from __future__ import annotations
@@ -281,6 +287,58 @@ def summary(rows: dict) -> dict:
     }
 
 
+def mip_chain(image):  # PIL.Image.Image -> list of its mip levels below it
+    """The mip levels below an RGBA image, each a 2x2 box filter of the one above (PIL's C
+    ``reduce``, as native as Unity's own mip generation)."""
+    levels = []
+    while image.width > 1 or image.height > 1:
+        image = image.reduce((2 if image.width > 1 else 1, 2 if image.height > 1 else 1))
+        levels.append(image)
+    return levels
+
+
+def main_thread_costs(index_path: Path, repeat: int) -> list[tuple[str, int, float, float]]:
+    """(what, texels a side, decode ms, mip chain ms) for one building's levels and one proxy."""
+    import time
+
+    from PIL import Image
+
+    index = json.loads(index_path.read_text(encoding="utf-8"))
+    folder = index_path.parent
+    entry = index["tiles"][0]
+    manifest = json.loads((folder / entry["manifest"]).read_text(encoding="utf-8"))
+    building = max(manifest["buildings"], key=lambda b: b["lods"][0]["texture_size"][0])
+    files = [
+        (f"LOD{k}", folder / Path(entry["manifest"]).parent / lod["file"])
+        for k, lod in enumerate(building["lods"])
+    ]
+    proxy = min(index.get("proxies", []), key=lambda p: p["level"], default=None)
+    if proxy:
+        files.append((f"proxy (level {proxy['level']})", folder / proxy["file"]))
+    rows = []
+    for what, path in files:
+        images = [p.image for p in read_primitives(path) if p.image is not None]
+        if not images:
+            continue
+        data = images[0]
+
+        def decode():  # -> PIL.Image.Image, RGBA like glTFast's R8G8B8A8 texture
+            image = Image.open(io.BytesIO(data)).convert("RGBA")
+            image.load()
+            return image
+
+        best_decode = best_mips = math.inf
+        for _ in range(repeat):
+            t0 = time.perf_counter()
+            rgba = decode()
+            t1 = time.perf_counter()
+            mip_chain(rgba)
+            t2 = time.perf_counter()
+            best_decode, best_mips = min(best_decode, t1 - t0), min(best_mips, t2 - t1)
+        rows.append((what, int(rgba.width), best_decode * 1000, best_mips * 1000))
+    return rows
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--work", type=Path, default=Path("/tmp/vworld-streaming"))
@@ -293,7 +351,17 @@ def main() -> None:
     ap.add_argument("--warmup", type=int, default=200)
     ap.add_argument("--every", type=int, default=25)
     ap.add_argument("--baseline", default=BASELINE)
+    ap.add_argument("--main-thread", action="store_true")
+    ap.add_argument("--repeat", type=int, default=7)
     a = ap.parse_args()
+    if a.main_thread:
+        a.work.mkdir(parents=True, exist_ok=True)
+        index_path = make_city(a.work, a.side, a.per_tile, a.atlas)
+        print("| level load | texels a side | JPEG decode ms | mip chain ms |")
+        print("|---|---|---|---|")
+        for what, side, decode_ms, mips_ms in main_thread_costs(index_path, a.repeat):
+            print(f"| {what} | {side} | {decode_ms:.1f} | {mips_ms:.1f} |")
+        return
     rows = measure(
         a.work,
         a.side,
