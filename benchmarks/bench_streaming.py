@@ -320,17 +320,11 @@ def main_thread_costs(index_path: Path, repeat: int) -> list[tuple[str, int, flo
         images = [p.image for p in read_primitives(path) if p.image is not None]
         if not images:
             continue
-        data = images[0]
-
-        def decode():  # -> PIL.Image.Image, RGBA like glTFast's R8G8B8A8 texture
-            image = Image.open(io.BytesIO(data)).convert("RGBA")
-            image.load()
-            return image
-
         best_decode = best_mips = math.inf
         for _ in range(repeat):
             t0 = time.perf_counter()
-            rgba = decode()
+            rgba = Image.open(io.BytesIO(images[0])).convert("RGBA")  # glTFast's R8G8B8A8
+            rgba.load()
             t1 = time.perf_counter()
             mip_chain(rgba)
             t2 = time.perf_counter()
