@@ -27,8 +27,8 @@ Unity on the same files: decoding each level's JPEG atlas (PIL's libjpeg; glTFas
 ``ImageConversion.LoadImage`` there) and building its mip chain (2x2 box filters, PIL's C
 ``reduce``, as ``Texture2D.Apply`` does natively), best of ``--repeat``, for one building's levels and one proxy.
 
-Usage: ``python benchmarks/bench_streaming.py [--work /tmp/vworld-streaming] [--side 8]
-[--per-tile 6] [--atlas 512] [--load 500] [--speed 5] [--every 25] [--baseline d76414f]
+Usage: ``python benchmarks/bench_streaming.py [--work /tmp/vworld-streaming] [--side 12]
+[--per-tile 4] [--atlas 512] [--load 500] [--speed 5] [--every 25] [--baseline d76414f]
 [--main-thread [--repeat 7]]``
 """
 
@@ -336,8 +336,8 @@ def main_thread_costs(index_path: Path, repeat: int) -> list[tuple[str, int, flo
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--work", type=Path, default=Path("/tmp/vworld-streaming"))
-    ap.add_argument("--side", type=int, default=8)
-    ap.add_argument("--per-tile", type=int, default=6)
+    ap.add_argument("--side", type=int, default=12)
+    ap.add_argument("--per-tile", type=int, default=4)
     ap.add_argument("--atlas", type=int, default=512)
     ap.add_argument("--load", type=float, default=500.0)
     ap.add_argument("--speed", type=float, default=5.0)

@@ -223,6 +223,7 @@ namespace UnityEngine.Networking
     public class DownloadHandler
     {
         public string text { get { throw new NotSupportedException("stand-in"); } }
+        public byte[] data { get { throw new NotSupportedException("stand-in"); } }
     }
 
     public class UnityWebRequestAsyncOperation : AsyncOperation { }
