@@ -15,8 +15,8 @@
 //      buildings: a view never gets holes while finer proxies arrive (the price: that place drawn
 //      twice meanwhile). A building tile counts as shown (TileShown, TileStreamer.Shows) only once
 //      every building of it the view needs shows a level, so a proxy stays until then;
-//   4. proxies neither wanted nor shown are released (over the texture budget, TextureBudget,
-//      shared with TileStreamer, none is kept); loads of proxies no longer wanted are cancelled,
+//   4. proxies neither wanted nor shown are released (their texture bytes are counted in the
+//      TextureBudget shared with TileStreamer); loads of proxies no longer wanted are cancelled,
 //      freeing their slot at once. The way back needs no cache of covered proxies: a tile leaving
 //      the radius keeps its buildings until a proxy over it shows (Covers, TileStreamer.ProxyShown)
 //      -- its levels are a fraction of a proxy's atlas (2048 texels a side: 21 MiB in RGBA32);
@@ -211,22 +211,9 @@ namespace VWorldLod
                 if (n.Handle != null && !n.Wanted && !n.Visible) Release(n);
                 if (n.Loading != null && !n.Wanted && !n.Loading.Cancelled) CancelLoad(n.Loading);
             }
-            Evict();
             Start();
         }
 
-        // Over the texture budget: the proxies kept for the way back go, farthest first.
-        void Evict()
-        {
-            while (budget.Over())
-            {
-                Node farthest = null;
-                foreach (Node n in nodes)
-                    if (n.Handle != null && !n.Wanted && !n.Visible && (farthest == null || n.Distance > farthest.Distance)) farthest = n;
-                if (farthest == null) return;
-                Release(farthest);
-            }
-        }
 
         // Marks the proxies with a tile below them showing its buildings (one pass, bottom-up).
         bool Cover(Node n)
