@@ -445,7 +445,7 @@ namespace VWorldLod
         // Over the budget: levels the view does not need (kept or prefetched) go, where the needed one shows.
         void Trim(ActiveTile tile)
         {
-            if (tile.Plan == null) return;
+            if (tile.Plan == null || tile.Leaving) return; // a leaving tile holds what it shows until its proxy does
             foreach (Building b in tile.Buildings)
             {
                 if (b.Needed >= 0 && b.Handles[b.Needed] == null) continue;
