@@ -196,6 +196,28 @@ namespace VWorldLod.Tests
                 Assert.True(backend.Handles.Where(h => h.What == "late").All(h => h.Released), "late answers released");
             });
 
+            t.Check("leaving: a tile beyond the unload radius keeps its buildings until a proxy over it shows", () =>
+            {
+                var backend = new PlanBackend(() => Sample());
+                var s = new TileStreamer(OneTile(), e => new double[3], new StreamingSettings { LoadRadius = 1000, UnloadRadius = 1200 }, backend);
+                bool proxyShown = false;
+                s.ProxyShown = name => proxyShown;
+                At(s, 500);
+                Assert.True(s.Shows("15_279418_116113"), "shows its buildings");
+                At(s, 1300); // beyond the unload radius, no proxy yet
+                Assert.Equal("2", B1(s), "B1 still holds its level");
+                Assert.True(!s.Shows("15_279418_116113") && !s.Loading("15_279418_116113"), "says it does not show, so its proxy is brought");
+                proxyShown = true;
+                At(s, 1300, 1);
+                Assert.Equal(0, s.LoadedTiles().Count, "unloaded once the proxy shows");
+                Assert.True(backend.Handles.All(h => h.Released), "its levels released");
+                proxyShown = false;
+                At(s, 500);
+                At(s, 1500, 1); // beyond 2 x 1200 - 1000 = 1400: unloaded whatever the proxy
+                Assert.Equal(0, s.LoadedTiles().Count, "unloaded far enough out");
+                s.Dispose();
+            });
+
             t.Check("levels: Update allocates nothing once streaming has settled", () =>
             {
                 var backend = new PlanBackend(() => Sample());
