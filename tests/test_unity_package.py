@@ -771,3 +771,43 @@ def test_csharp_streams_the_tileset_proxies_of_a_real_export(build, tmp_path):
     }
     (tmp_path / "proxies.json").write_text(json.dumps(spec), encoding="utf-8")
     check_run(run_csharp(build, "--proxies", tmp_path / "proxies.json"), 90)
+
+
+# --------------------------------------------------------------------------- streaming benchmark
+
+
+@needs_mono
+def test_streaming_benchmark_one_level_per_building_and_no_holes(tmp_path):
+    """benchmarks/bench_streaming.py, small: a generated 3 x 3-tile export streamed along the
+    scripted camera path by the streamer before issue 35 (git show of its commit) and by this
+    checkout's, with fake backends counting texture bytes from the manifests and proxy files. The
+    old one keeps every level of every building in the radius and hides a proxy as soon as its
+    tile enters it (holes); the new one holds a fraction of the level bytes and never a hole."""
+    sys.path.insert(0, str(REPO / "benchmarks"))
+    import bench_streaming
+
+    known = subprocess.run(
+        ["git", "-C", str(REPO), "cat-file", "-e", bench_streaming.BASELINE + "^{commit}"],
+        capture_output=True,
+    )
+    if known.returncode != 0:
+        pytest.skip(
+            "the baseline commit is not in this clone's history (a shallow clone: git fetch --unshallow)"
+        )
+    rows = bench_streaming.measure(
+        tmp_path,
+        side=3,
+        per_tile=4,
+        atlas=128,
+        load=500.0,
+        speed=10.0,
+        bytes_per_pixel=4.0,
+        warmup=50,
+        baseline=bench_streaming.BASELINE,
+    )
+    s = bench_streaming.summary(rows)
+    assert len(rows["old"]) == len(rows["new"]) > 100
+    assert s["holes"]["old"] > 0, "the old streamer hides proxies before the buildings arrive"
+    assert s["holes"]["new"] == 0, s
+    assert s["levels"]["new"] <= s["levels"]["old"] / 3, s
+    assert s["peak"]["new"] <= s["peak"]["old"], s

@@ -42,9 +42,12 @@ namespace VWorldLod.Tests
                 int disposed = GltfImportBase.disposed;
                 var parent = new GameObject("building");
                 // The stand-in Load reports failure: the level is cleaned up and null returned.
-                LoadedLevel level = GltfLevelLoader.LoadAsync("file:///tiles/B1/lod0.glb", parent.transform, "B1_LOD0", CancellationToken.None).Result;
+                GltfImportBase.loadedBytes.Clear();
+                var glb = new byte[] { 0x67, 0x6c, 0x54, 0x46 };
+                LoadedLevel level = GltfLevelLoader.LoadBytesAsync(glb, "file:///tiles/B1/lod0.glb", parent.transform, "B1_LOD0", CancellationToken.None).Result;
                 Assert.True(level == null, "failed load gives null");
                 Assert.Equal(1, GltfImportBase.loadedWith.Count, "Load calls");
+                Assert.True(GltfImportBase.loadedBytes[0] == glb, "glTFast is given the downloaded bytes (our download, which cancellation aborts)");
                 ImportSettings settings = GltfImportBase.loadedWith[0];
                 Assert.True(settings != null && settings.GenerateMipMaps, "Load was given GenerateMipMaps = true");
                 Assert.Equal(disposed + 1, GltfImportBase.disposed, "the failed import disposed");

@@ -17,6 +17,7 @@ namespace VWorldLod.Tests
             GeoreferenceTests.Run(t);
             EditorSceneTests.Run(t);
             StreamingTests.RunSelfContained(t);
+            LevelChoiceTests.Run(t);
             ProxyTests.RunSelfContained(t);
             for (int i = 0; i < args.Length; i++)
             {

@@ -57,6 +57,11 @@ namespace VWorldLod.Tests
             h.Visible = visible;
         }
 
+        /// <summary>Texture bytes each loaded proxy reports (the budget's accounting).</summary>
+        public long BytesEach = 1000;
+
+        public long TextureBytes(object loaded) { return BytesEach; }
+
         public void ReleaseProxy(object loaded)
         {
             var h = (Handle)loaded;
@@ -87,7 +92,7 @@ namespace VWorldLod.Tests
 
         // R over A and B (50 m either side); C far away on its own. Screen 1000 px, fov 90 degrees:
         // SSE = 500 error / d, so R (8 m, radius 150 m) refines closer than 400 m from its centre.
-        static ProxyEntry[] Tree()
+        public static ProxyEntry[] Tree()
         {
             return new[]
             {
@@ -98,7 +103,7 @@ namespace VWorldLod.Tests
             };
         }
 
-        static readonly Dictionary<string, double[]> At = new Dictionary<string, double[]>
+        public static readonly Dictionary<string, double[]> At = new Dictionary<string, double[]>
         {
             { "R", new double[] { 0, 0, 0 } }, { "A", new double[] { -50, 0, 0 } }, { "B", new double[] { 50, 0, 0 } }, { "C", new double[] { 5000, 0, 0 } },
         };
@@ -140,10 +145,46 @@ namespace VWorldLod.Tests
                 Assert.Equal("A B C", string.Join(" ", s.Wanted().OrderBy(n => n)), "wanted from 300 m up");
                 Assert.True(events.Contains("load A") && events.Contains("load B"), "A and B requested: " + string.Join(", ", events));
                 Assert.Equal("A B C", Frame(s, b, 0, 300, 0), "finer proxies shown, the root gone");
-                Assert.True(s.Loaded().IndexOf("R") < 0, "the root is unloaded once replaced");
+                Assert.True(s.Loaded().IndexOf("R") < 0, "the root is unloaded once replaced (no tile under it shows buildings)");
                 Assert.True(b.Handles.Single(h => h.Name == "R").Released, "its handle released");
+                Assert.Equal(3000, s.Budget.Resident, "texture bytes of the 3 loaded proxies");
                 s.Dispose();
                 Assert.True(b.Handles.All(h => h.Released), "Dispose releases every proxy");
+                Assert.Equal(0, s.Budget.Resident, "nothing resident after Dispose");
+            });
+
+            t.Check("proxies: the coarser proxy holds over shown buildings while a finer one loads; Covers names the tiles under shown proxies", () =>
+            {
+                var b = new FakeProxyBackend();
+                var s = new ProxyStreamer(Tree(), p => At[p.name], new StreamingSettings(), b);
+                var shown = new HashSet<string>();
+                s.TileShown = shown.Contains;
+                Frame(s, b, 0, 1000, 0);
+                Assert.Equal("C R", Frame(s, b, 0, 1000, 0), "from far");
+                Assert.True(s.Covers("ta") && s.Covers("tb") && s.Covers("tc"), "every tile under a shown proxy");
+                shown.Add("ta"); // down at ta: its buildings show
+                Assert.Equal("C R", Frame(s, b, 0, 300, 0), "the root holds over ta's buildings while B loads (drawn twice, no hole)");
+                Assert.Equal("B C", Frame(s, b, 0, 300, 0), "B arrived");
+                Assert.True(!s.Covers("ta") && s.Covers("tb"), "ta is under no shown proxy now");
+                s.Dispose();
+            });
+
+            t.Check("proxies: the leaf proxy of a tile loading its buildings is not loaded while an ancestor stands in", () =>
+            {
+                var b = new FakeProxyBackend();
+                var s = new ProxyStreamer(Tree(), p => At[p.name], new StreamingSettings(), b);
+                var loading = new HashSet<string> { "ta", "tb" };
+                s.TileLoading = loading.Contains;
+                var events = new List<string>();
+                s.OnEvent = events.Add;
+                Frame(s, b, 0, 1000, 0);
+                Assert.Equal("C R", Frame(s, b, 0, 1000, 0), "from far");
+                for (int i = 0; i < 3; i++) Assert.Equal("C R", Frame(s, b, 0, 300, 0), "the root stands in while ta and tb load their buildings");
+                Assert.True(!events.Contains("load A") && !events.Contains("load B"), "no leaf proxy loaded: " + string.Join(", ", events));
+                loading.Remove("tb"); // tb's manifest failed: its proxy is needed after all
+                Frame(s, b, 0, 300, 0);
+                Assert.True(events.Contains("load B") && !events.Contains("load A"), "B loaded: " + string.Join(", ", events));
+                s.Dispose();
             });
 
             t.Check("proxies: none is drawn over a tile that shows its buildings", () =>

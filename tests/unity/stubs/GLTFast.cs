@@ -48,10 +48,18 @@ namespace GLTFast
     {
         internal static readonly List<ImportSettings> loadedWith = new List<ImportSettings>();
         internal static int disposed;
+        internal static readonly List<byte[]> loadedBytes = new List<byte[]>();
 
         public Task<bool> Load(Uri url, ImportSettings importSettings = null, CancellationToken cancellationToken = default(CancellationToken))
         {
             loadedWith.Add(importSettings);
+            return Task.FromResult(false);
+        }
+
+        public Task<bool> Load(byte[] data, Uri uri = null, ImportSettings importSettings = null, CancellationToken cancellationToken = default(CancellationToken))
+        {
+            loadedWith.Add(importSettings);
+            loadedBytes.Add(data);
             return Task.FromResult(false);
         }
 

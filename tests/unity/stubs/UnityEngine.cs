@@ -80,7 +80,30 @@ namespace UnityEngine
         Log = 3,
     }
 
-    public class Renderer : Component { }
+    // Real: public sealed partial class QualitySettings : Object, lodBias a static extern float property.
+    public sealed class QualitySettings : Object
+    {
+        public static float lodBias { get; set; }
+    }
+
+    public class Renderer : Component
+    {
+        public Material[] sharedMaterials { get { throw new NotSupportedException("stand-in"); } set { } }
+    }
+
+    // Real: Material : Object; GetTexturePropertyNames() (2018.3+), GetTexture(string).
+    public class Material : Object
+    {
+        public string[] GetTexturePropertyNames() { throw new NotSupportedException("stand-in"); }
+        public Texture GetTexture(string name) { throw new NotSupportedException("stand-in"); }
+    }
+
+    // Real: width and height are virtual properties of Texture (Texture2D overrides them).
+    public class Texture : Object
+    {
+        public virtual int width { get { throw new NotSupportedException("stand-in"); } set { } }
+        public virtual int height { get { throw new NotSupportedException("stand-in"); } set { } }
+    }
 
     public sealed class GameObject : Object
     {
@@ -200,6 +223,7 @@ namespace UnityEngine.Networking
     public class DownloadHandler
     {
         public string text { get { throw new NotSupportedException("stand-in"); } }
+        public byte[] data { get { throw new NotSupportedException("stand-in"); } }
     }
 
     public class UnityWebRequestAsyncOperation : AsyncOperation { }

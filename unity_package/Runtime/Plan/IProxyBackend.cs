@@ -16,6 +16,9 @@ namespace VWorldLod
         /// <summary>Shows or hides a loaded proxy.</summary>
         void ShowProxy(object loaded, bool visible);
 
+        /// <summary>Bytes its textures take as Unity allocated them (for the texture budget).</summary>
+        long TextureBytes(object loaded);
+
         /// <summary>Frees a loaded proxy.</summary>
         void ReleaseProxy(object loaded);
 

@@ -1,5 +1,5 @@
 // What the tile streamer (TileStreamer) asks of the engine side: load a tile's plan, load one
-// glTF level, show a building's loaded levels, release things, report problems. Inside Unity
+// glTF level, show a building's resident levels, release things, report problems. Inside Unity
 // this is GltfStreamingBackend (glTFast, GameObjects, LODGroups); the tests use a fake.
 //
 // Contract: every call is made on the streamer's thread (Unity's main thread). A task completes
@@ -20,7 +20,11 @@ namespace VWorldLod
         /// <summary>Loads level `level` of building, ready to be shown; returns a handle.</summary>
         Task<object> LoadLevel(TilePlan tile, BuildingPlan building, int level, CancellationToken cancellation);
 
-        /// <summary>Shows the building with the levels loaded so far (ascending) and their handles.</summary>
+        /// <summary>
+        /// Shows the building with the levels resident now (ascending) and their handles, after
+        /// each change (a level loaded or released); empty when none is resident (the building
+        /// beyond its culling distance: its released levels are gone already).
+        /// </summary>
         void ShowLevels(TilePlan tile, BuildingPlan building, int[] levels, object[] loaded);
 
         /// <summary>Frees one loaded level.</summary>

@@ -38,6 +38,14 @@ namespace VWorldLod
         public double ScreenRelativeHeight;
         /// <summary>LOD.fadeTransitionWidth (0..1), used with cross-fading.</summary>
         public double FadeTransitionWidth;
+        /// <summary>Pixels: the level's largest atlas (texture_size); 0 x 0 when untextured.</summary>
+        public int TextureWidth, TextureHeight;
+        /// <summary>
+        /// Metres: how far the level may be from LOD0 (geometry and texture): the manifest's
+        /// error_m, or quality.hausdorff_rel x LOD0's bounding-box diagonal for manifests without
+        /// it; 0 for LOD0; NaN when neither is known.
+        /// </summary>
+        public double ErrorM;
     }
 
     /// <summary>One building's LODGroup.</summary>
@@ -53,6 +61,13 @@ namespace VWorldLod
         public Placement Relative;
         /// <summary>Warnings the exporter recorded for this building.</summary>
         public string[] Problems;
+        /// <summary>
+        /// Metres: LODGroup.size as Unity computes it (the largest side of LOD0's bounds, from the
+        /// manifest's gltf_bounds); NaN when the manifest has no bounds (before 0.4.2).
+        /// </summary>
+        public double Size = double.NaN;
+        /// <summary>(3,) LOD0's bounds centre in the building's Unity frame (glTF's +X West flipped to East), metres.</summary>
+        public double[] Center = new double[3];
     }
 
     /// <summary>What one tile manifest asks Unity to build.</summary>
@@ -159,8 +174,10 @@ namespace VWorldLod
         static BuildingPlan PlanBuilding(BuildingEntry b, double[] heights, double fadeWidth, PlacementMode mode, string folder)
         {
             var levels = new LevelPlan[b.lods.Length];
+            double[] errors = LevelErrors(b.lods);
             for (int k = 0; k < levels.Length; k++)
             {
+                int[] texture = b.lods[k].texture_size;
                 levels[k] = new LevelPlan
                 {
                     Level = k,
@@ -168,10 +185,19 @@ namespace VWorldLod
                     Path = ManifestValidator.JoinPath(folder, b.lods[k].file),
                     ScreenRelativeHeight = LevelHeight(heights, k, levels.Length),
                     FadeTransitionWidth = fadeWidth,
+                    TextureWidth = texture != null && texture.Length == 2 ? texture[0] : 0,
+                    TextureHeight = texture != null && texture.Length == 2 ? texture[1] : 0,
+                    ErrorM = errors[k],
                 };
             }
+            GltfBounds bounds = b.lods[0].gltf_bounds;
+            bool hasBounds = bounds != null && bounds.low != null && bounds.high != null && bounds.low.Length == 3 && bounds.high.Length == 3;
             return new BuildingPlan
             {
+                Size = hasBounds ? Math.Max(bounds.high[0] - bounds.low[0], Math.Max(bounds.high[1] - bounds.low[1], bounds.high[2] - bounds.low[2])) : double.NaN,
+                Center = hasBounds
+                    ? new[] { -(bounds.low[0] + bounds.high[0]) / 2, (bounds.low[1] + bounds.high[1]) / 2, (bounds.low[2] + bounds.high[2]) / 2 }
+                    : new double[3],
                 Id = b.id,
                 Name = SafeName(b.id),
                 Levels = levels,
@@ -179,6 +205,35 @@ namespace VWorldLod
                 Relative = Placement.FromData(b.relative_placement),
                 Problems = b.problems ?? new string[0],
             };
+        }
+
+        /// <summary>
+        /// Metres, per level: the level's error from LOD0 (the manifest's per-level contract,
+        /// docs/manifest.md). error_m (texture-aware, max of the certified geometric bound and the
+        /// texture error) when the building's levels carry it (some level below LOD0 has
+        /// error_m &gt; 0: JsonUtility cannot tell an absent number from 0); otherwise
+        /// quality.hausdorff_rel x LOD0's bounding-box diagonal (gltf_bounds); NaN where neither is
+        /// known. LOD0 is 0.
+        /// </summary>
+        public static double[] LevelErrors(LodEntry[] lods)
+        {
+            var errors = new double[lods.Length];
+            bool texelAware = false;
+            for (int k = 1; k < lods.Length; k++) texelAware |= lods[k].error_m > 0;
+            GltfBounds bounds = lods.Length > 0 ? lods[0].gltf_bounds : null;
+            double diagonal = double.NaN;
+            if (bounds != null && bounds.low != null && bounds.high != null && bounds.low.Length == 3 && bounds.high.Length == 3)
+            {
+                double dx = bounds.high[0] - bounds.low[0], dy = bounds.high[1] - bounds.low[1], dz = bounds.high[2] - bounds.low[2];
+                diagonal = Math.Sqrt(dx * dx + dy * dy + dz * dz);
+            }
+            for (int k = 1; k < lods.Length; k++)
+            {
+                if (texelAware) errors[k] = lods[k].error_m;
+                else if (lods[k].quality != null) errors[k] = lods[k].quality.hausdorff_rel * diagonal;
+                else errors[k] = double.NaN;
+            }
+            return errors;
         }
 
         /// <summary>

@@ -127,6 +127,14 @@ namespace VWorldLod
         public int[] texture_size;
         public long texture_bytes;
         public long file_bytes;
+        /// <summary>The file's position bounds in its glTF frame (+X West, +Y Up, +Z North, metres); absent before 0.4.2.</summary>
+        public GltfBounds gltf_bounds;
+        /// <summary>
+        /// Metres: the level's error, max(certified geometric bound, texture error); 0 for LOD0 and
+        /// when absent (before the texture-aware error): consumers then fall back to
+        /// quality.hausdorff_rel x LOD0's bounding-box diagonal (LodPlanner.LevelErrors).
+        /// </summary>
+        public double error_m;
         /// <summary>Metres the level may deviate from LOD0 (its screen error budget); 0 when absent (LOD0, no budget).</summary>
         public double error_budget_m;
         /// <summary>True when the level has no fewer triangles than the level above (its budget allowed no collapse).</summary>
@@ -143,6 +151,16 @@ namespace VWorldLod
         public double wall_coverage;
         public double boundary_length_change;
         public double new_holes;
+        /// <summary>Metres per texel of the level's atlas on the surface; 0 when absent or untextured.</summary>
+        public double texel_m;
+    }
+
+    /// <summary>Position bounds (glTF frame, metres): low and high corners, [x, y, z] each.</summary>
+    [Serializable]
+    public class GltfBounds
+    {
+        public double[] low;
+        public double[] high;
     }
 
     [Serializable]

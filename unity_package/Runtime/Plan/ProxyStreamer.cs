@@ -10,12 +10,21 @@
 //      its own); otherwise its children are visited. Screen-space error (px) = geometric_error * screenHeight / (d * 2 tan(fov / 2)),
 //      d in metres from the camera to the proxy's bounding sphere (3D Tiles' rule);
 //   3. show: a wanted, loaded proxy shows; until it is loaded, its loaded descendants nearest to
-//      it show instead; a refined proxy whose wanted children are not all shown yet stays shown
-//      itself (when loaded and none of its tiles shows buildings), so a view never gets holes
-//      while finer proxies arrive, and never draws one place twice;
-//   4. unload proxies neither wanted nor shown; cancel loads of proxies no longer wanted;
+//      it show instead; a refined proxy whose region is not complete yet (a wanted child not
+//      loaded) stays shown itself when loaded, also over a tile of it that already shows its
+//      buildings: a view never gets holes while finer proxies arrive (the price: that place drawn
+//      twice meanwhile). A building tile counts as shown (TileShown, TileStreamer.Shows) only once
+//      every building of it the view needs shows a level, so a proxy stays until then;
+//   4. proxies neither wanted nor shown are released (their texture bytes are counted in the
+//      TextureBudget shared with TileStreamer); loads of proxies no longer wanted are cancelled,
+//      freeing their slot at once. The way back needs no cache of covered proxies: a tile leaving
+//      the radius keeps its buildings until a proxy over it shows (Covers, TileStreamer.ProxyShown)
+//      -- its levels are a fraction of a proxy's atlas (2048 texels a side: 21 MiB in RGBA32);
 //   5. start loads of wanted proxies, coarsest level first, nearer first, while fewer than
-//      MaxConcurrentLoads are in flight (cancelled ones count until they finish).
+//      MaxConcurrentLoads are in flight; a proxy whose tiles are all loading their buildings
+//      (TileLoading) is not loaded when a loaded ancestor stands in meanwhile (its buildings
+//      will replace it soon: no 2048-texel atlas downloaded for a few frames).
+// Update allocates nothing in a steady state (its buffers are fields).
 // Positions are scene positions of the proxies' frame origins (Unity units), from the caller's
 // function (ProxyEntry.ScenePosition), recomputed by Reposition().
 using System;
@@ -35,8 +44,10 @@ namespace VWorldLod
             public int Parent = -1;
             public object Handle; // loaded
             public Job Loading;
+            public long Bytes; // texture bytes of the loaded proxy (IProxyBackend.TextureBytes)
             public bool Visible, Wanted, Failed, Covered; // Covered: a tile below it shows its buildings
-            public double Sse, Distance;
+            public int[] Tiles; // indices (into tileNames) of the building tiles under it, its descendants' included
+            public double Sse, Distance; // Distance: metres to its bounding sphere
         }
 
         sealed class Job
@@ -53,11 +64,24 @@ namespace VWorldLod
         readonly StreamingSettings settings;
         readonly IProxyBackend backend;
         readonly List<Job> inFlight = new List<Job>();
+        readonly List<Job> draining = new List<Job>(); // cancelled, not finished yet
+        readonly List<Node> show = new List<Node>();
+        readonly List<Node> waiting = new List<Node>();
+        readonly bool[] visibleNow;
+        readonly Dictionary<string, int> tileIndex = new Dictionary<string, int>();
+        readonly List<string> tileNames = new List<string>();
+        readonly bool[] drawnOver; // per building tile: a visible proxy is over it
+        readonly TextureBudget budget;
+        static readonly string[] None = new string[0];
+        static readonly IComparer<Node> CoarsestNearestFirst = new LoadOrder();
         double[][] positions;
         bool disposed;
 
         /// <summary>Whether a building tile (tiles.json name) shows its buildings; a proxy over it is then hidden.</summary>
         public Func<string, bool> TileShown = name => false;
+
+        /// <summary>Whether a building tile is loading its buildings (within the radius, not shown yet: TileStreamer.Loading).</summary>
+        public Func<string, bool> TileLoading = name => false;
 
         /// <summary>Called with "load &lt;proxy&gt;", "show &lt;proxy&gt;", "hide &lt;proxy&gt;", "unload &lt;proxy&gt;".</summary>
         public Action<string> OnEvent;
@@ -67,15 +91,34 @@ namespace VWorldLod
 
         public int InFlight { get { return inFlight.Count; } }
 
-        /// <summary>proxies: usable entries (TileIndexReader.Read); children are named among them.</summary>
-        public ProxyStreamer(ProxyEntry[] proxies, Func<ProxyEntry, double[]> position, StreamingSettings settings, IProxyBackend backend)
+        /// <summary>Cancelled loads not finished yet (their results will be released).</summary>
+        public int Draining { get { return draining.Count; } }
+
+        public TextureBudget Budget { get { return budget; } }
+
+        sealed class LoadOrder : IComparer<Node>
         {
+            public int Compare(Node a, Node b)
+            {
+                return a.Entry.level != b.Entry.level ? a.Entry.level.CompareTo(b.Entry.level)
+                    : a.Distance != b.Distance ? a.Distance.CompareTo(b.Distance) : a.Index.CompareTo(b.Index);
+            }
+        }
+
+        /// <summary>
+        /// proxies: usable entries (TileIndexReader.Read); children are named among them. budget:
+        /// shared with the TileStreamer (its Budget); null makes one of settings.
+        /// </summary>
+        public ProxyStreamer(ProxyEntry[] proxies, Func<ProxyEntry, double[]> position, StreamingSettings settings, IProxyBackend backend, TextureBudget budget = null)
+        {
+            this.budget = budget ?? new TextureBudget(settings);
             string problem = settings.Problem();
             if (problem != null) throw new ArgumentException(problem);
             this.position = position;
             this.settings = settings;
             this.backend = backend;
             nodes = new Node[proxies.Length];
+            visibleNow = new bool[proxies.Length];
             var byName = new Dictionary<string, int>();
             for (int i = 0; i < proxies.Length; i++)
             {
@@ -93,6 +136,9 @@ namespace VWorldLod
                 n.Children = children.ToArray();
             }
             for (int i = 0; i < nodes.Length; i++) if (nodes[i].Parent < 0) roots.Add(i);
+            foreach (Node n in nodes)
+            foreach (int r in roots) Gather(nodes[r]);
+            drawnOver = new bool[tileNames.Count];
             Reposition();
         }
 
@@ -145,17 +191,19 @@ namespace VWorldLod
             }
             foreach (int r in roots) Cover(nodes[r]);
             foreach (int r in roots) Want(nodes[r]);
-            var show = new List<Node>();
-            foreach (int r in roots) Show(nodes[r], show);
-            var visibleNow = new bool[nodes.Length];
+            show.Clear();
+            foreach (int r in roots) Show(nodes[r]);
+            Array.Clear(visibleNow, 0, visibleNow.Length);
             foreach (Node n in show) visibleNow[n.Index] = true;
+            Array.Clear(drawnOver, 0, drawnOver.Length);
+            foreach (Node n in show) foreach (int t in n.Tiles) drawnOver[t] = true;
             foreach (Node n in nodes)
             {
                 bool visible = visibleNow[n.Index];
                 if (visible == n.Visible) continue;
                 n.Visible = visible;
                 object h = n.Handle;
-                Safe(() => backend.ShowProxy(h, visible));
+                ShowProxy(h, visible);
                 Event((visible ? "show " : "hide ") + n.Entry.name);
             }
             foreach (Node n in nodes)
@@ -166,11 +214,12 @@ namespace VWorldLod
             Start();
         }
 
+
         // Marks the proxies with a tile below them showing its buildings (one pass, bottom-up).
         bool Cover(Node n)
         {
             bool covered = false;
-            foreach (string t in n.Entry.tiles ?? new string[0]) covered |= TileShown(t);
+            foreach (string t in n.Entry.tiles ?? None) covered |= TileShown(t);
             foreach (int c in n.Children) covered |= Cover(nodes[c]);
             return n.Covered = covered;
         }
@@ -187,35 +236,37 @@ namespace VWorldLod
             foreach (int c in n.Children) Want(nodes[c]);
         }
 
-        // Adds what shows for n's region; returns whether that region is complete (every wanted
-        // proxy under it shows, or a loaded ancestor stands in).
-        bool Show(Node n, List<Node> show)
+        // Adds what shows for n's region to show; returns whether that region is complete (every
+        // wanted proxy under it shows, or a loaded ancestor stands in).
+        bool Show(Node n)
         {
             if (n.Wanted)
             {
                 if (n.Handle != null) { show.Add(n); return true; }
-                ShowLoadedBelow(n, show);
+                ShowLoadedBelow(n);
                 return false;
             }
-            var below = new List<Node>();
+            int start = show.Count;
             bool complete = true;
-            foreach (int c in n.Children) complete &= Show(nodes[c], below);
-            if (!complete && n.Handle != null && !n.Covered)
+            foreach (int c in n.Children) complete &= Show(nodes[c]);
+            if (!complete && n.Handle != null)
             {
-                show.Add(n); // the coarser proxy holds until its finer ones have all arrived
+                // The coarser proxy holds until its finer ones have all arrived (also over a tile
+                // of it showing its buildings: drawn twice rather than a hole).
+                show.RemoveRange(start, show.Count - start);
+                show.Add(n);
                 return true;
             }
-            show.AddRange(below);
             return complete;
         }
 
-        void ShowLoadedBelow(Node n, List<Node> show)
+        void ShowLoadedBelow(Node n)
         {
             foreach (int c in n.Children)
             {
                 Node child = nodes[c];
                 if (child.Handle != null) show.Add(child);
-                else ShowLoadedBelow(child, show);
+                else ShowLoadedBelow(child);
             }
         }
 
@@ -226,6 +277,13 @@ namespace VWorldLod
                 Job job = inFlight[i];
                 if (!job.Task.IsCompleted) continue;
                 inFlight.RemoveAt(i--);
+                Take(job);
+            }
+            for (int i = 0; i < draining.Count; i++)
+            {
+                Job job = draining[i];
+                if (!job.Task.IsCompleted) continue;
+                draining.RemoveAt(i--);
                 Take(job);
             }
         }
@@ -250,6 +308,10 @@ namespace VWorldLod
                 return;
             }
             job.Node.Handle = result;
+            long bytes = 0;
+            Safe(() => bytes = backend.TextureBytes(result));
+            job.Node.Bytes = Math.Max(bytes, 0);
+            budget.Add(job.Node.Bytes);
         }
 
         void Release(Node n)
@@ -261,6 +323,8 @@ namespace VWorldLod
                 n.Visible = false;
                 Event("hide " + n.Entry.name);
             }
+            budget.Remove(n.Bytes);
+            n.Bytes = 0;
             Safe(() => backend.ReleaseProxy(h));
             Event("unload " + n.Entry.name);
         }
@@ -277,14 +341,18 @@ namespace VWorldLod
                 Safe(() => backend.Report(job.Node.Entry.file + ": cancelling its load: " + Innermost(e).Message));
             }
             if (job.Node.Loading == job) job.Node.Loading = null;
+            if (inFlight.Remove(job)) draining.Add(job); // its slot is free now
         }
 
         void Start()
         {
-            var waiting = new List<Node>();
-            foreach (Node n in nodes) if (n.Wanted && n.Handle == null && n.Loading == null && !n.Failed) waiting.Add(n);
-            waiting.Sort((a, b) => a.Entry.level != b.Entry.level ? a.Entry.level.CompareTo(b.Entry.level)
-                : a.Distance != b.Distance ? a.Distance.CompareTo(b.Distance) : a.Index.CompareTo(b.Index));
+            waiting.Clear();
+            foreach (Node n in nodes)
+            {
+                if (n.Handle != null || n.Loading != null || n.Failed) continue;
+                if (n.Wanted && !(BuildingsComing(n) && AncestorLoaded(n))) waiting.Add(n);
+            }
+            if (waiting.Count > 1) waiting.Sort(CoarsestNearestFirst);
             foreach (Node n in waiting)
             {
                 if (inFlight.Count >= settings.MaxConcurrentLoads) return;
@@ -299,20 +367,63 @@ namespace VWorldLod
             }
         }
 
+        /// <summary>Whether a proxy shown now (at the last Update) is over the building tile named.</summary>
+        public bool Covers(string tileName)
+        {
+            int t;
+            return tileIndex.TryGetValue(tileName, out t) && drawnOver[t];
+        }
+
+        // n's Tiles: the building tiles under it and its descendants.
+        int[] Gather(Node n)
+        {
+            var all = new List<int>();
+            foreach (string name in n.Entry.tiles ?? None)
+            {
+                int t;
+                if (!tileIndex.TryGetValue(name, out t)) { t = tileNames.Count; tileIndex[name] = t; tileNames.Add(name); }
+                all.Add(t);
+            }
+            foreach (int c in n.Children) all.AddRange(Gather(nodes[c]));
+            return n.Tiles = all.ToArray();
+        }
+
+        // Every building tile directly under n is loading its buildings.
+        bool BuildingsComing(Node n)
+        {
+            string[] tiles = n.Entry.tiles ?? None;
+            if (tiles.Length == 0) return false;
+            foreach (string t in tiles) if (!TileLoading(t)) return false;
+            return true;
+        }
+
+        bool AncestorLoaded(Node n)
+        {
+            for (int p = n.Parent; p >= 0; p = nodes[p].Parent) if (nodes[p].Handle != null) return true;
+            return false;
+        }
+
         /// <summary>Cancels every load and releases every proxy; never throws.</summary>
         public void Dispose()
         {
             if (disposed) return;
             disposed = true;
             foreach (Node n in nodes) if (n.Handle != null) Release(n);
-            foreach (Job job in inFlight)
+            for (int i = inFlight.Count - 1; i >= 0; i--) CancelLoad(inFlight[i]);
+            foreach (Job job in draining)
             {
-                CancelLoad(job);
                 if (job.Task.IsCompleted) { Take(job); continue; }
                 Job pending = job;
                 job.Task.ContinueWith(t => Take(pending), CancellationToken.None, TaskContinuationOptions.ExecuteSynchronously, TaskScheduler.Default);
             }
-            inFlight.Clear();
+            draining.Clear();
+        }
+
+        // The lambda lives here: in Update's loop it would allocate its captured variables for
+        // every proxy at every frame (C# makes the closure where they are declared).
+        void ShowProxy(object handle, bool visible)
+        {
+            Safe(() => backend.ShowProxy(handle, visible));
         }
 
         void Event(string text)

@@ -4,9 +4,12 @@
 // its own load has finished (disposing one in flight makes glTFast throw). Textures get mipmaps as
 // in glTFast's Editor importer (LevelImportSettings).
 //
+// The .glb is downloaded here (WebText.GetBytesAsync, aborted when cancelled: glTFast's
+// Load(Uri) keeps downloading after a cancellation) and handed to glTFast as bytes.
+//
 // glTFast's API used (present with these signatures from 6.3.0 on; see the package docs):
 //   new GltfImport(IDownloadProvider, IDeferAgent, IMaterialGenerator, ICodeLogger)
-//   Task<bool> Load(Uri, ImportSettings, CancellationToken); ImportSettings.GenerateMipMaps
+//   Task<bool> Load(byte[], Uri, ImportSettings, CancellationToken); ImportSettings.GenerateMipMaps
 //   Task<bool> InstantiateMainSceneAsync(Transform, CancellationToken)
 //   CollectingLogger.Items / LogItem.Type (a logger of our own would have to follow ICodeLogger,
 //   which gained a member in 6.4 that has a default implementation only from 6.10).
@@ -39,6 +42,23 @@ namespace VWorldLod
         /// </summary>
         public static async Task<LoadedLevel> LoadAsync(string url, Transform parent, string objectName, CancellationToken cancellation)
         {
+            byte[] data;
+            try
+            {
+                data = await WebText.GetBytesAsync(url, cancellation);
+            }
+            catch (Exception e)
+            {
+                if (!cancellation.IsCancellationRequested) Debug.LogError("VWorld LoD: " + e.Message);
+                return null;
+            }
+            if (data == null || cancellation.IsCancellationRequested) return null; // cancelled: the download was aborted
+            return await LoadBytesAsync(data, url, parent, objectName, cancellation);
+        }
+
+        /// <summary>LoadAsync once the file's bytes are here (url names it and resolves relative URIs).</summary>
+        public static async Task<LoadedLevel> LoadBytesAsync(byte[] data, string url, Transform parent, string objectName, CancellationToken cancellation)
+        {
             var level = new GameObject(objectName);
             level.SetActive(false);
             level.transform.SetParent(parent, false);
@@ -48,7 +68,7 @@ namespace VWorldLod
             Exception error = null;
             try
             {
-                ok = await gltf.Load(new Uri(url), LevelImportSettings(), cancellation)
+                ok = await gltf.Load(data, new Uri(url), LevelImportSettings(), cancellation)
                      && !cancellation.IsCancellationRequested
                      && await gltf.InstantiateMainSceneAsync(level.transform, cancellation);
             }

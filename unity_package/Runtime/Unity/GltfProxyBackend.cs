@@ -2,6 +2,7 @@
 // root placed like a tile root (VWorldLodTilePlacement at the proxy's centre, relative to the
 // scene's georeference and re-placed when its origin moves): the proxy's glTF frame is its tile's
 // East/Up/North frame at elevation 0, and glTFast's x flip turns its +X West into Unity's East.
+using System.Collections.Generic;
 using System.Threading;
 using System.Threading.Tasks;
 using UnityEngine;
@@ -18,12 +19,14 @@ namespace VWorldLod
 
         readonly Transform parent;
         readonly string indexUrl;
+        readonly TextureBudget budget;
 
-        /// <summary>Proxy roots go under parent; files are read beside indexUrl.</summary>
-        public GltfProxyBackend(Transform parent, string indexUrl)
+        /// <summary>Proxy roots go under parent; files are read beside indexUrl; texture bytes counted as budget says.</summary>
+        public GltfProxyBackend(Transform parent, string indexUrl, TextureBudget budget)
         {
             this.parent = parent;
             this.indexUrl = indexUrl;
+            this.budget = budget;
         }
 
         public async Task<object> LoadProxy(ProxyEntry proxy, CancellationToken cancellation)
@@ -44,6 +47,24 @@ namespace VWorldLod
         public void ShowProxy(object loaded, bool visible)
         {
             ((Loaded)loaded).Level.Root.SetActive(visible);
+        }
+
+        /// <summary>The proxy's distinct textures (every texture property of its renderers' materials), as the budget counts texels.</summary>
+        public long TextureBytes(object loaded)
+        {
+            var seen = new HashSet<Texture>();
+            long bytes = 0;
+            foreach (Renderer renderer in ((Loaded)loaded).Level.Renderers)
+                foreach (Material material in renderer.sharedMaterials)
+                {
+                    if (material == null) continue;
+                    foreach (string property in material.GetTexturePropertyNames())
+                    {
+                        Texture texture = material.GetTexture(property);
+                        if (texture != null && seen.Add(texture)) bytes += budget.Bytes(texture.width, texture.height);
+                    }
+                }
+            return bytes;
         }
 
         public void ReleaseProxy(object loaded)

@@ -1,7 +1,8 @@
 // The Unity side of TileStreamer: manifests read with UnityWebRequest and planned with
 // LodPlanner, tile roots placed by VWorldLodTilePlacement (relative to the scene's
 // georeference), levels loaded with glTFast (GltfLevelLoader) and shown through one LODGroup per
-// building that gains levels as they arrive (LodGroupAssembly.ConfigureLoaded).
+// building that holds the levels resident now (LodGroupAssembly.ConfigureLoaded), which
+// TileStreamer picks by screen size and releases when no longer needed.
 using System;
 using System.Collections.Generic;
 using System.Threading;
@@ -61,7 +62,9 @@ namespace VWorldLod
         public void ShowLevels(TilePlan tile, BuildingPlan building, int[] levels, object[] loaded)
         {
             GameObject root;
-            if (!buildingRoots.TryGetValue(building, out root) || root == null) return;
+            // Nothing resident (the building culled at its distance): its released levels' objects
+            // are gone already, and a LODGroup cannot be given zero levels.
+            if (!buildingRoots.TryGetValue(building, out root) || root == null || levels.Length == 0) return;
             LodGroupAssembly.ConfigureLoaded(root, building, tile, levels, Array.ConvertAll(loaded, level => (LoadedLevel)level));
         }
 

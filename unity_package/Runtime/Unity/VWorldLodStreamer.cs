@@ -1,8 +1,10 @@
 // Streams an export's tiles around the camera at play time: reads the export's tile index
 // (tiles.json, written by vworld-lod export) from StreamingAssets, an absolute folder or an
 // http(s) base URL; loads the tiles whose centre is within loadRadius of the camera and unloads
-// those beyond unloadRadius; each building shows its coarsest level first and gains finer ones as
-// they arrive; at most maxConcurrentLoads loads are in flight. Tiles are placed relative to the
+// those beyond unloadRadius; each building holds the level its LODGroup shows at its distance
+// (plus the next finer one while the camera approaches), the others are released; resident
+// textures are kept within textureBudgetMiB where the view allows; at most maxConcurrentLoads
+// loads are in flight. Tiles are placed relative to the
 // scene's VWorldLodGeoreference (re-placed when its origin moves). Beyond the load radius it shows
 // the tileset's HLOD proxies that tiles.json lists (coarse to fine, by screen-space error), so a
 // whole city is on screen. The decisions are TileStreamer's and ProxyStreamer's (plain C#, tested
@@ -30,6 +32,12 @@ namespace VWorldLod
         public bool showProxies = true;
         /// <summary>Pixels: the coarsest proxy whose geometric error looks at most this large is shown (Cesium's default 16).</summary>
         public float maximumScreenSpaceError = 16;
+        /// <summary>MiB of textures (levels and proxies) above which what the view does not need is released (Cesium's maximumCachedBytes).</summary>
+        public float textureBudgetMiB = 512;
+        /// <summary>Bytes per texel as Unity holds the textures: 4 for glTFast's RGBA32 (JPEG/PNG), 1 for BC7/ASTC 4x4 (KTX2), 0.5 for DXT1.</summary>
+        public float textureBytesPerPixel = 4;
+        /// <summary>Pixels: a building's level is loaded finer than its LODGroup transition when that level's error (error_m) would look larger.</summary>
+        public float levelMaximumScreenSpaceError = 2;
 
         readonly CancellationTokenSource cancel = new CancellationTokenSource();
         TileStreamer streamer;
@@ -51,7 +59,11 @@ namespace VWorldLod
 
         async System.Threading.Tasks.Task StartStreamingAsync()
         {
-            settings = new StreamingSettings { LoadRadius = loadRadius, UnloadRadius = unloadRadius, MaxConcurrentLoads = maxConcurrentLoads, MaximumScreenSpaceError = maximumScreenSpaceError };
+            settings = new StreamingSettings
+            {
+                LoadRadius = loadRadius, UnloadRadius = unloadRadius, MaxConcurrentLoads = maxConcurrentLoads, MaximumScreenSpaceError = maximumScreenSpaceError,
+                TextureBudgetBytes = textureBudgetMiB * 1024.0 * 1024.0, TextureBytesPerPixel = textureBytesPerPixel, LevelMaximumScreenSpaceError = levelMaximumScreenSpaceError,
+            };
             if (settings.Problem() != null)
             {
                 Debug.LogError("VWorld LoD: " + name + ": " + settings.Problem());
@@ -85,10 +97,13 @@ namespace VWorldLod
             if (VWorldLodGeoreference.Current == null)
                 Debug.LogWarning("VWorld LoD: no VWorldLodGeoreference in the scene: tiles use the paper's absolute globe placement, where float32 positions jitter by 0.25-0.5 m; add one (GameObject > VWorld LoD > Georeference)");
             streamer = new TileStreamer(tiles, t => t.ScenePosition(VWorldLodGeoreference.CurrentOrigin), settings, new GltfStreamingBackend(transform, url));
+            streamer.TilePose = plan => plan.RootPose(VWorldLodGeoreference.CurrentOrigin);
             if (showProxies && proxyEntries.Length > 0)
             {
-                proxies = new ProxyStreamer(proxyEntries, p => p.ScenePosition(VWorldLodGeoreference.CurrentOrigin), settings, new GltfProxyBackend(transform, url));
+                proxies = new ProxyStreamer(proxyEntries, p => p.ScenePosition(VWorldLodGeoreference.CurrentOrigin), settings, new GltfProxyBackend(transform, url, streamer.Budget), streamer.Budget);
                 proxies.TileShown = streamer.Shows;
+                proxies.TileLoading = streamer.Loading;
+                streamer.ProxyShown = proxies.Covers;
             }
             VWorldLodGeoreference.OriginChanged += Reposition;
         }
@@ -109,11 +124,11 @@ namespace VWorldLod
             // Georeferenced, the radii are horizontal (East/North): a camera high above the city
             // still loads the tiles below it. On the globe (no local up) they are 3D.
             settings.Horizontal = VWorldLodGeoreference.CurrentOrigin != null;
-            streamer.Update(p.x, p.y, p.z);
-            if (proxies == null) return;
-            // Screen-space error needs the view: the main camera's (a 60 degree, 1080 px view without one).
+            // Screen sizes need the view: the main camera's (a 60 degree, 1080 px view without one).
             Camera view = Camera.main;
             double height = view != null ? view.pixelHeight : 1080, fov = view != null ? view.fieldOfView : 60;
+            streamer.Update(p.x, p.y, p.z, height, fov, QualitySettings.lodBias);
+            if (proxies == null) return;
             proxies.Update(p.x, p.y, p.z, height, fov);
         }
 
