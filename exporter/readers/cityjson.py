@@ -63,6 +63,7 @@ from ..model import Building, Part, Skipped, Texture
 from ..plausible import vertex_problem
 from ..tiles import building_tile
 from . import Entry, Scan
+from .confine import OutsideInput, confined
 from .crs import choose_crs
 from .images import TextureFileError, read_texture_file
 
@@ -456,11 +457,14 @@ def triangulate_polygon(rings: list[np.ndarray], outward: np.ndarray) -> np.ndar
 
 def _resolve_image(json_path: Path, name: str) -> Path | None:
     """The image file of a texture ``image`` entry: as given relative to the JSON file, else in an
-    ``appearances/`` folder next to it (cjio's and the example data's layout)."""
+    ``appearances/`` folder next to it (cjio's and the example data's layout). Raises
+    :class:`~exporter.readers.confine.OutsideInput` when ``name`` leads outside the JSON file's
+    folder (module :mod:`~exporter.readers.confine`)."""
     base = json_path.parent
-    for candidate in (base / name, base / "appearances" / Path(name).name, base / Path(name).name):
+    given = confined(name, base)
+    for candidate in (given, base / "appearances" / Path(name).name, base / Path(name).name):
         if candidate.is_file():
-            return candidate
+            return confined(candidate.relative_to(base), base)
     return None
 
 
@@ -469,7 +473,10 @@ def _load_texture(json_path: Path, texture: Any) -> tuple[Texture | None, str | 
     name = texture.get("image") if isinstance(texture, dict) else None
     if not isinstance(name, str):
         return None, None, "texture without an image entry: exported untextured"
-    image_path = _resolve_image(json_path, name)
+    try:
+        image_path = _resolve_image(json_path, name)
+    except OutsideInput as refused:
+        return None, None, f"texture refused: {refused}: exported untextured"
     if image_path is None:
         return None, None, f"texture {name} missing: exported untextured"
     try:
@@ -633,7 +640,10 @@ def scan(folder: Path, options: ReaderOptions) -> Scan:
                     if 0 <= index < len(textures) and isinstance(textures[index], dict)
                     else None
                 )
-                found = _resolve_image(path, name) if isinstance(name, str) else None
+                try:
+                    found = _resolve_image(path, name) if isinstance(name, str) else None
+                except OutsideInput:
+                    found = None  # refused when the building is loaded (a problem)
                 if found is not None and str(found) not in inputs:
                     inputs.append(str(found))
             try:
