@@ -298,3 +298,45 @@ def test_vworld_photo_textured_tile_exports_opaque(tmp_path):
         for geometry in scene.geometry.values():
             material = getattr(geometry.visual, "material", None)
             assert getattr(material, "alphaMode", None) in (None, "OPAQUE"), glb
+
+
+# --------------------------------------------------------------------------- 2. silent wrong results
+
+
+def test_cityjson_boundary_index_true_is_refused_not_read_as_vertex_1(tmp_path):
+    """0.4.3 read JSON ``true`` as vertex 1 (a Python bool is an int)."""
+    geometry = unit_box()
+    geometry["boundaries"][0][1] = [[4, 5, True, 7]]
+    tmp_path.joinpath("a.city.json").write_text(
+        json.dumps(city({"B": {"type": "Building", "geometry": [geometry]}}, BOX_VERTICES))
+    )
+    scan = scan_folder(tmp_path)
+    assert scan.entries == []
+    (skipped,) = scan.skipped
+    assert skipped.id == "B" and "boundary index true is not a vertex index" in skipped.reason
+
+
+def _seq_line(number: int) -> str:
+    shifted = [[x + 50000 * number, y, z] for x, y, z in BOX_VERTICES]
+    return json.dumps(
+        {
+            "type": "CityJSONFeature",
+            "id": f"F{number}",
+            "CityObjects": {f"F{number}": {"type": "Building", "geometry": [unit_box()]}},
+            "vertices": shifted,
+        }
+    )
+
+
+def test_broken_city_jsonl_line_costs_that_feature_only_with_its_line_number(tmp_path):
+    """0.4.3 refused the whole file and called the broken line 'line 1'."""
+    header = city({}, [])
+    lines = [json.dumps(header), _seq_line(0), "", '{"type": "CityJSONFeature", "Ci', _seq_line(1)]
+    lines += ['{"type": "CityJSONFeature", "id": "F9", "vertices": []}']  # no CityObjects
+    (tmp_path / "seq.city.jsonl").write_text("\n".join(lines) + "\n")
+    scan = scan_folder(tmp_path)
+    assert [e.id for e in scan.entries] == ["F0", "F1"]
+    assert [s.reason.split(" ")[:2] for s in scan.skipped] == [["line", "4"], ["line", "6"]]
+    assert "not valid JSON" in scan.skipped[0].reason
+    assert "no CityObjects" in scan.skipped[1].reason
+    assert all(load_entry(e).triangle_count == 10 for e in scan.entries)  # ground dropped
