@@ -340,3 +340,20 @@ def test_broken_city_jsonl_line_costs_that_feature_only_with_its_line_number(tmp
     assert "not valid JSON" in scan.skipped[0].reason
     assert "no CityObjects" in scan.skipped[1].reason
     assert all(load_entry(e).triangle_count == 10 for e in scan.entries)  # ground dropped
+
+
+def test_a_folder_holding_two_formats_is_read_in_both_and_inspect_says_so(tmp_path, capsys):
+    """0.4.3 read the VWorld tile only and ``inspect`` said 'problems: 0'."""
+    from exporter.cli import main
+
+    _vworld_tile(tmp_path)
+    tmp_path.joinpath("a.city.json").write_text(
+        json.dumps(city({"B": {"type": "Building", "geometry": [unit_box()]}}, BOX_VERTICES))
+    )
+    scan = scan_folder(tmp_path)
+    assert scan.format == "vworld+cityjson"
+    assert sorted(e.id for e in scan.entries) == ["B", "BLD_0001"]
+    assert main(["inspect", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "format vworld+cityjson, 2 buildings listed" in out
+    assert "note: " + tmp_path.name + ": holds VWorld and CityJSON data; read each" in out

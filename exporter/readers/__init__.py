@@ -33,6 +33,7 @@ from ..model import Building, Skipped, TileId
 # Format modules in detection order; each is imported lazily so a broken optional dependency of
 # one reader does not stop the others.
 FORMATS = ("vworld", "cityjson", "citygml", "folder")
+LABELS = {"vworld": "VWorld", "cityjson": "CityJSON", "citygml": "CityGML", "folder": "OBJ/glTF"}
 
 
 @dataclass
@@ -121,12 +122,13 @@ def file_format(path: Path) -> str:
     raise InputError(f"{path}: not an input file; {EXPECTED}")
 
 
-def detect_format(folder: str | Path) -> str:
-    """Name of the format of a folder (the first whose ``detect`` accepts it) or of one file
-    (:func:`file_format`); InputError naming the path when none fits or it cannot be read."""
+def detect_formats(folder: str | Path) -> list[str]:
+    """Names of the formats a folder holds (each whose ``detect`` accepts it, in detection order),
+    or the one format of a file (:func:`file_format`); InputError naming the path when none fits
+    or it cannot be read."""
     folder = Path(folder)
     if folder.is_file():
-        return file_format(folder)
+        return [file_format(folder)]
     if not folder.is_dir():
         raise (
             _missing(folder)
@@ -134,23 +136,45 @@ def detect_format(folder: str | Path) -> str:
             else InputError(f"{folder}: not a file or folder")
         )
     try:
-        for name in FORMATS:
-            if _module(name).detect(folder):
-                return name
+        found = [name for name in FORMATS if _module(name).detect(folder)]
     except OSError as error:
         raise InputError(f"{folder}: cannot be read ({error.strerror or error})") from None
-    raise InputError(f"{folder}: no building data found ({EXPECTED})")
+    if not found:
+        raise InputError(f"{folder}: no building data found ({EXPECTED})")
+    return found
+
+
+def detect_format(folder: str | Path) -> str:
+    """The first of :func:`detect_formats` (a folder holding several is read in each)."""
+    return detect_formats(folder)[0]
 
 
 def scan_folder(folder: str | Path, options: ReaderOptions | None = None) -> Scan:
-    """List the buildings of a tile folder or of one input file (see module doc)."""
+    """List the buildings of a tile folder or of one input file (see module doc). A folder
+    holding several formats (e.g. a ``.dat`` tile and CityJSON files) is read in each, noted:
+    ``Scan.format`` then names them all, joined by ``+``."""
     options = options or ReaderOptions()
-    name = detect_format(folder)
-    try:
-        return _module(name).scan(Path(folder), options)
-    except OSError as error:  # e.g. a file in it that cannot be opened
-        where = error.filename or folder
-        raise InputError(f"{where}: cannot be read ({error.strerror or error})") from None
+    names = detect_formats(folder)
+    scans = []
+    for name in names:
+        try:
+            scans.append(_module(name).scan(Path(folder), options))
+        except OSError as error:  # e.g. a file in it that cannot be opened
+            where = error.filename or folder
+            raise InputError(f"{where}: cannot be read ({error.strerror or error})") from None
+    if len(scans) == 1:
+        return scans[0]
+    merged = Scan(folder=str(folder), format="+".join(names))
+    merged.notes.append(
+        f"{Path(folder).name}: holds {' and '.join(LABELS[n] for n in names)} data; read each"
+    )
+    for scan in scans:
+        merged.entries += scan.entries
+        merged.skipped += scan.skipped
+        merged.notes += scan.notes
+        merged.crs_option_used |= scan.crs_option_used
+        merged.crs_conflicts += scan.crs_conflicts
+    return merged
 
 
 def check_crs_option(scans: list[Scan], options: ReaderOptions) -> None:
@@ -215,9 +239,9 @@ def _images_only(folder: Path) -> bool:
 
 
 def _read_by_folder(path: Path, folder: Path) -> bool:
-    """True when scanning ``folder`` already lists the buildings of ``path`` (same format)."""
+    """True when scanning ``folder`` already lists the buildings of ``path`` (a format it reads)."""
     try:
-        return detect_format(folder) == file_format(path)
+        return file_format(path) in detect_formats(folder)
     except InputError:
         return False
 
