@@ -64,6 +64,15 @@ class Scan:
     crs_option_used: bool = False
     crs_conflicts: list[str] = field(default_factory=list)
 
+    def add(self, other: Any) -> None:
+        """Take in the entries, skipped items, notes and CRS findings of ``other`` (a Scan or a
+        reader's per-file scan with the same fields)."""
+        self.entries += other.entries
+        self.skipped += other.skipped
+        self.notes += other.notes
+        self.crs_option_used |= other.crs_option_used
+        self.crs_conflicts += other.crs_conflicts
+
 
 def _module(name: str):
     return importlib.import_module(f"{__name__}.{name}")
@@ -169,11 +178,7 @@ def scan_folder(folder: str | Path, options: ReaderOptions | None = None) -> Sca
         f"{Path(folder).name}: holds {' and '.join(LABELS[n] for n in names)} data; read each"
     )
     for scan in scans:
-        merged.entries += scan.entries
-        merged.skipped += scan.skipped
-        merged.notes += scan.notes
-        merged.crs_option_used |= scan.crs_option_used
-        merged.crs_conflicts += scan.crs_conflicts
+        merged.add(scan)
     return merged
 
 

@@ -1102,11 +1102,7 @@ def scan(folder: Path, options: ReaderOptions) -> Scan:
                 raise InputError(f"{path}: {problem}") from None
             result.skipped.append(Skipped(source=str(path), reason=problem))
             continue
-        result.entries += found.entries
-        result.skipped += found.skipped
-        result.notes += found.notes
-        result.crs_option_used |= found.crs_option_used
-        result.crs_conflicts += found.crs_conflicts
+        result.add(found)
     return result
 
 
