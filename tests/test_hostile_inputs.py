@@ -357,3 +357,34 @@ def test_a_folder_holding_two_formats_is_read_in_both_and_inspect_says_so(tmp_pa
     out = capsys.readouterr().out
     assert "format vworld+cityjson, 2 buildings listed" in out
     assert "note: " + tmp_path.name + ": holds VWorld and CityJSON data; read each" in out
+
+
+def test_ids_made_unique_keep_the_input_id_in_the_manifest(tmp_path):
+    """0.4.3 wrote ``a~1`` with the original id kept nowhere (README: "the id stays in the
+    manifest")."""
+    from exporter.cli import main
+    from exporter.manifest import validate_manifest
+
+    for name, ids in (("x", ["Hall"]), ("y", ["hall", "Hall"])):
+        data = city(
+            {i: {"type": "Building", "geometry": [unit_box()]} for i in ids},
+            [[x + 5000 * k, y, z] for k in range(len(ids)) for x, y, z in BOX_VERTICES],
+        )
+        for k, i in enumerate(ids):  # each building its own 8 vertices
+            geometry = data["CityObjects"][i]["geometry"][0]
+            geometry["boundaries"] = [
+                [[[c + 8 * k for c in ring[0]]] for ring in geometry["boundaries"][0]]
+            ]
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "a.city.json").write_text(json.dumps(data))
+    out = tmp_path / "out"
+    assert (
+        main(["export", str(tmp_path / "x"), str(tmp_path / "y"), "--out", str(out), "--quiet"])
+        == 0
+    )
+    manifests = [json.loads(p.read_text()) for p in sorted(out.glob("*/lod_manifest.json"))]
+    for manifest in manifests:
+        validate_manifest(manifest)
+    records = [b for manifest in manifests for b in manifest["buildings"]]
+    got = sorted((b["id"], b.get("source_id")) for b in records)
+    assert got == [("Hall", None), ("Hall~1", "Hall"), ("hall~1", "hall")]

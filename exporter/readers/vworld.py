@@ -365,7 +365,8 @@ def load(entry: Entry, options: ReaderOptions | None = None) -> Building:
     lon, lat = lonlat_of(everything @ rotation + origin)  # local_to_global
     bounds = (float(lon.min()), float(lat.min()), float(lon.max()), float(lat.max()))
     return Building(
-        id=entry.id,
+        # The .dat's own id (scan made repeated ones unique as entry.id; the record keeps this one).
+        id=decode_text(record.key).strip() or xdo_path.stem,
         source=str(xdo_path),
         reference=reference,
         parts=parts,
