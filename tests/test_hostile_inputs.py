@@ -388,3 +388,31 @@ def test_ids_made_unique_keep_the_input_id_in_the_manifest(tmp_path):
     records = [b for manifest in manifests for b in manifest["buildings"]]
     got = sorted((b["id"], b.get("source_id")) for b in records)
     assert got == [("Hall", None), ("Hall~1", "Hall"), ("hall~1", "hall")]
+
+
+# --------------------------------------------------------------------------- 4. resources
+
+
+def test_texts_from_input_are_bounded_in_the_manifest(tmp_path):
+    """0.4.3 copied a building name whole into building.json and the manifest (a 300 MB name in a
+    300 KB .gml.gz made two 315 MB JSON files); here 4 MB and a 5000-character gml:id."""
+    import gzip
+
+    from exporter.cli import main
+
+    long_id = "B" * 5000
+    data = [{"id": long_id, "name": "N" * 4_000_000, "surfaces": box(X0, Y0, 0.0, 8, 6, 5)}]
+    folder = tmp_path / "in"
+    folder.mkdir()
+    with gzip.open(folder / "a.gml.gz", "wt", encoding="utf-8") as handle:
+        handle.write(citygml(data))
+    assert (folder / "a.gml.gz").stat().st_size < 100_000
+    building = only(folder)
+    assert len(building.id) == 1009 and building.id.startswith("B" * 1000 + "…")
+    assert len(building.attributes["name"]) == 1009
+    assert "id cut to 1000 of 5000 characters" in building.problems
+    assert "attribute name cut to 1000 of 4000000 characters" in building.problems
+    out = tmp_path / "out"
+    assert main(["export", str(folder), "--out", str(out), "--quiet", "--jobs", "1"]) == 0
+    for path in [*out.rglob("lod_manifest.json"), *out.rglob("building.json")]:
+        assert path.stat().st_size < 100_000, path

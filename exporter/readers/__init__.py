@@ -29,6 +29,7 @@ from typing import Any
 from ..config import ReaderOptions
 from ..errors import InputError, ReadError, error_text
 from ..model import Building, Skipped, TileId
+from ..names import MAX_TEXT_CHARS, bounded_text
 
 # Format modules in detection order; each is imported lazily so a broken optional dependency of
 # one reader does not stop the others.
@@ -167,7 +168,7 @@ def scan_folder(folder: str | Path, options: ReaderOptions | None = None) -> Sca
     scans = []
     for name in names:
         try:
-            scans.append(_module(name).scan(Path(folder), options))
+            scans.append(_bounded_scan(_module(name).scan(Path(folder), options)))
         except OSError as error:  # e.g. a file in it that cannot be opened
             where = error.filename or folder
             raise InputError(f"{where}: cannot be read ({error.strerror or error})") from None
@@ -251,12 +252,40 @@ def _read_by_folder(path: Path, folder: Path) -> bool:
         return False
 
 
+def _bounded_scan(scan: Scan) -> Scan:
+    """``scan`` with every text taken from input (ids, reasons, notes) bounded (docs/input.md)."""
+    for entry in scan.entries:
+        entry.id = bounded_text(entry.id)
+    for item in scan.skipped:
+        item.reason = bounded_text(item.reason)
+        item.id = None if item.id is None else bounded_text(item.id)
+    scan.notes = [bounded_text(note) for note in scan.notes]
+    return scan
+
+
+def _bounded_building(building: Building) -> Building:
+    """``building`` with its id, problems and text attributes bounded, a problem saying what was
+    cut (docs/input.md "Texts from input are bounded")."""
+    cut = []
+    if len(building.id) > MAX_TEXT_CHARS:
+        cut.append(f"id cut to {MAX_TEXT_CHARS} of {len(building.id)} characters")
+        building.id = bounded_text(building.id)
+    for key, value in (building.attributes or {}).items():
+        if isinstance(value, str) and len(value) > MAX_TEXT_CHARS:
+            cut.append(f"attribute {key} cut to {MAX_TEXT_CHARS} of {len(value)} characters")
+            building.attributes[key] = bounded_text(value)
+    building.problems = [bounded_text(problem) for problem in building.problems] + cut
+    return building
+
+
 def load_entry(entry: Entry, options: ReaderOptions | None = None) -> Building:
     """Read one listed building; raises only ReadError."""
     options = options or ReaderOptions()
     try:
-        return _module(entry.format).load(entry, options)
-    except ReadError:
+        return _bounded_building(_module(entry.format).load(entry, options))
+    except ReadError as error:
+        error.problem = bounded_text(error.problem)
+        error.args = (f"{error.path}: {error.problem}",)
         raise
     except MemoryError:
         raise ReadError(entry.source, "too large to read into memory") from None
