@@ -416,3 +416,20 @@ def test_texts_from_input_are_bounded_in_the_manifest(tmp_path):
     assert main(["export", str(folder), "--out", str(out), "--quiet", "--jobs", "1"]) == 0
     for path in [*out.rglob("lod_manifest.json"), *out.rglob("building.json")]:
         assert path.stat().st_size < 100_000, path
+
+
+def test_escape_sequences_in_ids_and_file_names_are_printed_escaped(tmp_path, capsys):
+    """0.4.3 printed them raw: a building id could clear the screen or retitle the terminal."""
+    from exporter.cli import main
+
+    folder = tmp_path / "in"
+    folder.mkdir()
+    data = city({"a\x1b[2J\u202eb": {"type": "Building", "geometry": [unit_box()]}}, BOX_VERTICES)
+    (folder / "x\x1b]0;owned\x07.city.json").write_text(json.dumps(data))
+    assert main(["inspect", str(folder)]) == 0
+    out = capsys.readouterr().out
+    assert "\x1b" not in out and "\u202e" not in out and "\x07" not in out
+    assert "a\\x1b[2J\\u202eb: 1 part(s)" in out
+    assert main(["export", str(folder / "gone\x1b[31m"), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "\x1b" not in err and "gone\\x1b[31m: no such file or folder" in err
