@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import io
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -433,3 +434,31 @@ def test_escape_sequences_in_ids_and_file_names_are_printed_escaped(tmp_path, ca
     assert main(["export", str(folder / "gone\x1b[31m"), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert "\x1b" not in err and "gone\\x1b[31m: no such file or folder" in err
+
+
+def test_a_3_gib_sparse_obj_is_refused_by_size_without_reading_it(tmp_path):
+    """0.4.3 read it whole to look for ``mtllib`` and then in trimesh (6.4 GB to ``inspect``).
+    Here ``inspect`` runs with its address space capped at 2 GiB."""
+    import resource
+    import subprocess
+    import sys
+
+    textured_box(tmp_path).export(tmp_path / "own.obj")
+    with open(tmp_path / "big.obj", "wb") as handle:
+        handle.truncate(3 * 2**30)  # sparse: no disk used
+    write_csv(tmp_path, [f"own.obj,{LON},{LAT},{ELEV},y,own", f"big.obj,{LON},{LAT},{ELEV},y,big"])
+
+    def cap() -> None:
+        resource.setrlimit(resource.RLIMIT_AS, (2 * 2**30, 2 * 2**30))
+
+    done = subprocess.run(
+        [sys.executable, "-m", "exporter", "inspect", str(tmp_path)],
+        capture_output=True,
+        text=True,
+        preexec_fn=cap,
+        env={**os.environ, "OPENBLAS_NUM_THREADS": "1"},
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "own: 1 part(s)" in done.stdout
+    assert "row 2: file 'big.obj' is 3,072 MiB, over the 512 MiB limit" in done.stdout

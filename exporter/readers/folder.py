@@ -75,6 +75,9 @@ FORMAT = "folder"
 INDEX_NAMES = ("buildings.csv", "buildings.yaml", "buildings.yml", "buildings.json")
 MODEL_SUFFIXES = (".obj", ".gltf", ".glb")
 UP_AXES = ("y", "z")
+# Bytes of one building's model file or external glTF buffer: trimesh holds a model several times
+# over while reading it (a 3 GiB OBJ took 6.4 GB), and no single building needs more.
+MAX_MODEL_BYTES = 512 * 2**20
 
 # Model axes -> local (East, Up, North): rows pick and sign the model's x, y, z. Both have det -1.
 TO_LOCAL = {
@@ -153,6 +156,9 @@ def _row_entry(folder: Path, row: dict) -> Entry:
         raise ValueError(f"up_axis {row.get('up_axis')!r}; allowed: y or z")
     building_id = str(row.get("id") or "").strip() or Path(file).stem
     model = confined(file, folder)  # OutsideInput (a ValueError): the row is skipped
+    too_large = _too_large(model)
+    if too_large:
+        raise ValueError(f"file {file!r} {too_large}")
     entry_key = (file, values["lon"], values["lat"], values["elev"], up_axis)
     return Entry(
         format=FORMAT,
@@ -198,6 +204,20 @@ class _Named:
             self.missing.append(f"{what} {name} missing")
             return None
         return path
+
+
+def _too_large(path: Path) -> str | None:
+    """Why ``path`` is over MAX_MODEL_BYTES (None when it is not, or is missing)."""
+    try:
+        size = path.stat().st_size
+    except OSError:
+        return None
+    if size <= MAX_MODEL_BYTES:
+        return None
+    return (
+        f"is {size / 2**20:,.0f} MiB, over the {MAX_MODEL_BYTES // 2**20} MiB limit for one "
+        "building's model (docs/input.md)"
+    )
 
 
 def model_root(model: Path, file: str) -> Path:
@@ -258,11 +278,11 @@ def _named_files(model: Path, root: Path) -> _Named:
 def _gltf_header(model: Path) -> dict | None:
     """The JSON part of a .gltf or .glb file (None when it cannot be read)."""
     try:
-        data = model.read_bytes()
-        if model.suffix.lower() == ".glb":
-            length = int.from_bytes(data[12:16], "little")
-            return json.loads(data[20 : 20 + length])
-        return json.loads(data)
+        with model.open("rb") as handle:
+            if model.suffix.lower() != ".glb":
+                return json.loads(handle.read())
+            head = handle.read(20)  # magic, version, length, then the JSON chunk's length, type
+            return json.loads(handle.read(int.from_bytes(head[12:16], "little")))
     except (OSError, ValueError):
         return None
 
@@ -494,7 +514,14 @@ def load(entry: Entry, options: ReaderOptions) -> Building:
         confined(model.relative_to(root), root)  # e.g. replaced by a symlink since the scan
     except OutsideInput as refused:
         raise ReadError(str(model), f"refused: {refused}") from None
+    too_large = _too_large(model)
+    if too_large:
+        raise ReadError(str(model), too_large)
     named = _named_files(model, root)
+    for buffer in named.buffers:
+        too_large = _too_large(buffer)
+        if too_large:
+            raise ReadError(str(buffer), too_large)
     if any(p.startswith("buffer") for p in named.refused + named.missing):
         # The geometry itself would come from outside the input (or is not there): refused.
         raise ReadError(str(model), "; ".join(named.refused + named.missing))
