@@ -462,3 +462,24 @@ def test_a_3_gib_sparse_obj_is_refused_by_size_without_reading_it(tmp_path):
     assert done.returncode == 0, done.stderr
     assert "own: 1 part(s)" in done.stdout
     assert "row 2: file 'big.obj' is 3,072 MiB, over the 512 MiB limit" in done.stdout
+
+
+def test_numpy_warnings_never_reach_stderr_from_readers(tmp_path):
+    """0.4.3 printed numpy RuntimeWarnings ('overflow encountered in multiply', 'invalid value
+    encountered in cos') on stderr for a CityJSON whose transform overflows: not one line."""
+    import subprocess
+    import sys
+
+    data = city({"B": {"type": "Building", "geometry": [unit_box()]}}, BOX_VERTICES)
+    data["transform"]["scale"] = [1e306, 1e306, 1e306]
+    good = city({"C": {"type": "Building", "geometry": [unit_box()]}}, BOX_VERTICES)
+    (tmp_path / "a.city.json").write_text(json.dumps(data))
+    (tmp_path / "b.city.json").write_text(json.dumps(good))
+    done = subprocess.run(
+        [sys.executable, "-m", "exporter", "inspect", str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0 and done.stderr == "", done.stderr
+    assert "not finite" in done.stdout and "C: 1 part(s)" in done.stdout

@@ -26,10 +26,21 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from ..config import ReaderOptions
 from ..errors import InputError, ReadError, error_text
 from ..model import Building, Skipped, TileId
 from ..names import MAX_TEXT_CHARS, bounded_text
+
+
+# Readers check every number they use (non-finite vertices, far vertices: a problem or a skip
+# naming the building), so numpy's floating-point warnings on hostile input ("overflow encountered
+# in multiply") would only break the one-line stderr rule. np.errstate is thread-local (Dask); a
+# new one each time, as one keeps the state it replaced.
+def _quiet_numbers() -> np.errstate:
+    return np.errstate(all="ignore")
+
 
 # Format modules in detection order; each is imported lazily so a broken optional dependency of
 # one reader does not stop the others.
@@ -168,7 +179,8 @@ def scan_folder(folder: str | Path, options: ReaderOptions | None = None) -> Sca
     scans = []
     for name in names:
         try:
-            scans.append(_bounded_scan(_module(name).scan(Path(folder), options)))
+            with _quiet_numbers():
+                scans.append(_bounded_scan(_module(name).scan(Path(folder), options)))
         except OSError as error:  # e.g. a file in it that cannot be opened
             where = error.filename or folder
             raise InputError(f"{where}: cannot be read ({error.strerror or error})") from None
@@ -282,7 +294,8 @@ def load_entry(entry: Entry, options: ReaderOptions | None = None) -> Building:
     """Read one listed building; raises only ReadError."""
     options = options or ReaderOptions()
     try:
-        return _bounded_building(_module(entry.format).load(entry, options))
+        with _quiet_numbers():
+            return _bounded_building(_module(entry.format).load(entry, options))
     except ReadError as error:
         error.problem = bounded_text(error.problem)
         error.args = (f"{error.path}: {error.problem}",)
