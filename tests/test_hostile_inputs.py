@@ -483,3 +483,18 @@ def test_numpy_warnings_never_reach_stderr_from_readers(tmp_path):
     )
     assert done.returncode == 0 and done.stderr == "", done.stderr
     assert "not finite" in done.stdout and "C: 1 part(s)" in done.stdout
+
+
+def test_gltf_image_outside_the_folder_is_refused_with_a_problem(tmp_path):
+    folder = tmp_path / "in"
+    folder.mkdir()
+    secret_image(tmp_path / "secret.png")
+    _gltf_with_external_image(folder, "../secret.png")
+    write_csv(folder, [f"model.gltf,{LON},{LAT},{ELEV},y,G"])
+    (entry,) = scan_folder(folder).entries
+    assert str(folder / "../secret.png") not in entry.inputs
+    building = load_entry(entry)
+    assert all(p.texture is None for p in building.parts) and no_secret(building)
+    assert any("texture refused: '../secret.png' leads outside" in p for p in building.problems), (
+        building.problems
+    )
