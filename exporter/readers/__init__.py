@@ -276,8 +276,8 @@ def _bounded_scan(scan: Scan) -> Scan:
 
 
 def _bounded_building(building: Building) -> Building:
-    """``building`` with its id, problems and text attributes bounded, a problem saying what was
-    cut (docs/input.md "Texts from input are bounded")."""
+    """``building`` with its id, problems, text attributes and part/texture names bounded, a
+    problem saying what was cut (docs/input.md "Texts from input are bounded")."""
     cut = []
     if len(building.id) > MAX_TEXT_CHARS:
         cut.append(f"id cut to {MAX_TEXT_CHARS} of {len(building.id)} characters")
@@ -287,6 +287,10 @@ def _bounded_building(building: Building) -> Building:
             cut.append(f"attribute {key} cut to {MAX_TEXT_CHARS} of {len(value)} characters")
             building.attributes[key] = bounded_text(value)
     building.problems = [bounded_text(problem) for problem in building.problems] + cut
+    for part in building.parts:  # names of materials and images in the glTF files
+        part.name = bounded_text(part.name)
+        if part.texture is not None:
+            part.texture.name = bounded_text(part.texture.name)
     return building
 
 
