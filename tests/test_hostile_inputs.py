@@ -506,3 +506,20 @@ def test_gltf_image_outside_the_folder_is_refused_with_a_problem(tmp_path):
     assert any("texture refused: '../secret.png' leads outside" in p for p in building.problems), (
         building.problems
     )
+
+
+def test_a_vworld_key_repeated_in_one_dat_keeps_it_as_source_id(tmp_path):
+    from exporter.cli import main
+    from exporter.formats.vworld_binary import parse_dat, serialise_dat
+
+    folder = tmp_path / "in"
+    _vworld_tile(folder)
+    dat_path = folder / f"{TILE.name}.dat"
+    dat = parse_dat(dat_path.read_bytes(), str(dat_path))
+    dat.objects.append(dat.objects[0])  # the same key and .xdo twice
+    dat_path.write_bytes(serialise_dat(dat))
+    out = tmp_path / "out"
+    assert main(["export", str(folder), "--out", str(out), "--quiet", "--jobs", "1"]) == 0
+    manifest = json.loads((out / TILE.name / "lod_manifest.json").read_text())
+    got = sorted((b["id"], b.get("source_id")) for b in manifest["buildings"])
+    assert got == [("BLD_0001", None), ("BLD_0001~2", "BLD_0001")]
