@@ -22,6 +22,7 @@ from typing import NoReturn, TextIO
 from . import __version__
 from .config import default_config_yaml, load_config, parse_crs_option
 from .errors import InputError, ReadError, VWorldLodError
+from .names import terminal_text
 
 DEBUG_FLAG = "--debug"
 DEBUG_ENV = "VWORLD_LOD_DEBUG"
@@ -149,13 +150,16 @@ def cmd_inspect(args) -> int:
 
     args.tile_dirs = input_paths(args.tile_dirs)
     config = _effective_config(args)
-    out = sys.stdout
+
+    def write(line: str) -> None:  # ids, names and paths from input may hold escape sequences
+        sys.stdout.write(terminal_text(line) + "\n")
+
     scans = [scan_folder(folder, config.readers) for folder in args.tile_dirs]
     check_crs_option(scans, config.readers)
     for folder, scan in zip(args.tile_dirs, scans):
-        out.write(f"{folder}: format {scan.format}, {len(scan.entries)} buildings listed\n")
+        write(f"{folder}: format {scan.format}, {len(scan.entries)} buildings listed")
         for note in scan.notes:
-            out.write(f"  note: {note}\n")
+            write(f"  note: {note}")
         tiles: dict[str, int] = {}
         triangles = 0
         textures = 0
@@ -172,21 +176,21 @@ def cmd_inspect(args) -> int:
             atlases = [p.texture for p in building.parts if p.texture is not None]
             textures += len({id(t) for t in atlases})
             sizes = ", ".join(sorted({f"{t.width}x{t.height}" for t in atlases})) or "none"
-            out.write(
-                f"  {building.id}: {len(building.parts)} part(s), {building.triangle_count} triangles, textures {sizes}\n"
+            write(
+                f"  {building.id}: {len(building.parts)} part(s), {building.triangle_count} triangles, textures {sizes}"
             )
             problems += [f"{building.id}: {p}" for p in building.problems]
         for name, count in sorted(tiles.items()):
-            out.write(f"  tile {name}: {count} buildings\n")
+            write(f"  tile {name}: {count} buildings")
         loaded = sum(tiles.values())
-        out.write(
+        write(
             f"  total: {loaded} buildings, {triangles} triangles"
             + (f" (mean {triangles / loaded:.1f})" if loaded else "")
-            + f", {textures} textures\n"
+            + f", {textures} textures"
         )
-        out.write(f"  problems: {len(problems)}\n")
+        write(f"  problems: {len(problems)}")
         for problem in problems:
-            out.write(f"    {problem}\n")
+            write(f"    {problem}")
     return 0
 
 
@@ -302,7 +306,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _fail(text: str, code: int = 2) -> int:
-    print(f"vworld-lod: {' '.join(text.split())}", file=sys.stderr)  # always one line
+    # Always one line; a path or id from input cannot move the cursor or recolour the terminal.
+    print(f"vworld-lod: {terminal_text(' '.join(text.split()))}", file=sys.stderr)
     return code
 
 

@@ -25,7 +25,7 @@ from .config import Config
 from .errors import ProcessError, ReadError, error_text
 from .gltf_writer import Glb, encode_glb
 from .model import Building, Part, Skipped, Texture, TileId
-from .names import name_error, safe_folder_name
+from .names import name_error, printable, safe_folder_name
 from .placement import building_placement, relative_placement
 from .plausible import vertex_problem
 from .quality import LevelQuality, Source, boundary_quality, exact_quality, measure_lod
@@ -258,6 +258,8 @@ def process_entry(
             "lods": lods,
             "problems": problems,
         }
+        if printable(building.id) != entry.id:  # made unique in the run (a~1): keep the input's
+            record["source_id"] = printable(building.id)
         if building.attributes:
             record["attributes"] = building.attributes
         if centre_tile is not None:

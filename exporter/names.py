@@ -11,6 +11,11 @@ Any name a file system allows must give a working export:
   case (one folder on macOS and Windows), by ``~1``, ``~2``, ... (as duplicate ids always were).
 - :func:`printable`: text that is not valid UTF-8 (file names decoded with surrogate escapes)
   with each undecodable byte written ``\\xNN``, so manifests stay UTF-8 JSON and keep the original.
+- :func:`bounded_text`: a text taken from input (id, name, a problem quoting it) cut to
+  ``MAX_TEXT_CHARS`` (1000) characters + ``…`` + 8 hex digits of its SHA-1 (distinct long texts
+  stay distinct), so a 300 MB building name does not become 300 MB of JSON.
+- :func:`terminal_text`: text made safe to print on a terminal: control characters (escape
+  sequences, carriage returns, ...) and bidirectional overrides written ``\\xNN`` / ``\\uNNNN``.
 - :func:`name_error`: an OSError that concerns one building's file names only (too long, invalid
   on this file system): it costs that building, while a full disk or a read-only output stops the
   run.
@@ -35,6 +40,33 @@ NAME_ERRNOS = frozenset(
     for code in (errno.ENAMETOOLONG, errno.EINVAL, getattr(errno, "EILSEQ", None))
     if code is not None
 )
+
+
+MAX_TEXT_CHARS = 1000  # characters kept of a text taken from input (bounded_text)
+# C0/C1 controls and DEL, and the bidirectional embeddings/overrides/isolates (they reorder what
+# follows on a terminal): written escaped by terminal_text.
+_UNPRINTABLE = re.compile("[\x00-\x08\x0a-\x1f\x7f-\x9f\u202a-\u202e\u2066-\u2069]")
+
+
+def bounded_text(text: str, limit: int = MAX_TEXT_CHARS) -> str:
+    """``text`` when at most ``limit`` characters, else its first ``limit`` characters, ``…`` and
+    8 hex digits of its SHA-1 (module doc)."""
+    if len(text) <= limit:
+        return text
+    digest = hashlib.sha1(text.encode("utf-8", "surrogatepass")).hexdigest()[:8]
+    return f"{text[:limit]}…{digest}"
+
+
+def terminal_text(text: str) -> str:
+    """``text`` with control characters (but tab) and bidirectional controls written
+    ``\\xNN`` / ``\\uNNNN``, so a name from input cannot move the cursor, recolour or rewrite
+    the terminal it is printed on."""
+    return _UNPRINTABLE.sub(
+        lambda m: (
+            f"\\x{ord(m.group()):02x}" if ord(m.group()) < 0x100 else f"\\u{ord(m.group()):04x}"
+        ),
+        text,
+    )
 
 
 def slug(text: str) -> str:

@@ -23,7 +23,9 @@ Disputed points and how they are settled here:
   the field is absent, so serialising reproduces the file.
 - colour byte order (A,R,G,B or B,G,R,A): the 4 raw bytes are kept; :func:`color_rgba` reads them
   as B,G,R,A, i.e. one little-endian u32 ``0xAARRGGBB`` (Direct3D's ``D3DCOLOR``), which is the
-  same bytes the A,R,G,B readers describe as a u32.
+  same bytes the A,R,G,B readers describe as a u32. The reader's colour for a part
+  (:func:`exporter.readers.vworld.part_color`) also tries the A,R,G,B reading and ignores the
+  field on textured parts (docs/input.md "VWorld colour").
 - string encodings: raw bytes are kept; :func:`decode_text` tries UTF-8, then EUC-KR, then
   Latin-1 (which never fails), for display and ids only.
 - ``.xdo`` version unknown: both layouts are tried, keeping the one that parses to the exact end.

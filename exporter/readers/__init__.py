@@ -26,13 +26,26 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from ..config import ReaderOptions
 from ..errors import InputError, ReadError, error_text
 from ..model import Building, Skipped, TileId
+from ..names import MAX_TEXT_CHARS, bounded_text
+
+
+# Readers check every number they use (non-finite vertices, far vertices: a problem or a skip
+# naming the building), so numpy's floating-point warnings on hostile input ("overflow encountered
+# in multiply") would only break the one-line stderr rule. np.errstate is thread-local (Dask); a
+# new one each time, as one keeps the state it replaced.
+def _quiet_numbers() -> np.errstate:
+    return np.errstate(all="ignore")
+
 
 # Format modules in detection order; each is imported lazily so a broken optional dependency of
 # one reader does not stop the others.
 FORMATS = ("vworld", "cityjson", "citygml", "folder")
+LABELS = {"vworld": "VWorld", "cityjson": "CityJSON", "citygml": "CityGML", "folder": "OBJ/glTF"}
 
 
 @dataclass
@@ -62,6 +75,15 @@ class Scan:
     # another one (read in theirs; see check_crs_option).
     crs_option_used: bool = False
     crs_conflicts: list[str] = field(default_factory=list)
+
+    def add(self, other: Any) -> None:
+        """Take in the entries, skipped items, notes and CRS findings of ``other`` (a Scan or a
+        reader's per-file scan with the same fields)."""
+        self.entries += other.entries
+        self.skipped += other.skipped
+        self.notes += other.notes
+        self.crs_option_used |= other.crs_option_used
+        self.crs_conflicts += other.crs_conflicts
 
 
 def _module(name: str):
@@ -121,12 +143,13 @@ def file_format(path: Path) -> str:
     raise InputError(f"{path}: not an input file; {EXPECTED}")
 
 
-def detect_format(folder: str | Path) -> str:
-    """Name of the format of a folder (the first whose ``detect`` accepts it) or of one file
-    (:func:`file_format`); InputError naming the path when none fits or it cannot be read."""
+def detect_formats(folder: str | Path) -> list[str]:
+    """Names of the formats a folder holds (each whose ``detect`` accepts it, in detection order),
+    or the one format of a file (:func:`file_format`); InputError naming the path when none fits
+    or it cannot be read."""
     folder = Path(folder)
     if folder.is_file():
-        return file_format(folder)
+        return [file_format(folder)]
     if not folder.is_dir():
         raise (
             _missing(folder)
@@ -134,23 +157,42 @@ def detect_format(folder: str | Path) -> str:
             else InputError(f"{folder}: not a file or folder")
         )
     try:
-        for name in FORMATS:
-            if _module(name).detect(folder):
-                return name
+        found = [name for name in FORMATS if _module(name).detect(folder)]
     except OSError as error:
         raise InputError(f"{folder}: cannot be read ({error.strerror or error})") from None
-    raise InputError(f"{folder}: no building data found ({EXPECTED})")
+    if not found:
+        raise InputError(f"{folder}: no building data found ({EXPECTED})")
+    return found
+
+
+def detect_format(folder: str | Path) -> str:
+    """The first of :func:`detect_formats` (a folder holding several is read in each)."""
+    return detect_formats(folder)[0]
 
 
 def scan_folder(folder: str | Path, options: ReaderOptions | None = None) -> Scan:
-    """List the buildings of a tile folder or of one input file (see module doc)."""
+    """List the buildings of a tile folder or of one input file (see module doc). A folder
+    holding several formats (e.g. a ``.dat`` tile and CityJSON files) is read in each, noted:
+    ``Scan.format`` then names them all, joined by ``+``."""
     options = options or ReaderOptions()
-    name = detect_format(folder)
-    try:
-        return _module(name).scan(Path(folder), options)
-    except OSError as error:  # e.g. a file in it that cannot be opened
-        where = error.filename or folder
-        raise InputError(f"{where}: cannot be read ({error.strerror or error})") from None
+    names = detect_formats(folder)
+    scans = []
+    for name in names:
+        try:
+            with _quiet_numbers():
+                scans.append(_bounded_scan(_module(name).scan(Path(folder), options)))
+        except OSError as error:  # e.g. a file in it that cannot be opened
+            where = error.filename or folder
+            raise InputError(f"{where}: cannot be read ({error.strerror or error})") from None
+    if len(scans) == 1:
+        return scans[0]
+    merged = Scan(folder=str(folder), format="+".join(names))
+    merged.notes.append(
+        f"{Path(folder).name}: holds {' and '.join(LABELS[n] for n in names)} data; read each"
+    )
+    for scan in scans:
+        merged.add(scan)
+    return merged
 
 
 def check_crs_option(scans: list[Scan], options: ReaderOptions) -> None:
@@ -215,19 +257,52 @@ def _images_only(folder: Path) -> bool:
 
 
 def _read_by_folder(path: Path, folder: Path) -> bool:
-    """True when scanning ``folder`` already lists the buildings of ``path`` (same format)."""
+    """True when scanning ``folder`` already lists the buildings of ``path`` (a format it reads)."""
     try:
-        return detect_format(folder) == file_format(path)
+        return file_format(path) in detect_formats(folder)
     except InputError:
         return False
+
+
+def _bounded_scan(scan: Scan) -> Scan:
+    """``scan`` with every text taken from input (ids, reasons, notes) bounded (docs/input.md)."""
+    for entry in scan.entries:
+        entry.id = bounded_text(entry.id)
+    for item in scan.skipped:
+        item.reason = bounded_text(item.reason)
+        item.id = None if item.id is None else bounded_text(item.id)
+    scan.notes = [bounded_text(note) for note in scan.notes]
+    return scan
+
+
+def _bounded_building(building: Building) -> Building:
+    """``building`` with its id, problems, text attributes and part/texture names bounded, a
+    problem saying what was cut (docs/input.md "Texts from input are bounded")."""
+    cut = []
+    if len(building.id) > MAX_TEXT_CHARS:
+        cut.append(f"id cut to {MAX_TEXT_CHARS} of {len(building.id)} characters")
+        building.id = bounded_text(building.id)
+    for key, value in (building.attributes or {}).items():
+        if isinstance(value, str) and len(value) > MAX_TEXT_CHARS:
+            cut.append(f"attribute {key} cut to {MAX_TEXT_CHARS} of {len(value)} characters")
+            building.attributes[key] = bounded_text(value)
+    building.problems = [bounded_text(problem) for problem in building.problems] + cut
+    for part in building.parts:  # names of materials and images in the glTF files
+        part.name = bounded_text(part.name)
+        if part.texture is not None:
+            part.texture.name = bounded_text(part.texture.name)
+    return building
 
 
 def load_entry(entry: Entry, options: ReaderOptions | None = None) -> Building:
     """Read one listed building; raises only ReadError."""
     options = options or ReaderOptions()
     try:
-        return _module(entry.format).load(entry, options)
-    except ReadError:
+        with _quiet_numbers():
+            return _bounded_building(_module(entry.format).load(entry, options))
+    except ReadError as error:
+        error.problem = bounded_text(error.problem)
+        error.args = (f"{error.path}: {error.problem}",)
         raise
     except MemoryError:
         raise ReadError(entry.source, "too large to read into memory") from None

@@ -69,6 +69,7 @@ from ..tiles import building_tile
 from . import Entry, Scan
 from .atlas import pack_parts
 from .cityjson import _load_texture, _part, _resolve_image, newell_normal, triangulate_polygon
+from .confine import OutsideInput
 from .crs import choose_crs
 
 FORMAT = "citygml"
@@ -1073,7 +1074,10 @@ def _scan_file(path: Path, options: ReaderOptions) -> _FileScan:
                 out.skipped.append(_skipped(source, None, entry.id, error))
                 continue
         for uri in dict.fromkeys(images.get(theme or "", []) if theme is not None else []):
-            image = _resolve_image(path, uri)
+            try:
+                image = _resolve_image(path, uri)
+            except OutsideInput:
+                continue  # refused when the building is loaded (a problem)
             if image is not None and str(image) not in entry.inputs:
                 entry.inputs = [*entry.inputs, str(image)]  # never the shared list
         out.entries.append(entry)
@@ -1098,11 +1102,7 @@ def scan(folder: Path, options: ReaderOptions) -> Scan:
                 raise InputError(f"{path}: {problem}") from None
             result.skipped.append(Skipped(source=str(path), reason=problem))
             continue
-        result.entries += found.entries
-        result.skipped += found.skipped
-        result.notes += found.notes
-        result.crs_option_used |= found.crs_option_used
-        result.crs_conflicts += found.crs_conflicts
+        result.add(found)
     return result
 
 

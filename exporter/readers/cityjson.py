@@ -63,6 +63,7 @@ from ..model import Building, Part, Skipped, Texture
 from ..plausible import vertex_problem
 from ..tiles import building_tile
 from . import Entry, Scan
+from .confine import OutsideInput, confined
 from .crs import choose_crs
 from .images import TextureFileError, read_texture_file
 
@@ -113,6 +114,7 @@ class _Document:
     children: dict = field(
         default_factory=dict
     )  # id -> ids of its BuildingPart/Installation children
+    broken: list[str] = field(default_factory=list)  # CityJSONSeq lines not read, and why
 
     @property
     def theme(self) -> str | None:
@@ -130,21 +132,35 @@ class CrsError(ReadError):
     """A file's CRS is missing, unknown or contradicts the options: the whole run is refused."""
 
 
-def _read_json_lines(path: Path) -> list[dict]:
+def _read_json_lines(path: Path) -> list[tuple[int, Any]]:
+    """(line number, record) of a CityJSON file (one record, line 1) or of each non-empty line of
+    a ``.city.jsonl``; there a line that is not valid JSON gives (line number, ReadError) so that
+    it costs its feature only (the header's is raised)."""
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as error:
         raise _fail(path, f"cannot be read ({error.strerror or error})") from None
     except UnicodeDecodeError:
         raise _fail(path, "is not UTF-8 text") from None
-    try:
-        if path.name.endswith(".jsonl"):
-            return [json.loads(line) for line in text.splitlines() if line.strip()]
-        return [json.loads(text)]
-    except json.JSONDecodeError as error:
-        raise _fail(
-            path, f"is not valid JSON (line {error.lineno}, column {error.colno}: {error.msg})"
-        ) from None
+    if not path.name.endswith(".jsonl"):
+        try:
+            return [(1, json.loads(text))]
+        except json.JSONDecodeError as error:
+            raise _fail(
+                path, f"is not valid JSON (line {error.lineno}, column {error.colno}: {error.msg})"
+            ) from None
+    records: list[tuple[int, Any]] = []
+    for number, line in enumerate(text.splitlines(), start=1):
+        if not line.strip():
+            continue
+        try:
+            records.append((number, json.loads(line)))
+        except json.JSONDecodeError as error:
+            problem = f"line {number} is not valid JSON (column {error.colno}: {error.msg})"
+            if not records:  # the header: without it no feature can be read
+                raise _fail(path, problem) from None
+            records.append((number, _fail(path, problem)))
+    return records
 
 
 def _check_version(path: Path, header: dict) -> None:
@@ -216,18 +232,41 @@ def _parse(path: Path, options: ReaderOptions) -> _Document:
     records = _read_json_lines(path)
     if not records:
         raise _fail(path, "is empty")
-    header = records[0]
+    header = records[0][1]
     _check_version(path, header)
     crs = _crs_of(path, header, options)
     transform = header.get("transform")
-    bodies = [header] if not path.name.endswith(".jsonl") else records[1:]
+    jsonl = path.name.endswith(".jsonl")
+    bodies = records[1:] if jsonl else records
     document = _Document(
         path, crs, [], {}, declared_crs=(header.get("metadata") or {}).get("referenceSystem")
     )
-    for body in bodies:
-        if not isinstance(body, dict) or not isinstance(body.get("CityObjects"), dict):
-            raise _fail(path, "has no CityObjects mapping")
-        document.chunks.append(_chunk(path, body, transform, crs, header.get("appearance") or {}))
+    for number, body in bodies:
+        try:
+            if isinstance(body, ReadError):
+                raise body
+            if not isinstance(body, dict) or not isinstance(body.get("CityObjects"), dict):
+                raise _fail(
+                    path,
+                    f"line {number} has no CityObjects mapping"
+                    if jsonl
+                    else "has no CityObjects mapping",
+                )
+            chunk = _chunk(path, body, transform, crs, header.get("appearance") or {})
+        except CrsError:
+            raise
+        except ReadError as error:
+            if not jsonl:
+                raise
+            # One broken feature of a CityJSONSeq costs that feature only (Scan.skipped).
+            problem = (
+                error.problem
+                if error.problem.startswith("line ")
+                else f"line {number}: {error.problem}"
+            )
+            document.broken.append(problem)
+            continue
+        document.chunks.append(chunk)
         for object_id, city_object in body["CityObjects"].items():
             document.objects[str(object_id)] = (len(document.chunks) - 1, city_object)
             for geometry in city_object.get("geometry") or []:
@@ -392,7 +431,7 @@ def _polygons(
                 ok = len(tex) == len(rings) and all(
                     isinstance(t, list)
                     and len(t) == len(r) + 1
-                    and all(isinstance(i, int) for i in t)
+                    and all(type(i) is int for i in t)  # JSON true is no index (bool is an int)
                     for t, r in zip(tex, rings)
                 )
                 if ok and all(t[0] == tex[0][0] for t in tex):
@@ -456,11 +495,14 @@ def triangulate_polygon(rings: list[np.ndarray], outward: np.ndarray) -> np.ndar
 
 def _resolve_image(json_path: Path, name: str) -> Path | None:
     """The image file of a texture ``image`` entry: as given relative to the JSON file, else in an
-    ``appearances/`` folder next to it (cjio's and the example data's layout)."""
+    ``appearances/`` folder next to it (cjio's and the example data's layout). Raises
+    :class:`~exporter.readers.confine.OutsideInput` when ``name`` leads outside the JSON file's
+    folder (module :mod:`~exporter.readers.confine`)."""
     base = json_path.parent
-    for candidate in (base / name, base / "appearances" / Path(name).name, base / Path(name).name):
+    given = confined(name, base)
+    for candidate in (given, base / "appearances" / Path(name).name, base / Path(name).name):
         if candidate.is_file():
-            return candidate
+            return confined(candidate.relative_to(base), base)
     return None
 
 
@@ -469,7 +511,10 @@ def _load_texture(json_path: Path, texture: Any) -> tuple[Texture | None, str | 
     name = texture.get("image") if isinstance(texture, dict) else None
     if not isinstance(name, str):
         return None, None, "texture without an image entry: exported untextured"
-    image_path = _resolve_image(json_path, name)
+    try:
+        image_path = _resolve_image(json_path, name)
+    except OutsideInput as refused:
+        return None, None, f"texture refused: {refused}: exported untextured"
     if image_path is None:
         return None, None, f"texture {name} missing: exported untextured"
     try:
@@ -553,9 +598,15 @@ def _plan(
     polygons, more = _polygons(document, geometries, options)
     for polygon in polygons:
         count = len(document.chunks[polygon.chunk].xyz)
-        if any(
-            not isinstance(i, int) or not 0 <= i < count for ring in polygon.rings for i in ring
-        ):
+        # type() and not isinstance(): JSON true/false are Python bools, which are ints (1, 0).
+        wrong = [i for ring in polygon.rings for i in ring if type(i) is not int]
+        if wrong:
+            raise _fail(
+                document.path,
+                f"building {building_id}: boundary index {json.dumps(wrong[0])[:40]} is not a "
+                "vertex index (an integer)",
+            )
+        if any(not 0 <= i < count for ring in polygon.rings for i in ring):
             raise _fail(
                 document.path,
                 f"building {building_id}: vertex index out of range (file has {count} vertices)",
@@ -602,6 +653,7 @@ def scan(folder: Path, options: ReaderOptions) -> Scan:
             result.notes.append(
                 f"{path.name}: declares {declared}; read in it (--crs / readers.crs is for files that declare none)"
             )
+        result.skipped += [Skipped(source=str(path), reason=why) for why in document.broken]
         if len(document.themes) > 1:
             result.notes.append(
                 f"{path.name}: texture themes {', '.join(document.themes)}; used the first, {document.theme}"
@@ -633,7 +685,10 @@ def scan(folder: Path, options: ReaderOptions) -> Scan:
                     if 0 <= index < len(textures) and isinstance(textures[index], dict)
                     else None
                 )
-                found = _resolve_image(path, name) if isinstance(name, str) else None
+                try:
+                    found = _resolve_image(path, name) if isinstance(name, str) else None
+                except OutsideInput:
+                    found = None  # refused when the building is loaded (a problem)
                 if found is not None and str(found) not in inputs:
                     inputs.append(str(found))
             try:

@@ -55,6 +55,7 @@ import io
 import json
 import math
 import re
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -68,11 +69,15 @@ from ..errors import InputError, ReadError, error_text
 from ..model import Building, GeoPoint, Part, Skipped, Texture
 from ..tiles import tile_of
 from . import Entry, Scan
+from .confine import OutsideInput, confined
 
 FORMAT = "folder"
 INDEX_NAMES = ("buildings.csv", "buildings.yaml", "buildings.yml", "buildings.json")
 MODEL_SUFFIXES = (".obj", ".gltf", ".glb")
 UP_AXES = ("y", "z")
+# Bytes of one building's model file or external glTF buffer: trimesh holds a model several times
+# over while reading it (a 3 GiB OBJ took 6.4 GB), and no single building needs more.
+MAX_MODEL_BYTES = 512 * 2**20
 
 # Model axes -> local (East, Up, North): rows pick and sign the model's x, y, z. Both have det -1.
 TO_LOCAL = {
@@ -150,14 +155,17 @@ def _row_entry(folder: Path, row: dict) -> Entry:
     if up_axis not in UP_AXES:
         raise ValueError(f"up_axis {row.get('up_axis')!r}; allowed: y or z")
     building_id = str(row.get("id") or "").strip() or Path(file).stem
-    model = folder / file
+    model = confined(file, folder)  # OutsideInput (a ValueError): the row is skipped
+    too_large = _too_large(model)
+    if too_large:
+        raise ValueError(f"file {file!r} {too_large}")
     entry_key = (file, values["lon"], values["lat"], values["elev"], up_axis)
     return Entry(
         format=FORMAT,
         id=building_id,
         source=str(model),
         tile=tile_of(values["lon"], values["lat"], 15),
-        inputs=[str(model)] + _dependencies(model),
+        inputs=[str(model)] + _dependencies(model, folder),
         key=entry_key,
     )
 
@@ -173,65 +181,130 @@ def _mtl_image_name(argument: str) -> str:
     return argument.split()[-1] if argument.split() else argument
 
 
-def _obj_materials(model: Path) -> tuple[list[Path], list[Path]]:
-    """(MTL files, image files) an OBJ names, relative to the OBJ and the MTL respectively."""
+@dataclass
+class _Named:
+    """The files a model names (OBJ ``mtllib``/``map_Kd``, glTF buffer/image ``uri``): those
+    found inside the input folder (:mod:`~exporter.readers.confine`) and a problem for each of the
+    others, naming it (refused: outside the folder; missing)."""
+
+    mtls: list[Path] = field(default_factory=list)
+    images: list[Path] = field(default_factory=list)
+    buffers: list[Path] = field(default_factory=list)
+    refused: list[str] = field(default_factory=list)
+    missing: list[str] = field(default_factory=list)
+
+    def named(self, name: str, relative_to: Path, root: Path, what: str) -> Path | None:
+        """``name`` (a ``what``: 'material file', 'texture', 'buffer') if inside and present."""
+        try:
+            path = confined(name, relative_to, root)
+        except OutsideInput as refused:
+            self.refused.append(f"{what} refused: {refused}")
+            return None
+        if not path.is_file():
+            self.missing.append(f"{what} {name} missing")
+            return None
+        return path
+
+
+def _too_large(path: Path) -> str | None:
+    """Why ``path`` is over MAX_MODEL_BYTES (None when it is not, or is missing)."""
+    try:
+        size = path.stat().st_size
+    except OSError:
+        return None
+    if size <= MAX_MODEL_BYTES:
+        return None
+    return (
+        f"is {size / 2**20:,.0f} MiB, over the {MAX_MODEL_BYTES // 2**20} MiB limit for one "
+        "building's model (docs/input.md)"
+    )
+
+
+def model_root(model: Path, file: str) -> Path:
+    """The input folder of a model listed in its index as ``file`` (``model`` = folder / file)."""
+    return model.parents[len(Path(file).parts) - 1]
+
+
+def _obj_materials(model: Path, root: Path) -> _Named:
+    """The MTL files an OBJ names (relative to the OBJ) and the images they name (relative to
+    the MTL), inside ``root``."""
+    named = _Named()
     try:
         data = model.read_bytes()
     except OSError:
-        return [], []
-    mtls, images = [], []
+        return named
     for match in _MTLLIB.finditer(data):
-        mtl = model.parent / match.group(1).decode("utf-8", "replace")
-        mtls.append(mtl)
+        name = match.group(1).decode("utf-8", "replace")
+        mtl = named.named(name, model.parent, root, "material file")
+        if mtl is None:
+            continue
+        named.mtls.append(mtl)
         try:
             text = mtl.read_text(encoding="utf-8", errors="replace")
         except OSError:
             continue
-        images += [mtl.parent / _mtl_image_name(m) for m in _MAP_KD.findall(text)]
-    return mtls, images
+        for argument in _MAP_KD.findall(text):
+            image = named.named(_mtl_image_name(argument), mtl.parent, root, "texture")
+            if image is not None:
+                named.images.append(image)
+    return named
+
+
+def _gltf_files(model: Path, root: Path) -> _Named:
+    """The external buffers and images a .gltf/.glb names (relative to it), inside ``root``."""
+    from urllib.parse import unquote
+
+    named = _Named()
+    header = _gltf_header(model) or {}
+    for key, what, into in (
+        ("buffers", "buffer", named.buffers),
+        ("images", "texture", named.images),
+    ):
+        for item in header.get(key) or []:
+            uri = item.get("uri") if isinstance(item, dict) else None
+            if isinstance(uri, str) and not uri.startswith("data:"):
+                path = named.named(unquote(uri), model.parent, root, what)
+                if path is not None:
+                    into.append(path)
+    return named
+
+
+def _named_files(model: Path, root: Path) -> _Named:
+    if model.suffix.lower() == ".obj":
+        return _obj_materials(model, root)
+    return _gltf_files(model, root)
 
 
 def _gltf_header(model: Path) -> dict | None:
     """The JSON part of a .gltf or .glb file (None when it cannot be read)."""
     try:
-        data = model.read_bytes()
-        if model.suffix.lower() == ".glb":
-            length = int.from_bytes(data[12:16], "little")
-            return json.loads(data[20 : 20 + length])
-        return json.loads(data)
+        with model.open("rb") as handle:
+            if model.suffix.lower() != ".glb":
+                return json.loads(handle.read())
+            head = handle.read(20)  # magic, version, length, then the JSON chunk's length, type
+            return json.loads(handle.read(int.from_bytes(head[12:16], "little")))
     except (OSError, ValueError):
         return None
 
 
-def _dependencies(model: Path) -> list[str]:
-    """Files besides the model whose bytes decide the building (MTL, images, external buffers)."""
+def _dependencies(model: Path, root: Path) -> list[str]:
+    """Files besides the model whose bytes decide the building (MTL, images, external buffers),
+    those inside the input folder ``root`` (the others are refused when it is loaded)."""
     if not model.is_file():
         return []
-    if model.suffix.lower() == ".obj":
-        mtls, images = _obj_materials(model)
-        return [str(p) for p in mtls + images]
-    header = _gltf_header(model) or {}
-    uris = [
-        item.get("uri")
-        for key in ("buffers", "images")
-        for item in header.get(key) or []
-        if isinstance(item, dict)
-    ]
-    return [
-        str(model.parent / uri)
-        for uri in uris
-        if isinstance(uri, str) and not uri.startswith("data:")
-    ]
+    named = _named_files(model, root)
+    return [str(p) for p in named.mtls + named.buffers + named.images]
 
 
 # --------------------------------------------------------------------------- original image bytes
 
 
-def _encoded_images(model: Path) -> list[tuple[bytes, str]]:
-    """(encoded bytes, name) of every image the model file refers to."""
+def _encoded_images(model: Path, named: _Named) -> list[tuple[bytes, str]]:
+    """(encoded bytes, name) of every image the model file refers to, external ones only from
+    ``named`` (inside the input folder)."""
     found = []
     if model.suffix.lower() == ".obj":
-        for image in _obj_materials(model)[1]:
+        for image in named.images:
             try:
                 found.append((image.read_bytes(), image.name))
             except OSError:
@@ -249,11 +322,11 @@ def _encoded_images(model: Path) -> list[tuple[bytes, str]]:
         if image.bufferView is not None:
             view = gltf.bufferViews[image.bufferView]
             buffer = gltf.buffers[view.buffer]
-            source = blob if buffer.uri is None else _uri_bytes(model, buffer.uri)
+            source = blob if buffer.uri is None else _uri_bytes(model, buffer.uri, named)
             if source is not None:
                 data = source[(view.byteOffset or 0) : (view.byteOffset or 0) + view.byteLength]
         elif image.uri:
-            data = _uri_bytes(model, image.uri)
+            data = _uri_bytes(model, image.uri, named)
         if data:
             found.append(
                 (
@@ -269,14 +342,18 @@ def _encoded_images(model: Path) -> list[tuple[bytes, str]]:
     return found
 
 
-def _uri_bytes(model: Path, uri: str) -> bytes | None:
+def _uri_bytes(model: Path, uri: str, named: _Named) -> bytes | None:
+    """The bytes a glTF ``uri`` names: a data URI, or a file among ``named`` (inside the input)."""
     import base64
     from urllib.parse import unquote
 
     try:
         if uri.startswith("data:"):
             return base64.b64decode(uri.split(",", 1)[1])
-        return (model.parent / unquote(uri)).read_bytes()
+        path = model.parent / unquote(uri)
+        if path not in named.buffers + named.images:
+            return None  # outside the input folder or missing: in named's problems
+        return path.read_bytes()
     except (OSError, ValueError, IndexError):
         return None
 
@@ -286,10 +363,11 @@ def _pixel_digest(image: Image.Image) -> tuple:
 
 
 def _texture_for(
-    image: Image.Image, candidates: list[tuple[bytes, str]], digests: dict
-) -> tuple[Texture, str | None]:
+    image: Image.Image, candidates: list[tuple[bytes, str]], digests: dict, exact: bool = False
+) -> tuple[Texture | None, str | None]:
     """The Texture of a decoded image: the candidate whose decoded pixels are equal (original
-    bytes), else the image re-encoded as PNG with a problem note."""
+    bytes), else the image re-encoded as PNG with a problem note; None when ``exact`` (a named
+    image was refused: an image not among the candidates may be that file's pixels)."""
     wanted = _pixel_digest(image)
     for number, (data, name) in enumerate(candidates):
         if number not in digests:
@@ -302,6 +380,8 @@ def _texture_for(
         if digest == wanted:
             mime = Image.MIME.get(kind, f"image/{(kind or 'unknown').lower()}")
             return Texture(data, mime, image.width, image.height, name=name), None
+    if exact:
+        return None, None
     buffer = io.BytesIO()
     image.save(buffer, format="PNG")
     note = "texture re-encoded as PNG (its original bytes were not found)"
@@ -429,6 +509,22 @@ def load(entry: Entry, options: ReaderOptions) -> Building:
     file, lon, lat, elev, up_axis = entry.key
     if not model.is_file():
         raise ReadError(str(model), f"listed in the index as {file!r} but missing")
+    root = model_root(model, file)
+    try:
+        confined(model.relative_to(root), root)  # e.g. replaced by a symlink since the scan
+    except OutsideInput as refused:
+        raise ReadError(str(model), f"refused: {refused}") from None
+    too_large = _too_large(model)
+    if too_large:
+        raise ReadError(str(model), too_large)
+    named = _named_files(model, root)
+    for buffer in named.buffers:
+        too_large = _too_large(buffer)
+        if too_large:
+            raise ReadError(str(buffer), too_large)
+    if any(p.startswith("buffer") for p in named.refused + named.missing):
+        # The geometry itself would come from outside the input (or is not there): refused.
+        raise ReadError(str(model), "; ".join(named.refused + named.missing))
     origin = GeoPoint(float(lon), float(lat), float(elev))
     scene = _load_scene(model)
     meshes = _scene_meshes(scene)
@@ -441,32 +537,33 @@ def load(entry: Entry, options: ReaderOptions) -> Building:
     lonlath = [geodesy.local_to_lonlath(points, origin) for points in at_origin]
     reference, bounds = geodesy.base_centre(np.concatenate(lonlath))
 
-    candidates, problems = None, []
+    candidates: list[tuple[bytes, str]] | None = None
     digests: dict[int, tuple] = {}
-    if model.suffix.lower() == ".obj":
-        # trimesh drops a material whose image is missing; say so instead of going quietly grey.
-        problems += [
-            f"texture {image.name} missing: exported untextured"
-            for image in _obj_materials(model)[1]
-            if not image.is_file()
-        ]
+    # trimesh drops (or, for an OBJ without its MTL, invents a grey 2x2) image where a named file
+    # is missing or refused: say so, naming it, and export those parts untextured.
+    problems = [f"{problem}: exported untextured" for problem in named.refused + named.missing]
+    obj = model.suffix.lower() == ".obj"
     groups: dict[Any, dict] = {}
     for (vertices, faces, uv, visual), points in zip(meshes, lonlath):
         image, color = _material_of(visual)
         texture = None
+        if obj and not named.images:
+            # No image of its own (its MTL missing or refused, or none named): whatever trimesh
+            # made up is not the model's; glTF's default colour, opaque white.
+            image, color = None, (1.0, 1.0, 1.0, 1.0)
         key: tuple = ("color", color)
-
         if image is not None and uv is not None and len(uv) == len(vertices):
-            if model.suffix.lower() == ".obj":
+            if obj:
                 # MTL's Kd next to a map_Kd is commonly a leftover (trimesh writes 0.4 grey); like
                 # Blender's importer, the texture alone gives the colour.
                 color = (1.0, 1.0, 1.0, color[3])
             if candidates is None:
-                candidates = _encoded_images(model)
-            texture, note = _texture_for(image, candidates, digests)
+                candidates = _encoded_images(model, named)
+            texture, note = _texture_for(image, candidates, digests, exact=bool(named.refused))
             if note and note not in problems:
                 problems.append(note)
-            key = ("texture", hashlib.sha1(texture.data).hexdigest(), color)
+            if texture is not None:
+                key = ("texture", hashlib.sha1(texture.data).hexdigest(), color)
         group = groups.setdefault(
             key,
             {

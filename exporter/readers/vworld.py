@@ -56,6 +56,7 @@ from ..geodesy import EARTH_RADIUS_M, east_up_north, sphere_ecef
 from ..mesh.geometry import cross_rows, row_norms, unit_vectors, vertex_normals
 from ..model import Building, GeoPoint, Part, Skipped, Texture, TileId
 from . import Entry, Scan
+from .confine import OutsideInput, confined
 from .images import TextureFileError, read_texture_file
 
 MAX_PART_VERTICES = 65535  # u16 indices
@@ -159,7 +160,8 @@ def _dat_files(folder: Path) -> list[Path]:
 
 
 def _find(folder: Path, raw_name: bytes) -> Path | None:
-    """The file a raw VWorld string names: its exact bytes, its decoded text, then any case."""
+    """The file a raw VWorld string names: its exact bytes, its decoded text, then any case.
+    Raises OutsideInput when that file is a symlink leading out of ``folder``."""
     if not raw_name:
         return None
     names = [os.fsdecode(raw_name), decode_text(raw_name)]
@@ -167,11 +169,11 @@ def _find(folder: Path, raw_name: bytes) -> Path | None:
         if "/" in name or "\\" in name or name in (".", ".."):
             continue
         if os.path.isfile(os.path.join(folder, name)):
-            return folder / name
+            return confined(name, folder)
     wanted = {n.lower() for n in names}
     for candidate in folder.iterdir():
         if candidate.name.lower() in wanted and candidate.is_file():
-            return candidate
+            return confined(candidate.name, folder)
     return None
 
 
@@ -219,20 +221,25 @@ def scan(folder: str | Path, options: ReaderOptions | None = None) -> Scan:
                 f"{dat_path}: {len(dat.trailing)} bytes after the last object record ignored"
             )
         for index, record in enumerate(dat.objects):
-            xdo_path = _find(folder, record.data_file)
-            if xdo_path is None and record.key:
-                xdo_path = _find(folder, record.key + b".xdo")
-            if xdo_path is None:
-                if not record.data_file:
-                    result.skipped.append(
-                        Skipped(
-                            source=str(dat_path),
-                            reason=f"object {index} names no .xdo file (empty data_file)",
-                            id=decode_text(record.key) or None,
-                            tile=tile,
-                        )
+            refused = None
+            try:
+                xdo_path = _find(folder, record.data_file)
+                if xdo_path is None and record.key:
+                    xdo_path = _find(folder, record.key + b".xdo")
+            except OutsideInput as error:
+                xdo_path, refused = None, f"object {index}: .xdo refused: {error}"
+            if xdo_path is None and (refused or not record.data_file):
+                why = refused or f"object {index} names no .xdo file (empty data_file)"
+                result.skipped.append(
+                    Skipped(
+                        source=str(dat_path),
+                        reason=why,
+                        id=decode_text(record.key) or None,
+                        tile=tile,
                     )
-                    continue
+                )
+                continue
+            if xdo_path is None:
                 xdo_path = _expected(folder, record.data_file)
             building_id = _unique(decode_text(record.key).strip() or xdo_path.stem, used_ids)
             inputs = [str(dat_path)] + ([str(xdo_path)] if xdo_path.is_file() else [])
@@ -265,7 +272,12 @@ def _texture_files(folder: Path, xdo_path: Path, record: DatObject) -> list[Path
         xdo = parse_xdo(xdo_path.read_bytes(), str(xdo_path), None)
     except (OSError, ReadError):
         return []
-    found = {_find(folder, mesh.image_name) for mesh in xdo.meshes}
+    found = set()
+    for mesh in xdo.meshes:
+        try:
+            found.add(_find(folder, mesh.image_name))
+        except OutsideInput:
+            continue  # refused when the building is loaded (a problem)
     return sorted(p for p in found if p is not None)
 
 
@@ -290,6 +302,10 @@ def load(entry: Entry, options: ReaderOptions | None = None) -> Building:
             str(xdo_path),
             f"missing: object {index} ({decode_text(record.key)!r}) of {dat_name} names this .xdo model",
         )
+    try:
+        confined(xdo_path.name, folder)  # e.g. replaced by a symlink since the scan
+    except OutsideInput as refused:
+        raise ReadError(str(xdo_path), f"refused: {refused}") from None
     xdo = _parse_declared(_read(xdo_path), xdo_path, record, problems)
     reference = _reference(record, xdo, dat_path, xdo_path, problems)
     # The frame once per building: global_to_local / local_to_global's arithmetic, same bits.
@@ -339,7 +355,7 @@ def load(entry: Entry, options: ReaderOptions | None = None) -> Building:
                 normals=normals if has_normals else None,
                 uvs=mesh.uvs,
                 texture=texture,
-                color=_color(mesh.color),
+                color=part_color(mesh.color, textured=texture is not None),
                 name=Path(decode_text(mesh.image_name)).stem if mesh.image_name else f"mesh{j}",
             )
         )
@@ -349,7 +365,8 @@ def load(entry: Entry, options: ReaderOptions | None = None) -> Building:
     lon, lat = lonlat_of(everything @ rotation + origin)  # local_to_global
     bounds = (float(lon.min()), float(lat.min()), float(lon.max()), float(lat.max()))
     return Building(
-        id=entry.id,
+        # The .dat's own id (scan made repeated ones unique as entry.id; the record keeps this one).
+        id=decode_text(record.key).strip() or xdo_path.stem,
         source=str(xdo_path),
         reference=reference,
         parts=parts,
@@ -422,9 +439,22 @@ def _triangles(mesh: XdoMesh, j: int, xdo_path: Path, problems: list) -> np.ndar
     return mesh.indices.astype(np.int64).reshape(-1, 3)
 
 
-def _color(raw: bytes) -> tuple:
-    # All-zero bytes mean "no colour set" in practice; a transparent black factor would hide the part.
-    return (1.0, 1.0, 1.0, 1.0) if raw == b"\x00\x00\x00\x00" else color_rgba(raw)
+def part_color(raw: bytes, textured: bool) -> tuple:
+    """A part's colour factor (RGBA, 0..1) from a mesh's 4 colour bytes, whose byte order public
+    readers dispute (A,R,G,B or B,G,R,A; docs/input.md "VWorld colour"). A disputed field never
+    tints or turns translucent a photo, nor turns a part translucent that one reading makes
+    opaque:
+
+    - a textured part: opaque white (the photo alone gives the colour, as for OBJ);
+    - all four bytes zero: opaque white ("no colour set" in practice);
+    - else B,G,R,A (:func:`color_rgba`) when that reading is opaque (last byte 0xFF), else
+      A,R,G,B when that one is (first byte 0xFF), else B,G,R,A (translucent in both readings).
+    """
+    if textured or raw == b"\x00\x00\x00\x00":
+        return (1.0, 1.0, 1.0, 1.0)
+    if raw[3] != 0xFF and raw[0] == 0xFF:
+        return (raw[1] / 255.0, raw[2] / 255.0, raw[3] / 255.0, 1.0)  # read as A,R,G,B
+    return color_rgba(raw)
 
 
 def _check_base(
@@ -451,7 +481,11 @@ def _check_base(
 def _texture(folder: Path, raw_name: bytes, problems: list) -> Texture | None:
     """The texture a mesh names, or None with a ``problems`` entry naming the file."""
     name = decode_text(raw_name)
-    path = _find(folder, raw_name)
+    try:
+        path = _find(folder, raw_name)
+    except OutsideInput as refused:
+        problems.append(f"texture refused: {refused}: exported untextured")
+        return None
     if path is None:
         problems.append(f"texture {name} missing: exported untextured")
         return None
