@@ -80,7 +80,33 @@ namespace UnityEngine
         Log = 3,
     }
 
-    public class Renderer : Component { }
+    public class Renderer : Component
+    {
+        public Material[] sharedMaterials { get; set; }
+    }
+
+    // Textures and materials (Runtime/Export/Graphics, Runtime/Export/Shaders/Material*.cs).
+    public class Texture : Object { }
+
+    public sealed class Texture2D : Texture { }
+
+    public class Material : Object
+    {
+        public Material(Material source) { throw new NotSupportedException("stand-in"); }
+        public string[] GetTexturePropertyNames() { throw new NotSupportedException("stand-in"); }
+        public Texture GetTexture(string name) { throw new NotSupportedException("stand-in"); }
+        public void SetTexture(string name, Texture value) { throw new NotSupportedException("stand-in"); }
+    }
+
+    public enum FilterMode
+    {
+        Trilinear = 2,
+    }
+
+    public enum TextureWrapMode
+    {
+        Repeat = 0,
+    }
 
     public sealed class GameObject : Object
     {
