@@ -54,11 +54,17 @@ namespace VWorldLod.EditorTools
         /// <summary>Whether the prefabs in prefabFolder were built from exactly these files (and all exist).</summary>
         public static bool IsUpToDate(TilePlan plan, string prefabFolder, Func<string, bool> fileExists)
         {
+            return IsUpToDate(plan, prefabFolder, fileExists, Hash(plan));
+        }
+
+        /// <summary>IsUpToDate with the files' hash already computed (Hash(plan)).</summary>
+        public static bool IsUpToDate(TilePlan plan, string prefabFolder, Func<string, bool> fileExists, string hash)
+        {
             string stamp = StampPath(prefabFolder);
             if (!fileExists(stamp) || !fileExists(prefabFolder + "/" + plan.TileName + ".prefab")) return false;
             foreach (BuildingPlan building in plan.Buildings)
                 if (!fileExists(prefabFolder + "/" + building.Name + ".prefab")) return false;
-            return File.ReadAllText(stamp).Trim() == Hash(plan);
+            return File.ReadAllText(stamp).Trim() == hash;
         }
 
         /// <summary>Records hash as the state the prefabs in prefabFolder were built from.</summary>

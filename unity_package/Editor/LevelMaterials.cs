@@ -78,6 +78,7 @@ namespace VWorldLod.EditorTools
             bool created = target == null;
             if (created) target = new Material(source);
             else EditorUtility.CopySerialized(source, target);
+            target.name = System.IO.Path.GetFileNameWithoutExtension(path);
             foreach (KeyValuePair<string, Texture> swap in swaps) target.SetTexture(swap.Key, swap.Value);
             if (created) AssetDatabase.CreateAsset(target, path);
             else EditorUtility.SetDirty(target);

@@ -72,8 +72,16 @@ namespace VWorldLod.EditorTools
             foreach (ManifestException failure in plan.Failures)
                 Debug.LogError(failure.Message);
             string prefabFolder = plan.Folder + "/Prefabs";
-            string hash = BuildStamp.Hash(plan);
-            if (BuildProgress.SkipsWhenUpToDate(trigger) && plan.Failures.Length == 0 && BuildStamp.IsUpToDate(plan, prefabFolder, File.Exists))
+            string hash = null;
+            try
+            {
+                hash = BuildStamp.Hash(plan);
+            }
+            catch (IOException e)
+            {
+                Debug.LogWarning(manifestAssetPath + ": cannot hash its files for the up-to-date check (" + e.Message + "); rebuilding");
+            }
+            if (hash != null && BuildProgress.SkipsWhenUpToDate(trigger) && plan.Failures.Length == 0 && BuildStamp.IsUpToDate(plan, prefabFolder, File.Exists, hash))
             {
                 report.UpToDate = true;
                 return report;
@@ -121,7 +129,7 @@ namespace VWorldLod.EditorTools
 
             if (!report.Cancelled)
                 report.TilePrefabPath = SaveTilePrefab(plan, saved, prefabFolder);
-            if (!report.Cancelled && report.Failed == 0 && report.TilePrefabPath != null)
+            if (hash != null && !report.Cancelled && report.Failed == 0 && report.TilePrefabPath != null)
                 BuildStamp.Record(prefabFolder, hash);
             Debug.Log(report.ToString());
             return report;
