@@ -788,8 +788,10 @@ def test_csharp_streams_the_tileset_proxies_of_a_real_export(build, tmp_path):
 
 
 def glb_image_cases(glbs: list[Path], path: Path) -> Path:
-    """What the Python side reads from each ``.glb``'s embedded images (pygltflib + Pillow): index,
-    glTFast's texture name (image name, or ``image_<i>``), MIME type, SHA-256, size, alpha."""
+    """What the Python side reads from each ``.glb``'s embedded JPEG/PNG images (pygltflib +
+    Pillow), leaving out KTX2 images and the fallbacks of ``KHR_texture_basisu`` textures (glTFast
+    loads the KTX2 image there): index, glTFast's texture name (image name, or ``image_<i>``),
+    MIME type, SHA-256, size, alpha."""
     import hashlib
     import io
 
@@ -800,8 +802,11 @@ def glb_image_cases(glbs: list[Path], path: Path) -> Path:
     for glb in glbs:
         gltf = pygltflib.GLTF2().load_binary(str(glb))
         blob = gltf.binary_blob()
+        fallbacks = {t.source for t in gltf.textures if "KHR_texture_basisu" in t.extensions}
         images = []
         for i, image in enumerate(gltf.images):
+            if image.mimeType == "image/ktx2" or i in fallbacks:
+                continue
             view = gltf.bufferViews[image.bufferView]
             data = blob[view.byteOffset : view.byteOffset + view.byteLength]
             with Image.open(io.BytesIO(data)) as decoded:
@@ -824,8 +829,9 @@ def glb_image_cases(glbs: list[Path], path: Path) -> Path:
 
 
 def textured_glbs(folder: Path) -> list[Path]:
-    """Two GLBs written by the exporter's writer: one quad with an RGBA PNG (alpha) and an
-    unnamed-image variant, and one with two JPEG textures (two images in one level)."""
+    """GLBs written by the exporter's writer: a quad with an unnamed RGBA PNG (alpha), one with two
+    JPEG textures (two images in one level), and that one with KTX2 images beside the JPEGs
+    (``KHR_texture_basisu``; stand-in KTX2 bytes, the Editor import does not decode them)."""
     import io
 
     from PIL import Image
@@ -847,13 +853,22 @@ def textured_glbs(folder: Path) -> list[Path]:
         Texture(encoded("RGB", (16, 16), "JPEG"), "image/jpeg", 16, 16, name="roof.jpg"),
     ]
     paths = []
-    for name, textures in (("alpha", [png]), ("two", jpegs)):
+    for name, textures, ktx2 in (
+        ("alpha", [png], None),
+        ("two", jpegs, None),
+        ("ktx2", jpegs, fake_ktx2),
+    ):
         parts = [Part(positions=quad, triangles=faces, uvs=uvs, texture=t) for t in textures]
         path = folder / name / "lod0.glb"
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_bytes(glb_bytes(parts, name))
+        path.write_bytes(glb_bytes(parts, name, ktx2))
         paths.append(path)
     return paths
+
+
+def fake_ktx2(texture) -> bytes:
+    """Stand-in KTX2 bytes (the KTX 2.0 file identifier and the texture's name)."""
+    return b"\xabKTX 20\xbb\r\n\x1a\n" + texture.name.encode()
 
 
 @needs_mono
@@ -876,6 +891,7 @@ def test_csharp_reads_the_images_of_exported_glbs_and_writes_them_out_byte_for_b
     cases = json.loads(spec.read_text())["cases"]
     assert any(i["alpha"] for c in cases for i in c["images"])
     assert any(i["name"] == "image_0" for c in cases for i in c["images"])
+    assert [c["images"] for c in cases if "/ktx2/" in c["glb"]] == [[]]
     check_run(run_csharp(build, "--glb-images", spec, "--extract", manifest), len(glbs) + 2)
 
 

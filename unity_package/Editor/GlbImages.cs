@@ -5,8 +5,10 @@
 // GLB layout (glTF 2.0 spec, "Binary glTF Layout"): a 12-byte header (magic "glTF", version 2,
 // total length), then chunks of (uint32 length, uint32 type, data): first JSON ("JSON"), then an
 // optional binary buffer ("BIN\0"). An image with a bufferView has its encoded bytes at
-// BIN[byteOffset .. byteOffset + byteLength] of that view (buffer 0 = the BIN chunk). Images by
-// URI are left out (glTFast already loads those as the project's own texture assets).
+// BIN[byteOffset .. byteOffset + byteLength] of that view (buffer 0 = the BIN chunk). Left out:
+// images by URI (glTFast already loads those as the project's own texture assets), KTX2 images and
+// the JPEG/PNG fallbacks of KHR_texture_basisu textures (an export with textures.ktx2: glTFast
+// loads the KTX2 image with com.unity.cloud.ktx, which transcodes it to a compressed GPU format).
 //
 // Names: glTFast names the Texture2D it makes for image i `image.name`, or "image_<i>" when the
 // name is empty (GltfImport.GetImageName, glTFast 6.3 to 6.15); GlbImage.TextureName follows it so
@@ -81,11 +83,12 @@ namespace VWorldLod.EditorTools
             if (root == null) throw new InvalidDataException("JSON chunk is not an object");
             var images = List(root, "images");
             var views = List(root, "bufferViews");
+            var fallbacks = BasisuFallbacks(root);
             var result = new List<GlbImage>();
             for (int i = 0; i < images.Count; i++)
             {
                 var image = images[i] as Dictionary<string, object>;
-                if (image == null || !image.ContainsKey("bufferView")) continue; // by URI: not embedded
+                if (image == null || !image.ContainsKey("bufferView") || fallbacks.Contains(i)) continue;
                 int view = Int(image["bufferView"], "images[" + i + "].bufferView");
                 if (view < 0 || view >= views.Count) throw new InvalidDataException("images[" + i + "].bufferView " + view + " does not exist");
                 var v = (Dictionary<string, object>)views[view];
@@ -97,13 +100,31 @@ namespace VWorldLod.EditorTools
                 object name, mime;
                 image.TryGetValue("name", out name);
                 image.TryGetValue("mimeType", out mime);
+                string type = mime as string ?? ImageHeader.Sniff(data);
+                if (type != "image/jpeg" && type != "image/png") continue; // KTX2 (or unknown): not for TextureImporter
                 result.Add(new GlbImage
                 {
                     Index = i,
                     TextureName = string.IsNullOrEmpty(name as string) ? "image_" + i : (string)name,
-                    MimeType = mime as string ?? ImageHeader.Sniff(data),
+                    MimeType = type,
                     Data = data,
                 });
+            }
+            return result;
+        }
+
+        // The "source" images of textures that have a KHR_texture_basisu image.
+        static HashSet<int> BasisuFallbacks(Dictionary<string, object> root)
+        {
+            var result = new HashSet<int>();
+            foreach (object item in List(root, "textures"))
+            {
+                var texture = item as Dictionary<string, object>;
+                object extensions, source;
+                if (texture != null && texture.TryGetValue("extensions", out extensions)
+                    && extensions is Dictionary<string, object> && ((Dictionary<string, object>)extensions).ContainsKey("KHR_texture_basisu")
+                    && texture.TryGetValue("source", out source) && source is double)
+                    result.Add((int)(double)source);
             }
             return result;
         }
