@@ -55,7 +55,12 @@ def build(tmp_path_factory) -> dict[str, Path]:
     """Compile stand-ins, the package (as its asmdefs group it), the plain logic alone and the tests."""
     if not (MCS and MONO):
         pytest.skip("mono's C# compiler (mcs) and runtime (mono) are not installed")
-    d = tmp_path_factory.mktemp("unity_build")
+    return compile_package(tmp_path_factory.mktemp("unity_build"))
+
+
+def compile_package(d: Path) -> dict[str, Path]:
+    """The assemblies of :func:`build`, compiled into folder ``d`` (also used by
+    benchmarks/bench_unity_textures.py)."""
     stubs = UNITY_TESTS / "stubs"
     engine = mcs(d / "UnityEngine.dll", [str(stubs / "UnityEngine.cs")], strict=False)
     editor = mcs(d / "UnityEditor.dll", [str(stubs / "UnityEditor.cs")], [engine], strict=False)
@@ -150,6 +155,22 @@ def test_meta_guid_is_md5_of_package_relative_path():
     assert "MonoImporter:" in text
     assert "folderAsset: yes" in (PACKAGE / "Runtime.meta").read_text()
     assert "PackageManifestImporter:" in (PACKAGE / "package.json.meta").read_text()
+
+
+def test_automatic_builds_show_no_modal_progress_bar():
+    """A manifest imported (a copy, a Library rebuild, a fresh clone) builds with
+    BuildTrigger.Automatic (skipped when up to date, background progress); the modal bar is
+    shown only through BuildProgress.ModalProgress, which only the menu's trigger gets (the C#
+    test "build progress" checks that choice)."""
+    menu = (PACKAGE / "Editor" / "VWorldLodMenu.cs").read_text()
+    postprocessor = menu[menu.index("class ManifestPostprocessor") :]
+    assert "LodGroupPrefabBuilder.Build(path, BuildTrigger.Automatic)" in postprocessor
+    modal = [
+        Path(p).name
+        for p in scripts(PACKAGE)
+        if "DisplayCancelableProgressBar" in Path(p).read_text()
+    ]
+    assert modal == ["BuildProgress.cs"]
 
 
 def test_plain_logic_names_no_unity_type():
@@ -896,6 +917,8 @@ def test_csharp_reads_the_images_of_exported_glbs_and_writes_them_out_byte_for_b
 
 
 def texture_bytes(build, manifest: Path) -> dict[str, int]:
+    """GPU texture bytes of a tile (the package's import rules per platform, and today's embedded
+    RGBA32 as ``embedded_RGBA32``), measured by the C# side over every level's ``.glb``."""
     out = check_run(run_csharp(build, "--texture-bytes", manifest), 1)
     return {
         m[1]: int(m[2]) for m in re.finditer(r"^MEASURE gpu_texture_bytes\.(\S+) (\d+)$", out, re.M)
