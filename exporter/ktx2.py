@@ -23,6 +23,10 @@ specification; Basis Universal (ETC1S, quality levels, mipmaps).
 
 from __future__ import annotations
 
+import io
+
+from PIL import Image
+
 from .config import KTX2_INSTALL
 from .errors import ProcessError
 from .model import Texture
@@ -32,7 +36,9 @@ ETC1S_QUALITY = 128  # basisu's -q (1..255): its default; ~36 dB against the JPE
 
 def ktx2_bytes(texture: Texture) -> bytes | None:
     """The KTX2 (ETC1S, sRGB, mipmaps) of ``texture``, or None when a side is not a multiple of 4."""
-    if texture.width % 4 or texture.height % 4:
+    with Image.open(io.BytesIO(texture.data)) as image:  # the header's size, not the declared one
+        width, height = image.size
+    if width % 4 or height % 4:
         return None
     try:
         import alktx2
