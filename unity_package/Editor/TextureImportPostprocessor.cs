@@ -1,7 +1,9 @@
 // Gives the building textures the Editor import writes out (TextureFiles) the package's import
 // settings (TextureImportRules): per-platform compression, sRGB, mipmaps, mipmap streaming, a max
 // size that keeps the exported size. Applied when Unity has no settings for the file yet (its
-// first import, or after its .meta was deleted), so changes made in the Inspector afterwards stay.
+// first import, or after its .meta was deleted) or when the image is no longer the one they were
+// made for (another size or alpha after a new export: the max size must follow), which the
+// importer's userData records; otherwise changes made in the Inspector stay.
 using System.IO;
 using UnityEditor;
 using UnityEngine;
@@ -13,7 +15,7 @@ namespace VWorldLod.EditorTools
         void OnPreprocessTexture()
         {
             var importer = assetImporter as TextureImporter;
-            if (importer == null || !importer.importSettingsMissing || !TextureFiles.IsBuildingTexture(assetPath, File.Exists)) return;
+            if (importer == null || !TextureFiles.IsBuildingTexture(assetPath, File.Exists)) return;
             ImageInfo image;
             try
             {
@@ -24,7 +26,10 @@ namespace VWorldLod.EditorTools
                 Debug.LogWarning("VWorld LoD: " + assetPath + ": " + e.Message + "; Unity's default texture settings used");
                 return;
             }
+            string made = TextureImportRules.MadeFor(image);
+            if (!importer.importSettingsMissing && importer.userData == made) return; // kept: maybe edited in the Inspector
             Apply(importer, TextureImportRules.PlanFor(image));
+            importer.userData = made;
         }
 
         /// <summary>Sets every setting of plan on importer (default and per-platform).</summary>

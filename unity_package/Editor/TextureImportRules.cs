@@ -86,6 +86,12 @@ namespace VWorldLod.EditorTools
             };
         }
 
+        /// <summary>What the settings of PlanFor(image) depend on, as recorded in the importer's userData.</summary>
+        public static string MadeFor(ImageInfo image)
+        {
+            return "vworldlod-texture " + image.Width + "x" + image.Height + (image.HasAlpha ? " alpha" : "");
+        }
+
         /// <summary>The smallest of Unity's max sizes (32 .. 16384, powers of two) not below side (pixels).</summary>
         public static int MaxSizeFor(int side)
         {

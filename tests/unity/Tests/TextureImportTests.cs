@@ -164,20 +164,27 @@ namespace VWorldLod.Tests
                 Assert.Equal(12, (int)byName["WebGL"].format, "WebGL: DXT5 (12)");
                 Assert.True(byName["Android"].overridden && byName["Android"].maxTextureSize == 256, "overridden, max size");
                 Assert.Equal(10, (int)TextureImportPostprocessor.UnityFormat(GpuFormat.DXT1), "DXT1 is 10");
+                Assert.Equal("vworldlod-texture 256x128 alpha", importer.userData, "what the settings were made for");
             });
 
-            t.Check("postprocessor: leaves other textures and settings already made (Inspector edits) alone", () =>
+            t.Check("postprocessor: keeps settings made for this image (Inspector edits), redoes them for a new size, leaves other textures alone", () =>
             {
                 string tile = TempFolder();
                 File.WriteAllText(tile + "/lod_manifest.json", "{}");
                 Directory.CreateDirectory(tile + "/Textures/B1");
                 File.WriteAllBytes(tile + "/Textures/B1/lod0_0.jpg", JpegHeader(64, 64, 0xC0));
                 File.WriteAllBytes(tile + "/B1.jpg", JpegHeader(64, 64, 0xC0));
-                var existing = new TextureImporter { missing = false };
+                var existing = new TextureImporter { missing = false, userData = "vworldlod-texture 64x64", maxTextureSize = 2048 };
                 var post = new TextureImportPostprocessor { assetPath = tile + "/Textures/B1/lod0_0.jpg" };
                 post.importer = existing;
                 Preprocess(post);
-                Assert.Equal(0, existing.platforms.Count, "settings kept once they exist");
+                Assert.Equal(0, existing.platforms.Count, "settings made for this image are kept");
+                Assert.Equal(2048, existing.maxTextureSize, "an Inspector edit stays");
+                File.WriteAllBytes(tile + "/Textures/B1/lod0_0.jpg", JpegHeader(1024, 512, 0xC0));
+                Preprocess(post);
+                Assert.Equal(4, existing.platforms.Count, "a new export's bigger image gets the rules again");
+                Assert.Equal(1024, existing.maxTextureSize, "max size follows the new image");
+                Assert.Equal("vworldlod-texture 1024x512", existing.userData, "recorded");
                 var other = new TextureImporter();
                 post = new TextureImportPostprocessor { assetPath = tile + "/B1.jpg" };
                 post.importer = other;

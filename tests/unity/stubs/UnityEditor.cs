@@ -94,6 +94,7 @@ namespace UnityEditor
     {
         internal bool missing = true;
         public bool importSettingsMissing { get { return missing; } }
+        public string userData { get; set; }
     }
 
     // Real: TextureImporter : AssetImporter, every property native (extern get; set;). The stand-in
