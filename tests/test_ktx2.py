@@ -174,3 +174,17 @@ def test_export_with_ktx2_keeps_lod0_source_bytes(gltf_validator, tmp_path):
                 assert image_bytes(blob, document, texture["source"]) in sources, path
     reports = gltf_validator(glbs)
     assert all(r["errors"] == 0 for r in reports), [r["messages"] for r in reports if r["errors"]]
+
+
+def test_encoder_gone_mid_run_fails_the_building_naming_the_install_command(monkeypatch):
+    """A worker (e.g. on Dask) without the encoder: ProcessError, which the job reports as that
+    building's failure; an image whose sides are not multiples of 4 never needs the encoder."""
+    import sys
+
+    from exporter.errors import ProcessError
+    from exporter.ktx2 import ktx2_bytes
+
+    monkeypatch.setitem(sys.modules, "alktx2", None)  # import alktx2 raises ImportError
+    assert ktx2_bytes(wall((30, 18)).texture) is None
+    with pytest.raises(ProcessError, match=r"pip install 'vworld-lod\[ktx2\]'"):
+        ktx2_bytes(wall().texture)
