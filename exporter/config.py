@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
+import importlib.util
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -302,6 +303,15 @@ class UnityOptions:
     )
 
 
+KTX2_INSTALL = "pip install 'vworld-lod[ktx2]'"
+KTX2_MODULE = "alktx2"  # the encoder exporter/ktx2.py calls
+
+
+def ktx2_encoder_installed() -> bool:
+    """Whether the optional KTX2 encoder (:data:`KTX2_MODULE`) can be imported (not imported here)."""
+    return importlib.util.find_spec(KTX2_MODULE) is not None
+
+
 @dataclass
 class TextureOptions:
     """Texture LoDs: each level's atlas scaled per side by lods[].texture."""
@@ -331,6 +341,13 @@ class TextureOptions:
         metadata=meta(
             _integer(1, 1 << 40),
             "refuse a source atlas with more pixels than this, from its header before decoding (bounded memory; Pillow's own smaller limit is not applied)",
+        ),
+    )
+    ktx2: bool = field(
+        default=False,
+        metadata=meta(
+            parse_bool,
+            f"also embed each atlas as KTX2 (Basis Universal ETC1S, KHR_texture_basisu; the JPEG/PNG stays as the fallback); needs the optional encoder: {KTX2_INSTALL}",
         ),
     )
 
@@ -435,8 +452,12 @@ class Config:
         ]
 
     def to_dict(self) -> dict:
-        """The effective configuration as plain data (written into the manifest)."""
+        """The effective configuration as plain data (written into the manifest). Opt-in keys
+        that are off are left out (``textures.ktx2``), so exports without them are byte for byte
+        what earlier versions wrote, and keep their reuse hashes."""
         data = dataclasses.asdict(self)
+        if not data["textures"]["ktx2"]:
+            del data["textures"]["ktx2"]
         for i, level in enumerate(data["lods"]):
             level["terrain_level"] = self.terrain_levels()[i]
         return data
@@ -546,7 +567,18 @@ def config_from_dict(raw: Any, path: str = "<config>") -> Config:
             )
         else:
             raise ConfigError(path, str(key), unknown_key(key, ["lods", *SECTIONS]))
+    check_optional_features(config, path)
     return config
+
+
+def check_optional_features(config: Config, path: str = "<config>") -> None:
+    """Refuse, before any work, an opt-in feature whose optional dependency is not installed."""
+    if config.textures.ktx2 and not ktx2_encoder_installed():
+        raise ConfigError(
+            path,
+            "textures.ktx2",
+            f"true needs the KTX2 encoder ({KTX2_MODULE}: wheels for CPython 3.11-3.13 on Linux x86-64 and Windows x64), which is not installed: {KTX2_INSTALL}",
+        )
 
 
 def unknown_key(key: Any, allowed: list[str]) -> str:

@@ -12,6 +12,14 @@ One mesh, one primitive per part (one material each), one node, ``"scene": 0`` (
 importer only creates a main object when the file names a default scene). Textures are embedded
 as they are given (JPEG/PNG bytes, no re-encoding).
 
+KTX2 (opt-in, ``textures.ktx2``; ``encode_glb(..., ktx2=...)``): each texture also gets a KTX2
+image (Basis Universal, made by the given encoder, ``exporter/ktx2.py``) through the
+``KHR_texture_basisu`` extension, with the JPEG/PNG kept as the texture's ``source``: the fallback
+for clients without the extension, so it is listed in ``extensionsUsed`` only, not
+``extensionsRequired`` (KHR_texture_basisu README, "Using Without a Fallback" is the other
+choice). An image the encoder declines (``None``: sides not multiples of 4, which the extension
+requires) keeps its JPEG/PNG alone.
+
 Alpha (:func:`alpha_mode`, from the atlas's alpha histogram): a part whose colour has alpha below 1
 is ``BLEND``. A textured part is ``OPAQUE`` when no atlas pixel is see-through (alpha at least
 248 of 255, or no alpha channel), else ``MASK`` with ``alphaCutoff`` 0.5 unless partial alpha
@@ -38,6 +46,7 @@ import functools
 import io
 import json
 import struct
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -46,9 +55,12 @@ from PIL import Image
 
 from .mesh import _gltf_arrays
 from .mesh.geometry import vertex_normals
-from .model import Part
+from .model import Part, Texture
 
 GLTF_MIMES = ("image/jpeg", "image/png")
+BASISU = "KHR_texture_basisu"
+# A texture's KTX2 bytes (Basis Universal), or None to keep its JPEG/PNG alone.
+Ktx2Encoder = Callable[[Texture], "bytes | None"]
 
 ALPHA_CUTOFF = 0.5  # glTF's default, written explicitly with MASK
 CLEAR, SOLID = 7, 248  # alpha <= CLEAR counts as clear, >= SOLID as opaque (0..255)
@@ -210,6 +222,7 @@ class _Document:
         self.samplers: list[dict] = []
         self.position_lows: list[list[float]] = []  # the POSITION accessors' min and max
         self.position_highs: list[list[float]] = []
+        self.extensions_used: list[str] = []
 
     def view(self, data: bytes, target: int | None = None) -> int:
         item = {"buffer": 0, "byteOffset": self.blob.append(data), "byteLength": len(data)}
@@ -243,8 +256,9 @@ class _Document:
         self.accessors.append(item)
         return len(self.accessors) - 1
 
-    def texture(self, data: bytes, mime: str, name: str) -> int:
-        """A texture of the embedded image ``data`` with the document's one sampler."""
+    def texture(self, data: bytes, mime: str, name: str, ktx2: bytes | None = None) -> int:
+        """A texture of the embedded image ``data`` with the document's one sampler; with ``ktx2``
+        bytes also a KTX2 image through ``KHR_texture_basisu`` (``data`` the fallback)."""
         if not self.samplers:
             self.samplers.append(
                 {
@@ -255,7 +269,18 @@ class _Document:
                 }
             )
         self.images.append(_named({"mimeType": mime, "bufferView": self.view(data)}, name))
-        self.textures.append({"sampler": 0, "source": len(self.images) - 1})
+        texture: dict = {"sampler": 0, "source": len(self.images) - 1}
+        if ktx2 is not None:
+            self.images.append(
+                _named(
+                    {"mimeType": "image/ktx2", "bufferView": self.view(ktx2)},
+                    name and f"{name}.ktx2",
+                )
+            )
+            texture["extensions"] = {BASISU: {"source": len(self.images) - 1}}
+            if BASISU not in self.extensions_used:
+                self.extensions_used.append(BASISU)
+        self.textures.append(texture)
         return len(self.textures) - 1
 
     def json(self, primitives: list[dict], name: str) -> dict:
@@ -266,6 +291,7 @@ class _Document:
             "asset": {"generator": "vworld-lod", "version": "2.0"},
             "bufferViews": self.views,
             "buffers": [{"byteLength": len(self.blob)}],
+            "extensionsUsed": self.extensions_used,
             "images": self.images,
             "materials": self.materials,
             "meshes": [_named({"primitives": primitives}, name)],
@@ -297,18 +323,20 @@ def _glb(document: dict, blob: _Blob) -> bytes:
     )
 
 
-def glb_bytes(parts: list[Part], name: str) -> bytes:
+def glb_bytes(parts: list[Part], name: str, ktx2: Ktx2Encoder | None = None) -> bytes:
     """Encode ``parts`` (local East/Up/North, outward winding) as a self-contained GLB
     (:func:`encode_glb`'s bytes)."""
-    return encode_glb(parts, name).data
+    return encode_glb(parts, name, ktx2).data
 
 
-def encode_glb(parts: list[Part], name: str) -> Glb:
+def encode_glb(parts: list[Part], name: str, ktx2: Ktx2Encoder | None = None) -> Glb:
     """Encode ``parts`` (local East/Up/North, outward winding) as a self-contained GLB, with the
     position bounds it stores.
 
     Parts without triangles are left out; a level must keep at least one triangle overall (the
     pipeline guarantees it). Textures must already be JPEG or PNG (the texture stage converts).
+    With ``ktx2``, each texture also carries the KTX2 image it makes (``KHR_texture_basisu``,
+    the JPEG/PNG as fallback; see the module docstring).
     """
     document = _Document()
     primitives = []
@@ -349,7 +377,10 @@ def encode_glb(parts: list[Part], name: str) -> Glb:
             key = id(part.texture)
             if key not in texture_of_image:
                 texture_of_image[key] = document.texture(
-                    part.texture.data, part.texture.mime, part.texture.name
+                    part.texture.data,
+                    part.texture.mime,
+                    part.texture.name,
+                    ktx2(part.texture) if ktx2 is not None else None,
                 )
             pbr["baseColorTexture"] = {"index": texture_of_image[key], "texCoord": 0}
             if alpha == pygltflib.OPAQUE and part.texture.has_alpha_channel:

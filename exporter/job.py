@@ -24,6 +24,7 @@ from .atomic import write_bytes_atomic, write_bytes_if_changed
 from .config import Config
 from .errors import ProcessError, ReadError, error_text
 from .gltf_writer import Glb, encode_glb
+from .ktx2 import ktx2_bytes
 from .model import Building, Part, Skipped, Texture, TileId
 from .names import name_error, printable, safe_folder_name
 from .placement import building_placement, relative_placement
@@ -232,7 +233,9 @@ def process_entry(
         existed = os.path.isdir(building_dir)
         lods, files = [], []
         for level, parts in enumerate(parts_by_level):
-            glb = encode_glb(parts, f"{entry.id}_LOD{level}")
+            glb = encode_glb(
+                parts, f"{entry.id}_LOD{level}", ktx2_bytes if config.textures.ktx2 else None
+            )
             name = f"lod{level}.glb"
             path = os.path.join(building_dir, name)
             # A level an earlier export wrote byte for byte is left as it is (mtime kept).

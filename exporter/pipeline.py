@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .atomic import remove_stale_temporaries, write_text_atomic
-from .config import Config
+from .config import Config, check_optional_features
 from .distributed import ClusterOptions, batch_size_for, cluster_results, cluster_session
 from .errors import InputError
 from .job import RECORD_NAME, STAGES, EntryResult, process_entry
@@ -359,6 +359,7 @@ def export_tiles(
     ``exporter.distributed.ClusterError`` for a cluster that cannot run the work."""
     started = time.perf_counter()
     out_dir = Path(out)
+    check_optional_features(config)  # a Config made in code skipped load_config's check
     scans = [scan_folder(folder, config.readers) for folder in folders]  # all folders checked first
     check_crs_option(scans, config.readers)
     out_dir.mkdir(parents=True, exist_ok=True)

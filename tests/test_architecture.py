@@ -46,6 +46,7 @@ LAYERS: list[tuple[str, int, tuple[str, ...]]] = [
             "exporter.simplify",
             "exporter.quality",
             "exporter.textures",
+            "exporter.ktx2",
             "exporter.placement",
             "exporter.gltf_writer",
             "exporter.manifest",

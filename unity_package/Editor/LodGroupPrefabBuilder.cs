@@ -1,8 +1,11 @@
 // Editor import of one tile manifest under Assets/: one prefab per building (a LODGroup over the
 // imported glTF levels) and one tile prefab holding every building at its placement.
 //
-// Flat pipeline: plan (LodPlanner) -> make sure every glTF is imported -> building prefabs (in
-// one StartAssetEditing batch) -> tile prefab (after the batch, so the building prefabs load).
+// Flat pipeline: plan (LodPlanner) -> up-to-date check (BuildStamp; automatic builds only) ->
+// make sure every glTF is imported -> each level's embedded images written out as texture files
+// that Unity compresses per platform (TextureFiles, TextureImportPostprocessor) and materials
+// using them (LevelMaterials) -> building prefabs (in one StartAssetEditing batch) -> tile prefab
+// (after the batch, so the building prefabs load) -> the build's hash recorded.
 // Prefabs go to <manifest folder>/Prefabs/<building>.prefab and <tile>.prefab: re-running
 // overwrites them in place (same paths, same GUIDs), so scene instances update and nothing is
 // duplicated.
@@ -21,10 +24,12 @@ namespace VWorldLod.EditorTools
         public int Built;
         public int Failed;
         public bool Cancelled;
+        public bool UpToDate;
         public string TilePrefabPath;
 
         public override string ToString()
         {
+            if (UpToDate) return "VWorld LoD: " + ManifestPath + ": prefabs up to date";
             return "VWorld LoD: " + ManifestPath + ": " + Built + " building prefab(s) built, " + Failed + " failed"
                    + (Cancelled ? ", cancelled" : "")
                    + (string.IsNullOrEmpty(TilePrefabPath) ? "" : "; tile prefab " + TilePrefabPath);
@@ -33,10 +38,17 @@ namespace VWorldLod.EditorTools
 
     public static class LodGroupPrefabBuilder
     {
-        const string ProgressTitle = "VWorld LoD";
-
-        /// <summary>Builds the prefabs of the manifest at manifestAssetPath ("Assets/.../lod_manifest.json").</summary>
+        /// <summary>Builds the prefabs of the manifest at manifestAssetPath ("Assets/.../lod_manifest.json"), as the menu does.</summary>
         public static BuildReport Build(string manifestAssetPath)
+        {
+            return Build(manifestAssetPath, BuildTrigger.Menu);
+        }
+
+        /// <summary>
+        /// Builds the prefabs of the manifest at manifestAssetPath; an automatic build is skipped
+        /// when they are up to date and shows no modal dialog (BuildProgress).
+        /// </summary>
+        public static BuildReport Build(string manifestAssetPath, BuildTrigger trigger)
         {
             var report = new BuildReport { ManifestPath = manifestAssetPath };
             if (VWorldLodMenu.InStreamingAssets(manifestAssetPath))
@@ -59,26 +71,46 @@ namespace VWorldLod.EditorTools
             }
             foreach (ManifestException failure in plan.Failures)
                 Debug.LogError(failure.Message);
+            string prefabFolder = plan.Folder + "/Prefabs";
+            string hash = null;
+            try
+            {
+                hash = BuildStamp.Hash(plan);
+            }
+            catch (IOException e)
+            {
+                Debug.LogWarning(manifestAssetPath + ": cannot hash its files for the up-to-date check (" + e.Message + "); rebuilding");
+            }
+            if (hash != null && BuildProgress.SkipsWhenUpToDate(trigger) && plan.Failures.Length == 0 && BuildStamp.IsUpToDate(plan, prefabFolder, File.Exists, hash))
+            {
+                report.UpToDate = true;
+                return report;
+            }
             LodGroupAssembly.WarnAboutFade(plan);
             report.Failed = plan.Failures.Length;
 
-            string prefabFolder = EnsureFolder(plan.Folder, "Prefabs");
+            EnsureFolder(plan.Folder, "Prefabs");
+            BuildStamp.Clear(prefabFolder);
             var levelAssets = LoadLevelAssets(plan, report);
+            var materials = CompressedMaterials(plan, levelAssets, prefabFolder);
             var saved = new List<BuildingPlan>();
+            IBuildProgress progress = BuildProgress.For(trigger, manifestAssetPath);
             try
             {
                 AssetDatabase.StartAssetEditing();
                 for (int i = 0; i < plan.Buildings.Length; i++)
                 {
                     BuildingPlan building = plan.Buildings[i];
-                    if (EditorUtility.DisplayCancelableProgressBar(ProgressTitle, building.Id, (float)i / plan.Buildings.Length))
+                    if (progress.Step(building.Id, (float)i / plan.Buildings.Length))
                     {
                         report.Cancelled = true;
                         break;
                     }
                     GameObject[] levels;
                     if (!levelAssets.TryGetValue(building.Id, out levels)) continue;
-                    if (SaveBuildingPrefab(building, plan, levels, prefabFolder + "/" + building.Name + ".prefab"))
+                    Dictionary<Material, Material>[] levelMaterials;
+                    materials.TryGetValue(building.Id, out levelMaterials);
+                    if (SaveBuildingPrefab(building, plan, levels, levelMaterials, prefabFolder + "/" + building.Name + ".prefab"))
                     {
                         saved.Add(building);
                         report.Built++;
@@ -92,13 +124,51 @@ namespace VWorldLod.EditorTools
             finally
             {
                 AssetDatabase.StopAssetEditing();
-                EditorUtility.ClearProgressBar();
+                progress.Done(!report.Cancelled && report.Failed == 0);
             }
 
             if (!report.Cancelled)
                 report.TilePrefabPath = SaveTilePrefab(plan, saved, prefabFolder);
+            if (hash != null && !report.Cancelled && report.Failed == 0 && report.TilePrefabPath != null)
+                BuildStamp.Record(prefabFolder, hash);
             Debug.Log(report.ToString());
             return report;
+        }
+
+        // Per building id, per level: glTFast's material -> one using the level's images as texture
+        // files that Unity compresses (written and imported first, so TextureImportPostprocessor
+        // gives them their settings). A building whose .glb images cannot be read keeps glTFast's
+        // textures (console warning).
+        static Dictionary<string, Dictionary<Material, Material>[]> CompressedMaterials(
+            TilePlan plan, Dictionary<string, GameObject[]> levelAssets, string prefabFolder)
+        {
+            var textures = new Dictionary<string, Dictionary<string, string>[]>();
+            var written = new List<string>();
+            string textureFolder = EnsureFolder(plan.Folder, TextureFiles.FolderName);
+            foreach (BuildingPlan building in plan.Buildings)
+            {
+                if (!levelAssets.ContainsKey(building.Id)) continue;
+                try
+                {
+                    EnsureFolder(textureFolder, building.Name);
+                    textures[building.Id] = TextureFiles.Extract(building, plan.Folder, written);
+                }
+                catch (Exception e)
+                {
+                    Debug.LogWarning(plan.ManifestPath + ": building " + building.Id + ": its textures stay uncompressed: " + e.Message);
+                }
+            }
+            foreach (string path in written)
+                AssetDatabase.ImportAsset(path, ImportAssetOptions.ForceSynchronousImport);
+
+            var result = new Dictionary<string, Dictionary<Material, Material>[]>();
+            string materialFolder = EnsureFolder(prefabFolder, "Materials");
+            foreach (KeyValuePair<string, Dictionary<string, string>[]> entry in textures)
+            {
+                BuildingPlan building = Array.Find(plan.Buildings, b => b.Id == entry.Key);
+                result[entry.Key] = LevelMaterials.Make(building, levelAssets[entry.Key], entry.Value, EnsureFolder(materialFolder, building.Name));
+            }
+            return result;
         }
 
         // Every level's imported glTF, per building id; a building with a level that is not
@@ -132,7 +202,8 @@ namespace VWorldLod.EditorTools
             return result;
         }
 
-        static bool SaveBuildingPrefab(BuildingPlan building, TilePlan plan, GameObject[] levelAssets, string prefabPath)
+        static bool SaveBuildingPrefab(BuildingPlan building, TilePlan plan, GameObject[] levelAssets,
+                                       Dictionary<Material, Material>[] materials, string prefabPath)
         {
             var root = new GameObject(building.Name);
             try
@@ -144,6 +215,7 @@ namespace VWorldLod.EditorTools
                     levels[k] = (GameObject)PrefabUtility.InstantiatePrefab(levelAssets[k], root.transform);
                     levels[k].name = building.Name + "_LOD" + k;
                     renderers[k] = levels[k].GetComponentsInChildren<Renderer>();
+                    if (materials != null) LevelMaterials.Apply(renderers[k], materials[k]);
                 }
                 LodGroupAssembly.Configure(root, building, plan, levels, renderers);
                 bool ok;

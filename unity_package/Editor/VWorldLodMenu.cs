@@ -68,7 +68,11 @@ namespace VWorldLod.EditorTools
         }
     }
 
-    /// <summary>Builds the prefabs of every lod_manifest.json imported under Assets/ (when enabled).</summary>
+    /// <summary>
+    /// Builds the prefabs of every lod_manifest.json imported under Assets/ (when enabled): skipped
+    /// when they are up to date (a Library rebuild, a fresh clone with the prefabs), with background
+    /// progress rather than a modal bar.
+    /// </summary>
     public class ManifestPostprocessor : AssetPostprocessor
     {
         static readonly List<string> pending = new List<string>();
@@ -91,7 +95,7 @@ namespace VWorldLod.EditorTools
             EditorApplication.delayCall -= BuildPending;
             string[] paths = pending.ToArray();
             pending.Clear();
-            foreach (string path in paths) LodGroupPrefabBuilder.Build(path);
+            foreach (string path in paths) LodGroupPrefabBuilder.Build(path, BuildTrigger.Automatic);
         }
     }
 }

@@ -1,6 +1,7 @@
 // Entry point of the C# test assembly:
 //   mono VWorldLod.Tests.exe [--manifest PATH]... [--broken PATH FIELD]... [--placements PATH]... [--names PATH]...
 //                            [--georef PATH]... [--float32 PATH]... [--streaming PATH]... [--proxies PATH]...
+//                            [--glb-images PATH]... [--extract MANIFEST]... [--texture-bytes MANIFEST]...
 // Always runs the self-contained tests; the options add tests on files made by the Python side.
 using System;
 
@@ -19,6 +20,7 @@ namespace VWorldLod.Tests
             StreamingTests.RunSelfContained(t);
             LevelChoiceTests.Run(t);
             ProxyTests.RunSelfContained(t);
+            TextureImportTests.RunSelfContained(t);
             for (int i = 0; i < args.Length; i++)
             {
                 if (args[i] == "--manifest" && i + 1 < args.Length) ExportedTests.RunManifest(t, args[++i]);
@@ -29,6 +31,9 @@ namespace VWorldLod.Tests
                 else if (args[i] == "--float32" && i + 1 < args.Length) GeoreferenceTests.RunFloat32(t, args[++i]);
                 else if (args[i] == "--streaming" && i + 1 < args.Length) StreamingTests.Run(t, args[++i]);
                 else if (args[i] == "--proxies" && i + 1 < args.Length) ProxyTests.Run(t, args[++i]);
+                else if (args[i] == "--glb-images" && i + 1 < args.Length) TextureImportTests.RunGlbImages(t, args[++i]);
+                else if (args[i] == "--extract" && i + 1 < args.Length) TextureImportTests.RunExtract(t, args[++i]);
+                else if (args[i] == "--texture-bytes" && i + 1 < args.Length) TextureImportTests.RunTextureBytes(t, args[++i]);
                 else
                 {
                     Console.Error.WriteLine("unknown or incomplete argument: " + args[i]);

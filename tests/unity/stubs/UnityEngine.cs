@@ -88,21 +88,36 @@ namespace UnityEngine
 
     public class Renderer : Component
     {
-        public Material[] sharedMaterials { get { throw new NotSupportedException("stand-in"); } set { } }
+        public Material[] sharedMaterials { get; set; }
     }
 
-    // Real: Material : Object; GetTexturePropertyNames() (2018.3+), GetTexture(string).
-    public class Material : Object
-    {
-        public string[] GetTexturePropertyNames() { throw new NotSupportedException("stand-in"); }
-        public Texture GetTexture(string name) { throw new NotSupportedException("stand-in"); }
-    }
-
+    // Textures and materials (Runtime/Export/Graphics, Runtime/Export/Shaders/Material*.cs).
     // Real: width and height are virtual properties of Texture (Texture2D overrides them).
     public class Texture : Object
     {
         public virtual int width { get { throw new NotSupportedException("stand-in"); } set { } }
         public virtual int height { get { throw new NotSupportedException("stand-in"); } set { } }
+    }
+
+    public sealed class Texture2D : Texture { }
+
+    // Real: Material : Object; GetTexturePropertyNames() (2018.3+), GetTexture(string).
+    public class Material : Object
+    {
+        public Material(Material source) { throw new NotSupportedException("stand-in"); }
+        public string[] GetTexturePropertyNames() { throw new NotSupportedException("stand-in"); }
+        public Texture GetTexture(string name) { throw new NotSupportedException("stand-in"); }
+        public void SetTexture(string name, Texture value) { throw new NotSupportedException("stand-in"); }
+    }
+
+    public enum FilterMode
+    {
+        Trilinear = 2,
+    }
+
+    public enum TextureWrapMode
+    {
+        Repeat = 0,
     }
 
     public sealed class GameObject : Object
