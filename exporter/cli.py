@@ -109,6 +109,9 @@ def cmd_export(args) -> int:
         scheduler=args.scheduler,
         notify=None if args.quiet else lambda text: print(text, file=sys.stderr, flush=True),
     )
+    sys.stderr.flush()  # the progress lines before the summary when both are captured
+    for notice in stats.replaced:  # even with --quiet: another input's building is gone
+        print(f"vworld-lod: {notice}", file=sys.stderr, flush=True)
     if not args.quiet:
         for tile in stats.tiles:
             print(
