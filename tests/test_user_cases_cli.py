@@ -5,14 +5,27 @@ and the problem. The readers' half is in ``tests/test_user_cases.py``."""
 from __future__ import annotations
 
 import inspect
+import json
 import os
+import stat
+import struct
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 
-from tests.test_user_cases import REPO, city_file, export, one_line, results, run, tree_bytes
+from exporter.cli import main, usable_cores
+from tests.test_user_cases import (
+    REPO,
+    city_file,
+    export,
+    one_line,
+    results,
+    run,
+    tree_bytes,
+    vworld_tile,
+)
 
 ENV = {**os.environ, "PYTHONPATH": str(REPO)}
 
@@ -123,6 +136,100 @@ def case_05_a_yaml_alias_bomb_is_refused_fast(tmp: Path, capsys) -> None:
     assert len(line) < 400, "the value is quoted bounded"
 
 
+def case_06_init_config_force_onto_a_link_or_a_pipe(tmp: Path, capsys) -> None:
+    # (A pipe and a link stand for /dev/null and /dev/stdout: a test must not risk a device.)
+    pipe, target, link = tmp / "pipe", tmp / "mine.yaml", tmp / "link.yaml"
+    os.mkfifo(pipe)
+    target.write_text("mine\n")
+    link.symlink_to(target)
+    for path in (pipe, link):
+        code, err = run(["init-config", str(path), "--force"], capsys)
+        assert code == 2
+        one_line(err, path.name, "not a regular file")
+    assert stat.S_ISFIFO(os.lstat(pipe).st_mode), "the pipe is still a pipe"
+    assert link.is_symlink() and target.read_text() == "mine\n"
+    assert run(["init-config", str(target), "--force"], capsys)[0] == 0  # a regular file: replaced
+    assert "lods:" in target.read_text()
+
+
+def broken_dat(tmp: Path, header: tuple[int, int, int]) -> Path:
+    """A generated VWorld tile whose .dat header says (level, IDX, IDY) = ``header``."""
+    tile = vworld_tile(tmp / "tile")
+    dat = next(tile.glob("*.dat"))
+    dat.write_bytes(struct.pack("<3I", *header) + dat.read_bytes()[12:])
+    return tile
+
+
+@pytest.mark.parametrize(
+    "header, problem",
+    [((31, 0, 0), "tile level 31"), ((15, 10 * 2**15, 116113), "IDX must be in 0..327679")],
+)
+def test_a_dat_header_beyond_the_tile_grid_is_an_input_error(tmp_path, capsys, header, problem):
+    tile = broken_dat(tmp_path, header)
+    dat = next(tile.glob("*.dat"))
+    for source in (tile, dat):  # the folder (its only .dat refused) and the .dat alone
+        code, err = run(export(source, "--out", tmp_path / "o"), capsys)
+        assert code == 2
+        one_line(err, dat.name, problem)
+        assert not list((tmp_path / "o").glob("*")), "no tile folder left"
+    assert main(["inspect", str(tile)]) == 0
+    out = capsys.readouterr().out
+    assert "problems: 1" in out and problem in out
+
+
+def case_07_a_cityjson_declaring_a_crs_of_mars(tmp: Path, capsys) -> None:
+    source = city_file(tmp / "mars.city.json", ["A"])
+    data = json.loads(source.read_text())
+    data["metadata"]["referenceSystem"] = "https://www.opengis.net/def/crs/IAU/2015/49910"
+    source.write_text(json.dumps(data))
+    code, err = run(export(source, "--out", tmp / "o"), capsys)
+    assert code == 2
+    one_line(err, "mars.city.json", "Mars, not of the Earth")
+
+
+def case_08_jobs_beyond_four_per_core_are_capped(tmp: Path, capsys, monkeypatch) -> None:
+    from exporter import pipeline
+
+    asked: list[int | None] = []
+
+    def recorded(folders, out, config, jobs=None, **options):
+        asked.append(jobs)
+        return pipeline.RunStats()
+
+    monkeypatch.setattr(pipeline, "export_tiles", recorded)
+    source = city_file(tmp / "a.city.json", ["A"])
+    code = main(["export", str(source), "--out", str(tmp / "o"), "--jobs", "10000"])
+    err = capsys.readouterr().err
+    assert code == 0 and asked == [4 * usable_cores()]
+    one_line(err, "--jobs 10000", f"using {4 * usable_cores()}")
+    assert main(["export", str(source), "--out", str(tmp / "o"), "--jobs", "2"]) == 0
+    assert asked[-1] == 2
+
+
+def case_09_help_lists_debug_and_says_what_an_input_is(tmp: Path, capsys) -> None:
+    for command in ("export", "inspect"):
+        with pytest.raises(SystemExit):
+            main([command, "--help"])
+        text = " ".join(capsys.readouterr().out.split())
+        assert "--debug" in text and "traceback" in text
+        assert "INPUT a tile folder" in text and ".city.json" in text and ".dat" in text
+
+
+def case_10_summary_grammar_and_order_when_captured(tmp: Path, capsys) -> None:
+    source = city_file(tmp / "a.city.json", ["A"], edit=shifted(1))
+    command = [sys.executable, "-m", "exporter", "export", str(source), "--out", str(tmp / "o")]
+    # stdout and stderr into one pipe, as `cmd > log 2>&1` does: progress first, summary last.
+    done = subprocess.run(
+        [*command, "--jobs", "1"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+        timeout=120, env=ENV, cwd=REPO,
+    )  # fmt: skip
+    lines = done.stdout.splitlines()
+    assert done.returncode == 0, done.stdout
+    assert lines[0].startswith("1/1 buildings") and lines[-1].startswith("done in")
+    assert any(": 1 building (0 unchanged)" in line for line in lines)
+    assert any("1 building, 1 tile proxy (1 built)" in line for line in lines)
+
+
 CASES = {name: case for name, case in globals().items() if name.startswith("case_")}
 
 
@@ -132,3 +239,17 @@ def test_what_a_new_user_ran_into(name, request):
     case = CASES[name]
     names = ["tmp_path", *list(inspect.signature(case).parameters)[1:]]
     case(*(request.getfixturevalue(fixture) for fixture in names))
+
+
+def test_the_readme_names_every_tool_a_test_needs_with_its_install_command():
+    """Each tool of ``tests/conftest.TOOLS`` (the skips' one wording per tool) is in the README's
+    Quick start with its install command; .ci/run runs the npm ones; the compilers are named."""
+    from tests.conftest import TOOLS
+
+    readme = (REPO / "README.md").read_text(encoding="utf-8")
+    quick = readme[readme.index("## Quick start") : readme.index("## Command line")]
+    for _, command in TOOLS.values():
+        assert command.split(" (")[0] in quick, command
+    ci = (REPO / ".ci" / "run").read_text(encoding="utf-8")
+    assert "npm ci --prefix tests/validator" in ci and "npm ci --prefix tests/tileset_client" in ci
+    assert "meshoptimizer==0.2.30a0" in quick and "g++" in quick
