@@ -7,10 +7,14 @@ from __future__ import annotations
 import inspect
 import json
 import os
+import socket
 import stat
 import struct
 import subprocess
 import sys
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -228,6 +232,116 @@ def case_10_summary_grammar_and_order_when_captured(tmp: Path, capsys) -> None:
     assert lines[0].startswith("1/1 buildings") and lines[-1].startswith("done in")
     assert any(": 1 building (0 unchanged)" in line for line in lines)
     assert any("1 building, 1 tile proxy (1 built)" in line for line in lines)
+
+
+@contextmanager
+def tcp_service(greeting: bytes | None) -> Iterator[str]:
+    """A TCP service on 127.0.0.1 that is not Dask: it sends ``greeting`` on every connection (a
+    banner), or, with None, waits for a request as an HTTP server does; yields its address."""
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(8)
+    stop = threading.Event()
+    clients: list[socket.socket] = []
+
+    def serve() -> None:
+        server.settimeout(0.1)
+        while not stop.is_set():
+            try:
+                client, _ = server.accept()
+            except TimeoutError:
+                continue
+            clients.append(client)
+            if greeting is not None:
+                client.sendall(greeting)
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    try:
+        yield f"tcp://127.0.0.1:{server.getsockname()[1]}"
+    finally:
+        stop.set()
+        thread.join()
+        for client in clients:
+            client.close()
+        server.close()
+
+
+def test_a_scheduler_address_that_is_not_dask_is_refused_in_bounded_time(tmp_path, capsys):
+    pytest.importorskip("distributed", reason="dask.distributed: pip install -e '.[test]'")
+    from exporter.config import Config
+    from exporter.distributed import ClusterError, ClusterOptions
+    from exporter.pipeline import export_tiles
+
+    source = city_file(tmp_path / "a.city.json", ["A"])
+    with tcp_service(b"SSH-2.0-OpenSSH_9.2\r\n") as address:  # was "out of memory"
+        code, err = run(export(source, "--out", tmp_path / "o", "--scheduler", address), capsys)
+    assert code == 2
+    one_line(err, address, "not a Dask scheduler", "SSH-2.0-OpenSSH_9.2")
+    raised: list[BaseException] = []
+
+    def export_there(address: str) -> None:
+        try:
+            options = ClusterOptions(address, connect_timeout_s=1.0)
+            export_tiles([source], tmp_path / "o", Config(), scheduler=options)
+        except BaseException as error:
+            raised.append(error)
+
+    with tcp_service(None) as address:  # an HTTP server: Dask's client waited forever
+        attempt = threading.Thread(target=export_there, args=(address,), daemon=True)
+        attempt.start()
+        attempt.join(timeout=60)
+        assert not attempt.is_alive(), "no answer must not mean no time limit"
+    assert isinstance(raised[0], ClusterError), raised
+    assert "no Dask handshake within 1 s" in str(raised[0])
+    assert not list((tmp_path / "o").rglob("*.glb"))
+
+
+def case_11_an_unchanged_report_draws_nothing_again(tmp: Path, capsys, monkeypatch) -> None:
+    import exporter.report as report
+
+    tile, out = vworld_tile(tmp / "tile", count=3), tmp / "o"
+    assert run(export(tile, "--out", out, "--report"), capsys)[0] == 0
+    drawn: list[str] = []
+    real = report.render_building
+    monkeypatch.setattr(
+        report, "render_building", lambda d, b, *a: drawn.append(b["id"]) or real(d, b, *a)
+    )
+    (page,) = out.glob("*/report.html")
+    images = {p.name: p.read_bytes() for p in (page.parent / "report").glob("*.png")}
+    assert run(export(tile, "--out", out, "--report"), capsys)[0] == 0
+    assert drawn == [], "nothing changed: nothing drawn again"
+    assert {p.name: p.read_bytes() for p in (page.parent / "report").glob("*.png")} == images
+    assert "3 buildings unchanged since the last report" in page.read_text()
+    # One building's level rewritten: that building only is drawn again.
+    manifest = json.loads((page.parent / "lod_manifest.json").read_text())
+    first = manifest["buildings"][0]
+    lod1 = page.parent / first["lods"][1]["file"]
+    lod1.write_bytes(lod1.read_bytes())  # same bytes, a new modification time
+    assert main(["report", str(out)]) == 0
+    assert drawn == [first["id"]]
+
+
+def test_the_report_says_why_a_level_keeps_the_mesh_of_the_level_above():
+    from exporter.report.page import BuildingRenders, LevelRender, building_html, no_smaller_html
+
+    def building(name: str, kept: bool) -> dict:
+        lods = [{"level": 0, "triangles": 40}, {"level": 1, "triangles": 20}]
+        lods.append(
+            {"level": 2, "triangles": 20 if kept else 10, "no_smaller_than_above": kept,
+             "error_budget_m": 0.218}
+        )  # fmt: skip
+        return {"id": name, "lods": lods}
+
+    manifest = {"buildings": [building("a", True), building("b", True), building("c", False)]}
+    text = no_smaller_html(manifest)
+    assert "LOD2: 2 of 3 buildings keep LOD1" in text and "error budget" in text
+    assert no_smaller_html({"buildings": [building("c", False)]}) == ""
+    renders = BuildingRenders(manifest["buildings"][0])
+    renders.levels = [LevelRender(k, lod) for k, lod in enumerate(renders.building["lods"])]
+    assert "same mesh as LOD1: no smaller one stays within its 21.8 cm error budget" in (
+        building_html(1, renders)
+    )
 
 
 CASES = {name: case for name, case in globals().items() if name.startswith("case_")}
