@@ -230,7 +230,8 @@ def input_owner(scans: Iterable[Scan]) -> Owns:
     def owns(paths: Iterable[str]) -> bool:
         for path in paths:
             real = os.path.realpath(path)
-            if real in files or any(real.startswith(folder) for folder in folders):
+            inside = os.path.join(real, "")  # an input folder itself (a folder-wide skip)
+            if real in files or any(inside.startswith(folder) for folder in folders):
                 return True
         return False
 
@@ -538,19 +539,26 @@ def other_inputs_record(path: str) -> tuple[dict, str | None, list[str]] | None:
         return None
 
 
-def previous_skipped(tile_dir: Path, owns: Owns) -> list[Skipped]:
+def _skip_key(item: Skipped) -> tuple:
+    """A skipped entry as the manifest writes it (printable text), for comparing."""
+    return tuple(printable([item.source, item.reason, item.id]))
+
+
+def previous_skipped(tile_dir: Path, owns: Owns, current: list[Skipped]) -> list[Skipped]:
     """The skipped buildings of the tile's previous manifest that came from other inputs than
-    this run's (kept beside their buildings)."""
+    this run's (kept beside their buildings), less those this run skips again (``current``): a
+    source that cannot be matched (a non-UTF-8 name in its printable form) is never listed twice."""
+    seen = {_skip_key(item) for item in current}
     try:
         manifest = json.loads((tile_dir / MANIFEST_NAME).read_text(encoding="utf-8"))
-        items = manifest["skipped"]
-        return [
+        kept = [
             Skipped(str(s["source"]), str(s["reason"]), s.get("id"), None)
-            for s in items
+            for s in manifest["skipped"]
             if isinstance(s, dict) and not owns([str(s["source"])])
         ]
     except (OSError, ValueError, KeyError, TypeError):
         return []
+    return [item for item in kept if _skip_key(item) not in seen]
 
 
 def write_tile_output(
@@ -590,7 +598,7 @@ def write_tile_output(
     with os.scandir(tile_dir) as found_names:  # a listing: no stat of the folders kept
         others = [e.path for e in found_names if e.name not in keep and not e.name.startswith(".")]
     if owns is not None:
-        skipped = skipped + previous_skipped(tile_dir, owns)
+        skipped = skipped + previous_skipped(tile_dir, owns, skipped)
     for folder_path in sorted(others):  # only folders this tool made (as glob's "*" sees them)
         if os.path.islink(folder_path):  # never made by this tool: neither removed nor listed
             continue

@@ -45,6 +45,13 @@ def shifted(boxes: int):
     return edit
 
 
+def not_finite(vertices: list[list[float]]) -> None:
+    """A ``city_file`` edit moving two buildings to boxes 1 and 2, the second with a corner that
+    is not finite."""
+    shifted(1)(vertices)
+    vertices[8 + 3][1] = float("nan")
+
+
 # --------------------------------------------------------------------------- the cases
 
 
@@ -62,6 +69,18 @@ def case_01_a_second_dataset_into_the_same_out_keeps_the_first(tmp: Path, capsys
         assert (manifests[0].parent / building["folder"] / "lod0.glb").is_file()
     tileset = (out / "tileset.json").read_text()
     assert all(f"{name}/lod0.glb" in tileset for name in ("A1", "A2", "B1"))
+    # The first run's skipped buildings stay listed, once, however often the second one runs.
+    bad = city_file(tmp / "east" / "bad.city.json", ["C1", "BAD"], edit=not_finite)
+    assert run(export(bad, "--out", out), capsys)[0] == 0
+    for _ in range(2):
+        assert run(export(second, "--out", out), capsys)[0] == 0
+        (manifest,) = [json.loads(p.read_text()) for p in out.rglob("lod_manifest.json")]
+        assert [s["id"] for s in manifest["skipped"]] == ["BAD"]
+        assert {b["id"] for b in manifest["buildings"]} == {"A1", "A2", "B1", "C1"}
+    bad.unlink()
+    assert run(export(tmp / "east", "--out", out), capsys)[0] == 0  # its folder: BAD is gone
+    (manifest,) = [json.loads(p.read_text()) for p in out.rglob("lod_manifest.json")]
+    assert manifest["skipped"] == [] and "C1" not in {b["id"] for b in manifest["buildings"]}
     # A re-run of the second input changes nothing; of the first, with a building gone from it,
     # removes that building only (this run's own input), keeping the second input's.
     before = tree_bytes(out)
