@@ -154,6 +154,8 @@ def reusable_record(previous: dict | None, digest: str, out_dir: Path) -> dict |
     if previous is None or previous["record"].get("input_hash") != digest:
         return None
     tile_dir = out_dir / previous["tile"].name
+    if (tile_dir / previous["record"]["folder"]).is_symlink():  # redone: the job replaces the link
+        return None
     files = previous["files"] or [  # a record of 0.3.4 or older: sizes only
         {"file": Path(lod["file"]).name, "bytes": lod.get("file_bytes")}
         for lod in previous["record"]["lods"]
