@@ -1,6 +1,6 @@
 """Benchmark of texture LoDs (issue 6): fast vs careful JPEG downscaling, quality and codec floor.
 
-Atlases: the real aerial atlases ``../shared/data/real/rotterdam_textured/appearances/*.jpg``
+Atlases: the real aerial atlases ``tests/data/real/rotterdam_textured/appearances/*.jpg``
 (1024x1024 JPEG) when present, plus synthetic facade atlases (windows, brick, signs; JPEG q90).
 
 Measured, per atlas (each repetition times the floor and every mode back to back with the cache

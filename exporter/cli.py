@@ -92,6 +92,34 @@ def _check_out(out: str) -> None:
         raise InputError(f"{existing}: not writable (permission denied)")
 
 
+# Worker processes at most per core: more only add memory (each worker holds a building's
+# meshes and atlases, ~80 MiB at the largest measured) and switching, no throughput.
+JOBS_PER_CORE = 4
+
+
+def usable_cores() -> int:
+    """Cores this process may run on (its CPU affinity where the system tells, else all)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return max(1, os.cpu_count() or 1)
+
+
+def bounded_jobs(jobs: int | None, quiet: bool = False) -> int | None:
+    """``--jobs`` capped at ``JOBS_PER_CORE`` x the usable cores, saying so on stderr."""
+    limit = JOBS_PER_CORE * usable_cores()
+    if jobs is None or jobs <= limit:
+        return jobs
+    if not quiet:
+        print(
+            f"vworld-lod: --jobs {jobs}: more than {JOBS_PER_CORE} per core ({usable_cores()} "
+            f"cores) only costs memory; using {limit}",
+            file=sys.stderr,
+            flush=True,
+        )
+    return limit
+
+
 def cmd_export(args) -> int:
     from .pipeline import export_tiles
     from .readers import input_paths
@@ -99,31 +127,36 @@ def cmd_export(args) -> int:
     _check_out(args.out)
     args.tile_dirs = input_paths(args.tile_dirs)
     config = _effective_config(args)
+    jobs = bounded_jobs(args.jobs, args.quiet)
     progress = None if args.quiet else ProgressPrinter(sys.stderr)
     stats = export_tiles(
         args.tile_dirs,
         args.out,
         config,
-        jobs=args.jobs,
+        jobs=jobs,
         force=args.force,
         progress=progress,
         scheduler=args.scheduler,
         notify=None if args.quiet else lambda text: print(text, file=sys.stderr, flush=True),
     )
+    sys.stderr.flush()  # the progress lines before the summary when both are captured
+    for notice in stats.replaced:  # even with --quiet: another input's building is gone
+        print(f"vworld-lod: {notice}", file=sys.stderr, flush=True)
     if not args.quiet:
         for tile in stats.tiles:
             print(
-                f"{tile.tile.name}: {tile.buildings} buildings ({tile.reused} unchanged), {tile.skipped} skipped -> {tile.manifest_path}"
+                f"{tile.tile.name}: {tile.buildings} building{'s' * (tile.buildings != 1)} "
+                f"({tile.reused} unchanged), {tile.skipped} skipped -> {tile.manifest_path}"
             )
         if stats.tileset is not None:
             print(stats.tileset.summary())
-        print(f"done in {stats.wall_seconds:.1f} s")
+        print(f"done in {stats.wall_seconds:.1f} s", flush=True)  # before any later stderr line
     if args.report:
         from .report import write_reports
 
         for page in write_reports(Path(args.out)):
             if not args.quiet:
-                print(f"report: {page}")
+                print(f"report: {page}", flush=True)
     return 0
 
 
@@ -135,6 +168,13 @@ def cmd_init_config(args) -> int:
             file=sys.stderr,
         )
         return 2
+    if path.is_symlink() or (path.exists() and not path.is_file()):
+        # The atomic write renames a new file over the name: a device (/dev/null, /dev/stdout),
+        # a pipe or a link would be replaced by a regular file, not written to.
+        return _fail(
+            f"{path}: not a regular file (a link, device or pipe); init-config writes a new "
+            "file only, never through such a name (give a file name)"
+        )
     if path.exists() and not args.force:
         print(f"vworld-lod: {path}: already exists (use --force to overwrite)", file=sys.stderr)
         return 2
@@ -255,6 +295,23 @@ def _crs_options(parser: argparse.ArgumentParser) -> None:
     )
 
 
+INPUT_HELP = (
+    "a tile folder (VWorld .dat/.xdo/.jpg, CityJSON, CityGML, OBJ/glTF with an index) or one "
+    "file: *.city.json, *.json, *.city.jsonl, *.gml, *.gml.gz, a VWorld .dat, or an OBJ/glTF "
+    "index (buildings.csv/.yaml/.json); shell globs are fine (each building is read once)"
+)
+
+
+def _debug_option(parser: argparse.ArgumentParser) -> None:
+    """``--debug`` in the help (main() takes it out of the command line wherever it stands)."""
+    parser.add_argument(
+        DEBUG_FLAG,
+        action="store_true",
+        help=f"show the Python traceback of an internal error (exit 1) for a bug report; also "
+        f"{DEBUG_ENV}=1",
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="vworld-lod",
@@ -266,12 +323,15 @@ def build_parser() -> argparse.ArgumentParser:
     export = commands.add_parser(
         "export", help="export tile folders to glTF LoD chains + lod_manifest.json per tile"
     )
-    export.add_argument("tile_dirs", nargs="+", metavar="INPUT")
+    export.add_argument("tile_dirs", nargs="+", metavar="INPUT", help=INPUT_HELP)
     export.add_argument("--out", required=True, help="output folder (one subfolder per tile)")
     export.add_argument("--config", help="YAML config (see init-config); defaults from the paper")
     _crs_options(export)
     export.add_argument(
-        "--jobs", type=int, default=None, help="worker processes (default: all cores)"
+        "--jobs",
+        type=int,
+        default=None,
+        help=f"worker processes (default: all cores; at most {JOBS_PER_CORE} per core)",
     )
     export.add_argument(
         "--force", action="store_true", help="redo every building, even unchanged ones"
@@ -283,6 +343,7 @@ def build_parser() -> argparse.ArgumentParser:
         "'local' for a one-machine Dask cluster; needs vworld-lod[dask]",
     )
     export.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    _debug_option(export)
     export.add_argument(
         "--report", action="store_true", help="also write the HTML report (see 'report')"
     )
@@ -294,9 +355,10 @@ def build_parser() -> argparse.ArgumentParser:
     init.set_defaults(run=cmd_init_config)
 
     inspect = commands.add_parser("inspect", help="print what tile folders hold, writing nothing")
-    inspect.add_argument("tile_dirs", nargs="+", metavar="INPUT")
+    inspect.add_argument("tile_dirs", nargs="+", metavar="INPUT", help=INPUT_HELP)
     inspect.add_argument("--config", help="YAML config (reader options)")
     _crs_options(inspect)
+    _debug_option(inspect)
     inspect.set_defaults(run=cmd_inspect)
 
     report = commands.add_parser("report", help="write an HTML report of an export's LoD chains")

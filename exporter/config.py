@@ -14,6 +14,7 @@ import dataclasses
 import difflib
 import importlib.util
 import math
+import reprlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -26,6 +27,17 @@ from .errors import ConfigError
 MAX_LODS = 8  # Unity's LODGroup holds at most 8 levels.
 
 
+# A value is quoted in an error bounded in depth, items and characters: YAML aliases can make a
+# 400-byte file a structure whose full repr has 10^9 items ("billion laughs").
+_SHOWN = reprlib.Repr()
+_SHOWN.maxlevel, _SHOWN.maxlist, _SHOWN.maxdict, _SHOWN.maxstring, _SHOWN.maxother = 2, 4, 4, 80, 80
+
+
+def shown(value: Any) -> str:
+    """``repr(value)``, bounded (``...`` for what is left out)."""
+    return _SHOWN.repr(value)
+
+
 # --------------------------------------------------------------------------- value parsers
 # Each parser takes the raw YAML value and returns the checked value or raises ValueError whose
 # text says what is allowed.
@@ -35,19 +47,19 @@ def parse_ratio(value: Any) -> float:
     """A number in (0, 1], written ``0.5`` or ``50%``."""
     allowed = "a ratio in (0, 1], written like 0.5 or 50%"
     if isinstance(value, bool):
-        raise ValueError(f"got {value!r}; allowed: {allowed}")
+        raise ValueError(f"got {shown(value)}; allowed: {allowed}")
     if isinstance(value, str):
         text = value.strip()
         try:
             number = float(text[:-1]) / 100.0 if text.endswith("%") else float(text)
         except ValueError:
-            raise ValueError(f"got {value!r}; allowed: {allowed}") from None
+            raise ValueError(f"got {shown(value)}; allowed: {allowed}") from None
     elif isinstance(value, (int, float)):
         number = float(value)
     else:
-        raise ValueError(f"got {value!r}; allowed: {allowed}")
+        raise ValueError(f"got {shown(value)}; allowed: {allowed}")
     if not (0.0 < number <= 1.0):  # NaN fails here too
-        raise ValueError(f"got {value!r}; allowed: {allowed}")
+        raise ValueError(f"got {shown(value)}; allowed: {allowed}")
     return number
 
 
@@ -59,14 +71,14 @@ def parse_ratio_or_zero(value: Any) -> float:
         return parse_ratio(value)
     except ValueError:
         raise ValueError(
-            f"got {value!r}; allowed: a ratio in [0, 1], written like 0.3 or 30%"
+            f"got {shown(value)}; allowed: a ratio in [0, 1], written like 0.3 or 30%"
         ) from None
 
 
 def parse_bool(value: Any) -> bool:
     if isinstance(value, bool):
         return value
-    raise ValueError(f"got {value!r}; allowed: true or false")
+    raise ValueError(f"got {shown(value)}; allowed: true or false")
 
 
 def _number(minimum: float, inclusive: bool = True, maximum: float = 1e9) -> Callable[[Any], float]:
@@ -77,11 +89,11 @@ def _number(minimum: float, inclusive: bool = True, maximum: float = 1e9) -> Cal
 
     def parse(value: Any) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise ValueError(f"got {value!r}; allowed: {text}")
+            raise ValueError(f"got {shown(value)}; allowed: {text}")
         ok = math.isfinite(value) and (value >= minimum if inclusive else value > minimum)
         ok = ok and value <= maximum
         if not ok:
-            raise ValueError(f"got {value!r}; allowed: {text}")
+            raise ValueError(f"got {shown(value)}; allowed: {text}")
         return float(value)
 
     return parse
@@ -92,9 +104,9 @@ def _integer(minimum: int, maximum: int | None = None) -> Callable[[Any], int]:
 
     def parse(value: Any) -> int:
         if isinstance(value, bool) or not isinstance(value, int):
-            raise ValueError(f"got {value!r}; allowed: {text}")
+            raise ValueError(f"got {shown(value)}; allowed: {text}")
         if value < minimum or (maximum is not None and value > maximum):
-            raise ValueError(f"got {value!r}; allowed: {text}")
+            raise ValueError(f"got {shown(value)}; allowed: {text}")
         return int(value)
 
     return parse
@@ -103,7 +115,7 @@ def _integer(minimum: int, maximum: int | None = None) -> Callable[[Any], int]:
 def _choice(*choices: str) -> Callable[[Any], str]:
     def parse(value: Any) -> str:
         if value not in choices:
-            raise ValueError(f"got {value!r}; allowed: one of {', '.join(choices)}")
+            raise ValueError(f"got {shown(value)}; allowed: one of {', '.join(choices)}")
         return value
 
     return parse
@@ -115,7 +127,7 @@ def parse_crs_option(value: Any) -> str | None:
     if value is None:
         return None
     if not isinstance(value, str) or not value.strip():
-        raise ValueError(f"got {value!r}; allowed: a CRS such as EPSG:7415, or null")
+        raise ValueError(f"got {shown(value)}; allowed: a CRS such as EPSG:7415, or null")
     from .geodesy import check_crs  # pyproj: imported only when a CRS is given
 
     check_crs(value)
@@ -510,7 +522,7 @@ def _parse_fields(cls, raw: Any, where: str, path: str, base=None):
 def _parse_lods(raw: Any, path: str) -> list[LodSpec]:
     if not isinstance(raw, list) or not raw:
         raise ConfigError(
-            path, "lods", f"got {raw!r}; allowed: a list of 1 to {MAX_LODS} levels, LOD0 first"
+            path, "lods", f"got {shown(raw)}; allowed: a list of 1 to {MAX_LODS} levels, LOD0 first"
         )
     if len(raw) > MAX_LODS:
         raise ConfigError(
@@ -610,6 +622,10 @@ def load_config(path: str | Path | None) -> Config:
         raise ConfigError(
             str(path), "<yaml>", f"not valid YAML ({str(error).splitlines()[0]})"
         ) from None
+    except RecursionError:  # PyYAML composes nested collections recursively
+        raise ConfigError(
+            str(path), "<yaml>", "nested too deeply (a config is at most a few levels deep)"
+        ) from None
     if duplicate is not None:
         key, lines = duplicate
         raise ConfigError(
@@ -620,9 +636,17 @@ def load_config(path: str | Path | None) -> Config:
     return config_from_dict(raw, str(path))
 
 
-def duplicate_key(node: yaml.Node | None, where: str = "") -> tuple[str, list[int]] | None:
+def duplicate_key(
+    node: yaml.Node | None, where: str = "", seen: set[int] | None = None
+) -> tuple[str, list[int]] | None:
     """The first key given twice in one mapping of a composed YAML document, as (dotted key,
-    1-based line numbers), or None. PyYAML itself keeps the last value silently."""
+    1-based line numbers), or None. PyYAML itself keeps the last value silently. An aliased
+    node is checked once (``seen``: node ids): a 400-byte "billion laughs" alias bomb stays
+    hundreds of nodes instead of 10^9 visits."""
+    seen = set() if seen is None else seen
+    if id(node) in seen:
+        return None
+    seen.add(id(node))
     if isinstance(node, yaml.MappingNode):
         lines: dict[str, list[int]] = {}
         for key, _ in node.value:
@@ -636,7 +660,7 @@ def duplicate_key(node: yaml.Node | None, where: str = "") -> tuple[str, list[in
     else:
         return None
     for child_where, child in children:
-        found_child = duplicate_key(child, child_where)
+        found_child = duplicate_key(child, child_where, seen)
         if found_child is not None:
             return found_child
     return None

@@ -44,6 +44,7 @@ from pathlib import Path
 from . import __version__
 from .errors import VWorldLodError
 from .job import process_entry
+from .scheduler_probe import NotDask, check_dask_scheduler
 
 DASK_MISSING = (
     "--scheduler needs dask and distributed, which are not installed: "
@@ -294,10 +295,17 @@ def cluster_session(options: ClusterOptions, folders: list[str], out_dir: str, n
                 )
             client = distributed.Client(cluster)
         else:
+            timeout_s = options.connect_timeout_s or CONNECT_TIMEOUT_S
             try:
-                client = distributed.Client(
-                    options.address, timeout=options.connect_timeout_s or CONNECT_TIMEOUT_S
-                )
+                # Dask's client hangs on a service that does not speak first (HTTP) and reads a
+                # banner (SSH) as a frame length: the address is checked first (scheduler_probe).
+                check_dask_scheduler(options.address, timeout_s)
+                client = distributed.Client(options.address, timeout=timeout_s)
+            except NotDask as error:
+                raise ClusterError(
+                    f"{options.address} is not a Dask scheduler: it {error}; give the address "
+                    "`dask scheduler` prints (tcp://host:8786)"
+                ) from None
             except (OSError, TimeoutError, ValueError) as error:
                 raise ClusterError(
                     f"cannot reach the Dask scheduler {options.address}: {_one_line(error)}"

@@ -32,7 +32,7 @@ from functools import lru_cache
 import numpy as np
 import numpy.typing as npt
 from pyproj import CRS, Transformer
-from pyproj.exceptions import CRSError
+from pyproj.exceptions import CRSError, ProjError
 
 from .model import GeoPoint
 
@@ -85,7 +85,15 @@ def _to_lonlat_transformer(text: str) -> Transformer:
         raise ValueError(
             f"coordinate reference system {text!r} ({crs.name}) is neither projected nor geographic"
         )
-    return Transformer.from_crs(crs, "EPSG:4326", always_xy=True)
+    try:
+        return Transformer.from_crs(crs, "EPSG:4326", always_xy=True)
+    except ProjError as error:  # e.g. a CRS of the Moon or Mars: no operation to Earth's WGS84
+        body = re.search(r"celestial body \((\w+) vs Earth\)", str(error))
+        why = f"a CRS of {body.group(1)}, not of the Earth" if body else str(error).split(": (")[0]
+        raise ValueError(
+            f"coordinate reference system {text!r} ({crs.name}) cannot be converted to WGS84 "
+            f"lon/lat: {why}"
+        ) from None
 
 
 def check_crs(text: str) -> None:

@@ -229,6 +229,10 @@ def process_entry(
         # The entry's id, not the reader's: the run made entry ids unique across folders and files.
         folder = safe_folder_name(entry.id)
         building_dir = os.path.join(out_dir, tile.name, folder)
+        # A link in OUT (never made by this tool) is replaced by a folder: writing through it
+        # would overwrite, and remove_stale_levels delete, files of its target.
+        if os.path.islink(building_dir):
+            os.unlink(building_dir)
         # Only a folder that was there before this building can hold an earlier export's levels.
         existed = os.path.isdir(building_dir)
         lods, files = [], []

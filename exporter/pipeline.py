@@ -35,9 +35,10 @@ from .errors import InputError
 from .job import RECORD_NAME, STAGES, EntryResult, process_entry
 from .manifest import MANIFEST_NAME, build_manifest, dumps, record_line
 from .model import Skipped, TileId
-from .names import unique_ids
+from .names import printable, unique_ids
 from .placement import tile_placement
-from .readers import Entry, check_crs_option, scan_folder
+from .readers import Entry, Scan, check_crs_option, scan_folder
+from .readers.folder import FORMAT as INDEX_FORMAT
 from .records import files_intact, stamped, top_level_values, write_record
 from .tile_index import fresh_facts, write_tile_index
 from .tiles import tile_bounds, tile_center
@@ -153,6 +154,8 @@ def reusable_record(previous: dict | None, digest: str, out_dir: Path) -> dict |
     if previous is None or previous["record"].get("input_hash") != digest:
         return None
     tile_dir = out_dir / previous["tile"].name
+    if (tile_dir / previous["record"]["folder"]).is_symlink():  # redone: the job replaces the link
+        return None
     files = previous["files"] or [  # a record of 0.3.4 or older: sizes only
         {"file": Path(lod["file"]).name, "bytes": lod.get("file_bytes")}
         for lod in previous["record"]["lods"]
@@ -192,15 +195,49 @@ def manifest_record(path: str) -> tuple[dict, str | None] | None:
         return None
 
 
-def previous_records(out_dir: Path) -> dict[tuple[str, str], Path]:
-    """Record files a previous run left in ``out_dir``, keyed by (source, id). Only the paths are
-    kept: a record is read again when its building comes up (memory stays flat over a city)."""
-    found = {}
+def previous_records(out_dir: Path) -> tuple[dict[tuple[str, str], Path], dict[Path, str]]:
+    """Record files a previous run left in ``out_dir``: their paths keyed by (source, id), and
+    each building folder's source (to say which building of another input a run replaces). Only
+    the paths are kept: a record is read again when its building comes up (memory stays flat
+    over a city)."""
+    found, sources = {}, {}
     for path in out_dir.glob(f"*/*/{RECORD_NAME}"):
         record = (read_record(path) or {}).get("record")
         if isinstance(record, dict) and "source" in record and "id" in record:
             found[(record["source"], record["id"])] = path
-    return found
+            sources[path.parent] = str(record["source"])
+    return found, sources
+
+
+Owns = Callable[[Iterable[str]], bool]
+
+
+def input_owner(scans: Iterable[Scan]) -> Owns:
+    """Whether a building came from this run's inputs (the command line's folders and files, as
+    ``scans``): ``owns(paths)`` is true when one of ``paths`` (a record's source and input files)
+    is one of the input files or lies in one of the input folders, after symlinks. An OBJ/glTF
+    index file owns its folder (its models are named relative to it). A building of another
+    input in the same ``OUT`` is never this run's to remove (issue 36: exporting districts one by
+    one into one ``OUT``)."""
+    files, folders = set(), []
+    for scan in scans:
+        real = os.path.realpath(scan.folder)
+        if os.path.isdir(real):
+            folders.append(os.path.join(real, ""))
+        else:
+            files.add(real)
+            if scan.format == INDEX_FORMAT:
+                folders.append(os.path.join(os.path.dirname(real), ""))
+
+    def owns(paths: Iterable[str]) -> bool:
+        for path in paths:
+            real = os.path.realpath(path)
+            inside = os.path.join(real, "")  # an input folder itself (a folder-wide skip)
+            if real in files or any(inside.startswith(folder) for folder in folders):
+                return True
+        return False
+
+    return owns
 
 
 def _refresh_fingerprints(out_dir: Path, previous: dict, fingerprints: list[dict]) -> None:
@@ -238,6 +275,8 @@ class RunStats:
     wall_seconds: float = 0.0
     tiles: list[TileResult] = field(default_factory=list)
     tileset: TilesetResult | None = None  # OUT/tileset.json (exporter.tileset), when enabled
+    # Buildings of other inputs whose folder a building of this run took (same folder name).
+    replaced: list[str] = field(default_factory=list)
 
 
 Progress = Callable[[int, int], None]
@@ -364,7 +403,10 @@ def export_tiles(
     check_crs_option(scans, config.readers)
     out_dir.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(out_dir)
-    previous = {} if force else previous_records(out_dir)
+    previous, folder_sources = previous_records(out_dir)
+    if force:
+        previous = {}
+    owns = input_owner(scans)
     config_hash = config_fingerprint(config)
     jobs = max(1, jobs or os.cpu_count() or 1)
 
@@ -417,6 +459,9 @@ def export_tiles(
                 stats.seconds[stage] += value
             if result.record is not None:
                 assert result.tile is not None  # a building written is filed in a tile
+                replaced = folder_sources.get(out_dir / result.tile.name / result.record["folder"])
+                if replaced is not None and not owns([replaced]):
+                    stats.replaced.append(replaced_notice(out_dir, result, replaced))
                 folders_of.setdefault(result.tile, []).append(result.record["folder"])
                 stats.buildings += 1
                 stats.reused += int(result.reused)
@@ -448,6 +493,7 @@ def export_tiles(
                     folders_of.get(tile, []),
                     skipped.get(tile, []) + unplaced,
                     reused.get(tile, 0),
+                    owns,
                 )
             )
         # After the manifests (the tileset and tiles.json reference only complete files);
@@ -469,6 +515,55 @@ def export_tiles(
     return stats
 
 
+def replaced_notice(out_dir: Path, result: EntryResult, source: str) -> str:
+    """The line saying that a building of this run took the folder of another input's."""
+    assert result.tile is not None and result.record is not None
+    return (
+        f"{printable(str(out_dir / result.tile.name / result.record['folder']))}: replaced the "
+        f"building of {printable(source)} by {printable(str(result.record['id']))} of "
+        f"{printable(str(result.record['source']))} (same folder name)"
+    )
+
+
+def other_inputs_record(path: str) -> tuple[dict, str | None, list[str]] | None:
+    """(record, its manifest line, its source and input paths) of a record file an earlier run
+    left, or None when it cannot be read (a damaged leftover is not listed)."""
+    try:
+        with open(path, encoding="utf-8") as handle:
+            members = top_level_values(handle.read())
+        record, text = members["record"]
+        inputs = members.get("inputs", ([], ""))[0]
+        if not isinstance(record, dict) or not isinstance(inputs, list):
+            return None
+        paths = [str(record.get("source", ""))]
+        paths += [str(i["path"]) for i in inputs if isinstance(i, dict) and "path" in i]
+        return record, record_line(text), paths
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def _skip_key(item: Skipped) -> tuple:
+    """A skipped entry as the manifest writes it (printable text), for comparing."""
+    return tuple(printable([item.source, item.reason, item.id]))
+
+
+def previous_skipped(tile_dir: Path, owns: Owns, current: list[Skipped]) -> list[Skipped]:
+    """The skipped buildings of the tile's previous manifest that came from other inputs than
+    this run's (kept beside their buildings), less those this run skips again (``current``): a
+    source that cannot be matched (a non-UTF-8 name in its printable form) is never listed twice."""
+    seen = {_skip_key(item) for item in current}
+    try:
+        manifest = json.loads((tile_dir / MANIFEST_NAME).read_text(encoding="utf-8"))
+        kept = [
+            Skipped(str(s["source"]), str(s["reason"]), s.get("id"), None)
+            for s in manifest["skipped"]
+            if isinstance(s, dict) and not owns([str(s["source"])])
+        ]
+    except (OSError, ValueError, KeyError, TypeError):
+        return []
+    return [item for item in kept if _skip_key(item) not in seen]
+
+
 def write_tile_output(
     out_dir: Path,
     tile: TileId,
@@ -476,10 +571,12 @@ def write_tile_output(
     folders: list[str],
     skipped: list[Skipped],
     reused: int = 0,
+    owns: Owns | None = None,
 ) -> TileResult:
     """Read the records of the tile's buildings (``folders``, in result order), remove building
-    folders of earlier runs that this run did not produce, then write the manifest (last,
-    atomically)."""
+    folders of earlier runs that this run did not produce but that came from its inputs
+    (``owns``, :func:`input_owner`; without it every earlier folder is this run's), keep those of
+    other inputs in the manifest, then write the manifest (last, atomically)."""
     tile_dir = out_dir / tile.name
     tile_dir.mkdir(parents=True, exist_ok=True)
     records = []
@@ -503,9 +600,21 @@ def write_tile_output(
     keep = set(folders)
     with os.scandir(tile_dir) as found_names:  # a listing: no stat of the folders kept
         others = [e.path for e in found_names if e.name not in keep and not e.name.startswith(".")]
-    for folder_path in others:  # only folders this tool made (as glob's "*" sees them)
-        if os.path.isfile(os.path.join(folder_path, RECORD_NAME)):
-            shutil.rmtree(folder_path, ignore_errors=True)
+    if owns is not None:
+        skipped = skipped + previous_skipped(tile_dir, owns, skipped)
+    for folder_path in sorted(others):  # only folders this tool made (as glob's "*" sees them)
+        if os.path.islink(folder_path):  # never made by this tool: neither removed nor listed
+            continue
+        record_path = os.path.join(folder_path, RECORD_NAME)
+        if not os.path.isfile(record_path):
+            continue
+        kept = other_inputs_record(record_path) if owns is not None else None
+        if owns is not None and kept is not None and not owns(kept[2]):  # another input's: kept
+            records.append(kept[0])
+            if kept[1] is not None:
+                lines_of[id(kept[0])] = kept[1]
+            continue
+        shutil.rmtree(folder_path, ignore_errors=True)
     lon, lat = tile_center(tile)
     manifest = build_manifest(
         tile,

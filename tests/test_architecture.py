@@ -35,6 +35,7 @@ LAYERS: list[tuple[str, int, tuple[str, ...]]] = [
             "exporter.tiles",
             "exporter.names",
             "exporter.plausible",
+            "exporter.scheduler_probe",
         ),
     ),
     (

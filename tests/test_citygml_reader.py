@@ -1,4 +1,4 @@
-"""CityGML reader: the shared real files end to end, the same buildings through the CityGML and
+"""CityGML reader: the real files of tests/data/real end to end, the same buildings through the CityGML and
 CityJSON readers, appearances and atlases, CRS forms, LoD choice and bad input (incl. a fuzz)."""
 
 from __future__ import annotations
@@ -40,8 +40,7 @@ from tests.citygml_writer import (
     write,
     write_cityjson,
 )
-from tests.conftest import _validator_available as _validator_reason
-from tests.conftest import run_gltf_validator
+from tests.conftest import missing_tool, run_gltf_validator
 
 X0, Y0 = 458870.0, 5438350.0  # EPSG:25832 metres, Karlsruhe (where the SIG 3D example stands)
 
@@ -112,7 +111,7 @@ def _independent_centres(path: Path, epsg: str) -> dict:
     transformer = Transformer.from_crs(epsg, "EPSG:4326", always_xy=True)
     centres = {}
     for element in ET.parse(path).getroot().iter():
-        if element.tag.endswith("}Building"):  # the shared files nest no Building in another
+        if element.tag.endswith("}Building"):  # the real files nest no Building in another
             gid = element.get("{http://www.opengis.net/gml}id")
             values = [
                 float(v)
@@ -137,10 +136,6 @@ def test_shared_file_exports_valid_glb_placed_where_pyproj_says(
     tmp_path, shared_real, gltf_validator, name, epsg, count
 ):
     path = shared_real / "citygml" / name
-    if not path.is_file():
-        pytest.skip(
-            f"{path} not present (../shared/data/real/citygml holds the CityGML test files)"
-        )
     records, glbs = _export(tmp_path, path)
     assert len(records) == count and len(glbs) == 3 * count
     for report in gltf_validator(glbs):
@@ -468,7 +463,7 @@ def test_per_surface_images_packed_into_one_atlas(tmp_path):
     # Through the whole export: the atlas goes down the texture LoD chain, the files validate.
     records, glbs = _export(tmp_path, path)
     assert len(glbs) == 3 and records[0]["attributes"] == {"gml_id": "B"}
-    if _validator_reason() is None:
+    if missing_tool("node", "gltf-validator") is None:
         assert all(r["errors"] == 0 for r in run_gltf_validator(glbs))
 
 

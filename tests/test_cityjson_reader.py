@@ -1,4 +1,4 @@
-"""CityJSON reader: real files from ../shared/data/real and small crafted files.
+"""CityJSON reader: real files from tests/data/real and small crafted files.
 
 Expected values are computed independently from the JSON (polygon and triangle counts) and with
 pyproj directly (lon/lat), not with the reader's own helpers.
@@ -32,14 +32,9 @@ ZURICH = REAL / "zurich_lod2.city.json"
 BAG = REAL / "bag_multi_lod.city.json"
 ROTTERDAM = REAL / "rotterdam_textured" / "twobuildings.city.json"
 
-needs_real = pytest.mark.skipif(
-    not REAL.is_dir(),
-    reason="../shared/data/real not present: real CityJSON test data lives outside the repository",
-)
-
 
 def linked_folder(tmp_path: Path, *files: Path) -> Path:
-    """A folder holding symlinks to real files (the shared data is read in place, never copied)."""
+    """A folder holding symlinks to real files (the real data is read in place, never copied)."""
     folder = tmp_path / "tile"
     folder.mkdir()
     for file in files:
@@ -86,7 +81,6 @@ def expected_triangles(data: dict, geometries: list[dict], drop_ground: bool) ->
 # --------------------------------------------------------------------------- real data
 
 
-@needs_real
 def test_zurich_every_building_loads_without_ground(tmp_path):
     folder = linked_folder(tmp_path, ZURICH)
     assert detect_format(folder) == "cityjson"
@@ -117,7 +111,6 @@ def test_zurich_every_building_loads_without_ground(tmp_path):
     assert total_with_ground > total
 
 
-@needs_real
 def test_zurich_faces_point_outward_and_roofs_up(tmp_path):
     scan = scan_folder(linked_folder(tmp_path, ZURICH))
     away, area_total, up, horizontal = 0.0, 0.0, 0.0, 0.0
@@ -140,7 +133,6 @@ def test_zurich_faces_point_outward_and_roofs_up(tmp_path):
     assert up / horizontal > 0.99
 
 
-@needs_real
 def test_rotterdam_textures_are_real_atlases_with_unchanged_bytes(tmp_path):
     folder = tmp_path / "tile"
     folder.mkdir()
@@ -185,7 +177,6 @@ def test_rotterdam_textures_are_real_atlases_with_unchanged_bytes(tmp_path):
     assert textured >= 10
 
 
-@needs_real
 def test_bag_without_crs_is_refused_and_loads_with_it(tmp_path):
     folder = linked_folder(tmp_path, BAG)
     with pytest.raises(InputError, match="--crs"):

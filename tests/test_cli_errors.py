@@ -432,7 +432,8 @@ def test_files_and_folders_mixed_in_one_call(tmp_path, tile, capsys):
 
 
 def test_an_index_file_alone_reads_the_models_beside_it(tmp_path, capsys):
-    trimesh = pytest.importorskip("trimesh")
+    import trimesh
+
     models = tmp_path / "models"
     models.mkdir()
     trimesh.creation.box(extents=(4.0, 6.0, 8.0)).export(models / "hall.glb")

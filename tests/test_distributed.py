@@ -13,20 +13,14 @@ import time
 from pathlib import Path
 
 import pytest
-
-from exporter.cli import main
-from exporter.config import Config
-from exporter.model import TileId
-from exporter.pipeline import RECORD_NAME, export_tiles
-
-pytest.importorskip(
-    "distributed", reason="dask.distributed not installed: pip install -e '.[test]'"
-)
-
 from dask_cluster import REPO, DaskCluster
 
 from exporter import distributed as dist
+from exporter.cli import main
+from exporter.config import Config
 from exporter.distributed import ClusterError, ClusterOptions
+from exporter.model import TileId
+from exporter.pipeline import RECORD_NAME, export_tiles
 
 TILES = [TileId(15, 279418, 116113), TileId(15, 279419, 116113), TileId(15, 279418, 116114)]
 

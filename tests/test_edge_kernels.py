@@ -50,7 +50,7 @@ def _same(faces, vertex_count):
 
 
 def test_generated_buildings():
-    samplegen = pytest.importorskip("exporter.samplegen")
+    from exporter import samplegen
     from exporter.quality import joined
 
     for building in samplegen.generate_buildings(20, seed=8):

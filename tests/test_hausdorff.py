@@ -150,7 +150,7 @@ def test_random_soups_are_bracketed_by_the_bounds(seed, m, n, offset):
 def test_no_exported_level_exceeds_its_budget_on_a_generated_tile(tmp_path):
     # The simplifier's guard on VWorld-like buildings (a seed no other test uses): every level's
     # dense distance to LOD0 stays within the level's budget.
-    samplegen = pytest.importorskip("exporter.samplegen")
+    from exporter import samplegen
     from exporter.config import Config
     from exporter.readers import load_entry, scan_folder
     from exporter.simplify import _join, build_mesh_chain

@@ -19,22 +19,19 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pygltflib
 import pytest
 
-gltf_writer = pytest.importorskip(
-    "exporter.gltf_writer", reason="exporter/gltf_writer.py (glb_bytes) is missing"
-)
-pygltflib = pytest.importorskip("pygltflib")
-
-from exporter.config import GlobeOptions  # noqa: E402
-from exporter.model import Building, GeoPoint, Part  # noqa: E402
-from exporter.placement import (  # noqa: E402
+from exporter import gltf_writer
+from exporter.config import GlobeOptions
+from exporter.model import Building, GeoPoint, Part
+from exporter.placement import (
     apply_placement,
     building_placement,
     relative_placement,
     tile_placement,
 )
-from exporter.tiles import tile_of  # noqa: E402
+from exporter.tiles import tile_of
 
 R = 6378137.0
 LOCAL_DIRECTIONS = {

@@ -1,7 +1,7 @@
 """Texture LoDs, issue 8 speed work: every mode's output bytes equal a plain reference formulation
 written here (Pillow calls in the obvious order), the header is parsed once, and ``always``'s box
 chain stays within its documented quality. Images are small and made here; one test reads a real
-aerial atlas from ``../shared/data/real`` (skipped when absent)."""
+aerial atlas from ``tests/data/real``."""
 
 from __future__ import annotations
 
@@ -148,9 +148,7 @@ def test_box_lod2_trades_about_2_db_on_a_real_aerial_atlas():
     """On a real photograph auto's check passes, so auto writes what always writes; its box LOD2
     is about 2 dB below never's Lanczos (docs/textures.md), still >= 33 dB against Lanczos from
     the full image."""
-    atlases = sorted(REAL_ATLASES.glob("*.jpg")) if REAL_ATLASES.is_dir() else []
-    if not atlases:
-        pytest.skip(f"../shared/data/real not present: {REAL_ATLASES}")
+    atlases = sorted(REAL_ATLASES.glob("*.jpg"))
     data = atlases[0].read_bytes()
     auto, always, never = (
         levels_of(data, "auto"),

@@ -221,10 +221,6 @@ def test_exact_quality_agrees_with_measure_lod_on_real_exact_levels(tmp_path):
     from exporter.simplify import build_mesh_chain
 
     real = Path(__file__).resolve().parents[1] / "tests" / "data" / "real"
-    if not (real / "zurich_lod2.city.json").is_file():
-        pytest.skip(
-            "../shared/data/real not present: real CityJSON buildings are not in the repository"
-        )
     config = Config()
     (tmp_path / "zurich_lod2.city.json").symlink_to(
         (real / "zurich_lod2.city.json").resolve()

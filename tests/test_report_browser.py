@@ -1,4 +1,5 @@
-"""The report pages in a real browser: headless Chromium (Debian package ``chromium``) opens them
+"""The report pages in a real browser: headless Chromium (Debian package ``chromium``; also found as
+``chromium-browser``, ``google-chrome`` or ``$CHROME``) opens them
 from ``file://`` and the pages' own load script marks ``<body>`` with how many images loaded
 (naturalWidth > 0) or broke and how many id'd tables and SVG plots were laid out with a non-zero
 size; ``--dump-dom`` hands the marked DOM back. No network, no browser download.
@@ -19,7 +20,9 @@ from exporter.report import write_reports
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_report import TILE, make_fake_export
 
-CHROMIUM = Path("/usr/bin/chromium")
+from tests.conftest import chromium, needs
+
+CHROMIUM = chromium()  # $CHROME, chromium, chromium-browser or google-chrome
 FLAGS = [
     "--headless",
     "--no-sandbox",
@@ -31,10 +34,7 @@ FLAGS = [
     "--disable-sync",
 ]
 
-pytestmark = pytest.mark.skipif(
-    not CHROMIUM.is_file(),
-    reason=f"{CHROMIUM} not installed (Debian package 'chromium'; CI installs it)",
-)
+pytestmark = needs("chromium")
 
 
 def body_marks(page: Path, profile: Path) -> dict[str, str]:

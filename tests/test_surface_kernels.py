@@ -21,8 +21,8 @@ from tests.test_perf_hausdorff import (
 
 
 def test_every_call_of_the_chain_on_generated_buildings_gives_the_former_values(monkeypatch):
-    samplegen = pytest.importorskip("exporter.samplegen")
     import exporter.simplify as simplify
+    from exporter import samplegen
     from exporter.config import Config
 
     compiled_upper, compiled_nearest = SurfaceIndex._upper, hausdorff._nearest_face

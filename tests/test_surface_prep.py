@@ -81,7 +81,7 @@ def _random_triangles(rng: np.random.Generator, m: int, awkward: bool) -> np.nda
 
 
 def _generated_meshes():
-    samplegen = pytest.importorskip("exporter.samplegen")
+    from exporter import samplegen
     from exporter.quality import joined
 
     for building in samplegen.generate_buildings(6, seed=11, atlas_size=16):
@@ -186,7 +186,7 @@ def test_the_memo_computes_each_answer_once_and_grows():
 
 
 def test_certified_bounds_are_the_same_with_and_without_the_memo(monkeypatch):
-    samplegen = pytest.importorskip("exporter.samplegen")
+    from exporter import samplegen
     from exporter.config import Config
     from exporter.quality import joined
     from exporter.simplify import build_mesh_chain

@@ -1,12 +1,12 @@
 """A real 3D Tiles client renders OUT/tileset.json: CesiumJS (npm ``cesium``) in headless Chromium
-(puppeteer-core, Debian's ``chromium``), served from 127.0.0.1 with every other request blocked
-(tests/tileset_client/render.js). The views from 3 km down to street level are checked on the
+(puppeteer-core; Debian's ``chromium`` or another Chromium/Chrome, ``tests/conftest.py``), served
+from 127.0.0.1 with every other request blocked (tests/tileset_client/render.js). The views from 3 km down to street level are checked on the
 tileset's own statistics and on the page's console errors and failed requests."""
 
 from __future__ import annotations
 
 import json
-import shutil
+import os
 import subprocess
 from pathlib import Path
 
@@ -17,24 +17,13 @@ from exporter.model import TileId
 from exporter.pipeline import export_tiles
 from exporter.samplegen import generate_tile
 from exporter.tiles import tile_center
+from tests.conftest import chromium, needs
 
 CLIENT = Path(__file__).resolve().parent / "tileset_client"
-CHROMIUM = Path("/usr/bin/chromium")
 TILES = [TileId(15, 279418, 116113), TileId(15, 279419, 116113)]
 
 
-def _missing() -> str | None:
-    if shutil.which("node") is None:
-        return "node is not installed (needed to drive the CesiumJS client)"
-    if not CHROMIUM.is_file():
-        return f"{CHROMIUM} not installed (Debian package 'chromium'; .ci/run installs it)"
-    for package in ("cesium", "puppeteer-core"):
-        if not (CLIENT / "node_modules" / package).is_dir():
-            return f"{package} not installed: run `npm ci --prefix tests/tileset_client` (.ci/run does)"
-    return None
-
-
-pytestmark = [pytest.mark.slow, pytest.mark.skipif(_missing() is not None, reason=str(_missing()))]
+pytestmark = [pytest.mark.slow, needs("node", "chromium", "tileset-client")]
 
 
 def render(out: Path, lon: float, lat: float, heights: list[float]) -> list[dict]:
@@ -43,6 +32,7 @@ def render(out: Path, lon: float, lat: float, heights: list[float]) -> list[dict
         capture_output=True,
         text=True,
         timeout=600,
+        env={**os.environ, "CHROMIUM": str(chromium())},  # render.js's browser
     )
     lines = [json.loads(line) for line in result.stdout.splitlines() if line.startswith("{")]
     assert lines and "fatal" not in lines[0], (result.stdout[-2000:], result.stderr[-2000:])

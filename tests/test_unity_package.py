@@ -28,11 +28,10 @@ sys.path.insert(0, str(UNITY_TESTS))
 
 import unity_meta  # noqa: E402  (tests/unity/unity_meta.py)
 
+from tests.conftest import missing_tool, needs  # noqa: E402
+
 MCS, MONO = shutil.which("mcs"), shutil.which("mono")
-needs_mono = pytest.mark.skipif(
-    not (MCS and MONO),
-    reason="mono's C# compiler (mcs) and runtime (mono) are not installed: apt-get install mono-mcs mono-runtime",
-)
+needs_mono = needs("mono")
 
 
 def scripts(folder: Path) -> list[str]:
@@ -53,8 +52,8 @@ def mcs(
 @pytest.fixture(scope="module")
 def build(tmp_path_factory) -> dict[str, Path]:
     """Compile stand-ins, the package (as its asmdefs group it), the plain logic alone and the tests."""
-    if not (MCS and MONO):
-        pytest.skip("mono's C# compiler (mcs) and runtime (mono) are not installed")
+    if missing_tool("mono"):
+        pytest.skip(missing_tool("mono"))
     return compile_package(tmp_path_factory.mktemp("unity_build"))
 
 
@@ -475,10 +474,8 @@ REAL_DATA = REPO / "tests" / "data" / "real"
 
 @needs_mono
 def test_csharp_plans_the_real_export_of_real_cityjson(build, tmp_path):
-    """`vworld-lod export` on the real textured Rotterdam CityJSON (../shared/data/real)."""
+    """`vworld-lod export` on the real textured Rotterdam CityJSON (tests/data/real)."""
     source = REAL_DATA / "rotterdam_textured"
-    if not source.is_dir():
-        pytest.skip(f"../shared/data/real not present: {source} is missing")
     out = tmp_path / "out"
     export = subprocess.run(
         [
@@ -521,8 +518,7 @@ def demo_tile() -> Path | None:
 def demo_tile_export(out: Path) -> Path:
     """`vworld-lod export` of the demo tile into ``out``; its manifest (skips without a demo tile)."""
     tile = demo_tile()
-    if tile is None:
-        pytest.skip("samples/ holds no demo tile (a folder with .dat files) yet")
+    assert tile is not None, "samples/ holds the demo tile (a folder with .dat files)"
     export = subprocess.run(
         [sys.executable, "-m", "exporter", "export", str(tile), "--out", str(out), "--quiet"],
         cwd=REPO,

@@ -367,7 +367,8 @@ def test_detect_needs_a_dat(tmp_path):
 def test_vworld_box_arrives_in_unity_facing_outward(tmp_path):
     """The end result as Unity sees it: VWorld file -> load -> glTF -> glTFast's import (negate X,
     reverse winding) -> every face of the box still points away from its inside."""
-    trimesh = pytest.importorskip("trimesh")
+    import trimesh
+
     from exporter.gltf_writer import glb_bytes
 
     vworld.write_tile(tmp_path, TILE, [building([textured_box()])])

@@ -183,7 +183,7 @@ def test_kernels_on_generated_buildings(monkeypatch):
     # The rows the mesh stage passes (simplify, meshopt wedges, Hausdorff, joined meshes), recorded
     # on generated buildings, then compared with the numpy forms; and the buildings' triangle
     # soups (float32 positions, every corner repeated) welded exactly.
-    samplegen = pytest.importorskip("exporter.samplegen")
+    from exporter import samplegen
     from exporter.config import Config
     from exporter.quality import measure_lod
     from exporter.simplify import build_mesh_chain

@@ -1,7 +1,7 @@
 """Images the texture tests make themselves, and where the real aerial atlases live.
 
-Arrays are (height, width, 3) uint8 RGB; ``REAL_ATLASES`` is read at test time only (skip when
-absent), never copied into the repository."""
+Arrays are (height, width, 3) uint8 RGB; ``REAL_ATLASES`` are the aerial photographs of the
+Rotterdam CityJSON in ``tests/data/real`` (``PROVENANCE.md``)."""
 
 from __future__ import annotations
 

@@ -55,6 +55,7 @@ from ..formats.vworld_binary import (
 from ..geodesy import EARTH_RADIUS_M, east_up_north, sphere_ecef
 from ..mesh.geometry import cross_rows, row_norms, unit_vectors, vertex_normals
 from ..model import Building, GeoPoint, Part, Skipped, Texture, TileId
+from ..tiles import tile_bounds
 from . import Entry, Scan
 from .confine import OutsideInput, confined
 from .images import TextureFileError, read_texture_file
@@ -209,13 +210,17 @@ def scan(folder: str | Path, options: ReaderOptions | None = None) -> Scan:
     for dat_path in dat_files:
         try:
             dat = parse_dat(_read(dat_path), str(dat_path))
+            tile = TileId(dat.level, dat.idx, dat.idy)
+            try:  # the header's tile must exist: checked before any building work
+                tile_bounds(tile)
+            except ValueError as error:
+                raise ReadError(str(dat_path), f"header: {error}") from None
         except ReadError as error:
             if single:
                 raise InputError(str(error)) from None
             result.skipped.append(Skipped(source=str(dat_path), reason=error.problem))
 
             continue
-        tile = TileId(dat.level, dat.idx, dat.idy)
         if dat.trailing:
             result.notes.append(
                 f"{dat_path}: {len(dat.trailing)} bytes after the last object record ignored"

@@ -14,6 +14,7 @@ its picture; the report never stops for one bad building.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import re
 import time
@@ -99,6 +100,77 @@ def render_building(tile_dir: Path, building: dict, size: int = IMAGE_SIZE) -> B
     return result
 
 
+# Part of every render's key: change it when the renders of unchanged files would change
+# (camera, light, rasteriser, atlas crop), so a report after such a change draws them again.
+RENDER_VERSION = 1
+RENDERS_NAME = "renders.json"  # in the tile's report/ folder: each building's key and levels
+
+
+def render_key(tile_dir: Path, building: dict, size: int) -> str | None:
+    """What a building's renders depend on: :data:`RENDER_VERSION`, the picture size and each
+    level's file name, size and modification time (an export leaves a level whose bytes are
+    unchanged untouched, mtime kept). None when a level's file cannot be stat'ed (drawn again)."""
+    parts: list = [RENDER_VERSION, size]
+    for lod in building.get("lods", []):
+        try:
+            stat = (tile_dir / str(lod.get("file", ""))).stat()
+        except OSError:
+            return None
+        parts.append([str(lod.get("file", "")), stat.st_size, stat.st_mtime_ns])
+    return hashlib.sha256(json.dumps(parts).encode("utf-8")).hexdigest()
+
+
+def read_renders(image_dir: Path) -> dict:
+    """The previous report's ``renders.json`` (building folder -> {key, levels}), or {}."""
+    try:
+        data = json.loads((image_dir / RENDERS_NAME).read_text(encoding="utf-8"))
+        return data if isinstance(data, dict) else {}
+    except (OSError, ValueError):
+        return {}
+
+
+def reused_renders(
+    image_dir: Path, building: dict, key: str | None, previous: dict
+) -> BuildingRenders | None:
+    """The building's renders from the previous report when its key is unchanged and every image
+    it drew is still there, else None."""
+    entry = previous.get(image_name(building, 0))
+    if key is None or not isinstance(entry, dict) or entry.get("key") != key:
+        return None
+    lods = {int(lod.get("level", k)): lod for k, lod in enumerate(building.get("lods", []))}
+    result = BuildingRenders(building)
+    try:
+        for item in entry["levels"]:
+            level = LevelRender(int(item["level"]), lods[int(item["level"])])
+            level.error = item.get("error")
+            for kind in ("image", "detail"):
+                name = item.get(kind)
+                if name is not None and not (image_dir / str(name)).is_file():
+                    return None
+                setattr(level, kind, None if name is None else f"{IMAGE_FOLDER}/{quote(name)}")
+            level.detail_size = tuple(item.get("detail_size", (0, 0)))
+            result.levels.append(level)
+    except (KeyError, TypeError, ValueError):
+        return None
+    return result
+
+
+def renders_entry(renders: BuildingRenders, key: str) -> dict:
+    """``renders.json``'s record of one building's renders (image names in ``report/``)."""
+    levels = []
+    for level in renders.levels:
+        levels.append(
+            {
+                "level": level.level,
+                "image": image_name(renders.building, level.level) if level.image else None,
+                "detail": detail_name(renders.building, level.level) if level.detail else None,
+                "detail_size": list(level.detail_size),
+                "error": level.error,
+            }
+        )
+    return {"key": key, "levels": levels}
+
+
 def remove_stale_images(image_dir: Path, keep: set[str]) -> None:
     """Delete renders not drawn this time (buildings or levels gone, or whose file is now broken)."""
     if image_dir.is_dir():
@@ -108,9 +180,22 @@ def remove_stale_images(image_dir: Path, keep: set[str]) -> None:
 
 
 def write_tile_report(tile_dir: Path, manifest: dict, size: int = IMAGE_SIZE) -> Path:
-    """Render one tile's buildings and write ``tile_dir/report.html``; returns the page's path."""
+    """Render one tile's buildings and write ``tile_dir/report.html``; returns the page's path.
+
+    A building whose level files are unchanged since the previous report (:func:`render_key`)
+    keeps its images: an unchanged re-run draws nothing (``report/renders.json`` keeps the keys)."""
     started = time.perf_counter()
-    renders = [render_building(tile_dir, building, size) for building in manifest["buildings"]]
+    image_dir = tile_dir / IMAGE_FOLDER
+    previous = read_renders(image_dir)
+    renders, entries, reused = [], {}, 0
+    for building in manifest["buildings"]:
+        key = render_key(tile_dir, building, size)
+        found = reused_renders(image_dir, building, key, previous)
+        reused += found is not None
+        found = found or render_building(tile_dir, building, size)
+        renders.append(found)
+        if key is not None:
+            entries[image_name(building, 0)] = renders_entry(found, key)
     seconds = time.perf_counter() - started
     drawn = {
         image_name(r.building, level.level)
@@ -124,8 +209,11 @@ def write_tile_report(tile_dir: Path, manifest: dict, size: int = IMAGE_SIZE) ->
         for level in r.levels
         if level.detail is not None
     }
-    remove_stale_images(tile_dir / IMAGE_FOLDER, drawn)
-    return write_text_atomic(tile_dir / "report.html", tile_page(manifest, renders, seconds))
+    remove_stale_images(image_dir, drawn)
+    if entries != previous:
+        write_text_atomic(image_dir / RENDERS_NAME, json.dumps(entries, sort_keys=True) + "\n")
+    page = tile_page(manifest, renders, seconds, reused)
+    return write_text_atomic(tile_dir / "report.html", page)
 
 
 def find_tiles(out_dir: Path) -> list[Path]:

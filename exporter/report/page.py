@@ -239,6 +239,31 @@ def _metrics_table(lod: dict) -> str:
     return f'<table class="metrics">{rows}</table>' if cells else ""
 
 
+NO_SMALLER_WHY = (
+    "the simplifier found no smaller mesh within the level's error budget (a certified Hausdorff "
+    "bound of max_screen_error_px at the level's largest size on screen; lods[].mesh is only a "
+    "cap), so the level keeps the mesh of the level above, with its own atlas"
+)
+
+
+def no_smaller_html(manifest: dict) -> str:
+    """Per level: how many buildings keep the level above's triangles (``no_smaller_than_above``
+    in the manifest) and why; empty when none does."""
+    buildings = manifest.get("buildings", [])
+    counts: dict[int, int] = {}
+    for building in buildings:
+        for k, lod in enumerate(building.get("lods", [])):
+            if k and lod.get("no_smaller_than_above"):
+                counts[k] = counts.get(k, 0) + 1
+    if not counts:
+        return ""
+    shares = "; ".join(
+        f"LOD{k}: {n} of {len(buildings)} buildings keep LOD{k - 1}'s triangles"
+        for k, n in sorted(counts.items())
+    )
+    return f'<p class="meta" id="no-smaller">{escape(shares)}: {escape(NO_SMALLER_WHY)}.</p>'
+
+
 def _level_figure(building_id: str, render: LevelRender) -> str:
     lod = render.lod
     w, h = (list(lod.get("texture_size", [0, 0])) + [0, 0])[:2]
@@ -261,6 +286,13 @@ def _level_figure(building_id: str, render: LevelRender) -> str:
         f"<b>LOD{render.level}</b> · {_fmt_int(lod.get('triangles', 0))} triangles · "
         f"{_fmt_int(lod.get('vertices', 0))} vertices · {texture}"
     )
+    if render.level and lod.get("no_smaller_than_above"):
+        budget = lod.get("error_budget_m")
+        within = f" within its {budget * 100:.1f} cm error budget" if budget else ""
+        caption += (
+            f'<div class="note" data-no-smaller="1">same mesh as LOD{render.level - 1}: no '
+            f"smaller one stays{within}</div>"
+        )
     return (
         f'<figure class="lod" data-level="{render.level}">{picture}<figcaption>{caption}'
         f"{_metrics_table(lod) if render.level > 0 else ''}</figcaption></figure>"
@@ -301,8 +333,11 @@ def building_html(rank: int, renders: BuildingRenders) -> str:
     )
 
 
-def tile_page(manifest: dict, renders: list[BuildingRenders], render_seconds: float) -> str:
-    """The whole tile page. ``renders`` may come in any order: the page sorts them worst first."""
+def tile_page(
+    manifest: dict, renders: list[BuildingRenders], render_seconds: float, reused: int = 0
+) -> str:
+    """The whole tile page. ``renders`` may come in any order: the page sorts them worst first;
+    ``reused``: buildings whose images an earlier report drew (their files unchanged)."""
     tile = manifest.get("tile", {})
     name = str(tile.get("name", "tile"))
     center = tile.get("center", {})
@@ -322,6 +357,7 @@ def tile_page(manifest: dict, renders: list[BuildingRenders], render_seconds: fl
         f"{escape(str(generator.get('name', '')))} {escape(str(generator.get('version', '')))}</p>",
         '<h2 id="summary">Levels</h2>',
         level_table_html(manifest),
+        no_smaller_html(manifest),
         '<h2 id="skipped">Skipped buildings</h2>',
         skipped_html(manifest),
         '<h2 id="distributions">Quality per level</h2>',
@@ -331,8 +367,9 @@ def tile_page(manifest: dict, renders: list[BuildingRenders], render_seconds: fl
         "sun from the south-south-west; inside faces darker. Under each render, the same central eighth "
         "of the level's atlas at the atlas' own resolution (texture LoD).</p>",
         *(building_html(rank, r) for rank, r in enumerate(ordered, 1)),
-        f'<p class="meta" id="render-time">{images} images rendered in {render_seconds:.2f} s'
-        f"{f' ({render_seconds / images * 1000:.0f} ms each, load + render + PNG)' if images else ''}.</p>",
+        f'<p class="meta" id="render-time">{images} images in {render_seconds:.2f} s'
+        f"{f', {reused} buildings unchanged since the last report (images kept)' if reused else ''}"
+        f"{f' ({render_seconds / images * 1000:.0f} ms each, load + render + PNG)' if images and not reused else ''}.</p>",
     ]
     return _document(f"{name} — vworld-lod report", body)
 

@@ -36,7 +36,8 @@ class TilesetResult:
         if self.path is None:
             return "tileset: no building to show, no tileset.json written"
         text = (
-            f"tileset: {self.buildings} buildings, {self.proxies} tile proxies "
+            f"tileset: {self.buildings} building{'s' * (self.buildings != 1)}, "
+            f"{self.proxies} tile prox{'y' if self.proxies == 1 else 'ies'} "
             f"({self.proxies_built} built) -> {self.path}"
         )
         if self.left_out:

@@ -1,4 +1,5 @@
-// CesiumJS (npm `cesium`) in headless Chromium (Debian's /usr/bin/chromium via puppeteer-core)
+// CesiumJS (npm `cesium`) in headless Chromium via puppeteer-core ($CHROMIUM, which
+// tests/test_tileset_client.py sets from tests/conftest.py's chromium(); else /usr/bin/chromium)
 // loads OUT/tileset.json from a 127.0.0.1 server, with no network and no Cesium ion, renders one
 // view per requested height and prints one JSON line per view: the tileset's statistics once
 // every tile of the view is loaded, plus the page's console errors and failed requests.
