@@ -89,7 +89,7 @@ def test_citygml_standard_and_generic_attributes_with_types(tmp_path):
         )
     path = tmp_path / "house.gml"
     path.write_text(text, encoding="utf-8")
-    (building,) = load_all(path, ReaderOptions(crs="EPSG:25832"))
+    (building,) = load_all(path)
     attributes = building.attributes
     assert attributes["gml_id"] == building.id
     assert attributes["year_of_construction"] == 1985 and attributes["storeys_above_ground"] == 1

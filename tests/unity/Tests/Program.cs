@@ -1,6 +1,6 @@
 // Entry point of the C# test assembly:
 //   mono VWorldLod.Tests.exe [--manifest PATH]... [--broken PATH FIELD]... [--placements PATH]... [--names PATH]...
-//                            [--georef PATH]... [--float32 PATH]... [--streaming PATH]... [--proxies PATH]...
+//                            [--georef PATH]... [--float32 PATH]... [--streaming PATH]... [--proxies PATH]... [--attributes PATH]...
 // Always runs the self-contained tests; the options add tests on files made by the Python side.
 using System;
 
@@ -28,6 +28,7 @@ namespace VWorldLod.Tests
                 else if (args[i] == "--float32" && i + 1 < args.Length) GeoreferenceTests.RunFloat32(t, args[++i]);
                 else if (args[i] == "--streaming" && i + 1 < args.Length) StreamingTests.Run(t, args[++i]);
                 else if (args[i] == "--proxies" && i + 1 < args.Length) ProxyTests.Run(t, args[++i]);
+                else if (args[i] == "--attributes" && i + 1 < args.Length) AttributeTests.Run(t, args[++i]);
                 else
                 {
                     Console.Error.WriteLine("unknown or incomplete argument: " + args[i]);

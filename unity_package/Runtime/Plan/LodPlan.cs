@@ -53,6 +53,10 @@ namespace VWorldLod
         public Placement Relative;
         /// <summary>Warnings the exporter recorded for this building.</summary>
         public string[] Problems;
+        /// <summary>The file it was read from (manifest source).</summary>
+        public string Source;
+        /// <summary>Its source attributes (AttributeReader.Attach; empty until then).</summary>
+        public BuildingAttribute[] Attributes = new BuildingAttribute[0];
     }
 
     /// <summary>What one tile manifest asks Unity to build.</summary>
@@ -107,7 +111,7 @@ namespace VWorldLod
                 if (!(e is IOException || e is UnauthorizedAccessException || e is ArgumentException || e is NotSupportedException)) throw;
                 throw new ManifestException(manifestPath, "", "cannot read the manifest: " + e.Message, e);
             }
-            return Plan(parser.Parse(text, manifestPath), manifestPath, fileExists);
+            return AttributeReader.Attach(Plan(parser.Parse(text, manifestPath), manifestPath, fileExists), text);
         }
 
         /// <summary>Validates and plans an already parsed manifest (see Load).</summary>
@@ -178,6 +182,7 @@ namespace VWorldLod
                 Local = Placement.FromData(mode == PlacementMode.TileRelative ? b.relative_placement : b.placement),
                 Relative = Placement.FromData(b.relative_placement),
                 Problems = b.problems ?? new string[0],
+                Source = b.source,
             };
         }
 
