@@ -9,8 +9,11 @@ vertex's feature id resolved to the building whose piece it is."""
 from __future__ import annotations
 
 import json
+import os
 import re
+import shlex
 import struct
+import subprocess
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +27,7 @@ from exporter.tileset.features import with_features
 from exporter.tileset.metadata import building_values, property_id
 
 REAL = Path(__file__).resolve().parent / "data" / "real"
+VALIDATOR_BIN = Path(__file__).resolve().parent / "tileset_client" / "node_modules" / ".bin"
 TILES = [TileId(15, 279418, 116113), TileId(15, 279419, 116113)]
 IDENTIFIER = re.compile(r"^[a-zA-Z_][a-zA-Z0-9_]*$")
 TYPES = {"STRING": str, "BOOLEAN": bool}
@@ -231,3 +235,38 @@ def test_property_ids_are_identifiers_and_keep_the_name():
         pid = property_id(name)
         assert IDENTIFIER.match(pid) and pid != name
     assert property_id("a.b") != property_id("a_b")
+
+
+def validator_command() -> list[str] | None:
+    """The CesiumGS 3d-tiles-validator: ``$VWORLD_LOD_3DTILES_VALIDATOR`` (a command line, e.g.
+    ``npx ts-node --transpile-only <checkout>/src/main.ts``) or an npm install beside the
+    CesiumJS client."""
+    if os.environ.get("VWORLD_LOD_3DTILES_VALIDATOR"):
+        return shlex.split(os.environ["VWORLD_LOD_3DTILES_VALIDATOR"])
+    found = VALIDATOR_BIN / "3d-tiles-validator"
+    return [str(found)] if found.exists() else None
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(
+    validator_command() is None,
+    reason="CesiumGS 3d-tiles-validator not installed (the npm registry reached here lacks it): "
+    "`npm install 3d-tiles-validator` with overrides 3d-tiles-tools 0.5.3 and sharp ^0.33.5 in "
+    "tests/tileset_client, or set VWORLD_LOD_3DTILES_VALIDATOR to a command running one",
+)
+def test_the_cesium_3d_tiles_validator_reports_no_error(two_tiles, tmp_path):
+    out = tmp_path / "out"
+    export_tiles([REAL / "citygml" / "berlin_3880_5819.gml"], out, Config(), jobs=1)
+    command = validator_command()
+    assert command is not None
+    for tileset in (two_tiles / "tileset.json", out / "tileset.json"):
+        report_file = tmp_path / "report.json"
+        subprocess.run(
+            [*command, "--tilesetFile", str(tileset), "--reportFile", str(report_file)],
+            capture_output=True,
+            text=True,
+            timeout=600,
+            cwd=command[-1].rsplit("/src/", 1)[0] if "/src/" in command[-1] else None,
+        )
+        report = json.loads(report_file.read_text())
+        assert report["numErrors"] == 0 and report["numWarnings"] == 0, json.dumps(report)[:4000]
