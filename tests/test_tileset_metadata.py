@@ -255,11 +255,15 @@ def validator_command() -> list[str] | None:
     "tests/tileset_client, or set VWORLD_LOD_3DTILES_VALIDATOR to a command running one",
 )
 def test_the_cesium_3d_tiles_validator_reports_no_error(two_tiles, tmp_path):
-    out = tmp_path / "out"
-    export_tiles([REAL / "citygml" / "berlin_3880_5819.gml"], out, Config(), jobs=1)
+    tilesets = [two_tiles / "tileset.json"]
+    for number, source in enumerate(
+        [REAL / "citygml" / "berlin_3880_5819.gml", REAL / "zurich_lod2.city.json"]
+    ):
+        export_tiles([source], tmp_path / f"out{number}", Config(), jobs=1)
+        tilesets.append(tmp_path / f"out{number}" / "tileset.json")
     command = validator_command()
     assert command is not None
-    for tileset in (two_tiles / "tileset.json", out / "tileset.json"):
+    for tileset in tilesets:
         report_file = tmp_path / "report.json"
         subprocess.run(
             [*command, "--tilesetFile", str(tileset), "--reportFile", str(report_file)],
