@@ -25,8 +25,13 @@ Its error (metres) is the larger of
   it into a smaller atlas cell (a tile's texels are its inputs' times their shrink factor, never
   finer than the inputs').
 
+Every proxy vertex keeps the building it came from: each piece's building key (``<tile>/<id>``)
+is kept in ``owners`` (through proxies of proxies) and :mod:`.features` writes them as per-vertex
+feature ids with a property table of those buildings (``EXT_mesh_features`` +
+``EXT_structural_metadata``, docs/tileset.md "Metadata").
+
 Files: ``OUT/tileset_proxies/<tile>.glb`` and ``<tile>.json`` (its inputs' hash, bounds, sizes,
-pieces). A proxy is rebuilt only when that hash changes; files of tiles no longer proxied are
+pieces, owners). A proxy is rebuilt only when that hash changes; files of tiles no longer proxied are
 removed.
 """
 
@@ -271,11 +276,10 @@ def build_proxy(
 def piece_owners(owners: list[ProxyInput]) -> list[str]:
     """The building key of every piece :func:`_pieces` makes of primitives from ``owners``: a
     building's primitive is one piece of its building, a child proxy's one piece per its own."""
-    return [
-        key
-        for owner in owners
-        for key in (owner.owners or [""] if owner.pieces is None else owner.owners or [])
-    ]
+    keys: list[str] = []
+    for owner in owners:
+        keys += (owner.owners or [""])[:1] if owner.pieces is None else owner.owners or []
+    return keys
 
 
 def input_key(
