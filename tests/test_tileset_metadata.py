@@ -196,6 +196,22 @@ def test_cityjson_attributes_reach_the_tileset_and_the_proxies(tmp_path):
     assert check_proxies(out, records) >= 1
 
 
+@pytest.mark.parametrize(
+    "source",
+    [
+        REAL / "citygml" / "house_and_garage_lod2.gml",
+        Path(__file__).resolve().parents[1] / "samples" / "15_279418_116113",
+    ],
+    ids=["citygml", "sample_tile"],
+)
+def test_citygml_and_the_sample_tile_attributes_reach_the_tileset_and_the_proxies(source, tmp_path):
+    out = tmp_path / "out"
+    export_tiles([source], out, Config(), jobs=1)
+    _, records = check_tileset(out)
+    assert all(record["attributes"] for record in records.values())
+    assert check_proxies(out, records) >= 1
+
+
 def test_a_missing_value_is_no_data_and_a_partly_missing_boolean_is_text(tmp_path):
     from exporter.gltf_writer import glb_bytes
     from exporter.model import Part
