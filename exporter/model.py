@@ -122,8 +122,9 @@ class Building:
     # Geographic extent of the building (west, south, east, north) in degrees, when the reader knows
     # it; the tile a building belongs to is the one holding the centre of this box.
     lonlat_bounds: tuple | None = None
-    # Source attributes kept for users (CityGML: gml_id, name, measured_height in metres,
-    # function); copied into the manifest's building record when not empty.
+    # Source attributes kept for users: a flat dict of str -> str | int | float | bool made by
+    # exporter.attributes.clean_attributes (every reader; docs/input.md "Attributes"); copied
+    # into the manifest's building record when not empty.
     attributes: dict = field(default_factory=dict)
 
     @property

@@ -173,7 +173,10 @@ def test_shared_file_exports_valid_glb_placed_where_pyproj_says(
             "gml_id": "GML_7b1a5a6f-ddad-4c3d-a507-3eb9ee0a8e68",
             "name": "Example Building LOD2",
             "function": "1000",
+            "year_of_construction": 1985,
+            "roof_type": "1030",
             "measured_height": 6.0,
+            "storeys_above_ground": 1,
         }
 
 

@@ -258,7 +258,7 @@ def test_index_formats_and_errors(tmp_path):
     )
     scan = scan_folder(tmp_path)
     assert [e.id for e in scan.entries] == ["J"] and scan.entries[0].key[
-        -1
+        4
     ] == "y"  # up_axis defaults to y
     (tmp_path / "buildings.csv").write_text("file,lon,lat\na.glb,1,2\n")
     with pytest.raises(InputError, match="buildings.csv: missing column"):
@@ -284,6 +284,7 @@ def test_entries_are_plain_and_key_decides_hash(tmp_path):
         LAT,
         ELEV,
         "y",
+        (),
     )  # placement in the key: a moved row re-exports
     assert load_entry(entry, ReaderOptions()).id == "A"
 

@@ -829,3 +829,27 @@ def test_cli_report_command(tmp_path, capsys):
     assert f"report: {tmp_path / 'index.html'}" in capsys.readouterr().out
     assert main(["report", str(tmp_path / "missing")]) == 2
     assert "not a folder" in capsys.readouterr().err
+
+
+def test_building_table_shows_the_id_and_main_attributes(tmp_path):
+    tile_dir = make_fake_export(tmp_path, only="B")
+    manifest = _manifest(tile_dir)
+    building = manifest["buildings"][0]
+    building["attributes"] = {
+        "Herkunft": "EE_LB_2007",
+        "year_of_construction": 1985,
+        "name": "<Rathaus>",
+        **{f"extra{i}": i for i in range(9)},
+    }
+    (tile_dir / "lod_manifest.json").write_text(json.dumps(manifest), encoding="utf-8")
+    write_reports(tmp_path)
+    text = (tile_dir / "report.html").read_text(encoding="utf-8")
+    page = Page(text)
+    (table,) = [rows for name, rows in page.tables.items() if name.startswith("attributes-")]
+    assert table[:4] == [
+        ["id", building["id"]],
+        ["name", "<Rathaus>"],  # escaped in the page, read back as text
+        ["year_of_construction", "1985"],
+        ["Herkunft", "EE_LB_2007"],
+    ]
+    assert len(table) == 1 + 8 and "and 4 more attributes" in text

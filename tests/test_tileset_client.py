@@ -26,13 +26,17 @@ TILES = [TileId(15, 279418, 116113), TileId(15, 279419, 116113)]
 pytestmark = [pytest.mark.slow, needs("node", "chromium", "tileset-client")]
 
 
-def render(out: Path, lon: float, lat: float, heights: list[float]) -> list[dict]:
+def render(
+    out: Path, lon: float, lat: float, heights: list[float], pick: list | None = None
+) -> list[dict]:
+    """One dict per view; ``pick``: [lon, lat, height] points whose screen positions are picked
+    in every view (each view's ``picks``, render.js)."""
     result = subprocess.run(
         ["node", str(CLIENT / "render.js"), str(out), str(lon), str(lat), *map(str, heights)],
         capture_output=True,
         text=True,
         timeout=600,
-        env={**os.environ, "CHROMIUM": str(chromium())},  # render.js's browser
+        env={**os.environ, "CHROMIUM": str(chromium()), "PICK": json.dumps(pick or [])},
     )
     lines = [json.loads(line) for line in result.stdout.splitlines() if line.startswith("{")]
     assert lines and "fatal" not in lines[0], (result.stdout[-2000:], result.stderr[-2000:])
@@ -77,3 +81,29 @@ def test_cesium_renders_the_sample_tile_without_errors(tmp_path):
         assert view["selected"] >= 1 and view["triangles"] > 0, view
     assert views[0]["commands"] == 1  # the tile's proxy: 12 buildings, one draw call
     assert views[1]["commands"] > 1  # close in: the buildings themselves
+
+
+def test_cesium_picks_a_building_on_its_proxy_and_on_its_own_level(tmp_path):
+    """scene.pick at a known building's screen position: from 1 km the tile's proxy is drawn and
+    its feature ids resolve to the building's row of the proxy's property table; at 80 m the
+    building's own level is drawn and its content's group holds the same values."""
+    sample = Path(__file__).resolve().parents[1] / "samples" / "15_279418_116113"
+    out = tmp_path / "out"
+    export_tiles([sample], out, Config(), jobs=1)
+    manifest = json.loads((out / sample.name / "lod_manifest.json").read_text())
+    ground = min(b["center"]["elev"] for b in manifest["buildings"])
+    building = manifest["buildings"][5]
+    centre = building["center"]
+    point = [centre["lon"], centre["lat"], centre["elev"] + 5.0]  # 5 m up its walls
+    far, near = render(out, centre["lon"], centre["lat"], [ground + 1000, ground + 80], [point])
+    for view in (far, near):
+        assert view["errors"] == [] and view["loaded"], view
+    (on_proxy,), (on_level,) = far["picks"], near["picks"]
+    assert on_proxy["kind"] == "feature" and "/tileset_proxies/" in on_proxy["uri"], on_proxy
+    assert on_level["kind"] == "content", on_level
+    assert f"/{sample.name}/{building['folder']}/lod" in on_level["uri"], on_level
+    for picked in (on_proxy, on_level):
+        values = picked["values"]
+        assert values["id"] == building["id"] and values["source_file"].endswith(".xdo")
+        for name, value in building["attributes"].items():
+            assert values[name] == value, (name, picked)

@@ -977,3 +977,24 @@ def test_editor_textures_of_the_sample_tile_take_at_most_a_quarter_of_the_gpu_me
     assert set(measured) == {"Standalone", "Android", "iPhone", "WebGL"}
     for platform, size in measured.items():
         assert size * 4 <= today, (platform, size, today)
+
+
+@needs_mono
+def test_csharp_building_attributes_component_holds_the_manifest_values(build, tmp_path):
+    """Real CityGML, CityJSON and the demo tile exported; every building's BuildingAttributes
+    (attached as the Editor import and the streamer attach it) holds its manifest id, source and
+    attributes with the same values."""
+    from exporter.config import Config
+    from exporter.pipeline import export_tiles
+
+    real = REPO / "tests" / "data" / "real"
+    inputs = [real / "citygml" / "house_and_garage_lod2.gml", real / "zurich_lod2.city.json"]
+    tile = demo_tile()
+    args: list = []
+    for number, source in enumerate(inputs + ([tile] if tile is not None else [])):
+        out = tmp_path / f"out{number}"
+        export_tiles([source], out, Config(), jobs=1)
+        for manifest in sorted(out.glob("*/lod_manifest.json")):
+            args += ["--attributes", manifest]
+    buildings = sum(len(json.loads(Path(m).read_text())["buildings"]) for m in args[1::2])
+    check_run(run_csharp(build, *args), 57 + 6 + 2 * buildings)

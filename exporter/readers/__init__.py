@@ -276,16 +276,13 @@ def _bounded_scan(scan: Scan) -> Scan:
 
 
 def _bounded_building(building: Building) -> Building:
-    """``building`` with its id, problems, text attributes and part/texture names bounded, a
+    """``building`` with its id, problems and part/texture names bounded, a
     problem saying what was cut (docs/input.md "Texts from input are bounded")."""
     cut = []
     if len(building.id) > MAX_TEXT_CHARS:
         cut.append(f"id cut to {MAX_TEXT_CHARS} of {len(building.id)} characters")
         building.id = bounded_text(building.id)
-    for key, value in (building.attributes or {}).items():
-        if isinstance(value, str) and len(value) > MAX_TEXT_CHARS:
-            cut.append(f"attribute {key} cut to {MAX_TEXT_CHARS} of {len(value)} characters")
-            building.attributes[key] = bounded_text(value)
+    # attribute texts are bounded where every reader makes them (exporter/attributes.py)
     building.problems = [bounded_text(problem) for problem in building.problems] + cut
     for part in building.parts:  # names of materials and images in the glTF files
         part.name = bounded_text(part.name)

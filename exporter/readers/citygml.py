@@ -40,8 +40,15 @@ Sources: OGC CityGML 1.0 (08-007r1) and 2.0 (12-019) encoding standards, GML 3.1
   with a problem noted.
 - **Bad polygons** (fewer than 3 distinct points, text or NaN coordinates, self-intersecting or
   non-planar rings, dangling ``xlink:href``) are left out and counted in ``problems``.
-- **Attributes**: ``gml:id``, ``gml:name``, ``measuredHeight`` (metres) and ``function`` go to
-  ``Building.attributes``.
+- **Attributes** (``Building.attributes``, rules of :mod:`exporter.attributes`): ``gml_id``,
+  ``name`` (the first ``gml:name``), ``measured_height`` (metres, float), ``function``, ``usage``,
+  ``year_of_construction`` (int), ``roof_type``, ``storeys_above_ground`` (int) of the top-level
+  building (its parts' own are not merged in), and its generic attributes by their own names:
+  ``gen:stringAttribute``/``dateAttribute``/``uriAttribute`` as text, ``intAttribute`` as int,
+  ``doubleAttribute``/``measureAttribute`` as float (a value that is not a number of its type
+  is kept as text), ``genericAttributeSet`` members as ``set.name``; CityGML 3.0's
+  ``genericAttribute`` wrapper likewise. A repeated element (several ``function``) keeps the
+  first.
 """
 
 from __future__ import annotations
@@ -61,6 +68,7 @@ import numpy as np
 from lxml import etree
 
 from .. import geodesy
+from ..attributes import clean_attributes
 from ..config import ReaderOptions
 from ..errors import InputError, ReadError
 from ..mesh.geometry import cross3
@@ -608,19 +616,87 @@ class _Read:
     used_option: bool = False  # some of its geometry declares no CRS: read in options.crs
 
 
-def _attributes(building, building_id: str) -> dict:
-    attributes: dict = {"gml_id": building_id}
+# CityGML building properties kept as attributes: element name -> (attribute name, type).
+BUILDING_ATTRIBUTES = {
+    "name": ("name", str),
+    "measuredHeight": ("measured_height", float),  # metres (uom as written)
+    "function": ("function", str),
+    "usage": ("usage", str),
+    "yearOfConstruction": ("year_of_construction", int),
+    "roofType": ("roof_type", str),
+    "storeysAboveGround": ("storeys_above_ground", int),
+}
+# Generic attributes (gen:*Attribute of 1.0/2.0, gen:*Attribute inside genericAttribute of 3.0).
+GENERIC_TYPES = {
+    "stringAttribute": str,
+    "intAttribute": int,
+    "doubleAttribute": float,
+    "measureAttribute": float,
+    "dateAttribute": str,
+    "uriAttribute": str,
+}
+
+
+def _typed(text: str | None, kind: type) -> Any:
+    """``text`` stripped as ``kind`` (int, float or str); None when empty, text when it is not a
+    number of that kind (kept rather than lost)."""
+    text = (text or "").strip()
+    if not text:
+        return None
+    if kind is str:
+        return text
+    try:
+        return kind(text)
+    except ValueError:
+        try:
+            number = float(text)
+        except ValueError:
+            return text
+        return int(number) if kind is int and number.is_integer() else number
+
+
+def _generic(element, prefix: str) -> Iterator[tuple[str, Any]]:
+    """(name, typed value) pairs of a generic attribute element (sets flattened as
+    ``set.name``)."""
+    kind = _local(element.tag)
+    kind = kind[0].lower() + kind[1:]  # 3.0 writes StringAttribute, 2.0 stringAttribute
+    name = element.get("name")
+    children = {_local(c.tag): c for c in element if isinstance(c.tag, str)}
+    if name is None and "name" in children:
+        name = (children["name"].text or "").strip()
+    if not name:
+        return
+    if kind == "genericAttributeSet":
+        for child in element:
+            if isinstance(child.tag, str):
+                yield from _generic(child, f"{prefix}{name}.")
+        return
+    if kind in GENERIC_TYPES and "value" in children:
+        yield f"{prefix}{name}", _typed(children["value"].text, GENERIC_TYPES[kind])
+
+
+def attribute_pairs(building, building_id: str) -> Iterator[tuple[str, Any]]:
+    """(name, typed value) of a building element's attributes, in file order (module doc)."""
+    yield "gml_id", building_id
     for child in building:
         name = _local(child.tag)
-        if name == "name" and "name" not in attributes and (child.text or "").strip():
-            attributes["name"] = child.text.strip()
-        elif name == "measuredHeight":
-            value = _numbers(child.text)
-            if value is not None and len(value) == 1:
-                attributes["measured_height"] = float(value[0])
-        elif name == "function" and "function" not in attributes and (child.text or "").strip():
-            attributes["function"] = child.text.strip()
-    return attributes
+        if name in BUILDING_ATTRIBUTES:
+            key, kind = BUILDING_ATTRIBUTES[name]
+            value = _typed(child.text, kind)
+            if value is not None:
+                yield key, value
+        elif name in GENERIC_TYPES or name == "genericAttributeSet":
+            yield from _generic(child, "")
+        elif name == "genericAttribute":  # CityGML 3.0: one attribute element inside
+            for inner in child:
+                if isinstance(inner.tag, str):
+                    yield from _generic(inner, "")
+
+
+def _attributes(building, building_id: str) -> tuple[dict, list[str]]:
+    return clean_attributes(
+        (k, v) for k, v in attribute_pairs(building, building_id) if v is not None
+    )
 
 
 def _envelope_srs(building) -> str | None:
@@ -647,7 +723,9 @@ def read_building(
     problems = _Problems()
     found: list = []
     _candidates(building, None, found)
-    read = _Read(building_id, [], problems, _attributes(building, building_id), None)
+    attributes, notes = _attributes(building, building_id)
+    problems.notes += notes
+    read = _Read(building_id, [], problems, attributes, None)
     if not found:
         return read
     present = {lod for lod, _, _ in found}

@@ -36,6 +36,9 @@ Data form and the choices made:
   texture coordinates have their origin at the image's bottom-left (CityGML's convention); they
   are flipped (``v -> 1 - v``) to glTF's top-left convention. A surface whose texture is missing
   or malformed goes to the untextured part and a problem is noted.
+- **Attributes**: the building CityObject's ``attributes``, every member, through
+  :func:`exporter.attributes.clean_attributes` (nested objects flattened with dotted keys, lists
+  as JSON text; a key repeated in the JSON text keeps its last value, as the JSON parser does).
 - **Ids, tiles**: ``Entry.key`` is the CityObject id; ``Entry.tile`` the level-15 tile holding the
   centre of the lon/lat box.
 
@@ -56,6 +59,7 @@ import mapbox_earcut
 import numpy as np
 
 from .. import geodesy
+from ..attributes import clean_attributes
 from ..config import ReaderOptions
 from ..errors import InputError, ReadError
 from ..mesh.geometry import cross3
@@ -807,12 +811,24 @@ def load(entry: Entry, options: ReaderOptions) -> Building:
         raise _fail(path, f"building {building_id}: every polygon is degenerate")
     # CityJSON has no tile of its own: tile stays None and the pipeline files the building under the
     # tile holding the centre of lonlat_bounds (the same one scan put in Entry.tile).
+    attributes, notes = source_attributes(document.objects[building_id][1].get("attributes"))
     return Building(
         id=building_id,
         source=str(path),
         reference=reference,
         parts=parts,
         tile=None,
-        problems=problems,
+        problems=problems + notes,
         lonlat_bounds=bounds,
+        attributes=attributes,
     )
+
+
+def source_attributes(raw: Any) -> tuple[dict, list[str]]:
+    """A CityObject's ``attributes`` member after :func:`exporter.attributes.clean_attributes`
+    (every member kept, nested objects flattened with dotted keys); a non-object is noted."""
+    if raw is None:
+        return {}, []
+    if not isinstance(raw, dict):
+        return {}, [f"attributes is a {type(raw).__name__}, not an object: left out"]
+    return clean_attributes(raw.items())

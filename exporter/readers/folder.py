@@ -17,6 +17,10 @@ up_axis     no        ``y`` (default) or ``z``: which model axis points up (see 
 id          no        building id (default: the file name without extension); must be unique
 ==========  ========  ==========================================================================
 
+Any other column is an attribute of the building (``Building.attributes``, rules of
+:mod:`exporter.attributes`): text that is exactly an integer or a decimal number becomes that
+number (``007`` stays text), an empty cell is left out; YAML/JSON values keep their own types.
+
 ``buildings.csv`` has a header row with these column names (any order)::
 
     file,lon,lat,elev,up_axis,id
@@ -64,6 +68,7 @@ import yaml
 from PIL import Image
 
 from .. import geodesy
+from ..attributes import clean_attributes
 from ..config import ReaderOptions
 from ..errors import InputError, ReadError, error_text
 from ..model import Building, GeoPoint, Part, Skipped, Texture
@@ -78,6 +83,7 @@ UP_AXES = ("y", "z")
 # Bytes of one building's model file or external glTF buffer: trimesh holds a model several times
 # over while reading it (a 3 GiB OBJ took 6.4 GB), and no single building needs more.
 MAX_MODEL_BYTES = 512 * 2**20
+COLUMNS = ("file", "lon", "lat", "elev", "up_axis", "id")  # the index's own; others: attributes
 
 # Model axes -> local (East, Up, North): rows pick and sign the model's x, y, z. Both have det -1.
 TO_LOCAL = {
@@ -129,6 +135,26 @@ def _index_rows(path: Path) -> list[dict]:
     return data
 
 
+_INTEGER = re.compile(r"[+-]?(0|[1-9][0-9]*)")
+_DECIMAL = re.compile(r"[+-]?([0-9]+\.[0-9]*|\.[0-9]+|[0-9]+)([eE][+-]?[0-9]+)?")
+
+
+def index_value(value: Any) -> Any:
+    """An index row's extra value as an attribute: text that is exactly an integer (no leading
+    zero: ``007`` stays text) or a decimal number becomes that number; an empty text is left
+    out (None); anything else as it is (YAML/JSON keep their own types)."""
+    if not isinstance(value, str):
+        return value
+    text = value.strip()
+    if not text:
+        return None
+    if _INTEGER.fullmatch(text):
+        return int(text)
+    if _DECIMAL.fullmatch(text) and not re.match(r"[+-]?0[0-9]", text):
+        return float(text)
+    return text
+
+
 def _row_entry(folder: Path, row: dict) -> Entry:
     """One index row -> Entry; ValueError saying what is wrong with the row."""
     file = row.get("file")
@@ -159,7 +185,8 @@ def _row_entry(folder: Path, row: dict) -> Entry:
     too_large = _too_large(model)
     if too_large:
         raise ValueError(f"file {file!r} {too_large}")
-    entry_key = (file, values["lon"], values["lat"], values["elev"], up_axis)
+    extra = tuple((k, v) for k, v in row.items() if k not in COLUMNS)
+    entry_key = (file, values["lon"], values["lat"], values["elev"], up_axis, extra)
     return Entry(
         format=FORMAT,
         id=building_id,
@@ -506,7 +533,7 @@ def scan(folder: Path, options: ReaderOptions) -> Scan:
 def load(entry: Entry, options: ReaderOptions) -> Building:
     """The model ``entry.source`` placed by its index row; raises only ReadError."""
     model = Path(entry.source)
-    file, lon, lat, elev, up_axis = entry.key
+    file, lon, lat, elev, up_axis, extra = entry.key
     if not model.is_file():
         raise ReadError(str(model), f"listed in the index as {file!r} but missing")
     root = model_root(model, file)
@@ -599,12 +626,14 @@ def load(entry: Entry, options: ReaderOptions) -> Building:
                 name=texture.name if texture is not None else f"material{number}",
             )
         )
+    attributes, notes = clean_attributes((k, index_value(v)) for k, v in extra)
     return Building(
         id=entry.id,
         source=str(model),
         reference=reference,
         parts=parts,
         tile=None,
-        problems=problems,
+        problems=problems + notes,
         lonlat_bounds=bounds,
+        attributes=attributes,
     )

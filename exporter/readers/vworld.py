@@ -19,6 +19,9 @@ geometry keeps its absolute position whatever the reference, since positions are
 When the model's lowest point is far from that altitude (public parsers report such data) the
 building gets a ``problems`` entry quoting the altitude, the model base and the box-centre height.
 
+Attributes (:func:`source_attributes`, rules of :mod:`exporter.attributes`): the record's key,
+the ``.xdo``'s object id, the altitude (metres), the ``.dat`` file and index, the ``.xdo`` file.
+
 Files written by :func:`write_tile`: ``<level>_<idx>_<idy>.dat`` (the tile index),
 ``<building id>.xdo`` per building (id made file-system safe, made unique with ``~<n>``) and each
 part's texture under its own file name (``Texture.name``) or ``<xdo stem>_<part>.jpg``/``.png``.
@@ -34,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from ..atomic import write_bytes_atomic
+from ..attributes import clean_attributes
 from ..config import ReaderOptions
 from ..errors import InputError, ReadError
 from ..formats.vworld_binary import (
@@ -369,6 +373,7 @@ def load(entry: Entry, options: ReaderOptions | None = None) -> Building:
     _check_base(everything, center, reference, xdo_path, problems)
     lon, lat = lonlat_of(everything @ rotation + origin)  # local_to_global
     bounds = (float(lon.min()), float(lat.min()), float(lon.max()), float(lat.max()))
+    attributes, notes = clean_attributes(source_attributes(dat_name, index, record, xdo))
     return Building(
         # The .dat's own id (scan made repeated ones unique as entry.id; the record keeps this one).
         id=decode_text(record.key).strip() or xdo_path.stem,
@@ -376,9 +381,25 @@ def load(entry: Entry, options: ReaderOptions | None = None) -> Building:
         reference=reference,
         parts=parts,
         tile=entry.tile,
-        problems=problems,
+        problems=problems + notes,
         lonlat_bounds=bounds,
+        attributes=attributes,
     )
+
+
+def source_attributes(dat_name: str, index: int, record: DatObject, xdo: XdoFile) -> list:
+    """(name, value) pairs of what the ``.dat`` record and the ``.xdo`` say about the building:
+    ``key`` (the record's key text), ``object_id`` (the ``.xdo`` header's), ``altitude`` (metres,
+    the record's; left out when not a number), ``dat_file`` and ``dat_index`` (the record's
+    position in it, from 0), ``xdo_file``."""
+    return [
+        ("key", decode_text(record.key)),
+        ("object_id", int(xdo.object_id)),
+        ("altitude", float(record.altitude)),
+        ("dat_file", dat_name),
+        ("dat_index", int(index)),
+        ("xdo_file", decode_text(record.data_file)),
+    ]
 
 
 def _parse_declared(data: bytes, xdo_path: Path, record: DatObject, problems: list) -> XdoFile:

@@ -304,6 +304,41 @@ def building_anchor(building_id: str) -> str:
     return "building-" + quote(building_id, safe="")
 
 
+# Attributes shown first in a building's table (docs/input.md "Attributes"), then the others in
+# the manifest's order, up to MAIN_ATTRIBUTES rows.
+MAIN_FIRST = (
+    "name",
+    "function",
+    "usage",
+    "year_of_construction",
+    "measured_height",
+    "storeys_above_ground",
+    "roof_type",
+    "gml_id",
+    "key",
+    "object_id",
+)
+MAIN_ATTRIBUTES = 8
+
+
+def attributes_html(building: dict) -> str:
+    """The building's id and main attributes as a small table (``id="attributes-<anchor>"``);
+    a note says how many more the manifest holds."""
+    attributes = building.get("attributes")
+    attributes = attributes if isinstance(attributes, dict) else {}
+    names = [n for n in MAIN_FIRST if n in attributes]
+    names += [n for n in attributes if n not in names]
+    rows = [("id", building.get("id", ""))] + [(n, attributes[n]) for n in names[:MAIN_ATTRIBUTES]]
+    cells = "".join(
+        f'<tr><th class="text">{escape(str(name))}</th><td class="text">{escape(str(value))}</td></tr>'
+        for name, value in rows
+    )
+    more = len(names) - MAIN_ATTRIBUTES
+    note = f'<div class="meta">and {more} more attributes in the manifest</div>' if more > 0 else ""
+    anchor = escape(building_anchor(str(building.get("id", ""))))
+    return f'<table class="attributes" id="attributes-{anchor}">{cells}</table>{note}'
+
+
 def building_html(rank: int, renders: BuildingRenders) -> str:
     building = renders.building
     building_id = str(building.get("id", ""))
@@ -328,7 +363,8 @@ def building_html(rank: int, renders: BuildingRenders) -> str:
         f'<article class="building" id="{escape(building_anchor(building_id))}" data-building-id="{escape(building_id)}" '
         f'data-score="{"" if score is None else f"{score:.6f}"}"><h3>{rank}. {escape(building_id)} '
         f'<span class="score">— {score_text}</span></h3>'
-        f'<div class="meta">source: {escape(str(building.get("source", "")))}</div>{problem_list}'
+        f'<div class="meta">source: {escape(str(building.get("source", "")))}</div>'
+        f"{attributes_html(building)}{problem_list}"
         f'<div class="lods">{figures}</div></article>'
     )
 

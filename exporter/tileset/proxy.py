@@ -25,8 +25,13 @@ Its error (metres) is the larger of
   it into a smaller atlas cell (a tile's texels are its inputs' times their shrink factor, never
   finer than the inputs').
 
+Every proxy vertex keeps the building it came from: each piece's building key (``<tile>/<id>``)
+is kept in ``owners`` (through proxies of proxies) and :mod:`.features` writes them as per-vertex
+feature ids with a property table of those buildings (``EXT_mesh_features`` +
+``EXT_structural_metadata``, docs/tileset.md "Metadata").
+
 Files: ``OUT/tileset_proxies/<tile>.glb`` and ``<tile>.json`` (its inputs' hash, bounds, sizes,
-pieces). A proxy is rebuilt only when that hash changes; files of tiles no longer proxied are
+pieces, owners). A proxy is rebuilt only when that hash changes; files of tiles no longer proxied are
 removed.
 """
 
@@ -51,12 +56,14 @@ from ..mesh.hausdorff import Surface, bounds_within
 from ..model import Part, Texture, TileId
 from ..simplify.meshopt import SIMPLIFY_ERROR_ABSOLUTE, simplify
 from ..tiles import tile_size_deg
-from . import frames
+from . import features, frames
 from .glb import GlbPrimitive, read_primitives
-from .tree import Node, rounding_slack
+from .metadata import chain_values
+from .tree import BuildingChain, Node, rounding_slack
+from .write import building_tops
 
 PROXY_DIR = "tileset_proxies"
-PROXY_FORMAT = "vworld-lod-proxy 5"  # 5: cells from the JPEG scaled IDCT
+PROXY_FORMAT = "vworld-lod-proxy 6"  # 5: cells from the JPEG scaled IDCT; 6: feature ids
 METRES_PER_DEGREE = math.pi / 180.0 * 6378137.0  # along a meridian, on the sphere
 CERTIFY_RTOL = 0.05  # a piece's bound is refined to 5 % of its certified lower bound
 TRANSFORM_SLACK_M = 1e-6  # float64 rounding of the frame changes (ECEF-sized numbers), metres
@@ -70,6 +77,7 @@ class ProxyInput:
     texel: float  # metres per texel of its texture (0 when untextured)
     key: str  # what identifies its content (hash)
     pieces: list | None = None  # a child proxy's pieces (see Proxy.pieces); None: a building
+    owners: list | None = None  # building key per piece (a building: its one key); .features
 
 
 @dataclass
@@ -83,6 +91,7 @@ class Proxy:
     # One per building: [first vertex, vertices, first face, faces, certified bound (m) of that
     # piece against the building's LOD0 as the file stores it]
     pieces: list = field(default_factory=list)
+    owners: list = field(default_factory=list)  # building key per piece (.features)
 
     @property
     def error(self) -> float:
@@ -220,6 +229,7 @@ def build_proxy(
     options: TilesetOptions,
     jpeg_quality: int,
     key: str,
+    records: dict[str, dict] | None = None,
 ) -> tuple[Proxy, bytes] | None:
     """The proxy of ``inputs`` for ``tile`` and its ``.glb`` bytes; None when it has more than
     ``options.proxy_max_triangles`` triangles."""
@@ -254,8 +264,22 @@ def build_proxy(
         local, faces[:, [0, 2, 1]], uvs=np.concatenate([p[2] for p in pieces]), texture=texture
     )
     data = glb_bytes([part], f"{tile.name}_proxy")
+    owners_out = piece_owners(owners)
+    if records is not None:  # the buildings told apart: feature ids -> property table
+        ids, keys = features.vertex_feature_ids(owners_out, [len(p[0]) for p in pieces])
+        data = features.with_features(data, ids, [records[k] for k in keys])
     low_list, high_list = [float(v) for v in low], [float(v) for v in high]
-    return Proxy(key, geometric, texel, low_list, high_list, len(faces), table), data
+    proxy = Proxy(key, geometric, texel, low_list, high_list, len(faces), table, owners_out)
+    return proxy, data
+
+
+def piece_owners(owners: list[ProxyInput]) -> list[str]:
+    """The building key of every piece :func:`_pieces` makes of primitives from ``owners``: a
+    building's primitive is one piece of its building, a child proxy's one piece per its own."""
+    keys: list[str] = []
+    for owner in owners:
+        keys += (owner.owners or [""])[:1] if owner.pieces is None else owner.owners or []
+    return keys
 
 
 def input_key(
@@ -296,10 +320,27 @@ def _cached(folder: Path, name: str, key: str) -> tuple[bool, Proxy | None]:
             data["high"],
             int(data["triangles"]),
             data["pieces"],
+            data["owners"],
         )
         return True, proxy
     except (OSError, ValueError, KeyError, TypeError):
         return False, None
+
+
+def building_key(chain: BuildingChain) -> str:
+    """What names a building among all of the export's: ``<tile>/<id>``."""
+    return f"{chain.tile.name}/{chain.id}"
+
+
+def values_digest(chain: BuildingChain) -> str:
+    """Hash of a building's metadata values (a proxy is rebuilt when they change)."""
+    text = json.dumps(chain_values(chain), sort_keys=True, default=str)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
+
+
+def _chains(tops: list[Node]) -> list[BuildingChain]:
+    """Every building chain of the tree under ``tops``."""
+    return [t.building for node in tops for t in building_tops(node) if t.building is not None]
 
 
 def _inputs(out_dir: Path, node: Node) -> list[ProxyInput] | None:
@@ -308,10 +349,19 @@ def _inputs(out_dir: Path, node: Node) -> list[ProxyInput] | None:
     for child in node.children:
         if child.building is not None:
             top = child.building.levels[0]
-            key = f"{child.building.input_hash}:{top.file}"
             building = child.building
+            owner = building_key(building)
+            key = f"{building.input_hash}:{top.file}:{values_digest(building)}"
             inputs.append(
-                ProxyInput(building.world, out_dir / top.file, top.error, building.texel, key)
+                ProxyInput(
+                    building.world,
+                    out_dir / top.file,
+                    top.error,
+                    building.texel,
+                    key,
+                    None,
+                    [owner],
+                )
             )
         elif child.proxy_hash is not None and child.content is not None:
             assert child.world is not None
@@ -323,6 +373,7 @@ def _inputs(out_dir: Path, node: Node) -> list[ProxyInput] | None:
                     child.texel,
                     child.proxy_hash,
                     child.pieces,
+                    child.owners,
                 )
             )
         else:
@@ -344,6 +395,7 @@ def add_proxies(
     taken from an earlier run (a rebuilt file whose bytes come out the same is left as it was)."""
     folder = out_dir / PROXY_DIR
     kept: set[str] = set()
+    records = {building_key(chain): chain_values(chain) for chain in _chains(tops)}
     counts = [0, 0]
 
     def visit(node: Node) -> None:
@@ -362,7 +414,9 @@ def add_proxies(
         if not found:
             counts[1] += 1
             try:
-                built = build_proxy(inputs, node.tile, node.world, options, jpeg_quality, key)
+                built = build_proxy(
+                    inputs, node.tile, node.world, options, jpeg_quality, key, records
+                )
             except (OSError, ValueError, KeyError, IndexError) as problem:
                 # An input changed or broke since it was read: no proxy here (nor above), said so.
                 problems.append(
@@ -386,6 +440,7 @@ def add_proxies(
                 "high": proxy.high,
                 "triangles": proxy.triangles,
                 "pieces": proxy.pieces,
+                "owners": proxy.owners,
             }
             write_text_atomic(
                 folder / f"{name}.json", json.dumps(record)
@@ -396,6 +451,7 @@ def add_proxies(
         node.content = f"{PROXY_DIR}/{name}.glb"
         node.proxy_hash = key
         node.geometric, node.texel, node.pieces = proxy.geometric, proxy.texel, proxy.pieces
+        node.owners = proxy.owners
         node.error = max([proxy.error] + [child.error for child in node.children])
         node.corners = frames.apply(
             node.world, frames.gltf_corners(np.array(proxy.low), np.array(proxy.high))

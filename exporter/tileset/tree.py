@@ -54,6 +54,8 @@ class BuildingChain:
     levels: list[Level]  # coarsest first; the last is LOD0 (error 0)
     diagonal: float = 0.0  # metres: LOD0's bounding-box diagonal
     texture_px: int = 0  # larger side of the coarsest level's texture (0: untextured)
+    source: str = ""  # the file it was read from (manifest record's source)
+    attributes: dict = field(default_factory=dict)  # the manifest record's attributes
 
     @property
     def texel(self) -> float:
@@ -80,6 +82,7 @@ class Node:
     geometric: float = 0.0  # a proxy's certified geometric bound, metres
     texel: float = 0.0  # a proxy's metres per atlas texel
     pieces: list | None = None  # a proxy's [first vertex, vertices, first face, faces, bound m]
+    owners: list | None = None  # a proxy's building key per piece (.features: feature ids)
     box: list[float] | None = None  # 3D Tiles box in its frame (set by write.finish)
     box_ecef: np.ndarray | None = None  # (8, 3) ECEF corners of ``box`` (a building's top)
 
@@ -179,6 +182,8 @@ def read_chain(
         levels,
         diagonal,
         texture_px,
+        str(record.get("source", "")),
+        attributes if isinstance(attributes := record.get("attributes"), dict) else {},
     )
 
 

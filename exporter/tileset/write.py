@@ -21,6 +21,7 @@ import numpy as np
 from .. import __version__
 from ..atomic import write_text_atomic
 from . import frames
+from .metadata import add_groups
 from .tree import Node
 
 TILESET_NAME = "tileset.json"
@@ -126,6 +127,7 @@ def tileset_json(tops: list[Node], left_out: list[str]) -> dict:
         "geometricError": max(root.error, box_diagonal(root.box)),
         "root": tile_json(root, identity, frames.inverse_rigid(identity)),
     }
+    add_groups(tileset, root)  # the buildings' metadata (schema, groups): .metadata
     if left_out:
         tileset["extras"] = {"left_out": sorted(left_out)}
     return tileset

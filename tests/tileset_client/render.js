@@ -6,6 +6,9 @@
 //
 // usage: node render.js OUT LON LAT HEIGHT [HEIGHT ...]   (degrees, metres above the ellipsoid)
 // SCREENSHOTS=folder also saves view_<height>m.png per view.
+// PICK='[[lon, lat, height], ...]' also picks each point's screen position in every view (scene.pick)
+// and reports what it found: a proxy's feature (its property table's values) or a building level's
+// content (its group's metadata values), with the content's uri.
 "use strict";
 const http = require("http");
 const fs = require("fs");
@@ -45,7 +48,24 @@ window.view = async (lon, lat, height) => {
   }
   widget.render();
   const s = tileset.statistics;
-  return { height, selected: s.selected, commands: s.numberOfCommands,
+  const picks = (window.PICK || []).map(([plon, plat, ph]) => {
+    const at = Cesium.SceneTransforms.worldToWindowCoordinates(scene,
+      Cesium.Cartesian3.fromDegrees(plon, plat, ph));
+    const found = at && scene.pick(at);
+    if (!found) return { at: at && [at.x, at.y], kind: null };
+    const values = (entity) => Object.fromEntries(entity.getPropertyIds().map((id) => {
+      const value = entity.getProperty(id);
+      return [id, typeof value === "bigint" ? Number(value) : value];
+    }));
+    const uri = found.content && found.content.url;
+    if (found instanceof Cesium.Cesium3DTileFeature) {
+      return { at: [at.x, at.y], kind: "feature", uri, featureId: found.featureId, values: values(found) };
+    }
+    const group = found.content && found.content.group;
+    return { at: [at.x, at.y], kind: "content", uri,
+      values: group && group.metadata ? values(group.metadata) : null };
+  });
+  return { height, picks, selected: s.selected, commands: s.numberOfCommands,
     triangles: s.numberOfTrianglesSelected, visited: s.visited,
     contentReady: s.numberOfTilesWithContentReady, loaded: tileset.tilesLoaded,
     geometryBytes: s.geometryByteLength, textureBytes: s.texturesByteLength };
@@ -94,6 +114,7 @@ function serve(request, response) {
     page.on("request", (r) => (r.url().startsWith(`http://127.0.0.1:${port}/`) ? r.continue() : r.abort()));
     await page.goto(`http://127.0.0.1:${port}/index.html`, { waitUntil: "load" });
     await page.evaluate(() => window.ready);
+    await page.evaluate((points) => { window.PICK = points; }, JSON.parse(process.env.PICK || "[]"));
     for (const height of heights) {
       const stats = await page.evaluate((a, b, c) => window.view(a, b, c), +lon, +lat, +height);
       if (process.env.SCREENSHOTS) {

@@ -68,6 +68,10 @@ namespace VWorldLod
         public double Size = double.NaN;
         /// <summary>(3,) LOD0's bounds centre in the building's Unity frame (glTF's +X West flipped to East), metres.</summary>
         public double[] Center = new double[3];
+        /// <summary>The file it was read from (manifest source).</summary>
+        public string Source;
+        /// <summary>Its source attributes (AttributeReader.Attach; empty until then).</summary>
+        public BuildingAttribute[] Attributes = new BuildingAttribute[0];
     }
 
     /// <summary>What one tile manifest asks Unity to build.</summary>
@@ -122,7 +126,7 @@ namespace VWorldLod
                 if (!(e is IOException || e is UnauthorizedAccessException || e is ArgumentException || e is NotSupportedException)) throw;
                 throw new ManifestException(manifestPath, "", "cannot read the manifest: " + e.Message, e);
             }
-            return Plan(parser.Parse(text, manifestPath), manifestPath, fileExists);
+            return AttributeReader.Attach(Plan(parser.Parse(text, manifestPath), manifestPath, fileExists), text);
         }
 
         /// <summary>Validates and plans an already parsed manifest (see Load).</summary>
@@ -204,6 +208,7 @@ namespace VWorldLod
                 Local = Placement.FromData(mode == PlacementMode.TileRelative ? b.relative_placement : b.placement),
                 Relative = Placement.FromData(b.relative_placement),
                 Problems = b.problems ?? new string[0],
+                Source = b.source,
             };
         }
 

@@ -38,6 +38,7 @@ namespace VWorldLod
         public static LODGroup ConfigureLoaded(GameObject root, BuildingPlan building, TilePlan tile, int[] levels, GameObject[] levelObjects, Renderer[][] renderers)
         {
             foreach (GameObject level in levelObjects) level.SetActive(true);
+            BuildingAttributes.Attach(root, building); // id and attributes: prefab and streamed building
             double[] heights = LodPlanner.LoadedHeights(building, levels);
             LODGroup group = root.GetComponent<LODGroup>();
             if (group == null) group = root.AddComponent<LODGroup>();

@@ -18,6 +18,7 @@ namespace VWorldLod
             string text = await WebText.GetAsync(url, cancellation);
             if (text == null || cancellation.IsCancellationRequested) return null;
             TilePlan plan = StreamingPaths.PlanAt(new JsonUtilityManifestParser().Parse(text, url), url);
+            AttributeReader.Attach(plan, text);
             foreach (ManifestException failure in plan.Failures) Debug.LogError("VWorld LoD: " + failure.Message);
             return plan;
         }

@@ -1,0 +1,178 @@
+"""3D Tiles 1.1 metadata of the buildings: the ``building`` class, each building's values, and the
+tileset's ``schema`` + ``groups`` (one group per building, its chain's contents point at it).
+
+Sources: 3D Tiles 1.1 specification, "Metadata" (schema, classes, property types, groups;
+https://docs.ogc.org/cs/22-025r4/22-025r4.html#toc31) and the 3D Metadata Specification
+(https://github.com/CesiumGS/3d-tiles/tree/main/specification/Metadata).
+
+Properties of a building: ``id`` (the manifest's building id), ``source_id`` (the source's own id:
+CityGML ``gml_id``, VWorld ``key``, else the id), ``source_file`` (the file name it was read
+from), ``height`` (metres: LOD0's extent along glTF +Y, up) and every attribute of the manifest
+(docs/input.md "Attributes") under a property id: the attribute's name when it is a valid
+identifier (``[A-Za-z_][A-Za-z0-9_]*``) other than those four, else the name with every other
+character as ``_`` and 8 hex digits of its SHA-1 appended (``address.city`` ->
+``address_city_6f1e…``); the property's ``name`` keeps the original. Types are decided from the
+values present: all booleans -> BOOLEAN, all integers -> INT32 (INT64 past its range), numbers
+-> FLOAT64, anything mixed -> STRING (values as their JSON text).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import re
+from collections.abc import Iterable
+
+CLASS = "building"
+SCHEMA_ID = "vworld_lod"
+FIXED = {
+    "id": ("STRING", "the building's id in the export (its manifest record's id)"),
+    "source_id": ("STRING", "the source's own id (CityGML gml:id, VWorld key, else the id)"),
+    "source_file": ("STRING", "name of the file the building was read from"),
+    "height": ("FLOAT64", "metres: the building's LOD0 extent along up"),
+}
+INT32 = (-(2**31), 2**31 - 1)
+_IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+
+
+def property_id(name: str) -> str:
+    """The 3D Tiles property id of attribute ``name`` (module doc)."""
+    if _IDENTIFIER.fullmatch(name) and name not in FIXED:
+        return name
+    digest = hashlib.sha1(name.encode("utf-8")).hexdigest()[:8]
+    stem = re.sub(r"[^A-Za-z0-9_]", "_", name)
+    return f"{stem if stem[:1].isalpha() or stem[:1] == '_' else '_' + stem}_{digest}"
+
+
+def building_values(
+    building_id: str, source: str, height: float, attributes: dict
+) -> dict[str, tuple[str, object]]:
+    """property id -> (name, value) of one building (``height`` metres)."""
+    values: dict[str, tuple[str, object]] = {
+        "id": ("id", building_id),
+        "source_id": (
+            "source_id",
+            str(attributes.get("gml_id") or attributes.get("key") or building_id),
+        ),
+        "source_file": ("source_file", source.replace("\\", "/").rsplit("/", 1)[-1]),
+        "height": ("height", float(height)),
+    }
+    for name, value in attributes.items():
+        values.setdefault(property_id(str(name)), (str(name), value))
+    return values
+
+
+def value_type(values: Iterable[object]) -> str:
+    """BOOLEAN, INT32, INT64, FLOAT64 or STRING for a property's values (module doc)."""
+    kinds = {
+        bool if isinstance(v, bool) else int if isinstance(v, int) else type(v) for v in values
+    }
+    if kinds == {bool}:
+        return "BOOLEAN"
+    if kinds == {int}:
+        numbers = [int(v) for v in values]  # type: ignore[call-overload]
+        return "INT32" if INT32[0] <= min(numbers) and max(numbers) <= INT32[1] else "INT64"
+    if kinds and kinds <= {int, float}:
+        return "FLOAT64"
+    return "STRING"
+
+
+def as_type(value: object, kind: str) -> object:
+    """``value`` as a JSON value of 3D Tiles type ``kind``."""
+    if kind == "STRING":
+        return value if isinstance(value, str) else json.dumps(value)
+    if kind == "FLOAT64":
+        return float(value)  # type: ignore[arg-type]
+    return value
+
+
+def class_properties(records: list[dict[str, tuple[str, object]]]) -> dict[str, dict]:
+    """The ``building`` class's ``properties`` for ``records`` (:func:`building_values`), sorted
+    by id (the fixed four first), each typed from its values."""
+    names: dict[str, str] = {}
+    values: dict[str, list] = {}
+    for record in records:
+        for pid, (name, value) in record.items():
+            names.setdefault(pid, name)
+            values.setdefault(pid, []).append(value)
+    properties = {}
+    for pid in [*FIXED, *sorted(set(values) - set(FIXED))]:
+        if pid not in values:
+            continue
+        kind = FIXED[pid][0] if pid in FIXED else value_type(values[pid])
+        item: dict = {"name": names[pid]}
+        if pid in FIXED:
+            item["description"] = FIXED[pid][1]
+        if kind in ("STRING", "BOOLEAN"):
+            item["type"] = kind
+        else:
+            item.update({"type": "SCALAR", "componentType": kind})
+        if pid in FIXED:
+            item["required"] = True
+        properties[pid] = item
+    return properties
+
+
+def kind_of(item: dict) -> str:
+    """A class property's BOOLEAN/STRING or component type."""
+    return item.get("componentType") or item["type"]
+
+
+def schema(records: list[dict[str, tuple[str, object]]]) -> dict:
+    """The metadata ``schema`` with the ``building`` class of ``records``."""
+    return {
+        "id": SCHEMA_ID,
+        "classes": {
+            CLASS: {
+                "name": "Building",
+                "description": "a building of the export; its source attributes (docs/input.md)",
+                "properties": class_properties(records),
+            }
+        },
+    }
+
+
+def entity(record: dict[str, tuple[str, object]], properties: dict[str, dict]) -> dict:
+    """A metadata entity (group) of class ``building`` for one building's ``record``."""
+    return {
+        "class": CLASS,
+        "properties": {
+            pid: as_type(value, kind_of(properties[pid]))
+            for pid, (_, value) in sorted(record.items())
+        },
+    }
+
+
+def chain_values(chain) -> dict[str, tuple[str, object]]:
+    """:func:`building_values` of a :class:`.tree.BuildingChain` (height from LOD0's glTF-frame
+    bounds, +Y up, metres)."""
+    lod0 = chain.levels[-1]
+    return building_values(
+        chain.id, chain.source, float(lod0.high[1] - lod0.low[1]), chain.attributes
+    )
+
+
+def add_groups(tileset: dict, root) -> None:
+    """Give ``tileset`` (the JSON of the tree under ``root``, a :class:`.tree.Node`) its
+    ``schema`` and one group per building chain (in tree order), and point every content of
+    each chain at its group (``content.group``). Tiles without a building (quadtree tiles,
+    proxies) get no group: a proxy's buildings are told apart by its feature ids."""
+    chains: list = []
+
+    def visit(node, tile: dict, group: int | None) -> None:
+        if node.building is not None:
+            chains.append(node.building)
+            group = len(chains) - 1
+        if group is not None and "content" in tile:
+            tile["content"]["group"] = group
+        for child, child_tile in zip(node.children, tile.get("children", [])):
+            visit(child, child_tile, group)
+
+    visit(root, tileset["root"], None)
+    if not chains:
+        return
+    records = [chain_values(chain) for chain in chains]
+    found = schema(records)
+    properties = found["classes"][CLASS]["properties"]
+    tileset["schema"] = found
+    tileset["groups"] = [entity(record, properties) for record in records]
