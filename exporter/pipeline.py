@@ -42,6 +42,7 @@ from .records import files_intact, stamped, top_level_values, write_record
 from .tile_index import fresh_facts, write_tile_index
 from .tiles import tile_bounds, tile_center
 from .tileset import TilesetResult, write_tileset
+from .tileset.schedule import Workers, cluster_options
 from .workers import start_worker
 
 # --------------------------------------------------------------------------- small pure helpers
@@ -452,6 +453,9 @@ def export_tiles(
         # After the manifests (the tileset and tiles.json reference only complete files);
         # tiles.json once, after the tileset, listing its proxies for the streamer, and also when
         # the tileset fails.
+        # The proxies of one quadtree level are built in parallel, on the same kind of workers
+        # as the buildings (a pool or the cluster, started only when a level has two to build).
+        workers = Workers(jobs, cluster_options(scheduler, jobs), [str(f) for f in folders], notify)
         try:
             if config.tileset.enabled:
                 stats.tileset = write_tileset(
@@ -460,8 +464,10 @@ def export_tiles(
                     config.textures.jpeg_quality,
                     fresh_facts(stats.tiles, config.globe),
                     force,
+                    workers,
                 )
         finally:
+            workers.close()
             proxies = stats.tileset.proxies_index if stats.tileset is not None else []
             write_tile_index(out_dir, stats.tiles, config.globe, proxies)
     stats.wall_seconds = time.perf_counter() - started
