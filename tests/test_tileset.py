@@ -173,12 +173,12 @@ def test_every_proxy_error_bounds_its_distance_to_the_lod0_below_it(city):
 
 
 def test_the_proxy_above_the_building_tiles_is_simplified(city):
-    """Its pieces are meshoptimizer collapses of the level-15 proxies' (the dense check above
-    holds for them); the level-15 proxies are the buildings' coarsest levels merged as they are."""
+    """It is a meshoptimizer collapse of the two level-15 proxies merged (the dense check above
+    holds for it); the level-15 proxies are one level of each building merged as it is."""
     records = {p.stem: json.loads(p.read_text()) for p in (city / "tileset_proxies").glob("*.json")}
     below = sum(r["triangles"] for name, r in records.items() if name.startswith("15_"))
     assert records["14_139709_58056"]["triangles"] < below
-    assert len(records["14_139709_58056"]["pieces"]) == 10  # one per building
+    assert len(records["14_139709_58056"]["buildings"]) == 10  # every building keeps a part
 
 
 def test_proxies_pass_the_khronos_validator(city, gltf_validator):

@@ -35,6 +35,7 @@ class TilesetResult:
     left_out: list[str] = field(default_factory=list)
     # What tiles.json lists of the proxies for the Unity streamer (exporter.tile_index.proxy_entries)
     proxies_index: list[dict] = field(default_factory=list)
+    proxies_on_workers: int = 0  # built on pool or cluster workers (not in this process)
 
     def summary(self) -> str:
         """One line for the command line."""
@@ -114,4 +115,5 @@ def write_tileset(
         proxies, built = add_proxies(out_dir, tops, options, jpeg_quality, left_out, force, workers)
     path = write_tileset_json(out_dir, tileset_json(tops, left_out))
     count = sum(len(chains) for chains in by_tile.values())
-    return TilesetResult(path, count, proxies, built, left_out, proxy_records(tops))
+    remote = workers.remote if workers is not None else 0
+    return TilesetResult(path, count, proxies, built, left_out, proxy_records(tops), remote)
