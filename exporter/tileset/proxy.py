@@ -54,23 +54,23 @@ from PIL import Image
 from ..atomic import write_bytes_if_changed, write_text_atomic
 from ..config import TilesetOptions
 from ..gltf_writer import glb_bytes
-from ..mesh.hausdorff import Surface, bounds_within
 from ..model import Part, Texture, TileId
-from ..simplify.meshopt import SIMPLIFY_ERROR_ABSOLUTE, simplify
 from ..texel import face_texels, weighted_quantile
 from ..tiles import tile_size_deg
 from . import frames
+from .cluster import cluster
 from .glb import GlbPrimitive, read_primitives
 from .tree import rounding_slack
 
 PROXY_DIR = "tileset_proxies"
 PROXY_FORMAT = "vworld-lod-proxy 6"  # 6: from the children's proxies; cells from a finer level
 METRES_PER_DEGREE = math.pi / 180.0 * 6378137.0  # along a meridian, on the sphere
-CERTIFY_RTOL = 0.05  # the simplification's bound is refined to 5 % of its certified lower bound
 TRANSFORM_SLACK_M = 1e-6  # float64 rounding of the frame changes (ECEF-sized numbers), metres
-# Collapse targets tried, as fractions of the budget: meshoptimizer's own error is an estimate,
-# a collapse is kept only when certified within the budget.
-SIMPLIFY_TRIES = (1.0, 0.25)
+# Grid cell of the vertex clustering, as a fraction of the budget: a vertex moves at most the
+# cell's diagonal (0.87 x the budget), usually far less (a cell's mean lies near its vertices).
+CELL_RATIO = 0.5
+# A part that would vanish is kept when its distance to what is kept exceeds this x the budget.
+KEEP_RATIO = 0.5
 
 
 @dataclass(frozen=True)
@@ -304,32 +304,6 @@ def merge_inputs(task: ProxyTask) -> Merged:
     )
 
 
-def simplified(
-    positions: np.ndarray, faces: np.ndarray, budget: float
-) -> tuple[np.ndarray, np.ndarray, float] | None:
-    """meshoptimizer's collapse of the merged mesh towards ``budget`` metres (attribute seams kept,
-    borders free: parts smaller than the budget collapse away): (kept vertex indices (k,) in
-    order, faces (m', 3) into them, certified symmetric Hausdorff bound in metres against the
-    mesh, the kept vertices as float32 stores them), or None when nothing is removed or no
-    collapse is certified within ``budget``."""
-    surface = Surface(positions, faces)
-    for fraction in SIMPLIFY_TRIES:
-        kept, _ = simplify(faces, positions, 0, budget * fraction, SIMPLIFY_ERROR_ABSOLUTE)
-        if len(kept) >= faces.size:
-            return None
-        if len(kept) == 0:
-            continue
-        used, inverse = np.unique(kept.astype(np.int64), return_inverse=True)
-        new_faces = inverse.reshape(-1, 3)
-        rounded = positions[used].astype(np.float32).astype(np.float64)  # as the file stores them
-        bounds = bounds_within(
-            surface, (rounded, new_faces), budget, rtol=CERTIFY_RTOL, atol=0.01 * budget
-        )
-        if bounds is not None:
-            return used, new_faces, bounds[1]
-    return None
-
-
 def proxy_texel(
     positions: np.ndarray, faces: np.ndarray, uvs: np.ndarray, fineness: np.ndarray, size: int
 ) -> float:
@@ -360,23 +334,27 @@ def build_proxy(task: ProxyTask) -> tuple[Proxy, bytes, dict] | None:
     """The proxy of ``task``: (its summary, its ``.glb`` bytes, its record), or None when it has
     more than ``proxy_max_triangles`` triangles."""
     merged = merge_inputs(task)
-    positions, faces, step = merged.positions, merged.faces, 0.0
-    used = np.arange(len(positions))
+    positions, faces, uvs, owners_all = merged.positions, merged.faces, merged.uvs, merged.owners
+    used, step = np.arange(len(positions)), 0.0
     budget = budget_m(task.tile, task.options)
-    if task.children and budget > 0:
-        done = simplified(positions, faces, budget)
-        if done is not None:
-            used, faces, step = done
-            positions = positions[used]
+    cell, target = budget * CELL_RATIO, task.options.proxy_max_triangles // 2
+    limit = tile_size_deg(task.tile.level) * METRES_PER_DEGREE
+    while cell > 0:
+        # Coarser cells until the proxy holds at most half the cap: a parent's inputs (four
+        # children within that) then cost about its own budget, whatever lies below.
+        done = cluster(positions, faces, uvs, owners_all, cell, max(budget * KEEP_RATIO, cell))
+        if len(done.faces) <= target or cell > limit:
+            positions, faces, uvs, owners_all = done.positions, done.faces, done.uvs, done.owners
+            used, step = done.source, done.bound
+            break
+        cell *= 2.0
     if len(faces) > task.options.proxy_max_triangles:
         return None
-    owners_all = merged.owners[used]
     present, owners = np.unique(owners_all, return_inverse=True)  # buildings left, in order
     buildings = [merged.buildings[i] for i in present]
     stored = positions.astype(np.float32)
     low, high = stored.min(axis=0).astype(np.float64), stored.max(axis=0).astype(np.float64)
     geometric = merged.bound + step + rounding_slack(low, high) + TRANSFORM_SLACK_M
-    uvs = merged.uvs[used]
     size = task.options.proxy_atlas_size
     measured = proxy_texel(stored.astype(np.float64), faces, uvs, merged.fineness[used], size)
     texel = max(measured, merged.texel_floor)
