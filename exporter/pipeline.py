@@ -30,7 +30,14 @@ from pathlib import Path
 
 from .atomic import remove_stale_temporaries, write_text_atomic
 from .config import Config
-from .distributed import ClusterOptions, batch_size_for, cluster_results, cluster_session
+from .distributed import (
+    ClusterOptions,
+    ProxyWorkers,
+    batch_size_for,
+    cluster_options,
+    cluster_results,
+    cluster_session,
+)
 from .errors import InputError
 from .job import RECORD_NAME, STAGES, EntryResult, process_entry
 from .manifest import MANIFEST_NAME, build_manifest, dumps, record_line
@@ -42,7 +49,6 @@ from .records import files_intact, stamped, top_level_values, write_record
 from .tile_index import fresh_facts, write_tile_index
 from .tiles import tile_bounds, tile_center
 from .tileset import TilesetResult, write_tileset
-from .tileset.schedule import Workers, cluster_options
 from .workers import start_worker
 
 # --------------------------------------------------------------------------- small pure helpers
@@ -318,9 +324,8 @@ def _result_stream(
     if scheduler is None:
         yield _results(work, min(jobs, max(1, total)), total)
         return
-    options = scheduler if isinstance(scheduler, ClusterOptions) else ClusterOptions(scheduler)
-    if options.address == "local" and options.local_workers is None:
-        options = dataclasses.replace(options, local_workers=jobs)
+    options = cluster_options(scheduler, jobs)
+    assert options is not None
     with cluster_session(options, [str(f) for f in folders], str(out_dir), notify) as client:
         yield cluster_results(client, work, total, options)
 
@@ -455,7 +460,9 @@ def export_tiles(
         # the tileset fails.
         # The proxies of one quadtree level are built in parallel, on the same kind of workers
         # as the buildings (a pool or the cluster, started only when a level has two to build).
-        workers = Workers(jobs, cluster_options(scheduler, jobs), [str(f) for f in folders], notify)
+        workers = ProxyWorkers(
+            jobs, cluster_options(scheduler, jobs), [str(f) for f in folders], notify
+        )
         try:
             if config.tileset.enabled:
                 stats.tileset = write_tileset(

@@ -12,13 +12,9 @@ where a proxy was built.
 
 from __future__ import annotations
 
-import dataclasses
-import os
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
-from contextlib import ExitStack
 from pathlib import Path
-from typing import Any
+from typing import Protocol
 
 import numpy as np
 
@@ -39,54 +35,24 @@ from .proxy import (
 from .tree import Node
 
 
-class Workers:
-    """Where proxies are built; the pool or the cluster starts at the first level with more than
-    one proxy to build (a re-run that rebuilds one proxy a level starts none) and ends on
-    :meth:`close`. ``cluster``: :class:`exporter.distributed.ClusterOptions` (with ``folders``,
-    the run's input folders, for its storage check)."""
+class Workers(Protocol):
+    """Where proxies are built (:class:`InProcess` here; the run layer's pool and Dask cluster:
+    :class:`exporter.distributed.ProxyWorkers`)."""
 
-    def __init__(
-        self,
-        jobs: int = 1,
-        cluster=None,
-        folders: list[str] | None = None,
-        notify: Callable[[str], None] | None = None,
-    ) -> None:
-        self.jobs = max(1, jobs)
-        self.cluster = cluster
-        self.folders = folders or []
-        self.notify = notify
-        self._stack = ExitStack()
-        self._pool: ProcessPoolExecutor | None = None
-        self._client: Any = None
-        self.remote = 0  # proxies built on pool or cluster workers (what the benchmark shows)
+    remote: int  # proxies built on pool or cluster workers (not in this process)
 
-    def map(self, function, items: list, out_dir: str) -> list:
-        """``[function(item) for item in items]``, in order, run where this runs them."""
-        if self.cluster is not None:
-            if self._client is None:
-                from ..distributed import cluster_session
+    def map(self, function: Callable, items: list, out_dir: str) -> list:
+        """``[function(item) for item in items]``, in order."""
+        ...
 
-                session = cluster_session(self.cluster, self.folders, out_dir, self.notify)
-                self._client = self._stack.enter_context(session)
-            futures = self._client.map(function, items, pure=False)
-            self.remote += len(items)
-            return self._client.gather(futures)
-        if self.jobs == 1 or len(items) < 2:
-            return [function(item) for item in items]
-        if self._pool is None:
-            from ..workers import start_worker
 
-            self._pool = self._stack.enter_context(
-                ProcessPoolExecutor(
-                    max_workers=self.jobs, initializer=start_worker, initargs=(os.getpid(),)
-                )
-            )
-        self.remote += len(items)
-        return list(self._pool.map(function, items))
+class InProcess:
+    """Every proxy built in this process, one after the other."""
 
-    def close(self) -> None:
-        self._stack.close()
+    remote = 0
+
+    def map(self, function: Callable, items: list, out_dir: str) -> list:
+        return [function(item) for item in items]
 
 
 def _tile_nodes_by_height(tops: list[Node]) -> list[list[Node]]:
@@ -165,46 +131,28 @@ def add_proxies(
     folder = out_dir / PROXY_DIR
     kept: set[str] = set()
     placed = built = 0
-    own = workers is None
-    workers = workers or Workers()
-    try:
-        for level in _tile_nodes_by_height(tops):
-            todo: list[tuple[Node, ProxyTask]] = []
-            for node in level:
-                task = _task(out_dir, node, options, jpeg_quality)
-                if task is None:
-                    continue
-                name, key = node.tile.name, task.key  # type: ignore[union-attr]
-                kept.update({f"{name}.json", f"{name}.glb"})
-                found, proxy = (False, None) if force else cached(folder, name, key)
-                if not found:
-                    todo.append((node, task))
-                elif proxy is not None:
-                    _place(node, proxy)
-                    placed += 1
-            records = workers.map(make_proxy, [task for _, task in todo], str(out_dir))
-            built += len(todo)
-            for (node, _), record in zip(todo, records):
-                if "problem" in record:
-                    problems.append(record["problem"])
-                elif not record.get("too_large"):
-                    _place(node, proxy_of(record))
-                    placed += 1
-    finally:
-        if own:
-            workers.close()
+    workers = workers or InProcess()
+    for level in _tile_nodes_by_height(tops):
+        todo: list[tuple[Node, ProxyTask]] = []
+        for node in level:
+            task = _task(out_dir, node, options, jpeg_quality)
+            if task is None:
+                continue
+            name, key = node.tile.name, task.key  # type: ignore[union-attr]
+            kept.update({f"{name}.json", f"{name}.glb"})
+            found, proxy = (False, None) if force else cached(folder, name, key)
+            if not found:
+                todo.append((node, task))
+            elif proxy is not None:
+                _place(node, proxy)
+                placed += 1
+        records = workers.map(make_proxy, [task for _, task in todo], str(out_dir))
+        built += len(todo)
+        for (node, _), record in zip(todo, records):
+            if "problem" in record:
+                problems.append(record["problem"])
+            elif not record.get("too_large"):
+                _place(node, proxy_of(record))
+                placed += 1
     remove_stale(folder, kept)
     return placed, built
-
-
-def cluster_options(scheduler, jobs: int):
-    """``scheduler`` (an address, ``"local"`` or ClusterOptions) as ClusterOptions, a local
-    cluster getting ``jobs`` workers as the building work's does; None without one."""
-    if scheduler is None:
-        return None
-    from ..distributed import ClusterOptions
-
-    options = scheduler if isinstance(scheduler, ClusterOptions) else ClusterOptions(scheduler)
-    if options.address == "local" and options.local_workers is None:
-        options = dataclasses.replace(options, local_workers=jobs)
-    return options
