@@ -118,6 +118,8 @@ def make_tiles(work: Path, tiles: list, buildings: int, atlas: int) -> list[Path
 
 def fresh(path: Path) -> Path:
     shutil.rmtree(path, ignore_errors=True)
+    if path.exists():
+        raise SystemExit(f"{path}: could not be removed")
     os.sync()
     return path
 

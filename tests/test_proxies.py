@@ -91,12 +91,16 @@ def test_a_parent_reads_its_children_s_proxies_not_the_buildings(quad, tmp_path,
     result = write_tileset(out, TilesetOptions(), force=True)
     assert result.proxies_built == 7
     from_proxies = sorted(name for name in read if name.startswith("tileset_proxies/"))
-    # Each parent reads each child proxy once; the leaves read one level file per building.
+    # Each parent reads each child proxy once; the leaves read their buildings' levels
     assert from_proxies == sorted(
         f"tileset_proxies/{name}.glb"
         for name in ["14_139708_58056", "14_139709_58056"] + [t.name for t in TILES]
     )
-    assert len(read) - len(from_proxies) == 12
+    # (its coarsest level, and LOD0 for its texture: no level's texture fills a 1024 px cell)
+    assert len(read) - len(from_proxies) == 24
+    assert all(
+        name.endswith(("/lod0.glb", "/lod2.glb")) for name in read if name not in from_proxies
+    )
     assert proxy_files(out) == proxy_files(quad)  # force rebuilds the same bytes
 
 
@@ -151,27 +155,33 @@ def test_the_finest_level_that_fits_fills_a_cell_by_filtering_down(quad, tmp_pat
     assert finest_fitting(levels, 500).file == "c"  # nothing that large: the finest there is
     untextured = [LevelSource("a", 2.0, 0), LevelSource("c", 0.0, 0)]
     assert finest_fitting(untextured, 8).file == "a"
-    # In an export: each leaf's triangles are its buildings' chosen levels' (by the manifest).
+    # In an export: each leaf is its buildings' coarsest levels (triangles as the manifest says),
+    # textured from the finest level whose texture fills the cell.
     out = tmp_path / "out"
     shutil.copytree(quad, out)
-    for size in (16, 2048):  # cells of 8 px (LOD2's 16 px fit) and 1024 px (none fits)
-        options = TilesetOptions(proxy_atlas_size=size, proxy_error_ratio=0.0)  # merge only
-        write_tileset(out, options)
+    for size in (16, 2048):  # cells of 8 px (LOD2's 16 px fit) and 1024 px (none fits: LOD0)
+        write_tileset(out, TilesetOptions(proxy_atlas_size=size, proxy_error_ratio=0.0))
         cell = size // 2  # three buildings: two cells a side
-        # The levels each chain shows (a level no better than a coarser one is left out of it)
-        shown = {}
-        for chain in test_tileset.chains(walk(load(out))):
-            tile_name, folder = chain[0].uri.split("/")[:2]
-            shown[(tile_name, folder)] = [visit.uri.split("/")[-1] for visit in chain]
         for tile in TILES:
             manifest = json.loads((out / tile.name / "lod_manifest.json").read_text())
-            expected = 0
-            for building in manifest["buildings"]:
-                by_file = {lod["file"].split("/")[-1]: lod for lod in building["lods"]}
-                lods = [by_file[name] for name in shown[(tile.name, building["folder"])]]
-                fitting = [lod for lod in lods if max(lod["texture_size"]) >= cell]
-                expected += (fitting[0] if fitting else lods[-1])["triangles"]
-            assert records(out)[tile.name]["triangles"] == expected, (size, tile)
+            buildings = sorted(manifest["buildings"], key=lambda b: b["id"])  # the cells' order
+            coarsest = [max(b["lods"], key=lambda lod: lod["level"]) for b in buildings]
+            assert records(out)[tile.name]["triangles"] == sum(c["triangles"] for c in coarsest)
+            (proxy,) = read_primitives(out / "tileset_proxies" / f"{tile.name}.glb")
+            assert proxy.image is not None
+            atlas = np.asarray(Image.open(io.BytesIO(proxy.image)).convert("RGB"), np.float64)
+            for index, building in enumerate(buildings if size == 2048 else []):
+                row, col = divmod(index, 2)
+                got = atlas[row * cell : (row + 1) * cell, col * cell : (col + 1) * cell]
+                by_level = {}
+                for lod in building["lods"]:
+                    (level,) = read_primitives(out / tile.name / lod["file"])
+                    assert level.image is not None
+                    image = Image.open(io.BytesIO(level.image)).convert("RGB")
+                    scaled = image.resize((cell, cell), Image.Resampling.BOX)
+                    by_level[lod["level"]] = np.abs(np.asarray(scaled, np.float64) - got).mean()
+                # None fills a 1024 px cell: LOD0's texture (not the coarsest level's, scaled up)
+                assert by_level[0] == min(by_level.values()), by_level
 
 
 def test_owner_runs_round_trip():

@@ -45,6 +45,24 @@ class Clustered:
     bound: float  # metres: symmetric Hausdorff bound between the input mesh and this one
 
 
+def unique_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``np.unique(rows, axis=0, return_inverse=True)`` for (n, k) int64 ``rows``: the same
+    (sorted rows, inverse (n,)), through one int64 key per row when the columns' ranges fit in 62
+    bits (a 1-D sort instead of a row-wise one, several times faster)."""
+    if len(rows) == 0:
+        return rows, np.zeros(0, np.int64)
+    low = rows.min(axis=0)
+    bits = [int(v).bit_length() for v in rows.max(axis=0) - low]
+    if sum(bits) > 62:
+        found, inverse = np.unique(rows, axis=0, return_inverse=True)
+        return found, inverse.reshape(-1)
+    key = np.zeros(len(rows), np.int64)
+    for column, width in enumerate(bits):  # most significant first: sorted keys = sorted rows
+        key = (key << width) | (rows[:, column] - low[column])
+    keys, first, inverse = np.unique(key, return_index=True, return_inverse=True)
+    return rows[first], inverse.reshape(-1)
+
+
 def _means(ids: np.ndarray, values: np.ndarray, count: int) -> np.ndarray:
     """(count, d) means of the rows of ``values`` (n, d) grouped by ``ids`` (n,)."""
     sums = np.column_stack(
@@ -89,8 +107,7 @@ def cluster(
     triangles' segments are measured at points ``cell`` / 4 apart at most."""
     sample = cell / 4.0
     grid = np.floor(positions / cell).astype(np.int64)
-    _, spot = np.unique(np.column_stack([owners, grid]), axis=0, return_inverse=True)
-    spot = spot.reshape(-1)
+    _, spot = unique_rows(np.column_stack([owners, grid]))
     spots = int(spot.max()) + 1 if len(spot) else 0
     centre = _means(spot, positions, spots)
     corner = spot[faces]  # (m, 3) cell of each corner
@@ -128,9 +145,8 @@ def cluster(
             ),
         ]
     )
-    unique_rows, vertex = np.unique(rows, axis=0, return_inverse=True)
-    vertex = vertex.reshape(-1)
-    count = len(unique_rows)
+    kept_rows, vertex = unique_rows(rows)
+    count = len(kept_rows)
     moved_to = np.concatenate([centre[spot], positions[originals]])
     uv_all = np.concatenate([np.asarray(uvs, np.float64), np.asarray(uvs, np.float64)[originals]])
     source = np.zeros(count, np.int64)
@@ -145,7 +161,7 @@ def cluster(
         _means(vertex, moved_to, count),
         out_faces,
         _means(vertex, uv_all, count).astype(np.float32),
-        unique_rows[:, 0],
+        kept_rows[:, 0],
         source,
         bound,
     )

@@ -12,10 +12,11 @@ int64, uvs (n, 2) (origin top-left), ``owners`` (n,) int64: per vertex, the inde
 in the proxy's ``buildings`` list (``"<tile>/<building id>"``), kept through merging and
 simplification (the feature ids of ``EXT_mesh_features``).
 
-- A **leaf** proxy (a tile holding buildings) merges one level of each building as it is: the
-  coarsest level whose texture is at least as large as the building's atlas cell (so the cell is
-  always box-filtered *down*; when no level's texture is that large, LOD0's, the finest there is).
-  Its geometric bound is that level's certified error against LOD0.
+- A **leaf** proxy (a tile holding buildings) merges each building's coarsest level (its
+  geometric bound: that level's error against LOD0), textured from the coarsest level whose
+  texture is at least as large as the building's atlas cell (so the cell is always box-filtered
+  *down*; when no level's texture is that large, LOD0's, the finest there is): a building's
+  levels carry one atlas scaled, with the same uv layout.
 - A **parent** proxy merges its child tiles' proxies (their meshes, owners and atlases: each child
   atlas box-filtered into one cell) and simplifies the union towards ``proxy_error_ratio`` x the
   tile's north-south size (:func:`budget_m`); buildings too small for that budget collapse away.
@@ -220,6 +221,23 @@ def finest_fitting(levels: list[LevelSource], cell: int) -> LevelSource:
     return textured[-1] if textured else levels[0]
 
 
+def with_texture(
+    parts: list[GlbPrimitive], out: Path, level: LevelSource, coarsest: LevelSource
+) -> None:
+    """Give the coarsest level's ``parts`` the textures of ``level``: a building's levels carry
+    the same atlas scaled (exporter/textures.py: one source texture, a quarter of the pixels per
+    level, the same uv layout), so the coarsest geometry's uvs address any level's texture. Left
+    as they are when ``level`` is the coarsest or its parts do not match one to one."""
+    if level.file == coarsest.file:
+        return
+    finer = read_primitives(out / level.file)
+    if len(finer) != len(parts):
+        return
+    for part, source in zip(parts, finer):
+        if part.image is not None and source.image is not None:
+            part.image, part.mime = source.image, source.mime
+
+
 def owner_runs(owners: np.ndarray) -> list[list[int]]:
     """Run-length form ``[[owner, count], ...]`` of the (n,) per-vertex owners (vertex order)."""
     if len(owners) == 0:
@@ -264,14 +282,16 @@ def merge_inputs(task: ProxyTask) -> Merged:
     buildings: list[str] = []
     bound = texel_floor = 0.0
     for building in task.buildings:
-        level = finest_fitting(building.levels, cell)
+        coarsest = building.levels[0]
         matrix = to_proxy @ building.world @ frames.Y_UP
-        for primitive in read_primitives(out / level.file):
+        parts = read_primitives(out / coarsest.file)
+        with_texture(parts, out, finest_fitting(building.levels, cell), coarsest)
+        for primitive in parts:
             primitive.positions = frames.apply(matrix, primitive.positions)
             primitives.append(primitive)
             owners.append(np.full(len(primitive.positions), len(buildings), np.int64))
         buildings.append(building.id)
-        bound = max(bound, level.error)
+        bound = max(bound, coarsest.error)
     for child in task.children:
         record = json.loads((out / PROXY_DIR / f"{child.tile}.json").read_text(encoding="utf-8"))
         if record.get("hash") != child.key:
