@@ -15,7 +15,7 @@ point of a kept triangle (a barycentric combination of its corners) moves by at 
 both ways. A vanished triangle's points map to a segment [a, b] (or a point) between two
 representatives within ``moved``; the distance to the kept surface is 1-Lipschitz, so it is at
 most the largest distance (an upper bound of it: :meth:`SurfaceIndex.upper`) at points ``h`` apart along [a, b], plus
-``h`` / 2. So the
+``h`` / 2 (0 without a query when [a, b] is an edge of a kept triangle). So the
 symmetric Hausdorff distance between the mesh and its clustering is at most ``moved`` + the
 largest such value over vanished triangles. A vanished triangle whose segment reaches farther than
 ``keep_beyond`` from what is kept is kept as it was (a pole above a roof, an isolated small
@@ -94,6 +94,30 @@ def segment_reach(
     return reach + length / steps / 2.0
 
 
+def _reach(
+    centre: np.ndarray, corner: np.ndarray, vanished: np.ndarray, spacing: float
+) -> np.ndarray:
+    """:func:`segment_reach` of the vanished triangles against the kept ones; a segment that is
+    an edge of a kept triangle (most: a sliver folded onto its neighbour) reaches 0, measured
+    without a query."""
+    kept = corner[~vanished]
+    gone = corner[vanished]
+    ends = np.sort(
+        np.column_stack([gone[:, 0], np.where(gone[:, 0] == gone[:, 1], gone[:, 2], gone[:, 1])]),
+        axis=1,
+    )
+    edges = np.sort(np.concatenate([kept[:, [0, 1]], kept[:, [1, 2]], kept[:, [2, 0]]]), axis=1)
+    width = max(1, int(len(centre)).bit_length())
+    on_edge = np.isin((ends[:, 0] << width) | ends[:, 1], (edges[:, 0] << width) | edges[:, 1])
+    on_edge &= ends[:, 0] != ends[:, 1]  # a point image is measured (its cell may be gone)
+    reach = np.zeros(len(gone))
+    open_ = ~on_edge
+    if open_.any():
+        index = SurfaceIndex(centre, kept, samples_per_face=0)
+        reach[open_] = segment_reach(index, centre, gone[open_], spacing)
+    return reach
+
+
 def cluster(
     positions: np.ndarray,
     faces: np.ndarray,
@@ -104,8 +128,8 @@ def cluster(
     uv_bins: int = 1024,
 ) -> Clustered:
     """The clustering of the mesh on a grid of ``cell`` metres (see the module doc); vanished
-    triangles' segments are measured at points ``cell`` / 4 apart at most."""
-    sample = cell / 4.0
+    triangles' segments are measured at points ``cell`` / 2 apart at most."""
+    sample = cell / 2.0
     grid = np.floor(positions / cell).astype(np.int64)
     _, spot = unique_rows(np.column_stack([owners, grid]))
     spots = int(spot.max()) + 1 if len(spot) else 0
@@ -123,8 +147,7 @@ def cluster(
     if vanished.any():
         reach[vanished] = np.inf
         if (~vanished).any():
-            index = SurfaceIndex(centre, corner[~vanished], samples_per_face=1)
-            reach[vanished] = segment_reach(index, centre, corner[vanished], sample)
+            reach[vanished] = _reach(centre, corner, vanished, sample)
     restored = vanished & (reach > keep_beyond)
     clustered = ~vanished
     # Output vertices: one per (building, cell, uv bin) for the clustered triangles, and the
