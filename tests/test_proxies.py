@@ -226,3 +226,34 @@ def test_a_changed_tile_rebuilds_its_proxy_and_its_ancestors_only(quad, tmp_path
     assert same == {f"{t.name}.glb" for t in TILES[:3]} | {"14_139708_58056.glb"}
     test_tileset.test_every_proxy_error_bounds_its_distance_to_the_lod0_below_it(out)
     assert os.path.exists(out / "tileset_proxies" / f"{TOP}.glb")
+
+
+def test_the_clustering_bound_holds_densely_on_small_and_isolated_parts():
+    """Boxes of several sizes (some smaller than a cell, one far from the rest) and a thin pole:
+    the clustering's bound is at least the dense Hausdorff distance of input and output, every
+    output vertex keeps its building, and the far small box is kept, not dropped."""
+    import trimesh
+
+    from exporter.tileset.cluster import cluster
+    from tests.hausdorff_check import dense_hausdorff
+
+    parts = [
+        trimesh.creation.box((20, 12, 9)),
+        trimesh.creation.box((0.8, 0.8, 0.8)).apply_translation((10.5, 6.5, 0)),  # on the roof edge
+        trimesh.creation.box((0.3, 0.3, 8)).apply_translation((0, 0, 8.5)),  # a pole above the roof
+        trimesh.creation.box((1.0, 1.0, 1.0)).apply_translation((60, 0, 0)),  # small, isolated
+        trimesh.creation.box((7, 5, 3)).apply_translation((0, 20, 0)),
+    ]
+    positions = np.concatenate([p.vertices for p in parts])
+    offsets = np.cumsum([0] + [len(p.vertices) for p in parts])
+    faces = np.concatenate([p.faces + offsets[i] for i, p in enumerate(parts)])
+    owners = np.repeat(np.arange(len(parts)), [len(p.vertices) for p in parts])
+    uvs = np.zeros((len(positions), 2))
+    for cell in (0.5, 2.0, 6.0):
+        done = cluster(positions, faces, uvs, owners, cell, keep_beyond=cell)
+        assert np.all(np.diff(done.owners) >= 0)
+        assert np.array_equal(done.owners, owners[done.source])
+        measured = dense_hausdorff((positions, faces), (done.positions, done.faces), 6)
+        assert measured <= done.bound + 1e-9, (cell, measured, done.bound)
+        far = done.owners == 3
+        assert far.any()  # the isolated box: kept (as it was or clustered)

@@ -14,8 +14,9 @@ Why the bound holds (metres): every vertex moves by at most ``moved`` (measured 
 point of a kept triangle (a barycentric combination of its corners) moves by at most ``moved``,
 both ways. A vanished triangle's points map to a segment [a, b] (or a point) between two
 representatives within ``moved``; the distance to the kept surface is 1-Lipschitz, so it is at
-most the largest distance (an upper bound of it: :meth:`SurfaceIndex.upper`) at points ``h`` apart along [a, b], plus
-``h`` / 2 (0 without a query when [a, b] is an edge of a kept triangle). So the
+most the largest distance (an upper bound of it: :meth:`SurfaceIndex.upper`) at points ``h``
+apart along [a, b], plus ``h`` / 2 (0 without a query when [a, b] is an edge of a kept
+triangle). So the
 symmetric Hausdorff distance between the mesh and its clustering is at most ``moved`` + the
 largest such value over vanished triangles. A vanished triangle whose segment reaches farther than
 ``keep_beyond`` from what is kept is kept as it was (a pole above a roof, an isolated small
@@ -177,7 +178,7 @@ def cluster(
     out_faces = np.concatenate(
         [vertex[faces[clustered]], vertex[n + np.searchsorted(originals, faces[restored])]]
     )
-    used = np.unique(faces[clustered])
+    used = np.unique(faces[~restored])  # every moved vertex: of kept and of dropped triangles
     moved = float(np.linalg.norm(positions[used] - centre[spot[used]], axis=1).max(initial=0.0))
     bound = moved + float(reach[vanished & ~restored].max(initial=0.0))
     return Clustered(
