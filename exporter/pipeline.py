@@ -459,7 +459,7 @@ def export_tiles(
         # tiles.json once, after the tileset, listing its proxies for the streamer, and also when
         # the tileset fails.
         # The proxies of one quadtree level are built in parallel, on the same kind of workers
-        # as the buildings (a pool or the cluster, started only when a level has two to build).
+        # as the buildings (a pool or the cluster, started at the first proxy to build).
         workers = ProxyWorkers(
             jobs, cluster_options(scheduler, jobs), [str(f) for f in folders], notify
         )
