@@ -420,14 +420,14 @@ class TilesetOptions:
         default=300_000,
         metadata=meta(
             _integer(1),
-            "a tile gets no proxy (nor do its ancestors) when its proxy would be larger",
+            "a proxy is clustered on coarser cells until it holds at most half this; a tile gets no proxy (nor do its ancestors) when even tile-sized cells leave more",
         ),
     )
     proxy_error_ratio: float = field(
         default=0.01,
         metadata=meta(
             _number(0.0, maximum=1.0),
-            "above the building tiles, each building's piece of a proxy is simplified (meshoptimizer, certified) towards this x the tile's north-south size in metres (0 = merge only)",
+            "a tile's proxy is simplified (per-building vertex clustering, its error bounded by construction) towards this x the tile's north-south size in metres (0 = merge only)",
         ),
     )
     proxy_atlas_size: int = field(

@@ -30,7 +30,14 @@ from pathlib import Path
 
 from .atomic import remove_stale_temporaries, write_text_atomic
 from .config import Config, check_optional_features
-from .distributed import ClusterOptions, batch_size_for, cluster_results, cluster_session
+from .distributed import (
+    ClusterOptions,
+    ProxyWorkers,
+    batch_size_for,
+    cluster_options,
+    cluster_results,
+    cluster_session,
+)
 from .errors import InputError
 from .job import RECORD_NAME, STAGES, EntryResult, process_entry
 from .manifest import MANIFEST_NAME, build_manifest, dumps, record_line
@@ -356,9 +363,8 @@ def _result_stream(
     if scheduler is None:
         yield _results(work, min(jobs, max(1, total)), total)
         return
-    options = scheduler if isinstance(scheduler, ClusterOptions) else ClusterOptions(scheduler)
-    if options.address == "local" and options.local_workers is None:
-        options = dataclasses.replace(options, local_workers=jobs)
+    options = cluster_options(scheduler, jobs)
+    assert options is not None
     with cluster_session(options, [str(f) for f in folders], str(out_dir), notify) as client:
         yield cluster_results(client, work, total, options)
 
@@ -499,6 +505,11 @@ def export_tiles(
         # After the manifests (the tileset and tiles.json reference only complete files);
         # tiles.json once, after the tileset, listing its proxies for the streamer, and also when
         # the tileset fails.
+        # The proxies of one quadtree level are built in parallel, on the same kind of workers
+        # as the buildings (a pool or the cluster, started at the first proxy to build).
+        workers = ProxyWorkers(
+            jobs, cluster_options(scheduler, jobs), [str(f) for f in folders], notify
+        )
         try:
             if config.tileset.enabled:
                 stats.tileset = write_tileset(
@@ -507,8 +518,10 @@ def export_tiles(
                     config.textures.jpeg_quality,
                     fresh_facts(stats.tiles, config.globe),
                     force,
+                    workers,
                 )
         finally:
+            workers.close()
             proxies = stats.tileset.proxies_index if stats.tileset is not None else []
             write_tile_index(out_dir, stats.tiles, config.globe, proxies)
     stats.wall_seconds = time.perf_counter() - started

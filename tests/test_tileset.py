@@ -173,12 +173,12 @@ def test_every_proxy_error_bounds_its_distance_to_the_lod0_below_it(city):
 
 
 def test_the_proxy_above_the_building_tiles_is_simplified(city):
-    """Its pieces are meshoptimizer collapses of the level-15 proxies' (the dense check above
-    holds for them); the level-15 proxies are the buildings' coarsest levels merged as they are."""
+    """It is a meshoptimizer collapse of the two level-15 proxies merged (the dense check above
+    holds for it); the level-15 proxies are one level of each building merged as it is."""
     records = {p.stem: json.loads(p.read_text()) for p in (city / "tileset_proxies").glob("*.json")}
     below = sum(r["triangles"] for name, r in records.items() if name.startswith("15_"))
     assert records["14_139709_58056"]["triangles"] < below
-    assert len(records["14_139709_58056"]["pieces"]) == 10  # one per building
+    assert len(records["14_139709_58056"]["buildings"]) == 10  # every building keeps a part
 
 
 def test_proxies_pass_the_khronos_validator(city, gltf_validator):
@@ -444,19 +444,27 @@ def test_without_proxies_the_tiles_have_no_content_and_no_proxy_files(city, tmp_
     assert not list((out / "tileset_proxies").glob("*"))
 
 
-def test_a_proxy_over_the_size_cap_is_left_out_with_its_ancestors(city, tmp_path):
+def test_a_proxy_over_the_size_cap_is_coarsened_with_an_error_that_still_holds(city, tmp_path):
     out = tmp_path / "out"
     shutil.copytree(city, out)
-    sizes = {
-        p.name: json.loads(p.read_text())["triangles"]
-        for p in (out / "tileset_proxies").glob("15_*.json")
-    }
-    cap = max(sizes.values()) - 1  # the larger level-15 proxy is too large
+    before = {p.stem: json.loads(p.read_text()) for p in (out / "tileset_proxies").glob("*.json")}
+    cap = max(r["triangles"] for n, r in before.items() if n.startswith("15_")) - 1
+    # Clustered on coarser cells until within half the cap, with the larger error that costs.
     write_tileset(out, TilesetOptions(proxy_max_triangles=cap))
     tileset = load(out)
     assert structural_problems(out, tileset) == []
-    uris = {v.uri for v in walk(tileset) if v.uri and "proxies" in v.uri}
-    assert uris == {f"tileset_proxies/{n[:-5]}.glb" for n, t in sizes.items() if t <= cap}
+    after = {p.stem: json.loads(p.read_text()) for p in (out / "tileset_proxies").glob("*.json")}
+    assert after.keys() == before.keys()
+    for name, record in after.items():
+        assert record["triangles"] <= cap // 2
+        assert record["geometric"] >= before[name]["geometric"]
+    test_every_proxy_error_bounds_its_distance_to_the_lod0_below_it(out)
+    # Two triangles at most: whatever is left out or kept, the errors still hold.
+    write_tileset(out, TilesetOptions(proxy_max_triangles=2))
+    assert structural_problems(out, load(out)) == []
+    for path in (out / "tileset_proxies").glob("*.json"):
+        assert json.loads(path.read_text()).get("triangles", 0) <= 2
+    test_every_proxy_error_bounds_its_distance_to_the_lod0_below_it(out)
 
 
 def test_tiles_of_earlier_runs_stay_in_the_tileset(tmp_path):

@@ -25,6 +25,7 @@ from exporter.pipeline import export_tiles
 from exporter.samplegen import generate_tile
 from exporter.tileset.features import with_features
 from exporter.tileset.metadata import building_values, property_id
+from exporter.tileset.proxy import owners_of
 
 REAL = Path(__file__).resolve().parent / "data" / "real"
 VALIDATOR_BIN = Path(__file__).resolve().parent / "tileset_client" / "node_modules" / ".bin"
@@ -152,19 +153,20 @@ def check_tileset(out: Path) -> tuple[dict, dict]:
 
 
 def check_proxies(out: Path, records: dict) -> int:
-    """Every proxy's feature ids resolve, vertex by vertex, to the building of its piece; returns
-    the number of proxies checked."""
+    """Every proxy's feature ids resolve, vertex by vertex, to the building that vertex came from
+    (the proxy record's ``owners``, run-length over its ``buildings``); returns the number of
+    proxies checked."""
     proxies = sorted((out / "tileset_proxies").glob("*.glb"))
     for path in proxies:
         ids, rows = property_table(path)
         record = json.loads(path.with_suffix(".json").read_text())
-        assert len(record["owners"]) == len(record["pieces"])
-        for (v0, vn, _, _, _), owner in zip(record["pieces"], record["owners"]):
-            (row,) = {int(i) for i in ids[v0 : v0 + vn]}
-            assert rows[row]["id"] == records[owner]["id"]
-            for name, value in records[owner].get("attributes", {}).items():
-                assert rows[row][name] == value or rows[row][name] == json.dumps(value)
-        assert {r["id"] for r in rows} == {records[o]["id"] for o in record["owners"]}
+        owners = owners_of(record["owners"], len(ids))
+        assert np.array_equal(ids, owners)
+        assert len(rows) == len(record["buildings"])
+        for row, key in zip(rows, record["buildings"]):
+            assert row["id"] == records[key]["id"]
+            for name, value in records[key].get("attributes", {}).items():
+                assert row[name] == value or row[name] == json.dumps(value)
     return len(proxies)
 
 
@@ -183,7 +185,7 @@ def test_vworld_tiles_metadata_and_a_proxy_of_proxies_keeps_every_building(two_t
     _, records = check_tileset(two_tiles)
     assert check_proxies(two_tiles, records) == 3  # two tile proxies and the one above them
     above = json.loads((two_tiles / "tileset_proxies" / "14_139709_58056.json").read_text())
-    assert len(set(above["owners"])) == 8
+    assert len(above["buildings"]) == 8
 
 
 def test_cityjson_attributes_reach_the_tileset_and_the_proxies(tmp_path):

@@ -3,7 +3,8 @@
 Entry point: :func:`write_tileset` (``export_tiles`` calls it after the manifests and
 ``tiles.json``). It reads every tile manifest under ``OUT`` (this run's and earlier runs', as
 ``tiles.json`` lists them), builds the tree (:mod:`.tree`: buildings as LoD chains with their
-certified errors, under the VWorld quadtree), adds the tiles' merged proxies (:mod:`.proxy`) and
+certified errors, under the VWorld quadtree), adds the tiles' proxies (:mod:`.proxy`, each built
+from its children's, level by level in parallel: :mod:`.schedule`) and
 writes the JSON (:mod:`.write`). Frames: :mod:`.frames`.
 """
 
@@ -11,12 +12,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..config import TextureOptions, TilesetOptions
 from .tree import Node, quadtree, read_buildings
 from .write import TILESET_NAME, tileset_json, write_tileset_json
+
+if TYPE_CHECKING:
+    from .schedule import Workers
 
 __all__ = ["TILESET_NAME", "TilesetResult", "write_tileset"]
 
@@ -30,6 +35,7 @@ class TilesetResult:
     left_out: list[str] = field(default_factory=list)
     # What tiles.json lists of the proxies for the Unity streamer (exporter.tile_index.proxy_entries)
     proxies_index: list[dict] = field(default_factory=list)
+    proxies_on_workers: int = 0  # built on pool or cluster workers (not in this process)
 
     def summary(self) -> str:
         """One line for the command line."""
@@ -87,10 +93,12 @@ def write_tileset(
     jpeg_quality: int = TextureOptions.jpeg_quality,
     fresh: dict[str, tuple[int, dict]] | None = None,
     force: bool = False,
+    workers: Workers | None = None,
 ) -> TilesetResult:
     """Write ``OUT/tileset.json`` for every building of ``out_dir``; see the module doc.
     ``fresh``: the index facts of the run's tiles (:func:`exporter.tile_index.fresh_facts`);
-    ``force``: rebuild every proxy (``export --force``)."""
+    ``force``: rebuild every proxy (``export --force``); ``workers``: where the proxies are built
+    (:class:`.schedule.Workers`; default this process)."""
     out_dir = Path(out_dir)
     by_tile, left_out = read_buildings(out_dir, fresh)
     tops = quadtree(by_tile)
@@ -103,9 +111,10 @@ def write_tileset(
         return TilesetResult(None, 0, left_out=left_out)
     proxies = built = 0
     if options.proxies:
-        from .proxy import add_proxies
+        from .schedule import add_proxies
 
-        proxies, built = add_proxies(out_dir, tops, options, jpeg_quality, left_out, force)
+        proxies, built = add_proxies(out_dir, tops, options, jpeg_quality, left_out, force, workers)
     path = write_tileset_json(out_dir, tileset_json(tops, left_out))
     count = sum(len(chains) for chains in by_tile.values())
-    return TilesetResult(path, count, proxies, built, left_out, proxy_records(tops))
+    remote = workers.remote if workers is not None else 0
+    return TilesetResult(path, count, proxies, built, left_out, proxy_records(tops), remote)

@@ -141,13 +141,3 @@ def with_features(glb: bytes, feature_ids: np.ndarray, records: list[dict]) -> b
     blob_out += bytes(-len(blob_out) % 4)
     document["buffers"][0]["byteLength"] = len(blob_out)
     return _glb(document, blob_out)
-
-
-def vertex_feature_ids(owners: list[str], vertex_counts: list[int]) -> tuple[np.ndarray, list[str]]:
-    """Per-vertex feature ids ((sum of vertex_counts,) int64) of pieces owned by ``owners`` (one
-    key per piece, in vertex order), and the distinct keys in first-seen order (feature ``i`` is
-    ``keys[i]``)."""
-    keys = list(dict.fromkeys(owners))
-    index = {key: i for i, key in enumerate(keys)}
-    ids = np.repeat(np.array([index[o] for o in owners], dtype=np.int64), vertex_counts)
-    return ids, keys

@@ -43,6 +43,7 @@ class Level:
     error: float  # metres: certified bound against LOD0
     low: np.ndarray  # (3,) glTF-frame metres
     high: np.ndarray
+    texture_px: int = 0  # larger side of its texture in pixels (0: untextured); for the proxies
 
 
 @dataclass
@@ -81,8 +82,6 @@ class Node:
     proxy_hash: str | None = None
     geometric: float = 0.0  # a proxy's certified geometric bound, metres
     texel: float = 0.0  # a proxy's metres per atlas texel
-    pieces: list | None = None  # a proxy's [first vertex, vertices, first face, faces, bound m]
-    owners: list | None = None  # a proxy's building key per piece (.features: feature ids)
     box: list[float] | None = None  # 3D Tiles box in its frame (set by write.finish)
     box_ecef: np.ndarray | None = None  # (8, 3) ECEF corners of ``box`` (a building's top)
 
@@ -167,8 +166,9 @@ def read_chain(
         if levels and error >= levels[-1].error:
             continue  # no better than a coarser level: never worth refining to
         low, high = bounds[level]
+        size = max((int(v) for v in lods[level].get("texture_size", [0, 0])), default=0)
         levels.append(
-            Level(f"{tile.name}/{lods[level]['file']}", error, np.array(low), np.array(high))
+            Level(f"{tile.name}/{lods[level]['file']}", error, np.array(low), np.array(high), size)
         )
         coarsest = levels[0].file == f"{tile.name}/{lods[level]['file']}"
         if coarsest:

@@ -1,0 +1,227 @@
+"""City-scale benchmark of the export's tail (issue 37): 1, 4, 16 and 64 generated tiles.
+
+For each size, a square block of generated level-15 VWorld-like tiles (``--buildings`` per tile,
+the same for every size so that per-tile figures compare) is exported into a fresh ``OUT`` in a
+child process (``--jobs``), which prints:
+
+- building work: seconds from the start to the first tile manifest (reading, simplifying,
+  certifying and writing every building, on the workers);
+- tail: seconds from there to the end (manifests, ``tiles.json``, ``tileset.json`` and the tile
+  proxies), its share of the export and its seconds per tile;
+- peak RSS (MiB) of the main process (``VmHWM``) and of its largest worker (``RUSAGE_CHILDREN``);
+- proxies built and how many of them ran on pool or cluster workers.
+
+Then, on the 16-tile ``OUT``: one tile changed (regenerated with another seed) and re-exported
+with the 15 others unchanged, against exporting that changed tile alone into an empty ``OUT``;
+and with ``--scheduler local`` on the 4 tiles, the proxies counted on the Dask workers and the
+output compared byte for byte with the local pool's.
+
+``--baseline DIR``: also run every export with the exporter found in DIR (e.g. ``git archive``
+of an earlier commit, with the compiled kernels copied in) in the same run, for ratios.
+
+Usage: ``python benchmarks/bench_city_scale.py [--sizes 1,4,16,64] [--buildings 60]
+[--atlas 256] [--jobs 2] [--baseline DIR] [--workdir DIR]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+# A child runs the exporter its PYTHONPATH names first (this checkout or --baseline's).
+sys.path.insert(len(sys.path) if "--child" in sys.argv else 0, str(REPO))
+
+FIRST = (279416, 116112)  # level-15 (idx, idy) of the block's south-west tile (aligned to 8)
+
+
+def child_export(folders: list[str], out: str, jobs: int, scheduler: str | None) -> None:
+    """Run one export in this (child) process and print its figures as JSON."""
+    from exporter import pipeline
+    from exporter.config import Config
+
+    marks: list[float] = []
+    real = pipeline.write_tile_output
+
+    def first_manifest(*args, **kwargs):
+        if not marks:
+            marks.append(time.perf_counter())
+        return real(*args, **kwargs)
+
+    pipeline.write_tile_output = first_manifest
+    started = time.perf_counter()
+    stats = pipeline.export_tiles(folders, out, Config(), jobs=jobs, scheduler=scheduler)
+    ended = time.perf_counter()
+    # After the exporter's import: bench_throughput puts this checkout first on the path.
+    from benchmarks.bench_throughput import peak_rss_mb
+
+    main_mb, worker_mb = peak_rss_mb()
+    tileset = stats.tileset
+    print(
+        json.dumps(
+            {
+                "seconds": ended - started,
+                "work": (marks[0] if marks else ended) - started,
+                "tail": ended - (marks[0] if marks else ended),
+                "buildings": stats.buildings,
+                "reused": stats.reused,
+                "main_mb": main_mb,
+                "worker_mb": worker_mb,
+                "proxies": tileset.proxies if tileset else 0,
+                "built": tileset.proxies_built if tileset else 0,
+                "on_workers": getattr(tileset, "proxies_on_workers", 0) if tileset else 0,
+            }
+        )
+    )
+
+
+def run_export(
+    folders: list[Path], out: Path, jobs: int, scheduler: str | None = None, code: Path = REPO
+) -> dict:
+    command = [sys.executable, __file__, "--child", str(out), str(jobs), scheduler or "-"]
+    env = {**os.environ, "PYTHONPATH": f"{code}{os.pathsep}{REPO}"}
+    result = subprocess.run(
+        command + [str(f) for f in folders], capture_output=True, text=True, env=env
+    )
+    if result.returncode:
+        raise SystemExit(result.stderr[-3000:])
+    return json.loads(result.stdout.strip().splitlines()[-1])
+
+
+def block(count: int) -> list:
+    """``count`` level-15 tiles (a square number, or 1) as a block from :data:`FIRST`."""
+    from exporter.model import TileId
+
+    side = max(1, math.isqrt(count))
+    return [TileId(15, FIRST[0] + i, FIRST[1] + j) for j in range(side) for i in range(side)]
+
+
+def make_tiles(work: Path, tiles: list, buildings: int, atlas: int) -> list[Path]:
+    from exporter.samplegen import generate_tile
+
+    folders = []
+    for n, tile in enumerate(tiles):
+        folder = work / "in" / tile.name
+        if not list(folder.glob("*.dat")):
+            generate_tile(folder, buildings, seed=n, tile=tile, atlas_size=atlas)
+        folders.append(folder)
+    return folders
+
+
+def fresh(path: Path) -> Path:
+    shutil.rmtree(path, ignore_errors=True)
+    if path.exists():
+        raise SystemExit(f"{path}: could not be removed")
+    os.sync()
+    return path
+
+
+def row(label: str, result: dict, tiles: int) -> str:
+    return (
+        f"{label:14} {tiles:5d} {result['buildings']:7d} {result['work']:8.1f} "
+        f"{result['tail']:7.2f} {result['tail'] / result['seconds']:6.1%} "
+        f"{result['tail'] / tiles:8.3f} {result['main_mb']:7.0f} {result['worker_mb']:7.0f} "
+        f"{result['built']:5d} {result['on_workers']:5d}"
+    )
+
+
+def main() -> None:
+    if len(sys.argv) > 1 and sys.argv[1] == "--child":
+        scheduler = None if sys.argv[4] == "-" else sys.argv[4]
+        child_export(sys.argv[5:], sys.argv[2], int(sys.argv[3]), scheduler)
+        return
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sizes", default="1,4,16,64", help="tile counts (square numbers or 1)")
+    parser.add_argument("--buildings", type=int, default=60, help="buildings per tile")
+    parser.add_argument("--atlas", type=int, default=256, help="building atlas size, pixels")
+    parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--baseline", help="a source folder of the exporter to compare with")
+    parser.add_argument(
+        "--baseline-max", type=int, default=1 << 30, help="run --baseline up to this many tiles"
+    )
+    parser.add_argument("--no-dask", action="store_true", help="leave out --scheduler local")
+    parser.add_argument("--workdir", help="keep the generated tiles and output here")
+    args = parser.parse_args()
+    sizes = [int(s) for s in args.sizes.split(",")]
+    work = Path(args.workdir or tempfile.mkdtemp(prefix="vworld-lod-city-"))
+    print(f"work folder: {work}; {args.buildings} buildings a tile, {args.atlas}px atlases")
+    everything = make_tiles(work, block(max(sizes)), args.buildings, args.atlas)
+    header = (
+        f"{'code':14} {'tiles':>5} {'bldgs':>7} {'work s':>8} {'tail s':>7} {'tail%':>6} "
+        f"{'tail/tile':>8} {'main MB':>7} {'wrkr MB':>7} {'built':>5} {'onwkr':>5}"
+    )
+    lines = [header]
+    results: dict[tuple[str, int], dict] = {}
+    codes = [("this", REPO)] + ([("baseline", Path(args.baseline))] if args.baseline else [])
+    for count in sizes:
+        folders = everything[: len(block(count))]
+        for name, code in codes:
+            if name == "baseline" and count > args.baseline_max:
+                continue
+            out = fresh(work / f"out_{name}_{count}")
+            results[(name, count)] = run_export(folders, out, args.jobs, code=code)
+            lines.append(row(name, results[(name, count)], count))
+            print(lines[-1], flush=True)
+
+    if not args.no_dask:
+        count = 4 if 4 in sizes else min(sizes)
+        out = fresh(work / "out_dask")
+        dask = run_export(everything[:count], out, args.jobs, scheduler="local")
+        pool = work / f"out_this_{count}"
+        same = all(
+            (out / p.relative_to(pool)).read_bytes() == p.read_bytes()
+            for p in sorted(pool.rglob("*"))
+            if p.is_file()
+        )
+        lines.append(row("dask local", dask, count))
+        lines.append(f"--scheduler local: output identical to the pool's: {same}")
+        print("\n".join(lines[-2:]), flush=True)
+
+    # One changed tile of 16 (or the largest size below) against that tile alone.
+    count = 16 if 16 in sizes else max(sizes)
+    changed = block(count)[-1]
+    from exporter.samplegen import generate_tile
+
+    for name, code in codes:
+        folders = everything[:count]
+        out = work / f"out_{name}_{count}"
+        folder = work / "in_changed" / changed.name
+        shutil.rmtree(folder, ignore_errors=True)
+        generate_tile(folder, args.buildings, seed=1000, tile=changed, atlas_size=args.atlas)
+        folders = folders[:-1] + [folder]
+        os.sync()
+        rerun = run_export(folders, out, args.jobs, code=code)
+        alone = run_export([folder], fresh(work / f"out_{name}_alone"), args.jobs, code=code)
+        lines.append(
+            f"{name}: one changed tile of {count} re-exported in {rerun['seconds']:.2f} s "
+            f"({rerun['built']} proxies built), that tile alone {alone['seconds']:.2f} s: "
+            f"{rerun['seconds'] / alone['seconds']:.2f}x (target <= 2)"
+        )
+        print(lines[-1], flush=True)
+
+    print()
+    print("\n".join(lines))
+    small = results[("this", min(sizes))]
+    big = results[("this", max(sizes))]
+    print(
+        f"main peak RSS {max(sizes)} tiles / {min(sizes)}: {big['main_mb'] / small['main_mb']:.2f}x "
+        "(target <= 1.5)"
+    )
+    if 4 in sizes:
+        four = results[("this", 4)]
+        print(
+            f"tail per tile {max(sizes)} / 4 tiles: "
+            f"{(big['tail'] / max(sizes)) / (four['tail'] / 4):.2f}x (target <= 1.5)"
+        )
+
+
+if __name__ == "__main__":
+    main()

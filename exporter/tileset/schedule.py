@@ -1,0 +1,169 @@
+"""The tileset's proxies, level by level: children before parents, each level's in parallel.
+
+Proxies of one quadtree level are independent (each reads only its own inputs' files, see
+:func:`.proxy.make_proxy`), so a level's proxies to build go to :class:`Workers` at once: this
+process (one job), a local process pool (``--jobs N``), or the Dask cluster of ``--scheduler``
+(one task per proxy). The main process keeps per tile only what the tree needs (hash, errors,
+bounds) and hands the workers a :class:`.proxy.ProxyTask` (the names of the input files and their
+errors, no mesh). A proxy whose record matches its inputs' hash is taken as it is (a changed tile
+rebuilds its own proxy and its ancestors', each from its children); the bytes do not depend on
+where a proxy was built.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Callable
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+
+from ..config import TilesetOptions
+from . import frames
+from .metadata import chain_values
+from .proxy import (
+    PROXY_DIR,
+    BuildingSource,
+    ChildSource,
+    LevelSource,
+    Proxy,
+    ProxyTask,
+    cached,
+    make_proxy,
+    proxy_of,
+    remove_stale,
+)
+from .tree import Node
+
+
+class Workers(Protocol):
+    """Where proxies are built (:class:`InProcess` here; the run layer's pool and Dask cluster:
+    :class:`exporter.distributed.ProxyWorkers`)."""
+
+    remote: int  # proxies built on pool or cluster workers (not in this process)
+
+    def map(self, function: Callable, items: list, out_dir: str) -> list:
+        """``[function(item) for item in items]``, in order."""
+        ...
+
+
+class InProcess:
+    """Every proxy built in this process, one after the other."""
+
+    remote = 0
+
+    def map(self, function: Callable, items: list, out_dir: str) -> list:
+        return [function(item) for item in items]
+
+
+def _tile_nodes_by_height(tops: list[Node]) -> list[list[Node]]:
+    """Tile nodes grouped by height above the building tiles (0: no child tile), each group in
+    tree order (depth first, children before parents)."""
+    groups: list[list[Node]] = []
+
+    def visit(node: Node) -> int:
+        below = [visit(child) for child in node.children if child.tile is not None]
+        height = 1 + max(below) if below else 0
+        if node.tile is not None:
+            while len(groups) <= height:
+                groups.append([])
+            groups[height].append(node)
+        return height
+
+    for top in tops:
+        visit(top)
+    return groups
+
+
+def _task(
+    out_dir: Path, node: Node, options: TilesetOptions, jpeg_quality: int
+) -> ProxyTask | None:
+    """What ``node``'s proxy is made from, or None when a child tile has no proxy."""
+    assert node.tile is not None and node.world is not None
+    task = ProxyTask(str(out_dir), node.tile, node.world, options, jpeg_quality)
+    for child in node.children:
+        chain = child.building
+        if chain is not None:
+            levels = [
+                LevelSource(level.file, level.error, level.texture_px) for level in chain.levels
+            ]
+            values = chain_values(chain)
+            digest = hashlib.sha256(
+                json.dumps(values, sort_keys=True, default=str).encode("utf-8")
+            ).hexdigest()[:16]
+            task.buildings.append(
+                BuildingSource(
+                    f"{chain.tile.name}/{chain.id}",
+                    chain.world,
+                    levels,
+                    f"{chain.input_hash}:{digest}",  # a changed attribute rebuilds the proxy
+                    values,
+                )
+            )
+        elif child.proxy_hash is not None and child.tile is not None:
+            assert child.world is not None
+            task.children.append(
+                ChildSource(
+                    child.tile.name, child.world, child.geometric, child.texel, child.proxy_hash
+                )
+            )
+        else:
+            return None
+    return task
+
+
+def _place(node: Node, proxy: Proxy) -> None:
+    """Give ``node`` its proxy: content, hash, errors (at least its children's), box corners."""
+    assert node.tile is not None and node.world is not None
+    node.content = f"{PROXY_DIR}/{node.tile.name}.glb"
+    node.proxy_hash = proxy.hash
+    node.geometric, node.texel = proxy.geometric, proxy.texel
+    node.error = max([proxy.error] + [child.error for child in node.children])
+    node.corners = frames.apply(
+        node.world, frames.gltf_corners(np.array(proxy.low), np.array(proxy.high))
+    )
+
+
+def add_proxies(
+    out_dir: Path,
+    tops: list[Node],
+    options: TilesetOptions,
+    jpeg_quality: int,
+    problems: list[str],
+    force: bool = False,
+    workers: Workers | None = None,
+) -> tuple[int, int]:
+    """Give every tile node of ``tops`` that can have one its proxy (content, error, corners);
+    returns (proxies in the tree, proxies built this time); a proxy that cannot be built is
+    appended to ``problems``. Stale proxy files are removed. ``force``: build every proxy, none
+    taken from an earlier run (a rebuilt file whose bytes come out the same is left as it was)."""
+    folder = out_dir / PROXY_DIR
+    kept: set[str] = set()
+    placed = built = 0
+    workers = workers or InProcess()
+    for level in _tile_nodes_by_height(tops):
+        todo: list[tuple[Node, ProxyTask]] = []
+        for node in level:
+            task = _task(out_dir, node, options, jpeg_quality)
+            if task is None:
+                continue
+            name, key = node.tile.name, task.key  # type: ignore[union-attr]
+            kept.update({f"{name}.json", f"{name}.glb"})
+            found, proxy = (False, None) if force else cached(folder, name, key)
+            if not found:
+                todo.append((node, task))
+            elif proxy is not None:
+                _place(node, proxy)
+                placed += 1
+        records = workers.map(make_proxy, [task for _, task in todo], str(out_dir))
+        built += len(todo)
+        for (node, _), record in zip(todo, records):
+            if "problem" in record:
+                problems.append(record["problem"])
+            elif not record.get("too_large"):
+                _place(node, proxy_of(record))
+                placed += 1
+    remove_stale(folder, kept)
+    return placed, built

@@ -1,0 +1,259 @@
+"""Hierarchical tile proxies (issue 37; issue 34's proxy items): a parent's proxy is built from its
+children's proxies, its certified error still bounds a dense measure against the LOD0 below it,
+every vertex keeps its building, the texel is measured on the surface, the bytes do not depend
+on where the proxies were built, and a changed tile rebuilds only its own proxy and its
+ancestors'."""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from exporter.config import Config, TilesetOptions
+from exporter.mesh.distance import SurfaceIndex
+from exporter.model import TileId
+from exporter.pipeline import export_tiles
+from exporter.samplegen import generate_tile
+from exporter.texel import texel_size_m
+from exporter.tileset import write_tileset
+from exporter.tileset.glb import read_primitives
+from exporter.tileset.proxy import LevelSource, finest_fitting, owner_runs, owners_of
+from tests import test_tileset
+from tests.tileset_check import content_mesh, load, structural_problems, walk
+
+# Four level-15 tiles in two level-14 tiles, under one level-13 tile: two levels of parents.
+TILES = [
+    TileId(15, 279416, 116112),
+    TileId(15, 279417, 116112),
+    TileId(15, 279418, 116112),
+    TileId(15, 279419, 116112),
+]
+TOP = "13_69854_29028"
+
+
+def make_inputs(root: Path, seed: int = 0) -> list[Path]:
+    return [
+        generate_tile(
+            root / tile.name, 3, seed=seed + i, tile=tile, atlas_size=64, mean_triangles=80
+        )
+        for i, tile in enumerate(TILES)
+    ]
+
+
+@pytest.fixture(scope="module")
+def quad(tmp_path_factory) -> Path:
+    root = tmp_path_factory.mktemp("quad")
+    out = root / "out"
+    export_tiles(make_inputs(root / "in"), out, Config(), jobs=1)
+    return out
+
+
+def proxy_files(out: Path) -> dict[str, bytes]:
+    return {p.name: p.read_bytes() for p in sorted((out / "tileset_proxies").iterdir())}
+
+
+def records(out: Path) -> dict[str, dict]:
+    return {p.stem: json.loads(p.read_text()) for p in (out / "tileset_proxies").glob("*.json")}
+
+
+def test_two_levels_of_parents_are_valid_and_every_error_bounds_the_lod0_below(quad):
+    tileset = load(quad)
+    assert structural_problems(quad, tileset) == []
+    proxies = sorted(v.uri for v in walk(tileset) if (v.uri or "").startswith("tileset_proxies/"))
+    assert proxies == [
+        f"tileset_proxies/{name}.glb"
+        for name in [TOP, "14_139708_58056", "14_139709_58056"] + [t.name for t in TILES]
+    ]
+    # The dense measure of the simpler fixture, on proxies made of proxies made of proxies.
+    test_tileset.test_every_proxy_error_bounds_its_distance_to_the_lod0_below_it(quad)
+
+
+def test_a_parent_reads_its_children_s_proxies_not_the_buildings(quad, tmp_path, monkeypatch):
+    from exporter.tileset import proxy
+
+    out = tmp_path / "out"
+    shutil.copytree(quad, out)
+    read: list[str] = []
+    real = proxy.read_primitives
+
+    def recorded(path):
+        read.append(Path(path).relative_to(out).as_posix())
+        return real(path)
+
+    monkeypatch.setattr(proxy, "read_primitives", recorded)
+    result = write_tileset(out, TilesetOptions(), force=True)
+    assert result.proxies_built == 7
+    from_proxies = sorted(name for name in read if name.startswith("tileset_proxies/"))
+    # Each parent reads each child proxy once; the leaves read their buildings' levels
+    assert from_proxies == sorted(
+        f"tileset_proxies/{name}.glb"
+        for name in ["14_139708_58056", "14_139709_58056"] + [t.name for t in TILES]
+    )
+    # (its coarsest level, and LOD0 for its texture: no level's texture fills a 1024 px cell)
+    assert len(read) - len(from_proxies) == 24
+    assert all(
+        name.endswith(("/lod0.glb", "/lod2.glb")) for name in read if name not in from_proxies
+    )
+    assert proxy_files(out) == proxy_files(quad)  # force rebuilds the same bytes
+
+
+def test_every_vertex_keeps_its_building(quad):
+    """Per proxy, each vertex lies within the proxy's error of its owner building's LOD0 (the
+    feature id survives merging and simplification) and the owners cover every vertex."""
+    visits = {
+        v.uri.split("/")[-1][:-4]: v
+        for v in walk(load(quad))
+        if (v.uri or "").startswith("tileset_proxies/")
+    }
+    lod0 = {}
+    for visit in walk(load(quad)):
+        if visit.uri and "/lod0" in visit.uri:
+            tile, folder = visit.uri.split("/")[:2]
+            manifest = json.loads((quad / tile / "lod_manifest.json").read_text())
+            ids = {b["folder"]: b["id"] for b in manifest["buildings"]}
+            lod0[f"{tile}/{ids[folder]}"] = content_mesh(quad, visit)
+    for name, record in records(quad).items():
+        positions, faces = content_mesh(quad, visits[name])
+        owners = owners_of(record["owners"], len(positions))
+        assert sorted(set(owners.tolist())) == list(range(len(record["buildings"])))
+        origin = positions.mean(axis=0)
+        error = visits[name].tile["geometricError"]
+        for index, building in enumerate(record["buildings"]):
+            own = positions[owners == index] - origin
+            reference = lod0[building]
+            distance = SurfaceIndex(reference[0] - origin, reference[1]).max_distance(own)
+            assert distance <= error, (name, building)
+    # A leaf holds its own tile's buildings; the top all twelve.
+    assert all(b.startswith(f"{TILES[0].name}/") for b in records(quad)[TILES[0].name]["buildings"])
+    assert len(records(quad)[TOP]["buildings"]) == 12
+
+
+def test_each_proxy_s_error_is_at_least_half_its_atlas_texel_on_the_surface(quad):
+    for visit in walk(load(quad)):
+        if not (visit.uri or "").startswith("tileset_proxies/"):
+            continue
+        (primitive,) = read_primitives(quad / visit.uri)
+        assert primitive.image is not None and primitive.uvs is not None
+        size = Image.open(io.BytesIO(primitive.image)).size
+        texel = texel_size_m(primitive.positions, primitive.triangles, primitive.uvs, size)
+        assert texel > 0
+        assert visit.tile["geometricError"] >= 0.5 * texel
+
+
+def test_the_finest_level_that_fits_fills_a_cell_by_filtering_down(quad, tmp_path):
+    levels = [LevelSource("a", 2.0, 16), LevelSource("b", 1.0, 32), LevelSource("c", 0.0, 64)]
+    assert finest_fitting(levels, 8).file == "a"
+    assert finest_fitting(levels, 17).file == "b"
+    assert finest_fitting(levels, 64).file == "c"
+    assert finest_fitting(levels, 500).file == "c"  # nothing that large: the finest there is
+    untextured = [LevelSource("a", 2.0, 0), LevelSource("c", 0.0, 0)]
+    assert finest_fitting(untextured, 8).file == "a"
+    # In an export: each leaf is its buildings' coarsest levels (triangles as the manifest says),
+    # textured from the finest level whose texture fills the cell.
+    out = tmp_path / "out"
+    shutil.copytree(quad, out)
+    for size in (16, 2048):  # cells of 8 px (LOD2's 16 px fit) and 1024 px (none fits: LOD0)
+        write_tileset(out, TilesetOptions(proxy_atlas_size=size, proxy_error_ratio=0.0))
+        cell = size // 2  # three buildings: two cells a side
+        for tile in TILES:
+            manifest = json.loads((out / tile.name / "lod_manifest.json").read_text())
+            buildings = sorted(manifest["buildings"], key=lambda b: b["id"])  # the cells' order
+            coarsest = [max(b["lods"], key=lambda lod: lod["level"]) for b in buildings]
+            assert records(out)[tile.name]["triangles"] == sum(c["triangles"] for c in coarsest)
+            (proxy,) = read_primitives(out / "tileset_proxies" / f"{tile.name}.glb")
+            assert proxy.image is not None
+            atlas = np.asarray(Image.open(io.BytesIO(proxy.image)).convert("RGB"), np.float64)
+            for index, building in enumerate(buildings if size == 2048 else []):
+                row, col = divmod(index, 2)
+                got = atlas[row * cell : (row + 1) * cell, col * cell : (col + 1) * cell]
+                by_level = {}
+                for lod in building["lods"]:
+                    (level,) = read_primitives(out / tile.name / lod["file"])
+                    assert level.image is not None
+                    image = Image.open(io.BytesIO(level.image)).convert("RGB")
+                    scaled = image.resize((cell, cell), Image.Resampling.BOX)
+                    by_level[lod["level"]] = np.abs(np.asarray(scaled, np.float64) - got).mean()
+                # None fills a 1024 px cell: LOD0's texture (not the coarsest level's, scaled up)
+                assert by_level[0] == min(by_level.values()), by_level
+
+
+def test_owner_runs_round_trip():
+    owners = np.array([0, 0, 1, 1, 1, 0, 2])
+    assert owner_runs(owners) == [[0, 2], [1, 3], [0, 1], [2, 1]]
+    assert owners_of(owner_runs(owners), 7).tolist() == owners.tolist()
+    with pytest.raises(ValueError):
+        owners_of([[0, 2]], 3)
+
+
+def test_the_same_bytes_from_one_job_a_pool_and_a_local_dask_cluster(quad, tmp_path):
+    pytest.importorskip(
+        "distributed", reason="dask.distributed not installed: pip install -e '.[test]'"
+    )
+    for name, kwargs in (("pool", {"jobs": 2}), ("dask", {"jobs": 2, "scheduler": "local"})):
+        out = tmp_path / name
+        shutil.copytree(quad, out)
+        shutil.rmtree(out / "tileset_proxies")
+        (out / "tileset.json").unlink()
+        inputs = sorted((quad.parent / "in").iterdir())
+        stats = export_tiles(inputs, out, Config(), **kwargs)
+        assert stats.reused == 12
+        assert stats.tileset is not None and stats.tileset.proxies_built == 7
+        assert stats.tileset.proxies_on_workers >= 6, name  # the leaves and the level-14 pair
+        assert proxy_files(out) == proxy_files(quad), name
+        assert (out / "tileset.json").read_bytes() == (quad / "tileset.json").read_bytes()
+
+
+def test_a_changed_tile_rebuilds_its_proxy_and_its_ancestors_only(quad, tmp_path):
+    root = tmp_path / "in"
+    shutil.copytree(quad.parent / "in", root)
+    out = tmp_path / "out"
+    shutil.copytree(quad, out)
+    before = {p.name: p.stat().st_mtime_ns for p in (out / "tileset_proxies").glob("*.glb")}
+    changed = TILES[3]
+    shutil.rmtree(root / changed.name)
+    generate_tile(root / changed.name, 3, seed=99, tile=changed, atlas_size=64, mean_triangles=80)
+    stats = export_tiles(sorted(root.iterdir()), out, Config(), jobs=1)
+    assert stats.tileset is not None and stats.tileset.proxies_built == 3
+    after = {p.name: p.stat().st_mtime_ns for p in (out / "tileset_proxies").glob("*.glb")}
+    same = {name for name in before if before[name] == after[name]}
+    assert same == {f"{t.name}.glb" for t in TILES[:3]} | {"14_139708_58056.glb"}
+    test_tileset.test_every_proxy_error_bounds_its_distance_to_the_lod0_below_it(out)
+    assert os.path.exists(out / "tileset_proxies" / f"{TOP}.glb")
+
+
+def test_the_clustering_bound_holds_densely_on_small_and_isolated_parts():
+    """Boxes of several sizes (some smaller than a cell, one far from the rest) and a thin pole:
+    the clustering's bound is at least the dense Hausdorff distance of input and output, every
+    output vertex keeps its building, and the far small box is kept, not dropped."""
+    import trimesh
+
+    from exporter.tileset.cluster import cluster
+    from tests.hausdorff_check import dense_hausdorff
+
+    parts = [
+        trimesh.creation.box((20, 12, 9)),
+        trimesh.creation.box((0.8, 0.8, 0.8)).apply_translation((10.5, 6.5, 0)),  # on the roof edge
+        trimesh.creation.box((0.3, 0.3, 8)).apply_translation((0, 0, 8.5)),  # a pole above the roof
+        trimesh.creation.box((1.0, 1.0, 1.0)).apply_translation((60, 0, 0)),  # small, isolated
+        trimesh.creation.box((7, 5, 3)).apply_translation((0, 20, 0)),
+    ]
+    positions = np.concatenate([p.vertices for p in parts])
+    offsets = np.cumsum([0] + [len(p.vertices) for p in parts])
+    faces = np.concatenate([p.faces + offsets[i] for i, p in enumerate(parts)])
+    owners = np.repeat(np.arange(len(parts)), [len(p.vertices) for p in parts])
+    uvs = np.zeros((len(positions), 2))
+    for cell in (0.5, 2.0, 6.0):
+        done = cluster(positions, faces, uvs, owners, cell, keep_beyond=cell)
+        assert np.all(np.diff(done.owners) >= 0)
+        assert np.array_equal(done.owners, owners[done.source])
+        measured = dense_hausdorff((positions, faces), (done.positions, done.faces), 6)
+        assert measured <= done.bound + 1e-9, (cell, measured, done.bound)
+        far = done.owners == 3
+        assert far.any()  # the isolated box: kept (as it was or clustered)
