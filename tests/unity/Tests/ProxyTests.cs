@@ -25,8 +25,12 @@ namespace VWorldLod.Tests
 
         public int Pending { get { return pending.Count; } }
 
-        public Task<object> LoadProxy(ProxyEntry proxy, CancellationToken cancellation)
+        /// <summary>The maxTextureSize of each load asked, in order ("name:limit").</summary>
+        public readonly List<string> Limits = new List<string>();
+
+        public Task<object> LoadProxy(ProxyEntry proxy, int maxTextureSize, CancellationToken cancellation)
         {
+            Limits.Add(proxy.name + ":" + maxTextureSize);
             var done = new TaskCompletionSource<object>();
             pending.Add(() =>
             {
@@ -151,6 +155,39 @@ namespace VWorldLod.Tests
                 s.Dispose();
                 Assert.True(b.Handles.All(h => h.Released), "Dispose releases every proxy");
                 Assert.Equal(0, s.Budget.Resident, "nothing resident after Dispose");
+            });
+
+            t.Check("proxies: textures capped by the proxy's size on screen, loaded finer as the camera comes closer, the coarser copy shown until then", () =>
+            {
+                // 1000 px, 90 degrees: C's sphere (radius 100 m) is 100,000 / d px across; 2 texels a pixel.
+                Assert.Equal(64, ProxyStreamer.MaxTextureSize(100, 4999, 1000, 90, 2), "40 texels: 64");
+                Assert.Equal(512, ProxyStreamer.MaxTextureSize(100, 400, 1000, 90, 2), "500 texels: 512");
+                Assert.Equal(int.MaxValue, ProxyStreamer.MaxTextureSize(100, 400, 1000, 90, 0), "0 texels per pixel: whole");
+                Assert.Equal(int.MaxValue, ProxyStreamer.MaxTextureSize(100, 0, 1000, 90, 2), "camera inside its sphere: whole");
+                var b = new FakeProxyBackend();
+                var s = new ProxyStreamer(Tree(), p => At[p.name], new StreamingSettings(), b);
+                var events = new List<string>();
+                s.OnEvent = events.Add;
+                Frame(s, b, 0, 1000, 0);
+                Assert.Equal("C R", Frame(s, b, 0, 1000, 0), "from 1 km up");
+                Assert.Equal(64, s.LoadedTextureSize("C"), "C, 5 km away, capped at 64 texels a side");
+                Assert.Equal(512, s.LoadedTextureSize("R"), "R, 850 m away, at 512");
+                Assert.Equal("C:64 R:512", string.Join(" ", b.Limits.OrderBy(n => n)), "the caps asked of the backend");
+                Assert.Equal("C R", Frame(s, b, 4500, 0, 0), "near C: C still shown while its finer copy loads");
+                Assert.True(events.Contains("load finer C"), "a finer C requested: " + string.Join(", ", events));
+                Assert.Equal(64, s.LoadedTextureSize("C"), "the coarse copy stays until the finer one arrives");
+                Assert.Equal("C R", Frame(s, b, 4500, 0, 0), "the finer copy takes its place");
+                Assert.Equal(512, s.LoadedTextureSize("C"), "C at 400 m: 512");
+                Assert.Equal(1, b.Handles.Count(h => h.Name == "C" && !h.Released), "the coarse copy released");
+                Assert.True(b.Handles.Single(h => h.Name == "C" && !h.Released).Visible, "the finer copy shown");
+                Assert.Equal(2000, s.Budget.Resident, "R and C: the coarse copy's bytes left the budget");
+                s.Dispose();
+
+                var whole = new FakeProxyBackend();
+                var w = new ProxyStreamer(Tree(), p => At[p.name], new StreamingSettings { ProxyTexelsPerPixel = 0 }, whole);
+                Frame(w, whole, 0, 1000, 0);
+                Assert.Equal("C:0 R:0", string.Join(" ", whole.Limits.OrderBy(n => n)), "ProxyTexelsPerPixel 0: whole textures");
+                w.Dispose();
             });
 
             t.Check("proxies: the coarser proxy holds over shown buildings while a finer one loads; Covers names the tiles under shown proxies", () =>

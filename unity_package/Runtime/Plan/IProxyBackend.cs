@@ -10,8 +10,12 @@ namespace VWorldLod
 {
     public interface IProxyBackend
     {
-        /// <summary>Loads the proxy's .glb, placed and hidden; returns a handle.</summary>
-        Task<object> LoadProxy(ProxyEntry proxy, CancellationToken cancellation);
+        /// <summary>
+        /// Loads the proxy's .glb, placed and hidden; returns a handle. maxTextureSize: texels a
+        /// side its textures keep at most (their finest mip levels left out until they fit, as
+        /// Unity's mipmap limit does); 0: whole.
+        /// </summary>
+        Task<object> LoadProxy(ProxyEntry proxy, int maxTextureSize, CancellationToken cancellation);
 
         /// <summary>Shows or hides a loaded proxy.</summary>
         void ShowProxy(object loaded, bool visible);

@@ -45,7 +45,9 @@ namespace VWorldLod
             public object Handle; // loaded
             public Job Loading;
             public long Bytes; // texture bytes of the loaded proxy (IProxyBackend.TextureBytes)
-            public bool Visible, Wanted, Failed, Covered; // Covered: a tile below it shows its buildings
+            public int Size; // texels a side its loaded textures were capped at (int.MaxValue: whole)
+            public int NeedSize; // the cap its distance asks for now
+            public bool Visible, Wanted, Failed, FinerFailed, Covered; // Covered: a tile below it shows its buildings
             public int[] Tiles; // indices (into tileNames) of the building tiles under it, its descendants' included
             public double Sse, Distance; // Distance: metres to its bounding sphere
         }
@@ -53,6 +55,7 @@ namespace VWorldLod
         sealed class Job
         {
             public Node Node;
+            public int Size; // cap asked of the backend (int.MaxValue: whole)
             public Task<object> Task;
             public CancellationTokenSource Cancel = new CancellationTokenSource();
             public bool Cancelled;
@@ -159,6 +162,31 @@ namespace VWorldLod
             return errorMetres * screenHeight / (d * 2 * Math.Tan(fovDegrees * Math.PI / 360.0));
         }
 
+        /// <summary>The smallest cap on a proxy's textures (texels a side).</summary>
+        public const int MinTextureSize = 32;
+
+        /// <summary>
+        /// Texels a side a proxy's textures need at most: texelsPerPixel x its bounding sphere's
+        /// diameter (2 radiusMetres) on screen at distanceMetres, up to a power of two, at least
+        /// MinTextureSize; int.MaxValue (whole) when texelsPerPixel is 0 or the camera is inside.
+        /// </summary>
+        public static int MaxTextureSize(double radiusMetres, double distanceMetres, double screenHeight, double fovDegrees, double texelsPerPixel)
+        {
+            if (!(texelsPerPixel > 0) || !(distanceMetres > 0)) return int.MaxValue;
+            double pixels = texelsPerPixel * ScreenSpaceError(2 * radiusMetres, distanceMetres, screenHeight, fovDegrees);
+            if (!(pixels < 1 << 30)) return int.MaxValue;
+            int size = MinTextureSize;
+            while (size < pixels) size *= 2;
+            return size;
+        }
+
+        /// <summary>Texels a side the loaded proxy's textures were capped at (0: whole), or -1 when it is not loaded.</summary>
+        public int LoadedTextureSize(string proxyName)
+        {
+            foreach (Node n in nodes) if (n.Entry.name == proxyName) return n.Handle == null ? -1 : n.Size == int.MaxValue ? 0 : n.Size;
+            return -1;
+        }
+
         /// <summary>Names of the proxies wanted at the last Update, in index order.</summary>
         public List<string> Wanted() { return Names(n => n.Wanted); }
 
@@ -187,6 +215,10 @@ namespace VWorldLod
                 double centre = Math.Sqrt((p[0] - x) * (p[0] - x) + (p[1] - y) * (p[1] - y) + (p[2] - z) * (p[2] - z)) / unitsPerMetre;
                 n.Distance = Math.Max(centre - n.Entry.radius_m, 0);
                 n.Sse = ScreenSpaceError(n.Entry.geometric_error, n.Distance, screenHeight, fovDegrees);
+                // A proxy standing in while its tiles' buildings load (within the load radius) is
+                // a placeholder for a few frames: textures as fine as it would need at the load radius.
+                double seen = BuildingsComing(n) ? Math.Max(n.Distance, settings.LoadRadius / unitsPerMetre) : n.Distance;
+                n.NeedSize = MaxTextureSize(n.Entry.radius_m, seen, screenHeight, fovDegrees, settings.ProxyTexelsPerPixel);
                 n.Wanted = false;
             }
             foreach (int r in roots) Cover(nodes[r]);
@@ -299,7 +331,12 @@ namespace VWorldLod
             if (job.Node.Loading == job) job.Node.Loading = null;
             if (result == null)
             {
-                if (!job.Cancelled && !disposed) job.Node.Failed = true; // reported; its children stand in
+                // Reported. A proxy not shown yet: its children stand in; a shown one keeps its coarser textures.
+                if (!job.Cancelled && !disposed)
+                {
+                    if (job.Node.Handle != null) job.Node.FinerFailed = true;
+                    else job.Node.Failed = true;
+                }
                 return;
             }
             if (job.Cancelled || disposed)
@@ -307,11 +344,23 @@ namespace VWorldLod
                 Safe(() => backend.ReleaseProxy(result));
                 return;
             }
-            job.Node.Handle = result;
+            Node n = job.Node;
+            if (n.Handle != null)
+            {
+                // Finer textures for a proxy already shown (the camera came closer): the new one
+                // takes its place at once, the old one goes.
+                object old = n.Handle;
+                budget.Remove(n.Bytes);
+                if (n.Visible) ShowProxy(result, true);
+                Safe(() => backend.ReleaseProxy(old));
+                Event("reload " + n.Entry.name);
+            }
+            n.Handle = result;
+            n.Size = job.Size;
             long bytes = 0;
             Safe(() => bytes = backend.TextureBytes(result));
-            job.Node.Bytes = Math.Max(bytes, 0);
-            budget.Add(job.Node.Bytes);
+            n.Bytes = Math.Max(bytes, 0);
+            budget.Add(n.Bytes);
         }
 
         void Release(Node n)
@@ -353,15 +402,21 @@ namespace VWorldLod
                 if (n.Wanted && !(BuildingsComing(n) && AncestorLoaded(n))) waiting.Add(n);
             }
             if (waiting.Count > 1) waiting.Sort(CoarsestNearestFirst);
+            int holes = waiting.Count;
+            // Then, after every proxy a view lacks: finer textures for wanted proxies the camera came near.
+            foreach (Node n in nodes)
+                if (n.Handle != null && n.Loading == null && n.Wanted && !n.FinerFailed && n.NeedSize > n.Size) waiting.Add(n);
+            if (waiting.Count - holes > 1) waiting.Sort(holes, waiting.Count - holes, CoarsestNearestFirst);
             foreach (Node n in waiting)
             {
                 if (inFlight.Count >= settings.MaxConcurrentLoads) return;
-                var job = new Job { Node = n };
+                var job = new Job { Node = n, Size = n.NeedSize };
                 n.Loading = job;
-                Event("load " + n.Entry.name);
+                Event((n.Handle != null ? "load finer " : "load ") + n.Entry.name);
                 CancellationToken token = job.Cancel.Token;
                 ProxyEntry entry = n.Entry;
-                job.Task = StreamingCalls.Call(() => backend.LoadProxy(entry, token));
+                int size = job.Size == int.MaxValue ? 0 : job.Size;
+                job.Task = StreamingCalls.Call(() => backend.LoadProxy(entry, size, token));
                 inFlight.Add(job);
                 MaxInFlightSeen = Math.Max(MaxInFlightSeen, inFlight.Count);
             }
