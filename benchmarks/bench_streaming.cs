@@ -111,26 +111,26 @@ public static class BenchStreaming
         public Dictionary<string, object> Images; // per proxy: its distinct images' [width, height]
         public double BytesPerPixel;
 
-        // Its images without the finest mip levels above maxTextureSize (0: whole), as the budget counts them.
-        long LimitedBytes(ProxyEntry proxy, int maxTextureSize)
+        // Its images without their mipmapLimit finest mip levels (at least one kept), as the budget counts them.
+        long LimitedBytes(ProxyEntry proxy, int mipmapLimit)
         {
             double bytes = 0;
             foreach (object image in (List<object>)Images[proxy.name])
             {
                 var size = (List<object>)image;
                 int w = (int)Num(size[0]), h = (int)Num(size[1]);
-                while (maxTextureSize > 0 && Math.Max(w, h) > maxTextureSize && Math.Max(w, h) > 1) { w = Math.Max(1, w / 2); h = Math.Max(1, h / 2); }
+                for (int k = 0; k < mipmapLimit && Math.Max(w, h) > 1; k++) { w = Math.Max(1, w / 2); h = Math.Max(1, h / 2); }
                 bytes += Math.Ceiling((double)w * h * BytesPerPixel * 4.0 / 3.0);
             }
             return (long)bytes;
         }
 
-        public Task<object> LoadProxy(ProxyEntry proxy, int maxTextureSize, CancellationToken cancellation)
+        public Task<object> LoadProxy(ProxyEntry proxy, int mipmapLimit, CancellationToken cancellation)
         {
             var done = new TaskCompletionSource<object>();
             Later(() =>
             {
-                var h = new Handle { Bytes = LimitedBytes(proxy, maxTextureSize), Proxy = proxy.name };
+                var h = new Handle { Bytes = LimitedBytes(proxy, mipmapLimit), Proxy = proxy.name };
                 proxyBytes += h.Bytes;
                 Loaded.Add(h);
                 done.SetResult(h);
@@ -200,7 +200,7 @@ public static class BenchStreaming
 #if NEW
         proxies.Images = (Dictionary<string, object>)spec["proxy_images"];
         proxies.BytesPerPixel = Num(s["bytes_per_pixel"]);
-        if (spec.ContainsKey("proxy_texels_per_pixel")) settings.ProxyTexelsPerPixel = Num(spec["proxy_texels_per_pixel"]);
+        if (spec.ContainsKey("proxy_texture_sse")) settings.ProxyTextureScreenSpaceError = Num(spec["proxy_texture_sse"]);
 #endif
         var tileStreamer = new TileStreamer(tiles, e => e.ScenePosition(origin), settings, levels);
 #if NEW

@@ -11,8 +11,8 @@ compiled with mono's ``mcs`` beside the driver ``bench_streaming.cs``: the basel
 complete on the next frame and which count texture bytes as Unity allocates them: each level's
 ``texture_size`` from its manifest and each proxy's images (read from its .glb) x
 ``--bytes-per-pixel`` (4: glTFast's RGBA32; 1: BC7/ASTC 4x4; 0.5: DXT1) x 4/3 (mip chain); the
-new streamer's proxies capped at the texels a side it asks for (``maxTextureSize``: finest mip
-levels left out; ``--proxy-texels-per-pixel``).
+new streamer's proxies without the finest mip levels it asks to leave out (``mipmapLimit``;
+``--proxy-texture-sse``).
 
 The camera path (scene frame East/Up/North at the city centre, metres; ``--speed`` m per frame):
 from 600 m up, 1.5 km south of the centre, down to 20 m above the ground at the city's south
@@ -31,7 +31,7 @@ Unity on the same files: decoding each level's JPEG atlas (PIL's libjpeg; glTFas
 
 Usage: ``python benchmarks/bench_streaming.py [--work /tmp/vworld-streaming] [--side 12]
 [--per-tile 4] [--atlas 512] [--load 500] [--speed 5] [--every 25] [--baseline d76414f]
-[--proxy-texels-per-pixel 2] [--main-thread [--repeat 7]]``
+[--proxy-texture-sse 16] [--main-thread [--repeat 7]]``
 """
 
 from __future__ import annotations
@@ -244,7 +244,7 @@ def measure(
     warmup: int,
     baseline: str,
     budget_mib: float = 512.0,
-    proxy_texels_per_pixel: float | None = None,
+    proxy_texture_sse: float | None = None,
 ) -> dict:
     """Both streamers along the path: {"old": rows, "new": rows, "frames": n}."""
     work.mkdir(parents=True, exist_ok=True)
@@ -274,8 +274,8 @@ def measure(
         "proxy_bytes": proxy_bytes(images, bytes_per_pixel),
         "proxy_images": images,
     }
-    if proxy_texels_per_pixel is not None:
-        spec["proxy_texels_per_pixel"] = proxy_texels_per_pixel
+    if proxy_texture_sse is not None:
+        spec["proxy_texture_sse"] = proxy_texture_sse
     spec_path = work / "spec.json"
     spec_path.write_text(json.dumps(spec), encoding="utf-8")
     exes = compile_driver(work, baseline)
@@ -360,10 +360,10 @@ def main() -> None:
     ap.add_argument("--every", type=int, default=25)
     ap.add_argument("--baseline", default=BASELINE)
     ap.add_argument(
-        "--proxy-texels-per-pixel",
+        "--proxy-texture-sse",
         type=float,
         default=None,
-        help="StreamingSettings.ProxyTexelsPerPixel (0: proxies' textures whole)",
+        help="StreamingSettings.ProxyTextureScreenSpaceError, px (0: proxies' textures whole)",
     )
     ap.add_argument("--main-thread", action="store_true")
     ap.add_argument("--repeat", type=int, default=7)
@@ -386,7 +386,7 @@ def main() -> None:
         a.bytes_per_pixel,
         a.warmup,
         a.baseline,
-        proxy_texels_per_pixel=a.proxy_texels_per_pixel,
+        proxy_texture_sse=a.proxy_texture_sse,
     )
     mib = 1024.0 * 1024.0
     print("resident texture MiB (levels + proxies) and holes per frame, before issue 35 | now")

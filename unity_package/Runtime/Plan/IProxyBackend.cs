@@ -11,11 +11,11 @@ namespace VWorldLod
     public interface IProxyBackend
     {
         /// <summary>
-        /// Loads the proxy's .glb, placed and hidden; returns a handle. maxTextureSize: texels a
-        /// side its textures keep at most (their finest mip levels left out until they fit, as
-        /// Unity's mipmap limit does); 0: whole.
+        /// Loads the proxy's .glb, placed and hidden; returns a handle. mipmapLimit: how many of
+        /// its textures' finest mip levels to leave out (0: whole; each one halves the texels a
+        /// side: a quarter of the bytes), as Unity's mipmap limit does, keeping at least one level.
         /// </summary>
-        Task<object> LoadProxy(ProxyEntry proxy, int maxTextureSize, CancellationToken cancellation);
+        Task<object> LoadProxy(ProxyEntry proxy, int mipmapLimit, CancellationToken cancellation);
 
         /// <summary>Shows or hides a loaded proxy.</summary>
         void ShowProxy(object loaded, bool visible);

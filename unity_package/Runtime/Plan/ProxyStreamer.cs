@@ -45,8 +45,8 @@ namespace VWorldLod
             public object Handle; // loaded
             public Job Loading;
             public long Bytes; // texture bytes of the loaded proxy (IProxyBackend.TextureBytes)
-            public int Size; // texels a side its loaded textures were capped at (int.MaxValue: whole)
-            public int NeedSize; // the cap its distance asks for now
+            public int Limit; // mip levels left out of the loaded proxy's textures
+            public int NeedLimit; // how many its distance allows now
             public bool Visible, Wanted, Failed, FinerFailed, Covered; // Covered: a tile below it shows its buildings
             public int[] Tiles; // indices (into tileNames) of the building tiles under it, its descendants' included
             public double Sse, Distance; // Distance: metres to its bounding sphere
@@ -55,7 +55,7 @@ namespace VWorldLod
         sealed class Job
         {
             public Node Node;
-            public int Size; // cap asked of the backend (int.MaxValue: whole)
+            public int Limit; // mipmapLimit asked of the backend
             public Task<object> Task;
             public CancellationTokenSource Cancel = new CancellationTokenSource();
             public bool Cancelled;
@@ -162,28 +162,26 @@ namespace VWorldLod
             return errorMetres * screenHeight / (d * 2 * Math.Tan(fovDegrees * Math.PI / 360.0));
         }
 
-        /// <summary>The smallest cap on a proxy's textures (texels a side).</summary>
-        public const int MinTextureSize = 32;
+        /// <summary>The most mip levels a proxy's textures may leave out (2048 -> 16 texels a side).</summary>
+        public const int MaxMipmapLimit = 7;
 
         /// <summary>
-        /// Texels a side a proxy's textures need at most: texelsPerPixel x its bounding sphere's
-        /// diameter (2 radiusMetres) on screen at distanceMetres, up to a power of two, at least
-        /// MinTextureSize; int.MaxValue (whole) when texelsPerPixel is 0 or the camera is inside.
+        /// How many of a proxy's finest texture mip levels may be left out: its geometric error
+        /// (metres; it bounds the atlas's texel size, tileset.json's error being the larger of
+        /// the two) looks sse pixels large; each level left out doubles the texel, which must
+        /// look at most maxPixels large. maxPixels 0: none left out.
         /// </summary>
-        public static int MaxTextureSize(double radiusMetres, double distanceMetres, double screenHeight, double fovDegrees, double texelsPerPixel)
+        public static int MipmapLimit(double sse, double maxPixels)
         {
-            if (!(texelsPerPixel > 0) || !(distanceMetres > 0)) return int.MaxValue;
-            double pixels = texelsPerPixel * ScreenSpaceError(2 * radiusMetres, distanceMetres, screenHeight, fovDegrees);
-            if (!(pixels < 1 << 30)) return int.MaxValue;
-            int size = MinTextureSize;
-            while (size < pixels) size *= 2;
-            return size;
+            if (!(maxPixels > 0) || !(sse > 0)) return 0;
+            double levels = Math.Floor(Math.Log(maxPixels / sse, 2));
+            return (int)Math.Max(0, Math.Min(MaxMipmapLimit, levels));
         }
 
-        /// <summary>Texels a side the loaded proxy's textures were capped at (0: whole), or -1 when it is not loaded.</summary>
-        public int LoadedTextureSize(string proxyName)
+        /// <summary>Mip levels left out of the loaded proxy's textures, or -1 when it is not loaded.</summary>
+        public int LoadedMipmapLimit(string proxyName)
         {
-            foreach (Node n in nodes) if (n.Entry.name == proxyName) return n.Handle == null ? -1 : n.Size == int.MaxValue ? 0 : n.Size;
+            foreach (Node n in nodes) if (n.Entry.name == proxyName) return n.Handle == null ? -1 : n.Limit;
             return -1;
         }
 
@@ -218,7 +216,7 @@ namespace VWorldLod
                 // A proxy standing in while its tiles' buildings load (within the load radius) is
                 // a placeholder for a few frames: textures as fine as it would need at the load radius.
                 double seen = BuildingsComing(n) ? Math.Max(n.Distance, settings.LoadRadius / unitsPerMetre) : n.Distance;
-                n.NeedSize = MaxTextureSize(n.Entry.radius_m, seen, screenHeight, fovDegrees, settings.ProxyTexelsPerPixel);
+                n.NeedLimit = MipmapLimit(ScreenSpaceError(n.Entry.geometric_error, seen, screenHeight, fovDegrees), settings.ProxyTextureScreenSpaceError);
                 n.Wanted = false;
             }
             foreach (int r in roots) Cover(nodes[r]);
@@ -260,12 +258,24 @@ namespace VWorldLod
         {
             bool covered = n.Covered;
             bool refinable = n.Children.Length > 0 && (n.Entry.tiles == null || n.Entry.tiles.Length == 0);
-            if (!covered && (!refinable || (n.Sse <= settings.MaximumScreenSpaceError && !n.Failed)))
+            if (!covered && (!refinable || (n.Sse <= settings.MaximumScreenSpaceError && !n.Failed && !ChildrenLighter(n))))
             {
                 n.Wanted = true;
                 return;
             }
             foreach (int c in n.Children) Want(nodes[c]);
+        }
+
+        // Whether n's children, with the mip levels each may leave out, hold less than half of n's
+        // texture bytes (every proxy's atlas the same size: the export's proxy_atlas_size): a
+        // coarse proxy seen close keeps its whole atlas, where its finer children seen as close
+        // may leave out levels (their texel is finer), so refining costs less memory.
+        bool ChildrenLighter(Node n)
+        {
+            if (!(settings.ProxyTextureScreenSpaceError > 0)) return false;
+            double children = 0;
+            foreach (int c in n.Children) children += Math.Pow(0.25, nodes[c].NeedLimit);
+            return children < 0.5 * Math.Pow(0.25, n.NeedLimit);
         }
 
         // Adds what shows for n's region to show; returns whether that region is complete (every
@@ -356,7 +366,7 @@ namespace VWorldLod
                 Event("reload " + n.Entry.name);
             }
             n.Handle = result;
-            n.Size = job.Size;
+            n.Limit = job.Limit;
             long bytes = 0;
             Safe(() => bytes = backend.TextureBytes(result));
             n.Bytes = Math.Max(bytes, 0);
@@ -405,18 +415,18 @@ namespace VWorldLod
             int holes = waiting.Count;
             // Then, after every proxy a view lacks: finer textures for wanted proxies the camera came near.
             foreach (Node n in nodes)
-                if (n.Handle != null && n.Loading == null && n.Wanted && !n.FinerFailed && n.NeedSize > n.Size) waiting.Add(n);
+                if (n.Handle != null && n.Loading == null && n.Wanted && !n.FinerFailed && n.NeedLimit < n.Limit) waiting.Add(n);
             if (waiting.Count - holes > 1) waiting.Sort(holes, waiting.Count - holes, CoarsestNearestFirst);
             foreach (Node n in waiting)
             {
                 if (inFlight.Count >= settings.MaxConcurrentLoads) return;
-                var job = new Job { Node = n, Size = n.NeedSize };
+                var job = new Job { Node = n, Limit = n.NeedLimit };
                 n.Loading = job;
                 Event((n.Handle != null ? "load finer " : "load ") + n.Entry.name);
                 CancellationToken token = job.Cancel.Token;
                 ProxyEntry entry = n.Entry;
-                int size = job.Size == int.MaxValue ? 0 : job.Size;
-                job.Task = StreamingCalls.Call(() => backend.LoadProxy(entry, size, token));
+                int limit = job.Limit;
+                job.Task = StreamingCalls.Call(() => backend.LoadProxy(entry, limit, token));
                 inFlight.Add(job);
                 MaxInFlightSeen = Math.Max(MaxInFlightSeen, inFlight.Count);
             }

@@ -51,13 +51,14 @@ namespace VWorldLod
         /// </summary>
         public double KeepFactor = 1.1;
         /// <summary>
-        /// Texels per pixel: a proxy's textures are loaded capped at this many texels a side per
-        /// pixel of its bounding sphere's diameter on screen (a power of two; IProxyBackend.LoadProxy's
-        /// maxTextureSize), and loaded again finer when the camera comes closer; 0 loads them whole.
-        /// A proxy stands in only where its buildings are small on screen, and its atlas (2048
-        /// texels a side) would otherwise hold far more texels than the pixels it covers.
+        /// Pixels: a proxy's textures are loaded without their finest mip levels
+        /// (IProxyBackend.LoadProxy's mipmapLimit, each level halving the texels a side) while its
+        /// texel, bounded by its geometric error and doubled per level left out, looks at most
+        /// this large at its distance; loaded again finer as the camera comes closer. The default,
+        /// MaximumScreenSpaceError's 16, keeps a shown proxy's error within the limit it was chosen
+        /// by; 0 loads every proxy's textures whole.
         /// </summary>
-        public double ProxyTexelsPerPixel = 2;
+        public double ProxyTextureScreenSpaceError = 16;
 
         /// <summary>Why these settings cannot be used, or null.</summary>
         public string Problem()
@@ -73,7 +74,7 @@ namespace VWorldLod
             if (!(TextureBytesPerPixel > 0) || double.IsInfinity(TextureBytesPerPixel)) return "texture bytes per pixel must be a positive number, found " + TextureBytesPerPixel;
             if (!(PrefetchFactor >= 1) || double.IsInfinity(PrefetchFactor)) return "the prefetch factor must be at least 1, found " + PrefetchFactor;
             if (!(KeepFactor >= 1) || double.IsInfinity(KeepFactor)) return "the keep factor must be at least 1, found " + KeepFactor;
-            if (!(ProxyTexelsPerPixel >= 0) || double.IsInfinity(ProxyTexelsPerPixel)) return "the proxies' texels per pixel must be a number >= 0, found " + ProxyTexelsPerPixel;
+            if (!(ProxyTextureScreenSpaceError >= 0) || double.IsInfinity(ProxyTextureScreenSpaceError)) return "the proxies' texture screen-space error must be a number of pixels >= 0, found " + ProxyTextureScreenSpaceError;
             return null;
         }
     }

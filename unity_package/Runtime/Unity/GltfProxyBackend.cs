@@ -30,7 +30,7 @@ namespace VWorldLod
             this.budget = budget;
         }
 
-        public async Task<object> LoadProxy(ProxyEntry proxy, int maxTextureSize, CancellationToken cancellation)
+        public async Task<object> LoadProxy(ProxyEntry proxy, int mipmapLimit, CancellationToken cancellation)
         {
             var root = new GameObject("proxy " + proxy.name);
             root.transform.SetParent(parent, false);
@@ -42,7 +42,7 @@ namespace VWorldLod
                 Object.Destroy(root);
                 return null;
             }
-            return new Loaded { Root = root, Level = level, Capped = ProxyTextureCap.Apply(level.Renderers, maxTextureSize) };
+            return new Loaded { Root = root, Level = level, Capped = ProxyTextureCap.Apply(level.Renderers, mipmapLimit) };
         }
 
         public void ShowProxy(object loaded, bool visible)

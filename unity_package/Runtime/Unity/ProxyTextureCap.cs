@@ -1,7 +1,7 @@
-// Caps a loaded proxy's textures at maxTextureSize texels a side (ProxyStreamer asks for it by
-// the proxy's size on screen): glTFast has no such import setting (its ImportSettings hold mipmap
-// generation, filters and anisotropy only), so after the load each larger Texture2D with a mip
-// chain is replaced by a smaller one holding its mip levels from the first that fits, copied on
+// Leaves the finest mipmapLimit mip levels out of a loaded proxy's textures (ProxyStreamer asks
+// for it by how large the proxy's texel looks at its distance): glTFast has no such import setting (its ImportSettings hold mipmap
+// generation, filters and anisotropy only), so after the load each Texture2D with a mip chain
+// is replaced by a smaller one holding its mip levels from mipmapLimit on (one at least), copied on
 // the GPU (Graphics.CopyTexture, same GraphicsFormat: no decode, no CPU copy, sRGB kept), and the
 // original is destroyed: the full atlas stays resident only during the load. Where the GPU cannot
 // copy textures (SystemInfo.copyTextureSupport None) or a texture has no mip chain, it stays whole.
@@ -14,14 +14,14 @@ namespace VWorldLod
     public static class ProxyTextureCap
     {
         /// <summary>
-        /// Replaces, in the renderers' materials, every Texture2D wider or taller than
-        /// maxTextureSize (texels; 0: none) by its mip levels from the first that fits; returns
-        /// the textures made (the caller destroys them with the proxy).
+        /// Replaces, in the renderers' materials, every Texture2D with a mip chain by its mip
+        /// levels from mipmapLimit on (0: none left out; its coarsest level is always kept);
+        /// returns the textures made (the caller destroys them with the proxy).
         /// </summary>
-        public static List<Texture2D> Apply(Renderer[] renderers, int maxTextureSize)
+        public static List<Texture2D> Apply(Renderer[] renderers, int mipmapLimit)
         {
             var made = new List<Texture2D>();
-            if (maxTextureSize <= 0 || SystemInfo.copyTextureSupport == CopyTextureSupport.None) return made;
+            if (mipmapLimit <= 0 || SystemInfo.copyTextureSupport == CopyTextureSupport.None) return made;
             var replaced = new Dictionary<Texture, Texture2D>();
             foreach (Renderer renderer in renderers)
                 foreach (Material material in renderer.sharedMaterials)
@@ -34,7 +34,7 @@ namespace VWorldLod
                         Texture2D small;
                         if (!replaced.TryGetValue(texture, out small))
                         {
-                            small = Smaller(texture, maxTextureSize);
+                            small = Smaller(texture, mipmapLimit);
                             replaced[texture] = small;
                             if (small != null) made.Add(small);
                         }
@@ -46,11 +46,11 @@ namespace VWorldLod
             return made;
         }
 
-        // texture's mip levels from the first at most maxTextureSize a side, or null (it fits, or has no mips to drop).
-        static Texture2D Smaller(Texture2D texture, int maxTextureSize)
+        // texture's mip levels from mipmapLimit on (its coarsest kept), or null (no mip chain).
+        static Texture2D Smaller(Texture2D texture, int mipmapLimit)
         {
             int skip = 0, width = texture.width, height = texture.height;
-            while (skip < texture.mipmapCount - 1 && System.Math.Max(width, height) > maxTextureSize)
+            while (skip < texture.mipmapCount - 1 && skip < mipmapLimit)
             {
                 skip++;
                 width = System.Math.Max(1, width / 2);
