@@ -6,8 +6,9 @@
 //   1. finish: completed loads are taken in (released when no longer wanted);
 //   2. want: from each root down, a proxy is wanted when none of its building tiles shows its
 //      buildings (TileShown) and its screen-space error is at most MaximumScreenSpaceError (and
-//      its file did not fail to load), or it cannot be refined (no child proxies, or buildings of
-//      its own); otherwise its children are visited. Screen-space error (px) = geometric_error * screenHeight / (d * 2 tan(fov / 2)),
+//      its file did not fail to load, and its children would not hold less texture memory:
+//      ChildrenLighter), or it cannot be refined (no child proxies, or buildings of its own);
+//      otherwise its children are visited. Screen-space error (px) = geometric_error * screenHeight / (d * 2 tan(fov / 2)),
 //      d in metres from the camera to the proxy's bounding sphere (3D Tiles' rule);
 //   3. show: a wanted, loaded proxy shows; until it is loaded, its loaded descendants nearest to
 //      it show instead; a refined proxy whose region is not complete yet (a wanted child not
@@ -24,6 +25,10 @@
 //      MaxConcurrentLoads are in flight; a proxy whose tiles are all loading their buildings
 //      (TileLoading) is not loaded when a loaded ancestor stands in meanwhile (its buildings
 //      will replace it soon: no 2048-texel atlas downloaded for a few frames).
+// Texture memory: a proxy loads without the finest mip levels of its textures that its distance
+// does not need (MipmapLimit: its texel, bounded by geometric_error, doubled per level left out,
+// looks at most ProxyTextureScreenSpaceError px), and loads again finer (after every missing proxy)
+// when the camera comes closer, the coarser copy shown until the finer one has arrived.
 // Update allocates nothing in a steady state (its buffers are fields).
 // Positions are scene positions of the proxies' frame origins (Unity units), from the caller's
 // function (ProxyEntry.ScenePosition), recomputed by Reposition().
