@@ -209,6 +209,8 @@ public static class BenchStreaming
         var proxyStreamer = new ProxyStreamer(proxyEntries, p => p.ScenePosition(origin), settings, proxies);
 #endif
         proxyStreamer.TileShown = tileStreamer.Shows;
+        int proxyLoads = 0, finerLoads = 0;
+        proxyStreamer.OnEvent = e => { if (e.StartsWith("load finer ")) finerLoads++; else if (e.StartsWith("load ")) proxyLoads++; };
 #if NEW
         proxyStreamer.TileLoading = tileStreamer.Loading;
         tileStreamer.ProxyShown = proxyStreamer.Covers;
@@ -263,6 +265,7 @@ public static class BenchStreaming
                 Console.WriteLine("PROXIES " + step + " " + string.Join(" ", proxies.Loaded.ConvertAll(h => h.Proxy + ":" + (h.Bytes >> 10) + (h.Visible ? "v" : "")).ToArray()));
             Console.WriteLine("FRAME " + step + " " + (levelBytes + proxyBytes) + " " + levelBytes + " " + proxyBytes + " " + holes + " " + loadsStarted);
         }
+        Console.WriteLine("PROXY_LOADS " + proxyLoads + " " + finerLoads);
         tileStreamer.Dispose();
         proxyStreamer.Dispose();
         return 0;

@@ -190,22 +190,31 @@ namespace VWorldLod.Tests
                 w.Dispose();
             });
 
-            t.Check("proxies: a coarse proxy is refined where its children, leaving out more mip levels, hold less texture memory", () =>
+            t.Check("proxies: a coarse proxy is refined where its children, leaving out more mip levels, hold less texture memory, and stays refined until they would hold twice its", () =>
             {
-                // P (30 m error, radius 300 m) over Q1 and Q2 (1 m, radius 100 m), seen from 2 km:
-                // P at 8.8 px may show but keeps its whole atlas; Q1 and Q2 at 0.26 px leave out 5 levels.
+                // P (30 m error, radius 300 m) over Q1 and Q2 (15 m, radius 100 m at -150 / +150 m);
+                // 1000 px, 90 degrees. From 2 km: P at 8.8 px may show but keeps its whole atlas,
+                // Q1 and Q2 at 3.9 px leave out 2 levels each: 2/16 of P's bytes. From 1.5 km: P
+                // at 12.5 px whole, Q at 5.3 px leave out 1: 2/4, not under half, within twice.
                 var tree = new[]
                 {
                     P("P", 14, 300, 30, new[] { "Q1", "Q2" }, new string[0]),
-                    P("Q1", 15, 100, 1, new string[0], new[] { "t1" }),
-                    P("Q2", 15, 100, 1, new string[0], new[] { "t2" }),
+                    P("Q1", 15, 100, 15, new string[0], new[] { "t1" }),
+                    P("Q2", 15, 100, 15, new string[0], new[] { "t2" }),
                 };
                 var at = new Dictionary<string, double[]> { { "P", new double[] { 0, 0, 0 } }, { "Q1", new double[] { -150, 0, 0 } }, { "Q2", new double[] { 150, 0, 0 } } };
                 var b = new FakeProxyBackend();
                 var s = new ProxyStreamer(tree, p => at[p.name], new StreamingSettings(), b);
                 s.Update(0, 0, 2000, 1000, 90);
-                Assert.Equal("Q1 Q2", string.Join(" ", s.Wanted()), "the lighter children wanted");
+                Assert.Equal("Q1 Q2", string.Join(" ", s.Wanted()), "from 2 km: the lighter children wanted");
+                s.Update(0, 0, 1500, 1000, 90);
+                Assert.Equal("Q1 Q2", string.Join(" ", s.Wanted()), "from 1.5 km: still refined (no loading back and forth)");
                 s.Dispose();
+                var fresh = new FakeProxyBackend();
+                var f = new ProxyStreamer(tree, p => at[p.name], new StreamingSettings(), fresh);
+                f.Update(0, 0, 1500, 1000, 90);
+                Assert.Equal("P", string.Join(" ", f.Wanted()), "from 1.5 km, not refined before: P");
+                f.Dispose();
                 var whole = new FakeProxyBackend();
                 var w = new ProxyStreamer(tree, p => at[p.name], new StreamingSettings { ProxyTextureScreenSpaceError = 0 }, whole);
                 w.Update(0, 0, 2000, 1000, 90);

@@ -52,7 +52,7 @@ namespace VWorldLod
             public long Bytes; // texture bytes of the loaded proxy (IProxyBackend.TextureBytes)
             public int Limit; // mip levels left out of the loaded proxy's textures
             public int NeedLimit; // how many its distance allows now
-            public bool Visible, Wanted, Failed, FinerFailed, Covered; // Covered: a tile below it shows its buildings
+            public bool Visible, Wanted, Failed, FinerFailed, Covered, RefinedLighter; // Covered: a tile below it shows its buildings
             public int[] Tiles; // indices (into tileNames) of the building tiles under it, its descendants' included
             public double Sse, Distance; // Distance: metres to its bounding sphere
         }
@@ -274,13 +274,15 @@ namespace VWorldLod
         // Whether n's children, with the mip levels each may leave out, hold less than half of n's
         // texture bytes (every proxy's atlas the same size: the export's proxy_atlas_size): a
         // coarse proxy seen close keeps its whole atlas, where its finer children seen as close
-        // may leave out levels (their texel is finer), so refining costs less memory.
+        // may leave out levels (their texel is finer), so refining costs less memory. Once
+        // refined so, n stays refined until its children would hold twice its bytes (no loading
+        // back and forth while the camera moves along the boundary).
         bool ChildrenLighter(Node n)
         {
             if (!(settings.ProxyTextureScreenSpaceError > 0)) return false;
             double children = 0;
             foreach (int c in n.Children) children += Math.Pow(0.25, nodes[c].NeedLimit);
-            return children < 0.5 * Math.Pow(0.25, n.NeedLimit);
+            return n.RefinedLighter = children < (n.RefinedLighter ? 2 : 0.5) * Math.Pow(0.25, n.NeedLimit);
         }
 
         // Adds what shows for n's region to show; returns whether that region is complete (every
