@@ -107,6 +107,37 @@ public static class BenchStreaming
         public Dictionary<string, object> Bytes;
         public readonly List<Handle> Loaded = new List<Handle>();
 
+#if NEW
+        public Dictionary<string, object> Images; // per proxy: its distinct images' [width, height]
+        public double BytesPerPixel;
+
+        // Its images without their mipmapLimit finest mip levels (at least one kept), as the budget counts them.
+        long LimitedBytes(ProxyEntry proxy, int mipmapLimit)
+        {
+            double bytes = 0;
+            foreach (object image in (List<object>)Images[proxy.name])
+            {
+                var size = (List<object>)image;
+                int w = (int)Num(size[0]), h = (int)Num(size[1]);
+                for (int k = 0; k < mipmapLimit && Math.Max(w, h) > 1; k++) { w = Math.Max(1, w / 2); h = Math.Max(1, h / 2); }
+                bytes += Math.Ceiling((double)w * h * BytesPerPixel * 4.0 / 3.0);
+            }
+            return (long)bytes;
+        }
+
+        public Task<object> LoadProxy(ProxyEntry proxy, int mipmapLimit, CancellationToken cancellation)
+        {
+            var done = new TaskCompletionSource<object>();
+            Later(() =>
+            {
+                var h = new Handle { Bytes = LimitedBytes(proxy, mipmapLimit), Proxy = proxy.name };
+                proxyBytes += h.Bytes;
+                Loaded.Add(h);
+                done.SetResult(h);
+            });
+            return done.Task;
+        }
+#else
         public Task<object> LoadProxy(ProxyEntry proxy, CancellationToken cancellation)
         {
             var done = new TaskCompletionSource<object>();
@@ -119,6 +150,7 @@ public static class BenchStreaming
             });
             return done.Task;
         }
+#endif
 
         public void ShowProxy(object loaded, bool visible) { ((Handle)loaded).Visible = visible; }
 
@@ -165,6 +197,11 @@ public static class BenchStreaming
         TileIndexEntry[] tiles = TileIndexReader.Read(File.ReadAllText(indexPath), indexPath, json => PlainJsonManifestParser.ParseAs<TileIndex>(json, indexPath), problems, out proxyEntries);
         var levels = new Levels { Bytes = (Dictionary<string, object>)spec["level_bytes"], Folder = Path.GetDirectoryName(indexPath) };
         var proxies = new Proxies { Bytes = (Dictionary<string, object>)spec["proxy_bytes"] };
+#if NEW
+        proxies.Images = (Dictionary<string, object>)spec["proxy_images"];
+        proxies.BytesPerPixel = Num(s["bytes_per_pixel"]);
+        if (spec.ContainsKey("proxy_texture_sse")) settings.ProxyTextureScreenSpaceError = Num(spec["proxy_texture_sse"]);
+#endif
         var tileStreamer = new TileStreamer(tiles, e => e.ScenePosition(origin), settings, levels);
 #if NEW
         var proxyStreamer = new ProxyStreamer(proxyEntries, p => p.ScenePosition(origin), settings, proxies, tileStreamer.Budget);
@@ -172,6 +209,8 @@ public static class BenchStreaming
         var proxyStreamer = new ProxyStreamer(proxyEntries, p => p.ScenePosition(origin), settings, proxies);
 #endif
         proxyStreamer.TileShown = tileStreamer.Shows;
+        int proxyLoads = 0, finerLoads = 0;
+        proxyStreamer.OnEvent = e => { if (e.StartsWith("load finer ")) finerLoads++; else if (e.StartsWith("load ")) proxyLoads++; };
 #if NEW
         proxyStreamer.TileLoading = tileStreamer.Loading;
         tileStreamer.ProxyShown = proxyStreamer.Covers;
@@ -222,8 +261,11 @@ public static class BenchStreaming
                 holes++;
                 Console.WriteLine("HOLE " + step + " " + t.name + (levels.Plans.ContainsKey(t.name) ? " buildings-missing" : " no-manifest"));
             }
+            if (Environment.GetEnvironmentVariable("BENCH_PROXIES") != null)
+                Console.WriteLine("PROXIES " + step + " " + string.Join(" ", proxies.Loaded.ConvertAll(h => h.Proxy + ":" + (h.Bytes >> 10) + (h.Visible ? "v" : "")).ToArray()));
             Console.WriteLine("FRAME " + step + " " + (levelBytes + proxyBytes) + " " + levelBytes + " " + proxyBytes + " " + holes + " " + loadsStarted);
         }
+        Console.WriteLine("PROXY_LOADS " + proxyLoads + " " + finerLoads);
         tileStreamer.Dispose();
         proxyStreamer.Dispose();
         return 0;

@@ -10,7 +10,9 @@ compiled with mono's ``mcs`` beside the driver ``bench_streaming.cs``: the basel
 ``git show BASELINE:unity_package/Runtime/Plan/*.cs``. Their backends are fakes whose loads
 complete on the next frame and which count texture bytes as Unity allocates them: each level's
 ``texture_size`` from its manifest and each proxy's images (read from its .glb) x
-``--bytes-per-pixel`` (4: glTFast's RGBA32; 1: BC7/ASTC 4x4; 0.5: DXT1) x 4/3 (mip chain).
+``--bytes-per-pixel`` (4: glTFast's RGBA32; 1: BC7/ASTC 4x4; 0.5: DXT1) x 4/3 (mip chain); the
+new streamer's proxies without the finest mip levels it asks to leave out (``mipmapLimit``;
+``--proxy-texture-sse``).
 
 The camera path (scene frame East/Up/North at the city centre, metres; ``--speed`` m per frame):
 from 600 m up, 1.5 km south of the centre, down to 20 m above the ground at the city's south
@@ -29,7 +31,7 @@ Unity on the same files: decoding each level's JPEG atlas (PIL's libjpeg; glTFas
 
 Usage: ``python benchmarks/bench_streaming.py [--work /tmp/vworld-streaming] [--side 12]
 [--per-tile 4] [--atlas 512] [--load 500] [--speed 5] [--every 25] [--baseline d76414f]
-[--main-thread [--repeat 7]]``
+[--proxy-texture-sse 16] [--main-thread [--repeat 7]]``
 """
 
 from __future__ import annotations
@@ -108,13 +110,13 @@ def level_tables(index: dict, folder: Path, bytes_per_pixel: float) -> tuple[dic
     return level_bytes, sizes
 
 
-def proxy_bytes(index: dict, folder: Path, bytes_per_pixel: float) -> dict:
-    """Bytes per proxy: its distinct images (read from the .glb) as Unity allocates them."""
+def proxy_images(index: dict, folder: Path) -> dict:
+    """[width, height] of each proxy's distinct images (read from the .glb), per proxy name."""
     from PIL import Image
 
     table = {}
     for p in index.get("proxies", []):
-        seen, total = set(), 0
+        seen, sizes = set(), []
         for prim in read_primitives(folder / p["file"]):
             if prim.image is None:
                 continue
@@ -122,10 +124,17 @@ def proxy_bytes(index: dict, folder: Path, bytes_per_pixel: float) -> dict:
             if digest in seen:
                 continue
             seen.add(digest)
-            w, h = Image.open(io.BytesIO(prim.image)).size
-            total += texture_bytes(w, h, bytes_per_pixel)
-        table[p["name"]] = total
+            sizes.append(list(Image.open(io.BytesIO(prim.image)).size))
+        table[p["name"]] = sizes
     return table
+
+
+def proxy_bytes(images: dict, bytes_per_pixel: float) -> dict:
+    """Bytes per proxy: its images (``proxy_images``) whole, as Unity allocates them."""
+    return {
+        name: sum(texture_bytes(w, h, bytes_per_pixel) for w, h in sizes)
+        for name, sizes in images.items()
+    }
 
 
 def camera_path(index: dict, origin: GeoPoint, speed: float) -> list[list[float]]:
@@ -235,6 +244,7 @@ def measure(
     warmup: int,
     baseline: str,
     budget_mib: float = 512.0,
+    proxy_texture_sse: float | None = None,
 ) -> dict:
     """Both streamers along the path: {"old": rows, "new": rows, "frames": n}."""
     work.mkdir(parents=True, exist_ok=True)
@@ -244,6 +254,7 @@ def measure(
     lats = [t["center"]["lat"] for t in index["tiles"]]
     origin = GeoPoint((min(lons) + max(lons)) / 2, (min(lats) + max(lats)) / 2, 0.0)
     levels, sizes = level_tables(index, index_path.parent, bytes_per_pixel)
+    images = proxy_images(index, index_path.parent)
     spec = {
         "index": str(index_path),
         "origin": {"lon": origin.lon, "lat": origin.lat},
@@ -260,8 +271,11 @@ def measure(
         "camera": camera_path(index, origin, speed),
         "level_bytes": levels,
         "building_size": sizes,
-        "proxy_bytes": proxy_bytes(index, index_path.parent, bytes_per_pixel),
+        "proxy_bytes": proxy_bytes(images, bytes_per_pixel),
+        "proxy_images": images,
     }
+    if proxy_texture_sse is not None:
+        spec["proxy_texture_sse"] = proxy_texture_sse
     spec_path = work / "spec.json"
     spec_path.write_text(json.dumps(spec), encoding="utf-8")
     exes = compile_driver(work, baseline)
@@ -345,6 +359,12 @@ def main() -> None:
     ap.add_argument("--warmup", type=int, default=200)
     ap.add_argument("--every", type=int, default=25)
     ap.add_argument("--baseline", default=BASELINE)
+    ap.add_argument(
+        "--proxy-texture-sse",
+        type=float,
+        default=None,
+        help="StreamingSettings.ProxyTextureScreenSpaceError, px (0: proxies' textures whole)",
+    )
     ap.add_argument("--main-thread", action="store_true")
     ap.add_argument("--repeat", type=int, default=7)
     a = ap.parse_args()
@@ -366,6 +386,7 @@ def main() -> None:
         a.bytes_per_pixel,
         a.warmup,
         a.baseline,
+        proxy_texture_sse=a.proxy_texture_sse,
     )
     mib = 1024.0 * 1024.0
     print("resident texture MiB (levels + proxies) and holes per frame, before issue 35 | now")

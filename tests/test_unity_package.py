@@ -810,7 +810,8 @@ def test_streaming_benchmark_one_level_per_building_and_no_holes(tmp_path):
     scripted camera path by the streamer before issue 35 (git show of its commit) and by this
     checkout's, with fake backends counting texture bytes from the manifests and proxy files. The
     old one keeps every level of every building in the radius and hides a proxy as soon as its
-    tile enters it (holes); the new one holds a fraction of the level bytes and never a hole."""
+    tile enters it (holes); the new one holds a fraction of the level bytes, loads proxies without
+    the mip levels they do not need at their distance, and never makes a hole."""
     sys.path.insert(0, str(REPO / "benchmarks"))
     import bench_streaming
 
@@ -838,7 +839,10 @@ def test_streaming_benchmark_one_level_per_building_and_no_holes(tmp_path):
     assert s["holes"]["old"] > 0, "the old streamer hides proxies before the buildings arrive"
     assert s["holes"]["new"] == 0, s
     assert s["levels"]["new"] <= s["levels"]["old"] / 3, s
-    assert s["peak"]["new"] <= s["peak"]["old"], s
+    # Proxies leave out the mip levels their texel does not need at their distance (measured
+    # 0.186x of the old peak here, 0.994x with whole textures; the fakes make it deterministic).
+    assert s["proxies"]["new"] <= s["proxies"]["old"] / 4, s
+    assert s["peak"]["new"] <= s["peak"]["old"] * 0.25, s
 
 
 # --------------------------------------------------------------------------- Editor textures

@@ -25,8 +25,12 @@ namespace VWorldLod.Tests
 
         public int Pending { get { return pending.Count; } }
 
-        public Task<object> LoadProxy(ProxyEntry proxy, CancellationToken cancellation)
+        /// <summary>The mipmapLimit of each load asked, in order ("name:limit").</summary>
+        public readonly List<string> Limits = new List<string>();
+
+        public Task<object> LoadProxy(ProxyEntry proxy, int mipmapLimit, CancellationToken cancellation)
         {
+            Limits.Add(proxy.name + ":" + mipmapLimit);
             var done = new TaskCompletionSource<object>();
             pending.Add(() =>
             {
@@ -151,6 +155,71 @@ namespace VWorldLod.Tests
                 s.Dispose();
                 Assert.True(b.Handles.All(h => h.Released), "Dispose releases every proxy");
                 Assert.Equal(0, s.Budget.Resident, "nothing resident after Dispose");
+            });
+
+            t.Check("proxies: finest texture mip levels left out while the texel, bounded by the error, stays within the limit; loaded finer as the camera comes closer, the coarser copy shown until then", () =>
+            {
+                Assert.Equal(3, ProxyStreamer.MipmapLimit(2, 16), "2 px error under a 16 px limit: 3 levels (16 px texels)");
+                Assert.Equal(0, ProxyStreamer.MipmapLimit(16, 16), "at the limit: none");
+                Assert.Equal(0, ProxyStreamer.MipmapLimit(20, 16), "above it: none");
+                Assert.Equal(0, ProxyStreamer.MipmapLimit(1, 0), "limit 0: none");
+                Assert.Equal(ProxyStreamer.MaxMipmapLimit, ProxyStreamer.MipmapLimit(1e-9, 16), "capped");
+                // C: 20 m error, radius 100 m, 5 km east; 1000 px, 90 degrees: SSE = 20 x 500 / d.
+                var b = new FakeProxyBackend();
+                var s = new ProxyStreamer(Tree(), p => At[p.name], new StreamingSettings(), b);
+                var events = new List<string>();
+                s.OnEvent = events.Add;
+                Frame(s, b, 0, 0, 0);
+                Assert.True(Frame(s, b, 0, 0, 0).Contains("C"), "C shown");
+                Assert.Equal(2, s.LoadedMipmapLimit("C"), "C 4.9 km away (2 px): 2 levels left out");
+                Assert.True(b.Limits.Contains("C:2"), "asked of the backend: " + string.Join(" ", b.Limits));
+                Assert.True(Frame(s, b, 4000, 0, 0).Contains("C"), "near C: C still shown while its finer copy loads");
+                Assert.True(events.Contains("load finer C"), "a finer C requested: " + string.Join(", ", events));
+                Assert.Equal(2, s.LoadedMipmapLimit("C"), "the coarse copy stays until the finer one arrives");
+                Assert.True(Frame(s, b, 4000, 0, 0).Contains("C"), "the finer copy takes its place");
+                Assert.Equal(0, s.LoadedMipmapLimit("C"), "C 900 m away (11 px): whole");
+                Assert.Equal(1, b.Handles.Count(h => h.Name == "C" && !h.Released), "the coarse copy released");
+                Assert.True(b.Handles.Single(h => h.Name == "C" && !h.Released).Visible, "the finer copy shown");
+                Assert.Equal(1000L * s.Loaded().Count, s.Budget.Resident, "the coarse copy's bytes left the budget");
+                s.Dispose();
+
+                var whole = new FakeProxyBackend();
+                var w = new ProxyStreamer(Tree(), p => At[p.name], new StreamingSettings { ProxyTextureScreenSpaceError = 0 }, whole);
+                Frame(w, whole, 0, 0, 0);
+                Assert.True(whole.Limits.Contains("C:0"), "ProxyTextureScreenSpaceError 0: whole textures: " + string.Join(" ", whole.Limits));
+                w.Dispose();
+            });
+
+            t.Check("proxies: a coarse proxy is refined where its children, leaving out more mip levels, hold less texture memory, and stays refined until they would hold twice its", () =>
+            {
+                // P (30 m error, radius 300 m) over Q1 and Q2 (15 m, radius 100 m at -150 / +150 m);
+                // 1000 px, 90 degrees. From 2 km: P at 8.8 px may show but keeps its whole atlas,
+                // Q1 and Q2 at 3.9 px leave out 2 levels each: 2/16 of P's bytes. From 1.5 km: P
+                // at 12.5 px whole, Q at 5.3 px leave out 1: 2/4, not under half, within twice.
+                var tree = new[]
+                {
+                    P("P", 14, 300, 30, new[] { "Q1", "Q2" }, new string[0]),
+                    P("Q1", 15, 100, 15, new string[0], new[] { "t1" }),
+                    P("Q2", 15, 100, 15, new string[0], new[] { "t2" }),
+                };
+                var at = new Dictionary<string, double[]> { { "P", new double[] { 0, 0, 0 } }, { "Q1", new double[] { -150, 0, 0 } }, { "Q2", new double[] { 150, 0, 0 } } };
+                var b = new FakeProxyBackend();
+                var s = new ProxyStreamer(tree, p => at[p.name], new StreamingSettings(), b);
+                s.Update(0, 0, 2000, 1000, 90);
+                Assert.Equal("Q1 Q2", string.Join(" ", s.Wanted()), "from 2 km: the lighter children wanted");
+                s.Update(0, 0, 1500, 1000, 90);
+                Assert.Equal("Q1 Q2", string.Join(" ", s.Wanted()), "from 1.5 km: still refined (no loading back and forth)");
+                s.Dispose();
+                var fresh = new FakeProxyBackend();
+                var f = new ProxyStreamer(tree, p => at[p.name], new StreamingSettings(), fresh);
+                f.Update(0, 0, 1500, 1000, 90);
+                Assert.Equal("P", string.Join(" ", f.Wanted()), "from 1.5 km, not refined before: P");
+                f.Dispose();
+                var whole = new FakeProxyBackend();
+                var w = new ProxyStreamer(tree, p => at[p.name], new StreamingSettings { ProxyTextureScreenSpaceError = 0 }, whole);
+                w.Update(0, 0, 2000, 1000, 90);
+                Assert.Equal("P", string.Join(" ", w.Wanted()), "whole textures: the coarsest within the error limit, as before");
+                w.Dispose();
             });
 
             t.Check("proxies: the coarser proxy holds over shown buildings while a finer one loads; Covers names the tiles under shown proxies", () =>

@@ -93,13 +93,45 @@ namespace UnityEngine
 
     // Textures and materials (Runtime/Export/Graphics, Runtime/Export/Shaders/Material*.cs).
     // Real: width and height are virtual properties of Texture (Texture2D overrides them).
+    // Real: mipmapCount, wrapMode, filterMode, anisoLevel are Texture properties; graphicsFormat
+    // a virtual one (2019.1+).
     public class Texture : Object
     {
         public virtual int width { get { throw new NotSupportedException("stand-in"); } set { } }
         public virtual int height { get { throw new NotSupportedException("stand-in"); } set { } }
+        public int mipmapCount { get { throw new NotSupportedException("stand-in"); } }
+        public TextureWrapMode wrapMode { get; set; }
+        public FilterMode filterMode { get; set; }
+        public int anisoLevel { get; set; }
+        public virtual UnityEngine.Experimental.Rendering.GraphicsFormat graphicsFormat { get { throw new NotSupportedException("stand-in"); } }
     }
 
-    public sealed class Texture2D : Texture { }
+    // Real: Texture2D(int width, int height, GraphicsFormat format, int mipCount, TextureCreationFlags flags) (2019.3+).
+    public sealed class Texture2D : Texture
+    {
+        public Texture2D(int width, int height, UnityEngine.Experimental.Rendering.GraphicsFormat format, int mipCount, UnityEngine.Experimental.Rendering.TextureCreationFlags flags)
+        {
+            throw new NotSupportedException("stand-in");
+        }
+    }
+
+    // Real: public partial class Graphics; CopyTexture(Texture src, int srcElement, int srcMip, Texture dst, int dstElement, int dstMip).
+    public class Graphics
+    {
+        public static void CopyTexture(Texture src, int srcElement, int srcMip, Texture dst, int dstElement, int dstMip) { throw new NotSupportedException("stand-in"); }
+    }
+
+    // Real: public sealed partial class SystemInfo; copyTextureSupport a static property.
+    public sealed class SystemInfo
+    {
+        public static CopyTextureSupport copyTextureSupport { get { throw new NotSupportedException("stand-in"); } }
+    }
+
+    [Flags]
+    public enum CopyTextureSupport
+    {
+        None = 0,
+    }
 
     // Real: Material : Object; GetTexturePropertyNames() (2018.3+), GetTexture(string).
     public class Material : Object
@@ -230,6 +262,21 @@ namespace UnityEngine
     {
         public static string dataPath { get { throw new NotSupportedException("stand-in"); } }
         public static string streamingAssetsPath { get { throw new NotSupportedException("stand-in"); } }
+    }
+}
+
+namespace UnityEngine.Experimental.Rendering
+{
+    // Real: the texture formats (R8G8B8A8_SRGB, RGBA_DXT5_SRGB, ...); the package only passes one on.
+    public enum GraphicsFormat
+    {
+    }
+
+    [System.Flags]
+    public enum TextureCreationFlags
+    {
+        None = 0,
+        MipChain = 1,
     }
 }
 

@@ -10,8 +10,12 @@ namespace VWorldLod
 {
     public interface IProxyBackend
     {
-        /// <summary>Loads the proxy's .glb, placed and hidden; returns a handle.</summary>
-        Task<object> LoadProxy(ProxyEntry proxy, CancellationToken cancellation);
+        /// <summary>
+        /// Loads the proxy's .glb, placed and hidden; returns a handle. mipmapLimit: how many of
+        /// its textures' finest mip levels to leave out (0: whole; each one halves the texels a
+        /// side: a quarter of the bytes), as Unity's mipmap limit does, keeping at least one level.
+        /// </summary>
+        Task<object> LoadProxy(ProxyEntry proxy, int mipmapLimit, CancellationToken cancellation);
 
         /// <summary>Shows or hides a loaded proxy.</summary>
         void ShowProxy(object loaded, bool visible);

@@ -6,8 +6,9 @@
 //   1. finish: completed loads are taken in (released when no longer wanted);
 //   2. want: from each root down, a proxy is wanted when none of its building tiles shows its
 //      buildings (TileShown) and its screen-space error is at most MaximumScreenSpaceError (and
-//      its file did not fail to load), or it cannot be refined (no child proxies, or buildings of
-//      its own); otherwise its children are visited. Screen-space error (px) = geometric_error * screenHeight / (d * 2 tan(fov / 2)),
+//      its file did not fail to load, and its children would not hold less texture memory:
+//      ChildrenLighter), or it cannot be refined (no child proxies, or buildings of its own);
+//      otherwise its children are visited. Screen-space error (px) = geometric_error * screenHeight / (d * 2 tan(fov / 2)),
 //      d in metres from the camera to the proxy's bounding sphere (3D Tiles' rule);
 //   3. show: a wanted, loaded proxy shows; until it is loaded, its loaded descendants nearest to
 //      it show instead; a refined proxy whose region is not complete yet (a wanted child not
@@ -24,6 +25,10 @@
 //      MaxConcurrentLoads are in flight; a proxy whose tiles are all loading their buildings
 //      (TileLoading) is not loaded when a loaded ancestor stands in meanwhile (its buildings
 //      will replace it soon: no 2048-texel atlas downloaded for a few frames).
+// Texture memory: a proxy loads without the finest mip levels of its textures that its distance
+// does not need (MipmapLimit: its texel, bounded by geometric_error, doubled per level left out,
+// looks at most ProxyTextureScreenSpaceError px), and loads again finer (after every missing proxy)
+// when the camera comes closer, the coarser copy shown until the finer one has arrived.
 // Update allocates nothing in a steady state (its buffers are fields).
 // Positions are scene positions of the proxies' frame origins (Unity units), from the caller's
 // function (ProxyEntry.ScenePosition), recomputed by Reposition().
@@ -45,7 +50,9 @@ namespace VWorldLod
             public object Handle; // loaded
             public Job Loading;
             public long Bytes; // texture bytes of the loaded proxy (IProxyBackend.TextureBytes)
-            public bool Visible, Wanted, Failed, Covered; // Covered: a tile below it shows its buildings
+            public int Limit; // mip levels left out of the loaded proxy's textures
+            public int NeedLimit; // how many its distance allows now
+            public bool Visible, Wanted, Failed, FinerFailed, Covered, RefinedLighter; // Covered: a tile below it shows its buildings
             public int[] Tiles; // indices (into tileNames) of the building tiles under it, its descendants' included
             public double Sse, Distance; // Distance: metres to its bounding sphere
         }
@@ -53,6 +60,7 @@ namespace VWorldLod
         sealed class Job
         {
             public Node Node;
+            public int Limit; // mipmapLimit asked of the backend
             public Task<object> Task;
             public CancellationTokenSource Cancel = new CancellationTokenSource();
             public bool Cancelled;
@@ -159,6 +167,29 @@ namespace VWorldLod
             return errorMetres * screenHeight / (d * 2 * Math.Tan(fovDegrees * Math.PI / 360.0));
         }
 
+        /// <summary>The most mip levels a proxy's textures may leave out (2048 -> 16 texels a side).</summary>
+        public const int MaxMipmapLimit = 7;
+
+        /// <summary>
+        /// How many of a proxy's finest texture mip levels may be left out: its geometric error
+        /// (metres; it bounds the atlas's texel size, tileset.json's error being the larger of
+        /// the two) looks sse pixels large; each level left out doubles the texel, which must
+        /// look at most maxPixels large. maxPixels 0: none left out.
+        /// </summary>
+        public static int MipmapLimit(double sse, double maxPixels)
+        {
+            if (!(maxPixels > 0) || !(sse > 0)) return 0;
+            double levels = Math.Floor(Math.Log(maxPixels / sse, 2));
+            return (int)Math.Max(0, Math.Min(MaxMipmapLimit, levels));
+        }
+
+        /// <summary>Mip levels left out of the loaded proxy's textures, or -1 when it is not loaded.</summary>
+        public int LoadedMipmapLimit(string proxyName)
+        {
+            foreach (Node n in nodes) if (n.Entry.name == proxyName) return n.Handle == null ? -1 : n.Limit;
+            return -1;
+        }
+
         /// <summary>Names of the proxies wanted at the last Update, in index order.</summary>
         public List<string> Wanted() { return Names(n => n.Wanted); }
 
@@ -187,6 +218,10 @@ namespace VWorldLod
                 double centre = Math.Sqrt((p[0] - x) * (p[0] - x) + (p[1] - y) * (p[1] - y) + (p[2] - z) * (p[2] - z)) / unitsPerMetre;
                 n.Distance = Math.Max(centre - n.Entry.radius_m, 0);
                 n.Sse = ScreenSpaceError(n.Entry.geometric_error, n.Distance, screenHeight, fovDegrees);
+                // A proxy standing in while its tiles' buildings load (within the load radius) is
+                // a placeholder for a few frames: textures as fine as it would need at the load radius.
+                double seen = BuildingsComing(n) ? Math.Max(n.Distance, settings.LoadRadius / unitsPerMetre) : n.Distance;
+                n.NeedLimit = MipmapLimit(ScreenSpaceError(n.Entry.geometric_error, seen, screenHeight, fovDegrees), settings.ProxyTextureScreenSpaceError);
                 n.Wanted = false;
             }
             foreach (int r in roots) Cover(nodes[r]);
@@ -228,12 +263,26 @@ namespace VWorldLod
         {
             bool covered = n.Covered;
             bool refinable = n.Children.Length > 0 && (n.Entry.tiles == null || n.Entry.tiles.Length == 0);
-            if (!covered && (!refinable || (n.Sse <= settings.MaximumScreenSpaceError && !n.Failed)))
+            if (!covered && (!refinable || (n.Sse <= settings.MaximumScreenSpaceError && !n.Failed && !ChildrenLighter(n))))
             {
                 n.Wanted = true;
                 return;
             }
             foreach (int c in n.Children) Want(nodes[c]);
+        }
+
+        // Whether n's children, with the mip levels each may leave out, hold less than half of n's
+        // texture bytes (every proxy's atlas the same size: the export's proxy_atlas_size): a
+        // coarse proxy seen close keeps its whole atlas, where its finer children seen as close
+        // may leave out levels (their texel is finer), so refining costs less memory. Once
+        // refined so, n stays refined until its children would hold twice its bytes (no loading
+        // back and forth while the camera moves along the boundary).
+        bool ChildrenLighter(Node n)
+        {
+            if (!(settings.ProxyTextureScreenSpaceError > 0)) return false;
+            double children = 0;
+            foreach (int c in n.Children) children += Math.Pow(0.25, nodes[c].NeedLimit);
+            return n.RefinedLighter = children < (n.RefinedLighter ? 2 : 0.5) * Math.Pow(0.25, n.NeedLimit);
         }
 
         // Adds what shows for n's region to show; returns whether that region is complete (every
@@ -299,7 +348,12 @@ namespace VWorldLod
             if (job.Node.Loading == job) job.Node.Loading = null;
             if (result == null)
             {
-                if (!job.Cancelled && !disposed) job.Node.Failed = true; // reported; its children stand in
+                // Reported. A proxy not shown yet: its children stand in; a shown one keeps its coarser textures.
+                if (!job.Cancelled && !disposed)
+                {
+                    if (job.Node.Handle != null) job.Node.FinerFailed = true;
+                    else job.Node.Failed = true;
+                }
                 return;
             }
             if (job.Cancelled || disposed)
@@ -307,11 +361,23 @@ namespace VWorldLod
                 Safe(() => backend.ReleaseProxy(result));
                 return;
             }
-            job.Node.Handle = result;
+            Node n = job.Node;
+            if (n.Handle != null)
+            {
+                // Finer textures for a proxy already shown (the camera came closer): the new one
+                // takes its place at once, the old one goes.
+                object old = n.Handle;
+                budget.Remove(n.Bytes);
+                if (n.Visible) ShowProxy(result, true);
+                Safe(() => backend.ReleaseProxy(old));
+                Event("reload " + n.Entry.name);
+            }
+            n.Handle = result;
+            n.Limit = job.Limit;
             long bytes = 0;
             Safe(() => bytes = backend.TextureBytes(result));
-            job.Node.Bytes = Math.Max(bytes, 0);
-            budget.Add(job.Node.Bytes);
+            n.Bytes = Math.Max(bytes, 0);
+            budget.Add(n.Bytes);
         }
 
         void Release(Node n)
@@ -353,15 +419,21 @@ namespace VWorldLod
                 if (n.Wanted && !(BuildingsComing(n) && AncestorLoaded(n))) waiting.Add(n);
             }
             if (waiting.Count > 1) waiting.Sort(CoarsestNearestFirst);
+            int holes = waiting.Count;
+            // Then, after every proxy a view lacks: finer textures for wanted proxies the camera came near.
+            foreach (Node n in nodes)
+                if (n.Handle != null && n.Loading == null && n.Wanted && !n.FinerFailed && n.NeedLimit < n.Limit) waiting.Add(n);
+            if (waiting.Count - holes > 1) waiting.Sort(holes, waiting.Count - holes, CoarsestNearestFirst);
             foreach (Node n in waiting)
             {
                 if (inFlight.Count >= settings.MaxConcurrentLoads) return;
-                var job = new Job { Node = n };
+                var job = new Job { Node = n, Limit = n.NeedLimit };
                 n.Loading = job;
-                Event("load " + n.Entry.name);
+                Event((n.Handle != null ? "load finer " : "load ") + n.Entry.name);
                 CancellationToken token = job.Cancel.Token;
                 ProxyEntry entry = n.Entry;
-                job.Task = StreamingCalls.Call(() => backend.LoadProxy(entry, token));
+                int limit = job.Limit;
+                job.Task = StreamingCalls.Call(() => backend.LoadProxy(entry, limit, token));
                 inFlight.Add(job);
                 MaxInFlightSeen = Math.Max(MaxInFlightSeen, inFlight.Count);
             }

@@ -50,6 +50,15 @@ namespace VWorldLod
         /// this factor of where it would be needed (no reloading back and forth at a transition).
         /// </summary>
         public double KeepFactor = 1.1;
+        /// <summary>
+        /// Pixels: a proxy's textures are loaded without their finest mip levels
+        /// (IProxyBackend.LoadProxy's mipmapLimit, each level halving the texels a side) while its
+        /// texel, bounded by its geometric error and doubled per level left out, looks at most
+        /// this large at its distance; loaded again finer as the camera comes closer. The default,
+        /// MaximumScreenSpaceError's 16, keeps a shown proxy's error within the limit it was chosen
+        /// by; 0 loads every proxy's textures whole.
+        /// </summary>
+        public double ProxyTextureScreenSpaceError = 16;
 
         /// <summary>Why these settings cannot be used, or null.</summary>
         public string Problem()
@@ -65,6 +74,7 @@ namespace VWorldLod
             if (!(TextureBytesPerPixel > 0) || double.IsInfinity(TextureBytesPerPixel)) return "texture bytes per pixel must be a positive number, found " + TextureBytesPerPixel;
             if (!(PrefetchFactor >= 1) || double.IsInfinity(PrefetchFactor)) return "the prefetch factor must be at least 1, found " + PrefetchFactor;
             if (!(KeepFactor >= 1) || double.IsInfinity(KeepFactor)) return "the keep factor must be at least 1, found " + KeepFactor;
+            if (!(ProxyTextureScreenSpaceError >= 0) || double.IsInfinity(ProxyTextureScreenSpaceError)) return "the proxies' texture screen-space error must be a number of pixels >= 0, found " + ProxyTextureScreenSpaceError;
             return null;
         }
     }

@@ -15,6 +15,7 @@ namespace VWorldLod
         {
             public GameObject Root;
             public LoadedLevel Level;
+            public List<Texture2D> Capped; // made by ProxyTextureCap: destroyed with the proxy
         }
 
         readonly Transform parent;
@@ -29,7 +30,7 @@ namespace VWorldLod
             this.budget = budget;
         }
 
-        public async Task<object> LoadProxy(ProxyEntry proxy, CancellationToken cancellation)
+        public async Task<object> LoadProxy(ProxyEntry proxy, int mipmapLimit, CancellationToken cancellation)
         {
             var root = new GameObject("proxy " + proxy.name);
             root.transform.SetParent(parent, false);
@@ -41,7 +42,7 @@ namespace VWorldLod
                 Object.Destroy(root);
                 return null;
             }
-            return new Loaded { Root = root, Level = level };
+            return new Loaded { Root = root, Level = level, Capped = ProxyTextureCap.Apply(level.Renderers, mipmapLimit) };
         }
 
         public void ShowProxy(object loaded, bool visible)
@@ -71,6 +72,7 @@ namespace VWorldLod
         {
             var proxy = (Loaded)loaded;
             proxy.Level.Release();
+            foreach (Texture2D texture in proxy.Capped) Object.Destroy(texture);
             if (proxy.Root != null) Object.Destroy(proxy.Root);
         }
 

@@ -38,6 +38,8 @@ namespace VWorldLod
         public float textureBytesPerPixel = 4;
         /// <summary>Pixels: a building's level is loaded finer than its LODGroup transition when that level's error (error_m) would look larger.</summary>
         public float levelMaximumScreenSpaceError = 2;
+        /// <summary>Pixels: a proxy's textures leave out their finest mip levels while its texel (bounded by its error) looks at most this large; 0: whole.</summary>
+        public float proxyTextureScreenSpaceError = 16;
 
         readonly CancellationTokenSource cancel = new CancellationTokenSource();
         TileStreamer streamer;
@@ -63,6 +65,7 @@ namespace VWorldLod
             {
                 LoadRadius = loadRadius, UnloadRadius = unloadRadius, MaxConcurrentLoads = maxConcurrentLoads, MaximumScreenSpaceError = maximumScreenSpaceError,
                 TextureBudgetBytes = textureBudgetMiB * 1024.0 * 1024.0, TextureBytesPerPixel = textureBytesPerPixel, LevelMaximumScreenSpaceError = levelMaximumScreenSpaceError,
+                ProxyTextureScreenSpaceError = proxyTextureScreenSpaceError,
             };
             if (settings.Problem() != null)
             {
