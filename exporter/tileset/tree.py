@@ -54,6 +54,7 @@ class BuildingChain:
     levels: list[Level]  # coarsest first; the last is LOD0 (error 0)
     diagonal: float = 0.0  # metres: LOD0's bounding-box diagonal
     texture_px: int = 0  # larger side of the coarsest level's texture (0: untextured)
+    dropped: list[str] = field(default_factory=list)  # levels not in the chain, with the reason
 
     @property
     def texel(self) -> float:
@@ -128,6 +129,46 @@ def level_bounds(path: str, lod: dict) -> Bounds:
     return read
 
 
+def recorded_error(lod: dict) -> float:
+    """Metres: the record's ``error_m`` (its certified geometric bound or its texture error,
+    whichever is larger; written since 0.5.0), 0 when absent or unusable (older records: the
+    geometric bound alone)."""
+    value = lod.get("error_m")
+    if not isinstance(value, (int, float)) or isinstance(value, bool):
+        return 0.0
+    return float(value) if math.isfinite(value) and value >= 0 else 0.0
+
+
+def same_texture(lod: dict, other: dict) -> bool:
+    """True when two level records carry the same atlases (size, bytes and texel on the surface)."""
+    return all(
+        lod.get(key) == other.get(key) for key in ("texture_size", "texture_bytes")
+    ) and lod.get("quality", {}).get("texel_m") == other.get("quality", {}).get("texel_m")
+
+
+def redundant(
+    lod: dict, error: float, coarser: dict, coarser_error: float, same_geometry: bool
+) -> str | None:
+    """Why the level of record ``lod`` (error ``error`` metres) is left out of the chain below
+    the next coarser kept level ``coarser`` (error ``coarser_error``), or None to keep it;
+    ``same_geometry``: the two levels' meshes are equal (the records' ``same_geometry_as_above``).
+
+    A level is left out when its geometry and its texture are the coarser level's: a client
+    would load the same picture twice. A level whose error exceeds the coarser one's cannot be below it (3D Tiles
+    errors never grow from parent to child). Records written before 0.5.0 (no ``error_m``:
+    errors of geometry alone) keep the earlier rule: a level no better than a coarser one."""
+    coarser_name = Path(str(coarser.get("file", "?"))).name
+    if "error_m" not in lod or "error_m" not in coarser:
+        if error >= coarser_error:
+            return f"no better than {coarser_name} (geometric error only: a record before 0.5.0)"
+        return None
+    if same_geometry and same_texture(lod, coarser):
+        return f"same geometry and texture as {coarser_name}"
+    if error > coarser_error:
+        return f"error {error:.6g} m above {coarser_name}'s {coarser_error:.6g} m"
+    return None
+
+
 def read_chain(
     out_dir: Path, tile: TileId, record: dict, left_out: list[str]
 ) -> BuildingChain | None:
@@ -149,27 +190,39 @@ def read_chain(
     diagonal = float(np.linalg.norm(np.subtract(bounds[0][1], bounds[0][0])))
     slack0 = rounding_slack(*bounds[0])
     levels: list[Level] = []
+    kept: list[dict] = []  # the records of ``levels``
     texture_px = 0
+    dropped: list[str] = []
+    # Whether the level just coarser than the current one has the mesh of the last kept level.
+    as_kept = True
     for level in sorted(lods, reverse=True):
+        lod = lods[level]
+        # This level's mesh equals the last kept level's: each record between says so.
+        above = lods.get(level + 1, {})
+        same_geometry = as_kept and above.get("same_geometry_as_above") is True
+        as_kept = same_geometry
         if level == 0:
             error = 0.0
         else:
-            rel = lods[level].get("quality", {}).get("hausdorff_rel")
+            rel = lod.get("quality", {}).get("hausdorff_rel")
             if not isinstance(rel, (int, float)) or not math.isfinite(rel):
                 left_out.append(f"{name}: LOD{level} has no certified bound; level left out")
                 continue
-            error = (
-                rel * diagonal * (1.0 + 4 * FLOAT32_ULP) + slack0 + rounding_slack(*bounds[level])
+            error = max(
+                rel * diagonal * (1.0 + 4 * FLOAT32_ULP) + slack0 + rounding_slack(*bounds[level]),
+                recorded_error(lod),
             )
-        if levels and error >= levels[-1].error:
-            continue  # no better than a coarser level: never worth refining to
+        if levels and level:  # LOD0 ends every chain
+            reason = redundant(lod, error, kept[-1], levels[-1].error, same_geometry)
+            if reason is not None:
+                dropped.append(f"{name}/{Path(lod['file']).name}: {reason}")
+                continue
         low, high = bounds[level]
-        levels.append(
-            Level(f"{tile.name}/{lods[level]['file']}", error, np.array(low), np.array(high))
-        )
-        coarsest = levels[0].file == f"{tile.name}/{lods[level]['file']}"
-        if coarsest:
-            texture_px = max(int(v) for v in lods[level].get("texture_size", [0, 0]))
+        levels.append(Level(f"{tile.name}/{lod['file']}", error, np.array(low), np.array(high)))
+        kept.append(lod)
+        as_kept = True
+        if len(levels) == 1:  # the coarsest level
+            texture_px = max(int(v) for v in lod.get("texture_size", [0, 0]))
     centre = record["center"]
     return BuildingChain(
         tile,
@@ -179,6 +232,7 @@ def read_chain(
         levels,
         diagonal,
         texture_px,
+        dropped,
     )
 
 
