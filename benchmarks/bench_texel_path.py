@@ -40,23 +40,16 @@ import tarfile
 import tempfile
 from pathlib import Path
 
-import numpy as np
-from PIL import Image
-
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from exporter.model import TileId  # noqa: E402
 from exporter.samplegen import generate_tile  # noqa: E402
-from exporter.texel import level_texel_m  # noqa: E402
-from exporter.tileset.frames import enu_to_ecef  # noqa: E402
-from exporter.tileset.glb import read_primitives  # noqa: E402
+from tests.texel_views import camera_path, content_texel, fly, target_building  # noqa: E402
 
-CLIENT = REPO / "tests" / "tileset_client"
 ROTTERDAM = REPO / "tests" / "data" / "real" / "rotterdam_textured"
 TILE = TileId(15, 279418, 116113)
 FOV = math.radians(60.0)  # CesiumJS's default vertical field of view
-ELEVATION = math.radians(20.0)  # the camera above the aimed point, seen from it
 
 
 def baseline_tree(work: Path, ref: str) -> Path:
@@ -91,78 +84,6 @@ def export(source_root: Path, folder: Path, out: Path, jobs: int) -> None:
          "--jobs", str(jobs), "--force"],
         cwd=source_root, env=env, check=True,
     )  # fmt: skip
-
-
-def target_building(out: Path) -> tuple[str, dict]:
-    """(URI prefix ``tile/folder/``, manifest record) of the textured building nearest the centre
-    of its tile's buildings."""
-    candidates = []
-    for manifest in sorted(out.glob("*/lod_manifest.json")):
-        buildings = json.loads(manifest.read_text())["buildings"]
-        centres = np.array([[b["center"]["lon"], b["center"]["lat"]] for b in buildings])
-        middle = centres.mean(axis=0)
-        for building, centre in zip(buildings, centres):
-            if building["lods"][0]["texture_size"][0]:
-                offset = float(np.hypot(*(centre - middle)))
-                candidates.append((offset, manifest.parent.name, building))
-    if not candidates:
-        raise SystemExit(f"{out}: no textured building")
-    _, tile, building = min(candidates, key=lambda c: c[0])
-    return f"{tile}/{building['folder']}/", building
-
-
-def camera_path(building: dict, frames: int) -> list[tuple[float, dict]]:
-    """(distance m, CesiumJS view: ECEF position, unit direction and up) per frame, 3 km to 15 m
-    from the centre of the building's south face, looking at it from the south, 20 deg above."""
-    centre = building["center"]
-    bounds = building["lods"][0]["gltf_bounds"]
-    low, high = np.array(bounds["low"]), np.array(bounds["high"])
-    # glTF (+X West, +Y Up, +Z North) -> East/North/Up metres at the building's centre.
-    west, up, north = (low[0] + high[0]) / 2, (low[1] + high[1]) / 2, low[2]
-    enu = enu_to_ecef(centre["lon"], centre["lat"], centre["elev"])
-    aimed = (enu @ np.array([-west, north, up, 1.0]))[:3]
-    north_axis, up_axis = enu[:3, 1], enu[:3, 2]
-    towards = north_axis * math.cos(ELEVATION) - up_axis * math.sin(ELEVATION)  # camera -> face
-    above = north_axis * math.sin(ELEVATION) + up_axis * math.cos(ELEVATION)
-    path = []
-    for k in range(frames):
-        distance = 3000.0 * (15.0 / 3000.0) ** (k / max(frames - 1, 1))
-        position = aimed - towards * distance
-        view = {"position": position.tolist(), "direction": towards.tolist(), "up": above.tolist()}
-        path.append((distance, view))
-    return path
-
-
-def content_texel(path: Path) -> float | None:
-    """Metres per texel of a content file on its surface (exporter.texel.level_texel_m over its
-    textured primitives; sizes from the images themselves)."""
-    pieces = []
-    for primitive in read_primitives(path):
-        if primitive.uvs is None or primitive.image is None:
-            continue
-        size = Image.open(io.BytesIO(primitive.image)).size
-        pieces.append((primitive.positions, primitive.triangles, primitive.uvs, size))
-    return level_texel_m(pieces)
-
-
-def fly(out: Path, target: str, path: list, width: int, height: int, name: str) -> list[dict]:
-    """CesiumJS's views of ``out/name`` (render.js POSES mode), one dict per view."""
-    with tempfile.NamedTemporaryFile("w", suffix=".json", delete=False) as handle:
-        json.dump({"width": width, "height": height, "target": target, "tileset": name,
-                   "views": [view for _, view in path]}, handle)  # fmt: skip
-    try:
-        result = subprocess.run(
-            ["node", str(CLIENT / "render.js"), str(out)],
-            env=dict(os.environ, POSES=handle.name), capture_output=True, text=True, timeout=3600,
-        )  # fmt: skip
-    finally:
-        os.unlink(handle.name)
-    lines = [json.loads(line) for line in result.stdout.splitlines() if line.startswith("{")]
-    if len(lines) != len(path) or any("fatal" in line for line in lines):
-        raise SystemExit(
-            f"CesiumJS failed on {out}: {result.stdout[-2000:]}{result.stderr[-2000:]}"
-        )
-    return lines
 
 
 def frames_of(

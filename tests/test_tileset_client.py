@@ -6,6 +6,7 @@ tileset's own statistics and on the page's console errors and failed requests.""
 from __future__ import annotations
 
 import json
+import math
 import shutil
 import subprocess
 from pathlib import Path
@@ -87,3 +88,26 @@ def test_cesium_renders_the_sample_tile_without_errors(tmp_path):
         assert view["selected"] >= 1 and view["triangles"] > 0, view
     assert views[0]["commands"] == 1  # the tile's proxy: 12 buildings, one draw call
     assert views[1]["commands"] > 1  # close in: the buildings themselves
+
+
+def test_cesium_shows_lod0_of_the_nearest_building_from_15_m(tmp_path):
+    """The level's error includes its texture (issue 34): CesiumJS at its default 16 px
+    screen-space error, 1080 lines, refines a textured building to lod0.glb at 15 m from its
+    face (with geometric errors alone it kept LOD2's atlas, a quarter per side of LOD0's)."""
+    from tests.texel_views import camera_path, content_texel, fly, target_building
+
+    tile = TILES[0]
+    folder = generate_tile(tmp_path / "in" / tile.name, 5, seed=34, tile=tile, atlas_size=256)
+    out = tmp_path / "out"
+    export_tiles([folder], out, Config(), jobs=1)
+    target, building = target_building(out)
+    path = camera_path(building, 2, first=300.0, last=15.0)
+    views = fly(out, target, path, 1920, 1080, "tileset.json")
+    for view in views:
+        assert view["errors"] == [] and view["loaded"], view
+    assert views[-1]["target"] == [f"{target}lod0.glb"]
+    # The level shown at 300 m is coarser, and its texel at most 16 px on screen.
+    shown = views[0]["target"]
+    assert shown and shown != views[-1]["target"], views
+    texel = max(content_texel(out / uri) or 0.0 for uri in shown)
+    assert texel * 1080 / (2 * 300.0 * math.tan(math.radians(30.0))) <= 16.0
