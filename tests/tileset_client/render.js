@@ -123,6 +123,7 @@ function serve(request, response) {
       "--disable-background-networking", "--disable-component-update", "--no-first-run",
       `--window-size=${POSES ? POSES.width : 1280},${POSES ? POSES.height : 720}`],
     defaultViewport: { width: POSES ? POSES.width : 1280, height: POSES ? POSES.height : 720 },
+    protocolTimeout: 1800000, // a view of a loaded machine may render for minutes
   });
   const errors = [];
   try {
