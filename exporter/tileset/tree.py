@@ -6,12 +6,14 @@ Data form: :class:`Node` (one 3D Tiles tile). ``world`` is the node's tile frame
 ``geometricError`` in metres.
 
 - A building is a chain, coarsest level first, each level the only child of the one above
-  (``REPLACE``); a level's error is its certified Hausdorff bound against LOD0 in metres: the
-  manifest's ``hausdorff_rel`` (relative to LOD0's bounding-box diagonal, exporter/quality.py)
-  times that diagonal, plus the float32 rounding of both files. Each file's glTF-frame bounds come
-  from its record's ``gltf_bounds`` (:func:`level_bounds`; from the file's header for records
-  without them). A level no better than a coarser one is left out (the errors then strictly
-  decrease to LOD0's 0).
+  (``REPLACE``); a level's error is the larger of its certified Hausdorff bound against LOD0 in
+  metres, the manifest's ``hausdorff_rel`` (relative to LOD0's bounding-box diagonal,
+  exporter/quality.py) times that diagonal plus the float32 rounding of both files, and the
+  record's ``error_m`` (its texture error too, exporter/texel.py; absent before 0.5.0). Each
+  file's glTF-frame bounds come from its record's ``gltf_bounds`` (:func:`level_bounds`; from the
+  file's header for records without them). A level is left out only when its mesh and atlas
+  equal the next coarser kept level's (:func:`redundant`; the reason kept in
+  ``BuildingChain.dropped`` for the tileset's ``extras``), so errors never grow towards LOD0's 0.
 - Tiles holding buildings have the buildings as children; above them the quadtree, compressed: a
   tile with one child is that child. Several top tiles hang under one root without content.
 - Buildings or levels whose files are missing are left out and listed (never referenced).
