@@ -109,9 +109,9 @@ def frames_of(
 
 
 def all_lod0(out: Path) -> Path:
-    """The new tileset with every building chain cut to its LOD0 (error 0) and no proxy above
-    it drawn (tiles without content refine at once), written beside it as ``all_lod0.json``: the
-    texture memory of showing the finest level everywhere, for scale."""
+    """The new tileset with every building chain cut to its LOD0 (error 0), no proxy drawn and
+    every tile without content refined at once (error 1e7 m), written beside it as
+    ``all_lod0.json``: the memory of showing the finest level of everything in view, for scale."""
     tileset = json.loads((out / "tileset.json").read_text())
 
     def visit(node: dict) -> None:
@@ -121,12 +121,13 @@ def all_lod0(out: Path) -> Path:
             node["geometricError"] = 0.0
             node.pop("children", None)
             return
-        if uri:  # a proxy: never drawn
-            del node["content"]
+        node.pop("content", None)  # a proxy: never drawn
+        node["geometricError"] = 1e7
         for child in node.get("children", []):
             visit(child)
 
     visit(tileset["root"])
+    tileset["geometricError"] = 1e7
     path = out / "all_lod0.json"
     path.write_text(json.dumps(tileset))
     return path
