@@ -234,7 +234,7 @@ def read_chain(
         levels,
         diagonal,
         texture_px,
-        dropped,
+        dropped=dropped,
     )
 
 
