@@ -33,6 +33,7 @@ from .quality import LevelQuality, Source, boundary_quality, exact_quality, meas
 from .readers import Entry, load_entry
 from .records import file_entry, write_record
 from .simplify import build_mesh_chain, degenerate_only
+from .texel import level_error_m, level_texel_m
 from .textures import build_texture_lods
 from .tiles import building_tile as tile_of_bounds
 from .tiles import check_tile
@@ -130,6 +131,40 @@ def level_fields(level, above: dict) -> dict:
     return fields
 
 
+def level_texel(parts: list[Part]) -> float | None:
+    """Metres per texel of the level's atlases on its surface, all textured parts together
+    (:func:`exporter.texel.level_texel_m`); None for an untextured level."""
+    return level_texel_m(
+        [
+            (p.positions, p.triangles, p.uvs, (p.texture.width, p.texture.height))
+            for p in parts
+            if p.texture is not None and p.uvs is not None and p.triangle_count
+        ]
+    )
+
+
+def texture_pixels(parts: list[Part]) -> int:
+    """Pixels of the level's distinct atlases (a coarser texture LoD has fewer)."""
+    textures = {id(p.texture): p.texture for p in parts if p.texture is not None}
+    return sum(t.width * t.height for t in textures.values())
+
+
+def error_fields(
+    quality: LevelQuality | None,
+    texel: float | None,
+    coarser_texture: bool,
+    diagonal: float,
+) -> dict:
+    """A level's ``error_m`` (metres, :func:`exporter.texel.level_error_m`: the larger of its
+    certified geometric bound, ``hausdorff_rel`` x LOD0's box ``diagonal`` in metres, and its
+    texture error) and ``quality.texel_m``; ``quality`` None for LOD0 (error 0)."""
+    geometric = quality.hausdorff_rel * diagonal if quality is not None else None
+    fields: dict = {"error_m": level_error_m(geometric, texel, coarser_texture)}
+    if texel is not None:
+        fields["texel_m"] = texel
+    return fields
+
+
 def level_triangles(level) -> int:
     return sum(p.triangle_count for p in level.parts)
 
@@ -147,11 +182,14 @@ def remove_stale_levels(folder: str, count: int) -> None:
                 pass
 
 
-def chain_qualities(chain: list, parts_by_level: list[list[Part]]) -> list[LevelQuality | None]:
+def chain_qualities(
+    chain: list, parts_by_level: list[list[Part]], source: Source | None = None
+) -> list[LevelQuality | None]:
     """Each level's quality against LOD0 (None for LOD0 itself), ``chain`` the
     :func:`~exporter.simplify.build_mesh_chain` levels and ``parts_by_level`` their parts (as
-    textured): the cheapest path that gives measure_lod's values, the source side prepared once."""
-    source = Source(parts_by_level[0])
+    textured): the cheapest path that gives measure_lod's values, the source side prepared once
+    (``source``: LOD0's, made here when not given)."""
+    source = source if source is not None else Source(parts_by_level[0])
     qualities: list[LevelQuality | None] = [None]  # LOD0 is the source
     for level in range(1, len(parts_by_level)):
         if level > 1 and same_geometry(parts_by_level[level], parts_by_level[level - 1]):
@@ -224,7 +262,10 @@ def process_entry(
         lap("simplify")
         parts_by_level = texture_levels(parts_by_level, config, problems)
         lap("textures")
-        qualities = chain_qualities(chain, parts_by_level)
+        source = Source(parts_by_level[0])
+        qualities = chain_qualities(chain, parts_by_level, source)
+        texels = [level_texel(parts) for parts in parts_by_level]
+        pixels = [texture_pixels(parts) for parts in parts_by_level]
         lap("quality")
         # The entry's id, not the reader's: the run made entry ids unique across folders and files.
         folder = safe_folder_name(entry.id)
@@ -246,8 +287,15 @@ def process_entry(
             (write_bytes_if_changed if existed else write_bytes_atomic)(path, glb.data)
             files.append(file_entry(name, glb.data))
             lods.append(lod_record(level, parts, f"{folder}/{name}", glb, qualities[level]))
+            errors = error_fields(
+                qualities[level], texels[level], pixels[level] < pixels[0], source.diagonal
+            )
+            if "texel_m" in errors:
+                lods[-1]["quality"]["texel_m"] = errors.pop("texel_m")
+            lods[-1].update(errors)
             if level:
                 lods[-1].update(level_fields(chain[level], lods[-2]))
+                lods[-1]["same_geometry_as_above"] = same_geometry(parts, parts_by_level[level - 1])
         if existed:
             remove_stale_levels(building_dir, len(lods))
         record = {

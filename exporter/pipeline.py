@@ -155,11 +155,23 @@ def input_hash(entry: Entry, config_hash: str, fingerprints: list[dict]) -> str:
     return digest.hexdigest()
 
 
+def has_level_errors(record: dict) -> bool:
+    """True when every level of ``record`` states its ``error_m`` (records since 0.5.0). An older
+    record is redone rather than patched: its texel sizes need the meshes' UVs, and the redo
+    writes the same ``.glb`` bytes (files left untouched, ``write_bytes_if_changed``)."""
+    lods = record.get("lods")
+    return isinstance(lods, list) and all(
+        isinstance(lod, dict) and "error_m" in lod for lod in lods
+    )
+
+
 def reusable_record(previous: dict | None, digest: str, out_dir: Path) -> dict | None:
     """A previous run's record when its input hash matches and all its files are still there,
     intact (size and CRC-32, ``exporter.records``)."""
     if previous is None or previous["record"].get("input_hash") != digest:
         return None
+    if not has_level_errors(previous["record"]):
+        return None  # written before 0.5.0: redone for its levels' errors (same .glb bytes)
     tile_dir = out_dir / previous["tile"].name
     if (tile_dir / previous["record"]["folder"]).is_symlink():  # redone: the job replaces the link
         return None

@@ -24,7 +24,13 @@ too: the error model sees the paper's quarter-of-the-pixels step exactly.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+
+# The texture error of a level coarser in texture than LOD0, in texels of that level: see the
+# module doc (chosen by the camera-path benchmark, benchmarks/bench_texel_path.py).
+TEXEL_ERROR_FACTOR = 8.0
 
 # Relative to the largest value in the set: areas below this are rounding, not surface.
 _NEGLIGIBLE = 1e-12
@@ -86,3 +92,34 @@ def texel_size_m(
     """
     sizes, areas = face_texels(positions, faces, uvs, atlas_size)
     return weighted_quantile(sizes, areas, q)
+
+
+def level_texel_m(
+    pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray, tuple[int, int]]], q: float = 0.5
+) -> float | None:
+    """One level's texel size, metres: the area-weighted ``q`` quantile over the faces of all its
+    textured parts together, each piece ``(positions, faces, uvs, (width, height))`` as for
+    :func:`face_texels`. None when no face maps texels (an untextured level)."""
+    found = [face_texels(*piece) for piece in pieces]
+    if not found:
+        return None
+    sizes = np.concatenate([s for s, _ in found])
+    areas = np.concatenate([a for _, a in found])
+    value = weighted_quantile(sizes, areas, q)
+    return value if math.isfinite(value) else None
+
+
+def texture_error_m(texel: float | None, coarser_texture: bool) -> float:
+    """Metres: a level's texture error, :data:`TEXEL_ERROR_FACTOR` x its texel size when its
+    atlas is coarser than LOD0's (fewer pixels), else 0 (LOD0's own texture, or none)."""
+    if texel is None or not coarser_texture or not math.isfinite(texel):
+        return 0.0
+    return TEXEL_ERROR_FACTOR * texel
+
+
+def level_error_m(geometric: float | None, texel: float | None, coarser_texture: bool) -> float:
+    """Metres: a level's error, the larger of its certified geometric bound ``geometric``
+    (metres; None for LOD0, whose error is 0) and its :func:`texture_error_m`."""
+    if geometric is None:
+        return 0.0
+    return max(float(geometric), texture_error_m(texel, coarser_texture))

@@ -853,3 +853,18 @@ def test_building_table_shows_the_id_and_main_attributes(tmp_path):
         ["Herkunft", "EE_LB_2007"],
     ]
     assert len(table) == 1 + 8 and "and 4 more attributes" in text
+
+
+def test_each_level_shows_its_texel_and_error_when_the_manifest_states_them(tmp_path):
+    out = tmp_path / "out"
+    tile_dir = make_fake_export(out, only="A")
+    manifest = _manifest(tile_dir)
+    for lod in manifest["buildings"][0]["lods"]:
+        lod["quality"]["texel_m"] = 0.046 * 2 ** lod["level"]
+        lod["error_m"] = 8 * lod["quality"]["texel_m"] if lod["level"] else 0.0
+    (tile_dir / "lod_manifest.json").write_text(json.dumps(manifest), encoding="utf-8")
+    write_reports(out)
+    html = (tile_dir / "report.html").read_text(encoding="utf-8")
+    assert '<span data-field="texel_m">texel 9.2 cm</span>' in html
+    assert '<span data-field="error_m">error 0.736 m</span>' in html
+    assert '<span data-field="error_m">error 0 m</span>' in html  # LOD0

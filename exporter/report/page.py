@@ -20,6 +20,7 @@ from urllib.parse import quote
 from .plots import strip_plot_svg
 from .summary import (
     METRICS,
+    level_error,
     level_table,
     lod_metric,
     metric_series,
@@ -264,6 +265,18 @@ def no_smaller_html(manifest: dict) -> str:
     return f'<p class="meta" id="no-smaller">{escape(shares)}: {escape(NO_SMALLER_WHY)}.</p>'
 
 
+def _error_text(lod: dict) -> str:
+    """`` · texel 4.6 cm · error 0.74 m``: the level's on-surface texel and its error (the larger
+    of its certified geometric bound and its texture error, what the tileset uses), when stated."""
+    texel, error = lod_metric(lod, "texel_m"), level_error(lod)
+    text = (
+        "" if texel is None else f' · <span data-field="texel_m">texel {texel * 100:.3g} cm</span>'
+    )
+    if error is not None:
+        text += f' · <span data-field="error_m">error {_fmt_metric(error)} m</span>'
+    return text
+
+
 def _level_figure(building_id: str, render: LevelRender) -> str:
     lod = render.lod
     w, h = (list(lod.get("texture_size", [0, 0])) + [0, 0])[:2]
@@ -284,7 +297,7 @@ def _level_figure(building_id: str, render: LevelRender) -> str:
         )
     caption = (
         f"<b>LOD{render.level}</b> · {_fmt_int(lod.get('triangles', 0))} triangles · "
-        f"{_fmt_int(lod.get('vertices', 0))} vertices · {texture}"
+        f"{_fmt_int(lod.get('vertices', 0))} vertices · {texture}{_error_text(lod)}"
     )
     if render.level and lod.get("no_smaller_than_above"):
         budget = lod.get("error_budget_m")

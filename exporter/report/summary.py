@@ -8,7 +8,9 @@ Quality metrics (``lods[].quality``, measured against LOD0 by ``exporter/quality
 ``triangle_ratio`` (share of LOD0's triangles), ``hausdorff_rel`` (Hausdorff distance over the
 LOD0 bounding-box diagonal; lower is better), ``silhouette_iou`` and ``wall_coverage`` (0..1,
 higher is better), ``boundary_length_change`` (relative change of open-border length; 0 is best),
-``new_holes`` (count; 0 is best).
+``new_holes`` (count; 0 is best); ``texel_m`` (metres of surface per atlas texel, a property of
+the level's texture, not a comparison). A level's ``error_m`` (metres) is the larger of its
+geometric bound and its texture error (exporter/texel.py).
 """
 
 from __future__ import annotations
@@ -39,6 +41,12 @@ def _number(value) -> float | None:
 def lod_metric(lod: dict, key: str) -> float | None:
     """A level's quality metric, or None when absent or not a finite number."""
     return _number((lod.get("quality") or {}).get(key))
+
+
+def level_error(lod: dict) -> float | None:
+    """A level's ``error_m`` (metres: the larger of its certified geometric bound and its texture
+    error; written since 0.5.0), or None when absent or not a finite number."""
+    return _number(lod.get("error_m"))
 
 
 def quality_score(building: dict) -> float | None:

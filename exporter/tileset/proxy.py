@@ -77,7 +77,7 @@ KEEP_RATIO = 0.5
 @dataclass(frozen=True)
 class LevelSource:
     file: str  # relative to OUT, '/'-separated
-    error: float  # metres: the level's error against LOD0 (0 for LOD0)
+    error: float  # metres: the level's certified geometric bound against LOD0 (0 for LOD0)
     texture_px: int  # larger side of its texture in pixels (0: untextured)
 
 

@@ -6,12 +6,14 @@ Data form: :class:`Node` (one 3D Tiles tile). ``world`` is the node's tile frame
 ``geometricError`` in metres.
 
 - A building is a chain, coarsest level first, each level the only child of the one above
-  (``REPLACE``); a level's error is its certified Hausdorff bound against LOD0 in metres: the
-  manifest's ``hausdorff_rel`` (relative to LOD0's bounding-box diagonal, exporter/quality.py)
-  times that diagonal, plus the float32 rounding of both files. Each file's glTF-frame bounds come
-  from its record's ``gltf_bounds`` (:func:`level_bounds`; from the file's header for records
-  without them). A level no better than a coarser one is left out (the errors then strictly
-  decrease to LOD0's 0).
+  (``REPLACE``); a level's error is the larger of its certified Hausdorff bound against LOD0 in
+  metres, the manifest's ``hausdorff_rel`` (relative to LOD0's bounding-box diagonal,
+  exporter/quality.py) times that diagonal plus the float32 rounding of both files, and the
+  record's ``error_m`` (its texture error too, exporter/texel.py; absent before 0.5.0). Each
+  file's glTF-frame bounds come from its record's ``gltf_bounds`` (:func:`level_bounds`; from the
+  file's header for records without them). A level is left out only when its mesh and atlas
+  equal the next coarser kept level's (:func:`redundant`; the reason kept in
+  ``BuildingChain.dropped`` for the tileset's ``extras``), so errors never grow towards LOD0's 0.
 - Tiles holding buildings have the buildings as children; above them the quadtree, compressed: a
   tile with one child is that child. Several top tiles hang under one root without content.
 - Buildings or levels whose files are missing are left out and listed (never referenced).
@@ -40,10 +42,16 @@ FLOAT32_ULP = 2.0**-24  # relative rounding of a float32 coordinate (half an ulp
 @dataclass
 class Level:
     file: str  # relative to OUT, '/'-separated
-    error: float  # metres: certified bound against LOD0
+    error: float  # metres: its geometricError, max(certified bound, texture error) against LOD0
     low: np.ndarray  # (3,) glTF-frame metres
     high: np.ndarray
     texture_px: int = 0  # larger side of its texture in pixels (0: untextured); for the proxies
+    geometric: float | None = None  # metres: the certified bound alone (None: ``error``)
+
+    @property
+    def bound(self) -> float:
+        """Metres: the level's certified geometric bound against LOD0 (what a proxy adds to)."""
+        return self.error if self.geometric is None else self.geometric
 
 
 @dataclass
@@ -57,6 +65,7 @@ class BuildingChain:
     texture_px: int = 0  # larger side of the coarsest level's texture (0: untextured)
     source: str = ""  # the file it was read from (manifest record's source)
     attributes: dict = field(default_factory=dict)  # the manifest record's attributes
+    dropped: list[str] = field(default_factory=list)  # levels not in the chain, with the reason
 
     @property
     def texel(self) -> float:
@@ -130,6 +139,46 @@ def level_bounds(path: str, lod: dict) -> Bounds:
     return read
 
 
+def recorded_error(lod: dict) -> float:
+    """Metres: the record's ``error_m`` (its certified geometric bound or its texture error,
+    whichever is larger; written since 0.5.0), 0 when absent or unusable (older records: the
+    geometric bound alone)."""
+    value = lod.get("error_m")
+    if not isinstance(value, (int, float)) or isinstance(value, bool):
+        return 0.0
+    return float(value) if math.isfinite(value) and value >= 0 else 0.0
+
+
+def same_texture(lod: dict, other: dict) -> bool:
+    """True when two level records carry the same atlases (size, bytes and texel on the surface)."""
+    return all(
+        lod.get(key) == other.get(key) for key in ("texture_size", "texture_bytes")
+    ) and lod.get("quality", {}).get("texel_m") == other.get("quality", {}).get("texel_m")
+
+
+def redundant(
+    lod: dict, error: float, coarser: dict, coarser_error: float, same_geometry: bool
+) -> str | None:
+    """Why the level of record ``lod`` (error ``error`` metres) is left out of the chain below
+    the next coarser kept level ``coarser`` (error ``coarser_error``), or None to keep it;
+    ``same_geometry``: the two levels' meshes are equal (the records' ``same_geometry_as_above``).
+
+    A level is left out when its geometry and its texture are the coarser level's: a client
+    would load the same picture twice. A level whose error exceeds the coarser one's cannot be below it (3D Tiles
+    errors never grow from parent to child). Records written before 0.5.0 (no ``error_m``:
+    errors of geometry alone) keep the earlier rule: a level no better than a coarser one."""
+    coarser_name = Path(str(coarser.get("file", "?"))).name
+    if "error_m" not in lod or "error_m" not in coarser:
+        if error >= coarser_error:
+            return f"no better than {coarser_name} (geometric error only: a record before 0.5.0)"
+        return None
+    if same_geometry and same_texture(lod, coarser):
+        return f"same geometry and texture as {coarser_name}"
+    if error > coarser_error:
+        return f"error {error:.6g} m above {coarser_name}'s {coarser_error:.6g} m"
+    return None
+
+
 def read_chain(
     out_dir: Path, tile: TileId, record: dict, left_out: list[str]
 ) -> BuildingChain | None:
@@ -151,28 +200,44 @@ def read_chain(
     diagonal = float(np.linalg.norm(np.subtract(bounds[0][1], bounds[0][0])))
     slack0 = rounding_slack(*bounds[0])
     levels: list[Level] = []
+    kept: list[dict] = []  # the records of ``levels``
     texture_px = 0
+    dropped: list[str] = []
+    # Whether the level just coarser than the current one has the mesh of the last kept level.
+    as_kept = True
     for level in sorted(lods, reverse=True):
+        lod = lods[level]
+        # This level's mesh equals the last kept level's: each record between says so.
+        above = lods.get(level + 1, {})
+        same_geometry = as_kept and above.get("same_geometry_as_above") is True
+        as_kept = same_geometry
         if level == 0:
-            error = 0.0
+            error = geometric = 0.0
         else:
-            rel = lods[level].get("quality", {}).get("hausdorff_rel")
+            rel = lod.get("quality", {}).get("hausdorff_rel")
             if not isinstance(rel, (int, float)) or not math.isfinite(rel):
                 left_out.append(f"{name}: LOD{level} has no certified bound; level left out")
                 continue
-            error = (
+            geometric = (
                 rel * diagonal * (1.0 + 4 * FLOAT32_ULP) + slack0 + rounding_slack(*bounds[level])
             )
-        if levels and error >= levels[-1].error:
-            continue  # no better than a coarser level: never worth refining to
+            error = max(geometric, recorded_error(lod))
+        if levels and level:  # LOD0 ends every chain
+            reason = redundant(lod, error, kept[-1], levels[-1].error, same_geometry)
+            if reason is not None:
+                dropped.append(f"{name}/{Path(lod['file']).name}: {reason}")
+                continue
         low, high = bounds[level]
-        size = max((int(v) for v in lods[level].get("texture_size", [0, 0])), default=0)
+        size = max((int(v) for v in lod.get("texture_size", [0, 0])), default=0)
         levels.append(
-            Level(f"{tile.name}/{lods[level]['file']}", error, np.array(low), np.array(high), size)
+            Level(
+                f"{tile.name}/{lod['file']}", error, np.array(low), np.array(high), size, geometric
+            )
         )
-        coarsest = levels[0].file == f"{tile.name}/{lods[level]['file']}"
-        if coarsest:
-            texture_px = max(int(v) for v in lods[level].get("texture_size", [0, 0]))
+        kept.append(lod)
+        as_kept = True
+        if len(levels) == 1:  # the coarsest level
+            texture_px = size
     centre = record["center"]
     return BuildingChain(
         tile,
@@ -184,6 +249,7 @@ def read_chain(
         texture_px,
         str(record.get("source", "")),
         attributes if isinstance(attributes := record.get("attributes"), dict) else {},
+        dropped=dropped,
     )
 
 

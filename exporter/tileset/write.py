@@ -118,7 +118,8 @@ def tileset_json(tops: list[Node], left_out: list[str]) -> dict:
     """The whole tileset: one top node is the root, several hang under a root without content."""
     root = tops[0] if len(tops) == 1 else Node("root", None, children=tops)
     identity = np.eye(4)
-    finish_chains(building_tops(root))
+    tops_of_chains = building_tops(root)
+    finish_chains(tops_of_chains)
     finish(root, identity, frames.inverse_rigid(identity))
     assert root.box is not None
     tileset: dict = {
@@ -130,6 +131,10 @@ def tileset_json(tops: list[Node], left_out: list[str]) -> dict:
     add_groups(tileset, root)  # the buildings' metadata (schema, groups): .metadata
     if left_out:
         tileset["extras"] = {"left_out": sorted(left_out)}
+    # Written level files a chain does not reference, each with the reason (tree.redundant).
+    levels = sorted(note for top in tops_of_chains for note in top.building.dropped)  # type: ignore[union-attr]
+    if levels:
+        tileset.setdefault("extras", {})["levels_left_out"] = levels
     return tileset
 
 

@@ -9,6 +9,12 @@
 // PICK='[[lon, lat, height], ...]' also picks each point's screen position in every view (scene.pick)
 // and reports what it found: a proxy's feature (its property table's values) or a building level's
 // content (its group's metadata values), with the content's uri.
+// POSES=file.json (then LON LAT HEIGHT are not given): {"width", "height", "target", "tileset"
+// (a file in OUT, default tileset.json), "views":
+// [{"position": [x, y, z], "direction": [...], "up": [...]}]} (ECEF metres, unit vectors), each
+// view on a freshly loaded tileset (so memory is what that view needs); each line adds the
+// contents selected whose URI starts with "target" (or, when none, the selected content whose
+// tile holds the target's chain: a proxy), totalMemoryUsageInBytes and the texture bytes.
 "use strict";
 const http = require("http");
 const fs = require("fs");
@@ -16,6 +22,7 @@ const path = require("path");
 const puppeteer = require("puppeteer-core");
 
 const [out, lon, lat, ...heights] = process.argv.slice(2);
+const POSES = process.env.POSES ? JSON.parse(fs.readFileSync(process.env.POSES, "utf8")) : null;
 const CESIUM = path.join(__dirname, "node_modules", "cesium", "Build", "Cesium");
 const TYPES = { ".js": "text/javascript", ".json": "application/json", ".glb": "model/gltf-binary",
   ".css": "text/css", ".html": "text/html", ".png": "image/png", ".jpg": "image/jpeg",
@@ -70,6 +77,41 @@ window.view = async (lon, lat, height) => {
     contentReady: s.numberOfTilesWithContentReady, loaded: tileset.tilesLoaded,
     geometryBytes: s.geometryByteLength, textureBytes: s.texturesByteLength };
 };
+window.pose = async (view, target, name) => {
+  const scene = widget.scene;
+  scene.primitives.removeAll();
+  const tileset = await Cesium.Cesium3DTileset.fromUrl("/out/" + name);
+  scene.primitives.add(tileset);
+  const visible = new Set();
+  tileset.tileVisible.addEventListener((tile) => visible.add(tile));
+  scene.camera.setView({ destination: Cesium.Cartesian3.fromArray(view.position),
+    orientation: { direction: Cesium.Cartesian3.fromArray(view.direction),
+      up: Cesium.Cartesian3.fromArray(view.up) } });
+  for (let frame = 0, quiet = 0; frame < 1500 && quiet < 5; frame++) {
+    widget.render();
+    await new Promise((r) => setTimeout(r, 20));
+    quiet = tileset.tilesLoaded ? quiet + 1 : 0;
+  }
+  visible.clear();
+  widget.render();
+  const uri = (tile) => tile._contentResource
+    ? decodeURIComponent(new URL(tile._contentResource.url).pathname).slice("/out/".length) : "";
+  let selected = [...visible].map(uri).filter((u) => u.startsWith(target));
+  if (!selected.length) {  // a coarser content covers the target: the selected tile above it
+    const stack = [tileset.root];
+    let top = null;
+    while (stack.length && !top) {
+      const tile = stack.pop();
+      if (uri(tile).startsWith(target)) top = tile; else stack.push(...tile.children);
+    }
+    for (let tile = top; tile && !selected.length; tile = tile.parent) {
+      if (visible.has(tile) && uri(tile)) selected = [uri(tile)];
+    }
+  }
+  const s = tileset.statistics;
+  return { selected: s.selected, target: selected.sort(), loaded: tileset.tilesLoaded,
+    memory: tileset.totalMemoryUsageInBytes, textureBytes: s.texturesByteLength };
+};
 </script></body></html>`;
 
 function serve(request, response) {
@@ -100,8 +142,9 @@ function serve(request, response) {
     executablePath: process.env.CHROMIUM || "/usr/bin/chromium", headless: true,
     args: ["--no-sandbox", "--enable-unsafe-swiftshader", "--use-angle=swiftshader",
       "--disable-background-networking", "--disable-component-update", "--no-first-run",
-      "--window-size=1280,720"],
-    defaultViewport: { width: 1280, height: 720 },
+      `--window-size=${POSES ? POSES.width : 1280},${POSES ? POSES.height : 720}`],
+    defaultViewport: { width: POSES ? POSES.width : 1280, height: POSES ? POSES.height : 720 },
+    protocolTimeout: 1800000, // a view of a loaded machine may render for minutes
   });
   const errors = [];
   try {
@@ -115,7 +158,12 @@ function serve(request, response) {
     await page.goto(`http://127.0.0.1:${port}/index.html`, { waitUntil: "load" });
     await page.evaluate(() => window.ready);
     await page.evaluate((points) => { window.PICK = points; }, JSON.parse(process.env.PICK || "[]"));
-    for (const height of heights) {
+    for (const view of POSES ? POSES.views : []) {
+      const stats = await page.evaluate((a, b, c) => window.pose(a, b, c), view, POSES.target,
+        POSES.tileset || "tileset.json");
+      console.log(JSON.stringify({ ...stats, errors: errors.splice(0) }));
+    }
+    for (const height of POSES ? [] : heights) {
       const stats = await page.evaluate((a, b, c) => window.view(a, b, c), +lon, +lat, +height);
       if (process.env.SCREENSHOTS) {
         await page.screenshot({ path: path.join(process.env.SCREENSHOTS, `view_${height}m.png`) });
