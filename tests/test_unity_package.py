@@ -1053,6 +1053,8 @@ def test_csharp_picks_the_building_under_every_proxy_triangle(build, tmp_path):
                 "indices": triangles.ravel().tolist(),
                 "expected": expected,
                 "vertices": [record["buildings"][int(f)] for f in ids],
+                # Each building's values as the glb's property table holds them (by name).
+                "attributes": dict(zip(record["buildings"], rows)),
             }
         )
     assert len(cases) == 3

@@ -14,7 +14,8 @@ namespace VWorldLod.Tests
     {
         /// <summary>
         /// casesPath: {"proxies": [{"record": path, "vertex_count": n, "indices": [glTF indices],
-        /// "expected": ["tile/id" per triangle], "vertices": ["tile/id" per vertex]}]} written by tests/test_unity_package.py.
+        /// "expected": ["tile/id" per triangle], "vertices": ["tile/id" per vertex],
+        /// "attributes": {"tile/id": {name: value from the glb's property table}}}]} written by tests/test_unity_package.py.
         /// </summary>
         public static void Run(TestRunner t, string casesPath)
         {
@@ -28,6 +29,7 @@ namespace VWorldLod.Tests
                 int[] triangles = UnityTriangles((List<object>)proxy["indices"]);
                 var expected = (List<object>)proxy["expected"];
                 var perVertex = (List<object>)proxy["vertices"];
+                var attributes = (Dictionary<string, object>)proxy["attributes"];
                 string name = Path.GetFileName(record);
                 t.Check("picking: every vertex and triangle of " + name + " resolves to its feature id's building", () =>
                 {
@@ -50,10 +52,12 @@ namespace VWorldLod.Tests
                     for (int k = 0; k < expected.Count; k += Math.Max(1, expected.Count / 50))
                     {
                         string tile, id, wantTile, wantId;
-                        Assert.True(BuildingPicking.Resolve(new RaycastHit { hitCollider = collider, faceId = k }, out tile, out id), "resolved " + k);
+                        BuildingAttribute[] values;
+                        Assert.True(BuildingPicking.Resolve(new RaycastHit { hitCollider = collider, faceId = k }, out tile, out id, out values), "resolved " + k);
                         ProxyFeatures.Split((string)expected[k], out wantTile, out wantId);
                         Assert.Equal(wantTile, tile, "tile of triangle " + k);
                         Assert.Equal(wantId, id, "id of triangle " + k);
+                        CheckValues((Dictionary<string, object>)attributes[(string)expected[k]], values);
                     }
                     string noTile, noId;
                     Assert.True(!BuildingPicking.Resolve(new RaycastHit { hitCollider = collider, faceId = triangles.Length / 3 }, out noTile, out noId), "a triangle past the mesh resolves to nothing");
@@ -74,6 +78,42 @@ namespace VWorldLod.Tests
                         throw new TestFailure("accepted");
                     });
                 }
+            }
+        }
+
+        /// <summary>A building level hit: its BuildingAttributes (and its tile root's name) answer.</summary>
+        public static void RunSelfContained(TestRunner t)
+        {
+            t.Check("picking: a hit on a building level resolves to its BuildingAttributes and tile", () =>
+            {
+                var tileRoot = new GameObject("tile");
+                tileRoot.AddComponent<VWorldLodTilePlacement>().tileName = "15_1_2";
+                var building = new GameObject("B1");
+                building.transform.SetParent(tileRoot.transform, false);
+                BuildingAttributes component = building.AddComponent<BuildingAttributes>();
+                component.buildingId = "B1";
+                component.attributes.Add(new BuildingAttribute("year", "1990", "number"));
+                var level = new GameObject("LOD0");
+                level.transform.SetParent(building.transform, false);
+                string tile, id;
+                BuildingAttribute[] values;
+                Assert.True(BuildingPicking.Resolve(new RaycastHit { hitCollider = level.AddComponent<MeshCollider>(), faceId = 3 }, out tile, out id, out values), "resolved");
+                Assert.Equal("15_1_2", tile, "tile");
+                Assert.Equal("B1", id, "id");
+                Assert.Equal("1990", values[0].value, "attribute");
+                Assert.True(!BuildingPicking.Resolve(new RaycastHit { hitCollider = new GameObject("ground").AddComponent<MeshCollider>(), faceId = 0 }, out tile, out id), "an unrelated collider resolves to nothing");
+            });
+        }
+
+        static void CheckValues(Dictionary<string, object> expected, BuildingAttribute[] values)
+        {
+            Assert.Equal(expected.Count, values.Length, "values");
+            foreach (BuildingAttribute value in values)
+            {
+                object want = expected[value.name];
+                if (want is double) Assert.Equal((double)want, double.Parse(value.value, System.Globalization.CultureInfo.InvariantCulture), value.name);
+                else if (want is bool) Assert.Equal((bool)want ? "true" : "false", value.value, value.name);
+                else Assert.Equal((string)want, value.value, value.name);
             }
         }
 

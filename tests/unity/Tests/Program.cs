@@ -21,6 +21,7 @@ namespace VWorldLod.Tests
             LevelChoiceTests.Run(t);
             ProxyTests.RunSelfContained(t);
             TextureImportTests.RunSelfContained(t);
+            PickingTests.RunSelfContained(t);
             for (int i = 0; i < args.Length; i++)
             {
                 if (args[i] == "--manifest" && i + 1 < args.Length) ExportedTests.RunManifest(t, args[++i]);

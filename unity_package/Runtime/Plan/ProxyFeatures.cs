@@ -7,7 +7,9 @@
 // converted one by one, x negated: Jobs.cs ConvertPositions*; vertices of primitive i written at
 // VertexBufferGenerator.VertexIntervals[i]) and each triangle's first index (the winding is
 // reversed as (a, c, b): Jobs.cs ConvertIndices*FlippedJob), so the record's order is the Unity
-// mesh's order and Mesh.triangles[3 t] is the first vertex of the glb's triangle t.
+// mesh's order and Mesh.triangles[3 t] is the first vertex of the glb's triangle t. The record's
+// "values" (per building: property id -> [name, value], the glb's property table row) give each
+// building's id, source_id, source_file, height and source attributes.
 using System;
 using System.Collections.Generic;
 
@@ -17,6 +19,8 @@ namespace VWorldLod
     {
         /// <summary>The buildings merged in the proxy, "&lt;tile&gt;/&lt;building id&gt;", in the record's order.</summary>
         public readonly string[] Buildings;
+        /// <summary>Per building (Buildings' order): its metadata values by name (in name order; empty when the record has none).</summary>
+        public readonly BuildingAttribute[][] Values;
         /// <summary>The number of vertices the runs cover (the proxy mesh's vertex count).</summary>
         public readonly int VertexCount;
 
@@ -24,9 +28,10 @@ namespace VWorldLod
         readonly int[] runStart;
         readonly int[] runOwner;
 
-        ProxyFeatures(string[] buildings, int[] runStart, int[] runOwner)
+        ProxyFeatures(string[] buildings, BuildingAttribute[][] values, int[] runStart, int[] runOwner)
         {
             Buildings = buildings;
+            Values = values;
             this.runStart = runStart;
             this.runOwner = runOwner;
             VertexCount = runStart[runStart.Length - 1];
@@ -80,11 +85,17 @@ namespace VWorldLod
             if (covered != vertexCount)
                 throw new ManifestException(recordName, "owners", "the runs cover " + covered + " vertices, the proxy mesh has " + vertexCount);
             starts[runs.Count] = vertexCount;
-            return new ProxyFeatures(buildings, starts, owners);
+            return new ProxyFeatures(buildings, ValueLists(recordName, top, buildings.Length), starts, owners);
         }
 
         /// <summary>The building ("&lt;tile&gt;/&lt;building id&gt;") that vertex vertexIndex came from.</summary>
         public string BuildingAt(int vertexIndex)
+        {
+            return Buildings[OwnerAt(vertexIndex)];
+        }
+
+        /// <summary>The index in Buildings (and Values) of the building that vertex vertexIndex came from.</summary>
+        public int OwnerAt(int vertexIndex)
         {
             if (vertexIndex < 0 || vertexIndex >= VertexCount)
                 throw new ArgumentOutOfRangeException("vertexIndex", vertexIndex, "the proxy has " + VertexCount + " vertices");
@@ -96,7 +107,7 @@ namespace VWorldLod
                 if (runStart[mid] <= vertexIndex) lo = mid;
                 else hi = mid - 1;
             }
-            return Buildings[runOwner[lo]];
+            return runOwner[lo];
         }
 
         /// <summary>
@@ -131,6 +142,32 @@ namespace VWorldLod
                 if (buildings[i] == null) throw new ManifestException(recordName, "buildings[" + i + "]", "not a string");
             }
             return buildings;
+        }
+
+        // The record's "values" (absent in records before issue 38: no values), one list per building.
+        static BuildingAttribute[][] ValueLists(string recordName, Dictionary<string, object> top, int count)
+        {
+            var result = new BuildingAttribute[count][];
+            object found;
+            var list = top.TryGetValue("values", out found) ? found as List<object> : null;
+            if (list != null && list.Count != count)
+                throw new ManifestException(recordName, "values", list.Count + " entries for " + count + " buildings");
+            for (int b = 0; b < count; b++)
+            {
+                var values = new List<BuildingAttribute>();
+                var item = list != null ? list[b] as Dictionary<string, object> : null;
+                if (item != null)
+                    foreach (var pair in item)
+                    {
+                        var named = pair.Value as List<object>;
+                        if (named == null || named.Count != 2 || !(named[0] is string)) continue;
+                        BuildingAttribute attribute = AttributeReader.Attribute((string)named[0], named[1]);
+                        if (attribute != null) values.Add(attribute);
+                    }
+                values.Sort((x, y) => string.CompareOrdinal(x.name, y.name));
+                result[b] = values.ToArray();
+            }
+            return result;
         }
 
         static bool IsCount(object value)

@@ -16,7 +16,19 @@ namespace VWorldLod
         /// </summary>
         public static bool Resolve(RaycastHit hit, out string tile, out string buildingId)
         {
+            BuildingAttribute[] attributes;
+            return Resolve(hit, out tile, out buildingId, out attributes);
+        }
+
+        /// <summary>
+        /// Resolve, with the building's attributes: a building level's BuildingAttributes.attributes;
+        /// on a proxy the record's values for it (its source attributes and id, source_id,
+        /// source_file, height, as the 3D Tiles metadata has them).
+        /// </summary>
+        public static bool Resolve(RaycastHit hit, out string tile, out string buildingId, out BuildingAttribute[] attributes)
+        {
             tile = buildingId = null;
+            attributes = null;
             Collider collider = hit.collider;
             if (collider == null) return false;
             BuildingAttributes building = collider.GetComponentInParent<BuildingAttributes>();
@@ -25,12 +37,13 @@ namespace VWorldLod
                 VWorldLodTilePlacement root = building.GetComponentInParent<VWorldLodTilePlacement>();
                 tile = root != null ? root.tileName : "";
                 buildingId = building.buildingId;
+                attributes = building.attributes.ToArray();
                 return true;
             }
             ProxyBuildings proxy = collider.GetComponentInParent<ProxyBuildings>();
             var mesh = collider as MeshCollider;
             if (proxy == null || mesh == null || mesh.sharedMesh == null) return false;
-            return proxy.Resolve(mesh.sharedMesh.triangles, hit.triangleIndex, out tile, out buildingId);
+            return proxy.Resolve(mesh.sharedMesh.triangles, hit.triangleIndex, out tile, out buildingId, out attributes);
         }
     }
 }

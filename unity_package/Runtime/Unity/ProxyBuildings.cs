@@ -22,16 +22,20 @@ namespace VWorldLod
 
         /// <summary>
         /// The building of triangle triangleIndex of the proxy mesh's index list triangles
-        /// (Mesh.triangles; RaycastHit.triangleIndex), split into its tile and building id.
+        /// (Mesh.triangles; RaycastHit.triangleIndex), split into its tile and building id, and its
+        /// metadata values (id, source_id, source_file, height and its source attributes).
         /// False when the proxy has no features or the triangle is not in the mesh.
         /// </summary>
-        public bool Resolve(int[] triangles, int triangleIndex, out string tile, out string buildingId)
+        public bool Resolve(int[] triangles, int triangleIndex, out string tile, out string buildingId, out BuildingAttribute[] values)
         {
             tile = buildingId = null;
+            values = null;
             if (features == null || triangles == null || triangleIndex < 0 || 3 * (long)triangleIndex + 2 >= triangles.Length) return false;
             int vertex = triangles[3 * triangleIndex];
             if (vertex < 0 || vertex >= features.VertexCount) return false;
-            ProxyFeatures.Split(features.BuildingAt(vertex), out tile, out buildingId);
+            int owner = features.OwnerAt(vertex);
+            ProxyFeatures.Split(features.Buildings[owner], out tile, out buildingId);
+            values = features.Values[owner];
             return true;
         }
 
