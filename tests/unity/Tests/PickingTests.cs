@@ -84,6 +84,38 @@ namespace VWorldLod.Tests
         /// <summary>A building level hit: its BuildingAttributes (and its tile root's name) answer.</summary>
         public static void RunSelfContained(TestRunner t)
         {
+            foreach (var bad in new[]
+            {
+                new[] { "{\"buildings\": [\"t/a\"], \"owners\": [[1, 3]]}", "r.json: owners[0]: building index 1 is not in buildings (1 of them)" },
+                new[] { "{\"buildings\": [\"t/a\"], \"owners\": [[0, -3]]}", "r.json: owners[0]: not a [building index, vertex count] pair" },
+                new[] { "{\"buildings\": [\"t/a\"]}", "r.json: owners: missing" },
+                new[] { "{\"owners\": []}", "r.json: buildings: missing" },
+                new[] { "{\"buildings\": [\"t/a\"], \"owners\": [[0, 3]], \"values\": []}", "r.json: values: 0 entries for 1 buildings" },
+                new[] { "[1,", "r.json: not JSON" },
+            })
+            {
+                t.Check("picking: a broken proxy record is refused: " + bad[1], () =>
+                {
+                    try
+                    {
+                        ProxyFeatures.Parse(bad[0], "r.json", 3);
+                    }
+                    catch (ManifestException e)
+                    {
+                        Assert.True(e.Message.StartsWith(bad[1]), e.Message);
+                        return;
+                    }
+                    throw new TestFailure("accepted");
+                });
+            }
+            t.Check("picking: runs of zero vertices are skipped", () =>
+            {
+                ProxyFeatures f = ProxyFeatures.Parse("{\"buildings\": [\"t/a\", \"t/b\", \"t/c\"], \"owners\": [[0, 2], [1, 0], [2, 1], [0, 0]]}", "r.json", 3);
+                Assert.Equal("t/a", f.BuildingAt(1), "vertex 1");
+                Assert.Equal("t/c", f.BuildingAt(2), "vertex 2");
+                Assert.Equal("t/c", f.BuildingOfTriangle(new[] { 2, 0, 1 }, 0), "triangle 0");
+                Assert.Equal(0, f.Values[2].Length, "no values");
+            });
             t.Check("picking: a hit on a building level resolves to its BuildingAttributes and tile", () =>
             {
                 var tileRoot = new GameObject("tile");

@@ -272,7 +272,8 @@ namespace UnityEngine
         public Mesh sharedMesh { get; set; }
     }
 
-    // Real: public partial class Collider : Component; MeshCollider : Collider with sharedMesh { get; set; }.
+    // Real: public partial class Collider : Component; public partial class MeshCollider : Collider
+    // with extern public Mesh sharedMesh { get; set; } (Modules/Physics/ScriptBindings).
     public class Collider : Component { }
 
     public class MeshCollider : Collider
@@ -280,8 +281,8 @@ namespace UnityEngine
         public Mesh sharedMesh { get; set; }
     }
 
-    // Real: public partial struct RaycastHit; collider { get; } (the Collider hit), triangleIndex
-    // { get; } (the hit triangle's index in the MeshCollider's mesh, -1 for other colliders).
+    // Real: public partial struct RaycastHit; collider { get; } (from m_Collider), triangleIndex
+    // { get; } ((int)m_FaceID: the hit triangle's index in the MeshCollider's mesh).
     public struct RaycastHit
     {
         internal Collider hitCollider;
