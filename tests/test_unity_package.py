@@ -1002,3 +1002,63 @@ def test_csharp_building_attributes_component_holds_the_manifest_values(build, t
             args += ["--attributes", manifest]
     buildings = sum(len(json.loads(Path(m).read_text())["buildings"]) for m in args[1::2])
     check_run(run_csharp(build, *args), 57 + 6 + 2 * buildings)
+
+
+def glb_indices(path: Path) -> np.ndarray:
+    """(m, 3) int64 triangle vertex indices of a one-primitive .glb, in glTF order."""
+    from tests.test_tileset_metadata import glb_parts
+
+    document, blob = glb_parts(path)
+    (primitive,) = document["meshes"][0]["primitives"]
+    accessor = document["accessors"][primitive["indices"]]
+    view = document["bufferViews"][accessor["bufferView"]]
+    dtype = {5121: "<u1", 5123: "<u2", 5125: "<u4"}[accessor["componentType"]]
+    offset = view.get("byteOffset", 0) + accessor.get("byteOffset", 0)
+    return np.frombuffer(blob, dtype, accessor["count"], offset).astype(np.int64).reshape(-1, 3)
+
+
+@needs_mono
+def test_csharp_picks_the_building_under_every_proxy_triangle(build, tmp_path):
+    """A generated 2-tile city exported: for every proxy (two tile proxies, one above them) the
+    C# ProxyFeatures / BuildingPicking resolve every vertex and triangle to the building the glb's own
+    _FEATURE_ID_0 names (its property table's row, the record's building list), and a record
+    whose runs do not cover the mesh is refused."""
+    from exporter.config import Config
+    from exporter.pipeline import export_tiles
+    from exporter.samplegen import generate_tile
+    from tests.test_tileset_metadata import TILES, property_table
+
+    folders = [
+        generate_tile(tmp_path / "in" / t.name, 4, seed=i, tile=t, atlas_size=64)
+        for i, t in enumerate(TILES)
+    ]
+    out = tmp_path / "out"
+    export_tiles(folders, out, Config(), jobs=1)
+    cases = []
+    for glb in sorted((out / "tileset_proxies").glob("*.glb")):
+        ids, rows = property_table(glb)
+        record = json.loads(glb.with_suffix(".json").read_text())
+        triangles = glb_indices(glb)
+        owner = ids.astype(np.int64)[triangles]  # (m, 3) feature id of each corner
+        # A triangle lies on one building: any corner (glTFast keeps the first) names it.
+        assert np.all(owner == owner[:, :1])
+        for row, key in zip(rows, record["buildings"]):
+            assert row["id"] == key.split("/", 1)[1]
+        expected = [record["buildings"][f] for f in owner[:, 0]]
+        assert len(set(expected)) == len(record["buildings"])  # every building is pickable
+        cases.append(
+            {
+                "record": str(glb.with_suffix(".json")),
+                "vertex_count": len(ids),
+                "indices": triangles.ravel().tolist(),
+                "expected": expected,
+                "vertices": [record["buildings"][int(f)] for f in ids],
+                # Each building's values as the glb's property table holds them (by name).
+                "attributes": dict(zip(record["buildings"], rows)),
+            }
+        )
+    assert len(cases) == 3
+    path = tmp_path / "picking.json"
+    path.write_text(json.dumps({"proxies": cases}))
+    output = check_run(run_csharp(build, "--picking", path), 57 + 6 + 4 * len(cases))
+    assert output.count("FAIL") == 0

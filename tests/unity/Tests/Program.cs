@@ -1,6 +1,6 @@
 // Entry point of the C# test assembly:
 //   mono VWorldLod.Tests.exe [--manifest PATH]... [--broken PATH FIELD]... [--placements PATH]... [--names PATH]...
-//                            [--georef PATH]... [--float32 PATH]... [--streaming PATH]... [--proxies PATH]... [--attributes PATH]...
+//                            [--georef PATH]... [--float32 PATH]... [--streaming PATH]... [--proxies PATH]... [--attributes PATH]... [--picking PATH]...
 //                            [--glb-images PATH]... [--extract MANIFEST]... [--texture-bytes MANIFEST]...
 // Always runs the self-contained tests; the options add tests on files made by the Python side.
 using System;
@@ -21,6 +21,7 @@ namespace VWorldLod.Tests
             LevelChoiceTests.Run(t);
             ProxyTests.RunSelfContained(t);
             TextureImportTests.RunSelfContained(t);
+            PickingTests.RunSelfContained(t);
             for (int i = 0; i < args.Length; i++)
             {
                 if (args[i] == "--manifest" && i + 1 < args.Length) ExportedTests.RunManifest(t, args[++i]);
@@ -35,6 +36,7 @@ namespace VWorldLod.Tests
                 else if (args[i] == "--extract" && i + 1 < args.Length) TextureImportTests.RunExtract(t, args[++i]);
                 else if (args[i] == "--texture-bytes" && i + 1 < args.Length) TextureImportTests.RunTextureBytes(t, args[++i]);
                 else if (args[i] == "--attributes" && i + 1 < args.Length) AttributeTests.Run(t, args[++i]);
+                else if (args[i] == "--picking" && i + 1 < args.Length) PickingTests.Run(t, args[++i]);
                 else
                 {
                     Console.Error.WriteLine("unknown or incomplete argument: " + args[i]);

@@ -31,6 +31,16 @@ namespace UnityEngine
         internal GameObject owner;
         public Transform transform { get { return owner.transform; } }
         public GameObject gameObject { get { return owner; } }
+        // Real: public T GetComponentInParent<T>() (this GameObject, then its parents).
+        public T GetComponentInParent<T>()
+        {
+            for (Transform t = transform; t != null; t = t.parent)
+            {
+                T found = t.gameObject.GetComponent<T>();
+                if (found != null) return found;
+            }
+            return default(T);
+        }
     }
 
     public class Behaviour : Component { }
@@ -244,6 +254,41 @@ namespace UnityEngine
                     if (r.owner != null && !r.owner.active) n++;
             return n;
         }
+    }
+
+    // Meshes and physics (Runtime/Export/Graphics/Mesh.cs, Modules/Physics/*.bindings.cs).
+    // Real: public sealed partial class Mesh : Object; triangles { get; set; } (all sub-meshes'
+    // indices, base vertex applied); vertexCount { get; }.
+    public sealed class Mesh : Object
+    {
+        public int[] triangles { get; set; }
+        public int vertexCount { get { return verticesCount; } }
+        internal int verticesCount;
+    }
+
+    // Real: public sealed partial class MeshFilter : Component; sharedMesh { get; set; }.
+    public sealed class MeshFilter : Component
+    {
+        public Mesh sharedMesh { get; set; }
+    }
+
+    // Real: public partial class Collider : Component; public partial class MeshCollider : Collider
+    // with extern public Mesh sharedMesh { get; set; } (Modules/Physics/ScriptBindings).
+    public class Collider : Component { }
+
+    public class MeshCollider : Collider
+    {
+        public Mesh sharedMesh { get; set; }
+    }
+
+    // Real: public partial struct RaycastHit; collider { get; } (from m_Collider), triangleIndex
+    // { get; } ((int)m_FaceID: the hit triangle's index in the MeshCollider's mesh).
+    public struct RaycastHit
+    {
+        internal Collider hitCollider;
+        internal int faceId;
+        public Collider collider { get { return hitCollider; } }
+        public int triangleIndex { get { return faceId; } }
     }
 
     public static class Debug

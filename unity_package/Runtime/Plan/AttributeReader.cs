@@ -59,7 +59,8 @@ namespace VWorldLod
             return plan;
         }
 
-        static BuildingAttribute Attribute(string name, object value)
+        /// <summary>name's JSON value as a BuildingAttribute; null for null, objects and arrays.</summary>
+        internal static BuildingAttribute Attribute(string name, object value)
         {
             if (value is string) return new BuildingAttribute(name, (string)value, "string");
             if (value is bool) return new BuildingAttribute(name, (bool)value ? "true" : "false", "boolean");

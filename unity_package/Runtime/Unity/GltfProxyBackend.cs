@@ -2,6 +2,9 @@
 // root placed like a tile root (VWorldLodTilePlacement at the proxy's centre, relative to the
 // scene's georeference and re-placed when its origin moves): the proxy's glTF frame is its tile's
 // East/Up/North frame at elevation 0, and glTFast's x flip turns its +X West into Unity's East.
+// Its record (tileset_proxies/<tile>.json beside the .glb) is read too: ProxyBuildings on the
+// root says which building each vertex came from (picking: BuildingPicking), and with colliders
+// on its mesh gets a MeshCollider (memory: a copy of the mesh's triangles in PhysX).
 using System.Collections.Generic;
 using System.Threading;
 using System.Threading.Tasks;
@@ -21,13 +24,18 @@ namespace VWorldLod
         readonly Transform parent;
         readonly string indexUrl;
         readonly TextureBudget budget;
+        readonly bool colliders;
 
-        /// <summary>Proxy roots go under parent; files are read beside indexUrl; texture bytes counted as budget says.</summary>
-        public GltfProxyBackend(Transform parent, string indexUrl, TextureBudget budget)
+        /// <summary>
+        /// Proxy roots go under parent; files are read beside indexUrl; texture bytes counted as
+        /// budget says; colliders: give each proxy's mesh a MeshCollider (for raycasts).
+        /// </summary>
+        public GltfProxyBackend(Transform parent, string indexUrl, TextureBudget budget, bool colliders)
         {
             this.parent = parent;
             this.indexUrl = indexUrl;
             this.budget = budget;
+            this.colliders = colliders;
         }
 
         public async Task<object> LoadProxy(ProxyEntry proxy, int mipmapLimit, CancellationToken cancellation)
@@ -42,7 +50,42 @@ namespace VWorldLod
                 Object.Destroy(root);
                 return null;
             }
+            await AttachBuildings(proxy, root, level, cancellation);
             return new Loaded { Root = root, Level = level, Capped = ProxyTextureCap.Apply(level.Renderers, mipmapLimit) };
+        }
+
+        // The proxy's ProxyBuildings from its record, and its MeshCollider when asked. A missing or
+        // broken record is reported (naming it) and leaves the proxy shown without picking.
+        async Task AttachBuildings(ProxyEntry proxy, GameObject root, LoadedLevel level, CancellationToken cancellation)
+        {
+            MeshFilter[] meshes = level.Root.GetComponentsInChildren<MeshFilter>(true);
+            if (colliders)
+                foreach (MeshFilter filter in meshes) filter.gameObject.AddComponent<MeshCollider>().sharedMesh = filter.sharedMesh;
+            string url = StreamingPaths.Beside(indexUrl, ProxyFeatures.RecordPath(proxy.file));
+            string text;
+            try
+            {
+                text = await WebText.GetAsync(url, cancellation);
+            }
+            catch (System.Exception e)
+            {
+                if (!cancellation.IsCancellationRequested) Report(e.Message + ": the proxy's buildings cannot be picked");
+                return;
+            }
+            if (text == null || cancellation.IsCancellationRequested) return;
+            if (meshes.Length != 1 || meshes[0].sharedMesh == null)
+            {
+                Report(url + ": the proxy has " + meshes.Length + " meshes, its record describes one: its buildings cannot be picked");
+                return;
+            }
+            try
+            {
+                ProxyBuildings.Attach(root, proxy.name, ProxyFeatures.Parse(text, url, meshes[0].sharedMesh.vertexCount));
+            }
+            catch (ManifestException e)
+            {
+                Report(e.Message + ": the proxy's buildings cannot be picked");
+            }
         }
 
         public void ShowProxy(object loaded, bool visible)

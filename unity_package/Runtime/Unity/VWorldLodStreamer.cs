@@ -40,6 +40,8 @@ namespace VWorldLod
         public float levelMaximumScreenSpaceError = 2;
         /// <summary>Pixels: a proxy's textures leave out their finest mip levels while its texel (bounded by its error) looks at most this large; 0: whole.</summary>
         public float proxyTextureScreenSpaceError = 16;
+        /// <summary>Give every proxy a MeshCollider, so raycasts hit it and BuildingPicking.Resolve names the building under the hit (off: colliders cost memory, a copy of each proxy's triangles).</summary>
+        public bool proxyColliders;
 
         readonly CancellationTokenSource cancel = new CancellationTokenSource();
         TileStreamer streamer;
@@ -103,7 +105,7 @@ namespace VWorldLod
             streamer.TilePose = plan => plan.RootPose(VWorldLodGeoreference.CurrentOrigin);
             if (showProxies && proxyEntries.Length > 0)
             {
-                proxies = new ProxyStreamer(proxyEntries, p => p.ScenePosition(VWorldLodGeoreference.CurrentOrigin), settings, new GltfProxyBackend(transform, url, streamer.Budget), streamer.Budget);
+                proxies = new ProxyStreamer(proxyEntries, p => p.ScenePosition(VWorldLodGeoreference.CurrentOrigin), settings, new GltfProxyBackend(transform, url, streamer.Budget, proxyColliders), streamer.Budget);
                 proxies.TileShown = streamer.Shows;
                 proxies.TileLoading = streamer.Loading;
                 streamer.ProxyShown = proxies.Covers;
