@@ -19,7 +19,8 @@ proxied quadtree tile its ``.glb`` (``file``, relative to OUT), ``bounds``/``cen
 have them (the proxy's glTF frame, +X West, +Y Up, +Z North, sits at ``center``, elevation 0),
 ``placement`` (that frame's Unity-globe placement, :func:`exporter.placement.tile_placement`),
 ``radius_m`` (metres: a sphere about ``center`` holding the proxy), ``geometric_error`` (metres,
-tileset.json's), ``children`` (child proxies' names) and ``tiles`` (names of the building tiles
+tileset.json's), ``texel_m`` (metres per texel of its atlas on its surface: the streamer leaves
+out the mip levels a proxy's distance does not need), ``children`` (child proxies' names) and ``tiles`` (names of the building tiles
 directly under it). A proxy is listed only when its file exists and all its children are listed.
 
 Tiles are listed in (level, idx, idy) order. The index lists every tile folder of ``OUT`` that holds
@@ -95,7 +96,7 @@ def tile_entry(tile: TileId, buildings: int, globe: dict) -> dict:
 
 def proxy_entry(record: dict, globe: dict) -> dict:
     """The index entry of a proxy: ``record`` (from :func:`exporter.tileset.write_tileset`:
-    ``tile`` (TileId), ``file``, ``radius_m``, ``geometric_error`` (metres), ``children``,
+    ``tile`` (TileId), ``file``, ``radius_m``, ``geometric_error`` and ``texel_m`` (metres), ``children``,
     ``tiles``) with the radii ``globe`` of the tiles below it."""
     tile = record["tile"]
     radii = GlobeOptions(
@@ -108,6 +109,7 @@ def proxy_entry(record: dict, globe: dict) -> dict:
         "placement": tile_placement(tile, radii),
         "radius_m": float(record["radius_m"]),
         "geometric_error": float(record["geometric_error"]),
+        "texel_m": float(record.get("texel_m", 0.0)),
         "children": sorted(record["children"]),
         "tiles": sorted(record["tiles"]),
         "globe": dict(globe),

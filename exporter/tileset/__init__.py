@@ -58,8 +58,9 @@ class TilesetResult:
 def proxy_records(tops: list[Node]) -> list[dict]:
     """Per proxy of the finished tree (children before parents): its tile, ``file`` (relative to
     OUT), ``radius_m`` (metres: the farthest corner of its content box from its frame's origin,
-    the tile centre at elevation 0), ``geometric_error`` (metres, as tileset.json has it), the
-    names of its child proxies (``children``) and of the building tile it holds (``tiles``)."""
+    the tile centre at elevation 0), ``geometric_error`` (metres, as tileset.json has it), ``texel_m``
+    (metres per texel of its atlas on its surface: what its texture shows, finer than that error
+    when the geometry decides it), the names of its child proxies (``children``) and of the building tile it holds (``tiles``)."""
     records: list[dict] = []
 
     def visit(node: Node) -> None:
@@ -77,6 +78,7 @@ def proxy_records(tops: list[Node]) -> list[dict]:
                 "file": node.content,
                 "radius_m": radius,
                 "geometric_error": node.error,
+                "texel_m": node.texel,
                 "children": children,
                 "tiles": [node.tile.name] if holds else [],
             }

@@ -130,15 +130,15 @@ namespace VWorldLod.Tests
                     m.buildings[0].lods[1].error_m = 0.01;
                     m.buildings[0].lods[2].error_m = 5; // 5 m at 500 m: 9.4 px on 1080 px, 60 degrees
                 }));
-                var s = new TileStreamer(OneTile(), e => new double[3], new StreamingSettings { LoadRadius = 5000, UnloadRadius = 6000 }, backend);
+                var s = new TileStreamer(OneTile(), e => new double[3], new StreamingSettings { LoadRadius = 5000, UnloadRadius = 6000, LevelMaximumScreenSpaceError = 2 }, backend);
                 At(s, 500);
                 Assert.Equal("1", B1(s), "LOD1 where LOD2's texture error shows");
                 At(s, 1200); // 5 m at 1200 m: 3.9 px, still above 2
                 Assert.Equal("1", B1(s), "still LOD1");
                 s.Dispose();
-                var loose = new TileStreamer(OneTile(), e => new double[3], new StreamingSettings { LoadRadius = 5000, UnloadRadius = 6000, LevelMaximumScreenSpaceError = 16 }, new PlanBackend(() => Sample(m => m.buildings[0].lods[2].error_m = 5)));
+                var loose = new TileStreamer(OneTile(), e => new double[3], new StreamingSettings { LoadRadius = 5000, UnloadRadius = 6000 }, new PlanBackend(() => Sample(m => m.buildings[0].lods[2].error_m = 5)));
                 At(loose, 500);
-                Assert.Equal("2", B1(loose), "with a 16 px limit LOD2 is fine");
+                Assert.Equal("2", B1(loose), "with the default 16 px limit (error_m is tileset.json's geometricError) LOD2 is fine");
                 loose.Dispose();
             });
 

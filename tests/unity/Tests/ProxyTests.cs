@@ -183,6 +183,17 @@ namespace VWorldLod.Tests
                 Assert.Equal(1000L * s.Loaded().Count, s.Budget.Resident, "the coarse copy's bytes left the budget");
                 s.Dispose();
 
+                // tiles.json's texel_m (the atlas's own texel, here 1/8 of the 20 m error) decides
+                // instead of the error that bounds it: 3 more levels left out at the same distance.
+                ProxyEntry[] stated = Tree();
+                foreach (ProxyEntry e in stated) if (e.name == "C") e.texel_m = 2.5;
+                var bt = new FakeProxyBackend();
+                var st = new ProxyStreamer(stated, p => At[p.name], new StreamingSettings(), bt);
+                Frame(st, bt, 0, 0, 0);
+                Frame(st, bt, 0, 0, 0);
+                Assert.Equal(5, st.LoadedMipmapLimit("C"), "C's 2.5 m texel 4.9 km away (0.25 px): 5 levels left out");
+                st.Dispose();
+
                 var whole = new FakeProxyBackend();
                 var w = new ProxyStreamer(Tree(), p => At[p.name], new StreamingSettings { ProxyTextureScreenSpaceError = 0 }, whole);
                 Frame(w, whole, 0, 0, 0);

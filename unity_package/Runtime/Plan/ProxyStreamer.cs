@@ -171,10 +171,10 @@ namespace VWorldLod
         public const int MaxMipmapLimit = 7;
 
         /// <summary>
-        /// How many of a proxy's finest texture mip levels may be left out: its geometric error
-        /// (metres; it bounds the atlas's texel size, tileset.json's error being the larger of
-        /// the two) looks sse pixels large; each level left out doubles the texel, which must
-        /// look at most maxPixels large. maxPixels 0: none left out.
+        /// How many of a proxy's finest texture mip levels may be left out: its atlas texel
+        /// (tiles.json's texel_m, else its geometric error, which bounds it: tileset.json's error
+        /// is the larger of the two) looks sse pixels large; each level left out doubles the
+        /// texel, which must look at most maxPixels large. maxPixels 0: none left out.
         /// </summary>
         public static int MipmapLimit(double sse, double maxPixels)
         {
@@ -221,7 +221,9 @@ namespace VWorldLod
                 // A proxy standing in while its tiles' buildings load (within the load radius) is
                 // a placeholder for a few frames: textures as fine as it would need at the load radius.
                 double seen = BuildingsComing(n) ? Math.Max(n.Distance, settings.LoadRadius / unitsPerMetre) : n.Distance;
-                n.NeedLimit = MipmapLimit(ScreenSpaceError(n.Entry.geometric_error, seen, screenHeight, fovDegrees), settings.ProxyTextureScreenSpaceError);
+                // The atlas's own texel when tiles.json states it; else the error, which bounds it.
+                double texel = n.Entry.texel_m > 0 ? Math.Min(n.Entry.texel_m, n.Entry.geometric_error) : n.Entry.geometric_error;
+                n.NeedLimit = MipmapLimit(ScreenSpaceError(texel, seen, screenHeight, fovDegrees), settings.ProxyTextureScreenSpaceError);
                 n.Wanted = false;
             }
             foreach (int r in roots) Cover(nodes[r]);

@@ -20,12 +20,14 @@ namespace VWorldLod
         /// <summary>Pixels: a proxy is shown when its geometric error on screen is at most this (Cesium's default 16).</summary>
         public double MaximumScreenSpaceError = 16;
         /// <summary>
-        /// Pixels: a building's level is fine enough when its error (LevelPlan.ErrorM) looks at
-        /// most this large at the building's distance; a finer level than the LODGroup's
-        /// transitions ask for is loaded where a coarse level's (texture) error would show more.
-        /// The exporter's simplify.max_screen_error_px is 2 by default.
+        /// Pixels: a building's level is fine enough when its error (LevelPlan.ErrorM, the
+        /// manifest's error_m) looks at most this large at the building's distance; a finer level
+        /// than the LODGroup's transitions ask for is loaded where a coarse level's (texture)
+        /// error would show more. error_m is tileset.json's geometricError: a textured level's is
+        /// 8 x its on-surface texel (docs/tileset.md), so 16 (Cesium's default, as for proxies)
+        /// keeps a shown level's texels within 2 pixels, where LOD0's reach 1.
         /// </summary>
-        public double LevelMaximumScreenSpaceError = 2;
+        public double LevelMaximumScreenSpaceError = 16;
         /// <summary>
         /// Bytes: resident texture memory (building levels and proxies, as Unity allocates them)
         /// above which levels and proxies the view does not need (prefetched, kept for the way

@@ -56,6 +56,8 @@ namespace VWorldLod
         public double radius_m;
         /// <summary>Metres: tileset.json's geometricError (certified against the LOD0 below it).</summary>
         public double geometric_error;
+        /// <summary>Metres per texel of the proxy's atlas on its surface (0: not stated, before 0.5.0).</summary>
+        public double texel_m;
         /// <summary>Names of the child proxies (finer, together covering this one's tiles below them).</summary>
         public string[] children;
         /// <summary>Names of the building tiles directly under it (tiles.json's names).</summary>

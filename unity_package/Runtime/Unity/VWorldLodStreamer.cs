@@ -36,8 +36,8 @@ namespace VWorldLod
         public float textureBudgetMiB = 512;
         /// <summary>Bytes per texel as Unity holds the textures: 4 for glTFast's RGBA32 (JPEG/PNG), 1 for BC7/ASTC 4x4 (KTX2), 0.5 for DXT1.</summary>
         public float textureBytesPerPixel = 4;
-        /// <summary>Pixels: a building's level is loaded finer than its LODGroup transition when that level's error (error_m) would look larger.</summary>
-        public float levelMaximumScreenSpaceError = 2;
+        /// <summary>Pixels: a building's level is loaded finer than its LODGroup transition when that level's error (error_m, tileset.json's geometricError: 8 x its texel when textured) would look larger; 16 keeps texels within 2 px.</summary>
+        public float levelMaximumScreenSpaceError = 16;
         /// <summary>Pixels: a proxy's textures leave out their finest mip levels while its texel (bounded by its error) looks at most this large; 0: whole.</summary>
         public float proxyTextureScreenSpaceError = 16;
         /// <summary>Give every proxy a MeshCollider, so raycasts hit it and BuildingPicking.Resolve names the building under the hit (off: colliders cost memory, a copy of each proxy's triangles).</summary>
