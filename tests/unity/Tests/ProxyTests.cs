@@ -138,7 +138,7 @@ namespace VWorldLod.Tests
             t.Check("proxies: far the root alone, nearer its children, the root holding until they arrive", () =>
             {
                 var b = new FakeProxyBackend();
-                var s = new ProxyStreamer(Tree(), p => At[p.name], new StreamingSettings(), b);
+                var s = new ProxyStreamer(Tree(), p => At[p.name], new StreamingSettings { ProxyTextureScreenSpaceError = 16 }, b);
                 var events = new List<string>();
                 s.OnEvent = events.Add;
                 Assert.Equal("", Frame(s, b, 0, 1000, 0), "nothing loaded yet");
@@ -166,7 +166,7 @@ namespace VWorldLod.Tests
                 Assert.Equal(ProxyStreamer.MaxMipmapLimit, ProxyStreamer.MipmapLimit(1e-9, 16), "capped");
                 // C: 20 m error, radius 100 m, 5 km east; 1000 px, 90 degrees: SSE = 20 x 500 / d.
                 var b = new FakeProxyBackend();
-                var s = new ProxyStreamer(Tree(), p => At[p.name], new StreamingSettings(), b);
+                var s = new ProxyStreamer(Tree(), p => At[p.name], new StreamingSettings { ProxyTextureScreenSpaceError = 16 }, b);
                 var events = new List<string>();
                 s.OnEvent = events.Add;
                 Frame(s, b, 0, 0, 0);
@@ -188,7 +188,7 @@ namespace VWorldLod.Tests
                 ProxyEntry[] stated = Tree();
                 foreach (ProxyEntry e in stated) if (e.name == "C") e.texel_m = 2.5;
                 var bt = new FakeProxyBackend();
-                var st = new ProxyStreamer(stated, p => At[p.name], new StreamingSettings(), bt);
+                var st = new ProxyStreamer(stated, p => At[p.name], new StreamingSettings { ProxyTextureScreenSpaceError = 16 }, bt);
                 Frame(st, bt, 0, 0, 0);
                 Frame(st, bt, 0, 0, 0);
                 Assert.Equal(5, st.LoadedMipmapLimit("C"), "C's 2.5 m texel 4.9 km away (0.25 px): 5 levels left out");
@@ -215,14 +215,14 @@ namespace VWorldLod.Tests
                 };
                 var at = new Dictionary<string, double[]> { { "P", new double[] { 0, 0, 0 } }, { "Q1", new double[] { -150, 0, 0 } }, { "Q2", new double[] { 150, 0, 0 } } };
                 var b = new FakeProxyBackend();
-                var s = new ProxyStreamer(tree, p => at[p.name], new StreamingSettings(), b);
+                var s = new ProxyStreamer(tree, p => at[p.name], new StreamingSettings { ProxyTextureScreenSpaceError = 16 }, b);
                 s.Update(0, 0, 2000, 1000, 90);
                 Assert.Equal("Q1 Q2", string.Join(" ", s.Wanted()), "from 2 km: the lighter children wanted");
                 s.Update(0, 0, 1500, 1000, 90);
                 Assert.Equal("Q1 Q2", string.Join(" ", s.Wanted()), "from 1.5 km: still refined (no loading back and forth)");
                 s.Dispose();
                 var fresh = new FakeProxyBackend();
-                var f = new ProxyStreamer(tree, p => at[p.name], new StreamingSettings(), fresh);
+                var f = new ProxyStreamer(tree, p => at[p.name], new StreamingSettings { ProxyTextureScreenSpaceError = 16 }, fresh);
                 f.Update(0, 0, 1500, 1000, 90);
                 Assert.Equal("P", string.Join(" ", f.Wanted()), "from 1.5 km, not refined before: P");
                 f.Dispose();
@@ -236,7 +236,7 @@ namespace VWorldLod.Tests
             t.Check("proxies: the coarser proxy holds over shown buildings while a finer one loads; Covers names the tiles under shown proxies", () =>
             {
                 var b = new FakeProxyBackend();
-                var s = new ProxyStreamer(Tree(), p => At[p.name], new StreamingSettings(), b);
+                var s = new ProxyStreamer(Tree(), p => At[p.name], new StreamingSettings { ProxyTextureScreenSpaceError = 16 }, b);
                 var shown = new HashSet<string>();
                 s.TileShown = shown.Contains;
                 Frame(s, b, 0, 1000, 0);
@@ -252,7 +252,7 @@ namespace VWorldLod.Tests
             t.Check("proxies: the leaf proxy of a tile loading its buildings is not loaded while an ancestor stands in", () =>
             {
                 var b = new FakeProxyBackend();
-                var s = new ProxyStreamer(Tree(), p => At[p.name], new StreamingSettings(), b);
+                var s = new ProxyStreamer(Tree(), p => At[p.name], new StreamingSettings { ProxyTextureScreenSpaceError = 16 }, b);
                 var loading = new HashSet<string> { "ta", "tb" };
                 s.TileLoading = loading.Contains;
                 var events = new List<string>();
@@ -270,7 +270,7 @@ namespace VWorldLod.Tests
             t.Check("proxies: none is drawn over a tile that shows its buildings", () =>
             {
                 var b = new FakeProxyBackend();
-                var s = new ProxyStreamer(Tree(), p => At[p.name], new StreamingSettings(), b);
+                var s = new ProxyStreamer(Tree(), p => At[p.name], new StreamingSettings { ProxyTextureScreenSpaceError = 16 }, b);
                 var shown = new HashSet<string>();
                 s.TileShown = shown.Contains;
                 Frame(s, b, 0, 300, 0);
@@ -308,7 +308,7 @@ namespace VWorldLod.Tests
 
                 var broken = new FakeProxyBackend();
                 broken.Broken.Add("R");
-                var t2 = new ProxyStreamer(Tree(), p => At[p.name], new StreamingSettings(), broken);
+                var t2 = new ProxyStreamer(Tree(), p => At[p.name], new StreamingSettings { ProxyTextureScreenSpaceError = 16 }, broken);
                 Frame(t2, broken, 0, 1000, 0);
                 Frame(t2, broken, 0, 1000, 0);
                 Assert.Equal("A B C", Frame(t2, broken, 0, 1000, 0), "a root that fails to load: its children stand in");

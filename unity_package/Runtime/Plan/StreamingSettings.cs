@@ -55,12 +55,13 @@ namespace VWorldLod
         /// <summary>
         /// Pixels: a proxy's textures are loaded without their finest mip levels
         /// (IProxyBackend.LoadProxy's mipmapLimit, each level halving the texels a side) while its
-        /// texel, bounded by its geometric error and doubled per level left out, looks at most
-        /// this large at its distance; loaded again finer as the camera comes closer. The default,
-        /// MaximumScreenSpaceError's 16, keeps a shown proxy's error within the limit it was chosen
-        /// by; 0 loads every proxy's textures whole.
+        /// atlas texel (tiles.json's texel_m, else bounded by its geometric error), doubled per
+        /// level left out, looks at most this large at its distance; loaded again finer as the
+        /// camera comes closer. The default 2 is what the building levels get (their error_m is 8
+        /// x their texel, shown at 16 px); 16 would keep only the proxy's error within
+        /// MaximumScreenSpaceError (blurrier, a little less memory); 0 loads textures whole.
         /// </summary>
-        public double ProxyTextureScreenSpaceError = 16;
+        public double ProxyTextureScreenSpaceError = 2;
 
         /// <summary>Why these settings cannot be used, or null.</summary>
         public string Problem()

@@ -39,7 +39,7 @@ namespace VWorldLod
         /// <summary>Pixels: a building's level is loaded finer than its LODGroup transition when that level's error (error_m, tileset.json's geometricError: 8 x its texel when textured) would look larger; 16 keeps texels within 2 px.</summary>
         public float levelMaximumScreenSpaceError = 16;
         /// <summary>Pixels: a proxy's textures leave out their finest mip levels while its texel (bounded by its error) looks at most this large; 0: whole.</summary>
-        public float proxyTextureScreenSpaceError = 16;
+        public float proxyTextureScreenSpaceError = 2;
         /// <summary>Give every proxy a MeshCollider, so raycasts hit it and BuildingPicking.Resolve names the building under the hit (off: colliders cost memory, a copy of each proxy's triangles).</summary>
         public bool proxyColliders;
 
