@@ -26,8 +26,10 @@ def confined(name: str | os.PathLike, relative_to: Path, root: Path | None = Non
 
     The file need not exist (a missing file is the caller's other problem)."""
     text = os.fspath(name)
-    root = relative_to if root is None else root
     path = Path(relative_to) / text
+    if root is None and _plain_name(text) and not os.path.islink(path):
+        return path  # a plain file name in the folder itself: one lstat, not two realpaths
+    root = relative_to if root is None else root
     try:
         inside = Path(os.path.realpath(path)).is_relative_to(os.path.realpath(root))
     except (OSError, ValueError):  # e.g. a NUL byte or a symlink loop
@@ -35,3 +37,15 @@ def confined(name: str | os.PathLike, relative_to: Path, root: Path | None = Non
     if not inside:
         raise OutsideInput(f"{text!r} leads outside the input folder {root}")
     return path
+
+
+def _plain_name(text: str) -> bool:
+    """A name that can only mean a file of the folder itself (no separator, drive or dot-dot)."""
+    separators = {"/", os.sep} | ({os.altsep} if os.altsep else set())
+    return (
+        bool(text)
+        and text not in (".", "..")
+        and not any(sep in text for sep in separators)
+        and ":" not in text
+        and "\0" not in text
+    )
