@@ -149,20 +149,14 @@ def texture_pixels(parts: list[Part]) -> int:
     return sum(t.width * t.height for t in textures.values())
 
 
-def error_fields(
-    quality: LevelQuality | None,
-    texel: float | None,
-    coarser_texture: bool,
-    diagonal: float,
-) -> dict:
+def level_error(
+    quality: LevelQuality | None, texel: float | None, coarser_texture: bool, diagonal: float
+) -> float:
     """A level's ``error_m`` (metres, :func:`exporter.texel.level_error_m`: the larger of its
     certified geometric bound, ``hausdorff_rel`` x LOD0's box ``diagonal`` in metres, and its
-    texture error) and ``quality.texel_m``; ``quality`` None for LOD0 (error 0)."""
+    texture error); ``quality`` None for LOD0 (error 0)."""
     geometric = quality.hausdorff_rel * diagonal if quality is not None else None
-    fields: dict = {"error_m": level_error_m(geometric, texel, coarser_texture)}
-    if texel is not None:
-        fields["texel_m"] = texel
-    return fields
+    return level_error_m(geometric, texel, coarser_texture)
 
 
 def level_triangles(level) -> int:
@@ -287,12 +281,11 @@ def process_entry(
             (write_bytes_if_changed if existed else write_bytes_atomic)(path, glb.data)
             files.append(file_entry(name, glb.data))
             lods.append(lod_record(level, parts, f"{folder}/{name}", glb, qualities[level]))
-            errors = error_fields(
+            if texels[level] is not None:
+                lods[-1]["quality"]["texel_m"] = texels[level]
+            lods[-1]["error_m"] = level_error(
                 qualities[level], texels[level], pixels[level] < pixels[0], source.diagonal
             )
-            if "texel_m" in errors:
-                lods[-1]["quality"]["texel_m"] = errors.pop("texel_m")
-            lods[-1].update(errors)
             if level:
                 lods[-1].update(level_fields(chain[level], lods[-2]))
                 lods[-1]["same_geometry_as_above"] = same_geometry(parts, parts_by_level[level - 1])

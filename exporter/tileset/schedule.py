@@ -87,7 +87,7 @@ def _task(
         chain = child.building
         if chain is not None:
             levels = [
-                LevelSource(level.file, level.bound, level.texture_px) for level in chain.levels
+                LevelSource(level.file, level.geometric, level.texture_px) for level in chain.levels
             ]
             values = chain_values(chain)
             digest = hashlib.sha256(

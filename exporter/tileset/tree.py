@@ -45,13 +45,8 @@ class Level:
     error: float  # metres: its geometricError, max(certified bound, texture error) against LOD0
     low: np.ndarray  # (3,) glTF-frame metres
     high: np.ndarray
-    texture_px: int = 0  # larger side of its texture in pixels (0: untextured); for the proxies
-    geometric: float | None = None  # metres: the certified bound alone (None: ``error``)
-
-    @property
-    def bound(self) -> float:
-        """Metres: the level's certified geometric bound against LOD0 (what a proxy adds to)."""
-        return self.error if self.geometric is None else self.geometric
+    texture_px: int  # larger side of its texture in pixels (0: untextured); for the proxies
+    geometric: float  # metres: the certified bound alone (what a proxy's bound adds to)
 
 
 @dataclass
@@ -61,16 +56,9 @@ class BuildingChain:
     center: tuple[float, float, float]  # lon, lat degrees; elev metres
     input_hash: str
     levels: list[Level]  # coarsest first; the last is LOD0 (error 0)
-    diagonal: float = 0.0  # metres: LOD0's bounding-box diagonal
-    texture_px: int = 0  # larger side of the coarsest level's texture (0: untextured)
     source: str = ""  # the file it was read from (manifest record's source)
     attributes: dict = field(default_factory=dict)  # the manifest record's attributes
     dropped: list[str] = field(default_factory=list)  # levels not in the chain, with the reason
-
-    @property
-    def texel(self) -> float:
-        """Metres per texel of the coarsest level's texture (it spans at most the diagonal)."""
-        return self.diagonal / self.texture_px if self.texture_px else 0.0
 
     @cached_property
     def world(self) -> np.ndarray:
@@ -201,7 +189,6 @@ def read_chain(
     slack0 = rounding_slack(*bounds[0])
     levels: list[Level] = []
     kept: list[dict] = []  # the records of ``levels``
-    texture_px = 0
     dropped: list[str] = []
     # Whether the level just coarser than the current one has the mesh of the last kept level.
     as_kept = True
@@ -236,8 +223,6 @@ def read_chain(
         )
         kept.append(lod)
         as_kept = True
-        if len(levels) == 1:  # the coarsest level
-            texture_px = size
     centre = record["center"]
     return BuildingChain(
         tile,
@@ -245,8 +230,6 @@ def read_chain(
         (float(centre["lon"]), float(centre["lat"]), float(centre["elev"])),
         str(record.get("input_hash", "")),
         levels,
-        diagonal,
-        texture_px,
         str(record.get("source", "")),
         attributes if isinstance(attributes := record.get("attributes"), dict) else {},
         dropped=dropped,
