@@ -331,7 +331,8 @@ class TextureOptions:
     jpeg_quality: int = field(
         default=90,
         metadata=meta(
-            _integer(1, 100), "JPEG quality of the reduced atlases (LOD0 keeps the source bytes)"
+            _integer(1, 100),
+            "JPEG quality of the reduced atlases (LOD0 keeps the source bytes, or its tables when cropped)",
         ),
     )
     min_size: int = field(
@@ -342,6 +343,13 @@ class TextureOptions:
         metadata=meta(
             _choice("auto", "always", "never"),
             "decode JPEG at reduced size (DCT scaling), each later level from the previous one; auto = DCT scaling, and later levels by box filter (as mipmaps), only where a sampled check predicts >= 35 dB PSNR against Lanczos (else full decode / Lanczos); always = both everywhere (fastest; aliases pixel-sharp detail); never = Lanczos from the full image for every level",
+        ),
+    )
+    crop_to_used: bool = field(
+        default=True,
+        metadata=meta(
+            parse_bool,
+            "cut a JPEG/PNG atlas that a building uses only partly (a shared atlas) to the region its uvs use, before the texture LoDs (LOD0: JPEG re-encoded with the source's own tables on MCU boundaries, PNG losslessly); fully used atlases (VWorld's) keep their bytes",
         ),
     )
     opaque_png_to_jpeg: bool = field(

@@ -22,6 +22,7 @@ import numpy as np
 
 from .atomic import write_bytes_atomic, write_bytes_if_changed
 from .config import Config
+from .crop import crop_to_used
 from .errors import ProcessError, ReadError, error_text
 from .gltf_writer import Glb, encode_glb
 from .ktx2 import ktx2_bytes
@@ -254,6 +255,8 @@ def process_entry(
         chain = build_mesh_chain(building.parts, config.lods, config.simplify)
         parts_by_level = [level.parts for level in chain]
         lap("simplify")
+        if config.textures.crop_to_used:
+            parts_by_level = crop_to_used(parts_by_level, config.textures)
         parts_by_level = texture_levels(parts_by_level, config, problems)
         lap("textures")
         source = Source(parts_by_level[0])

@@ -137,7 +137,7 @@ def _sha256_once(name: str, size: int, mtime_ns: int) -> tuple[str | None, int]:
 # gain optional fields, as 0.4.2's gltf_bounds, which readers of older records do without): part
 # of every input_hash, so a release that changes no .glb byte (0.4.1: the kernels in C; 0.4.2)
 # redoes nothing of an earlier run, and one that changes any must set this to its own version.
-OUTPUT_VERSION = "0.4.0"
+OUTPUT_VERSION = "0.6.0"  # 0.6.0: partly used (shared) atlases cropped (exporter/crop.py)
 
 
 def input_hash(entry: Entry, config_hash: str, fingerprints: list[dict]) -> str:

@@ -45,6 +45,7 @@ LAYERS: list[tuple[str, int, tuple[str, ...]]] = [
             "exporter.formats",
             "exporter.readers",
             "exporter.simplify",
+            "exporter.crop",
             "exporter.quality",
             "exporter.textures",
             "exporter.ktx2",

@@ -28,6 +28,7 @@ TEXTURE_KEYS = [
     "jpeg_quality",
     "min_size",
     "fast_jpeg_downscale",
+    "crop_to_used",  # 0.6.0 (on by default: a key of the manifest's config since)
     "opaque_png_to_jpeg",
     "max_pixels",
 ]
@@ -61,7 +62,7 @@ def wall(size: tuple[int, int] = (64, 32)) -> Part:
 def test_ktx2_is_off_by_default_and_leaves_the_config_in_the_manifest_as_before():
     assert Config().textures.ktx2 is False
     # The manifest's config and the reuse hash (exporter.pipeline.config_fingerprint) are built
-    # from to_dict: without the opt-in key they are what 0.4 wrote.
+    # from to_dict: without the opt-in key they are what 0.6 wrote.
     assert list(Config().to_dict()["textures"]) == TEXTURE_KEYS
     on = (
         config_from_dict({"textures": {"ktx2": True}})
