@@ -1,6 +1,6 @@
 """The in-memory building model every reader produces and every later stage consumes.
 
-Frames and units (see ``docs/ARCHITECTURE.md`` and ``../shared/notes/frames-and-placement.md``):
+Frames and units (see ``docs/ARCHITECTURE.md`` and ``docs/reference/frames-and-placement.md``):
 
 - ``Part.positions`` are in the **building-local East/Up/North frame, metres**
   (x = East, y = Up, z = North), origin at ``Building.reference`` (the building's

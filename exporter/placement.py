@@ -22,7 +22,7 @@ Placements (the contract of ``docs/ARCHITECTURE.md``):
   ``compose(tile_placement, relative_placement) == building_placement``.
 
 Sources: the paper's equations 1-2 and Fig. 5 (turn about y, then about ``cross(y, c)`` by the
-angle between y and the centre vector ``c``); ``../shared/notes/frames-and-placement.md``;
+angle between y and the centre vector ``c``); ``docs/reference/frames-and-placement.md``;
 S. W. Shepperd, "Quaternion from rotation matrix", J. Guidance and Control 1(3), 1978 (the
 matrix-to-quaternion conversion); the haversine identity ``1 - cos c = 2 hav(c)`` for the
 cancellation-free tile-relative offsets.

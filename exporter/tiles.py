@@ -13,7 +13,7 @@ from lat -90); each level splits a tile in four, so a level ``L`` tile spans
 Buildings live at level 15 (bridges and large facilities at 14) in the tile holding their centre,
 the centre being the mean of the min and max of their coordinates.
 
-Sources: ``../shared/notes/frames-and-placement.md`` (check value: Seoul City Hall, lon 126.9780
+Sources: ``docs/reference/frames-and-placement.md`` (check value: Seoul City Hall, lon 126.9780
 lat 37.5665, is tile IDX 279418, IDY 116113 at level 15); the VWorld paper's Table I.
 
 Edge rules:

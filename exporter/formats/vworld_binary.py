@@ -35,7 +35,7 @@ and bad input raises only :class:`exporter.errors.ReadError` naming the file and
 The VWorld service answers errors with XML (e.g. ``ERROR_SERVICE_FILE_NOTTHING``); such a file is
 reported as an XML error page.
 
-Sources: ``../shared/notes/vworld-formats.md`` (compiled from several public VWorld readers in
+Sources: ``docs/reference/vworld-formats.md`` (compiled from several public VWorld readers in
 Java, C#, C++, Rust and TypeScript, which agree on this layout except on the points above).
 """
 

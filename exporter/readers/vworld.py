@@ -3,7 +3,7 @@
 Reader contract (see ``exporter/readers/__init__.py``): :func:`detect`, :func:`scan`, :func:`load`;
 plus :func:`write_tile`, the inverse, used by the sample generator and the tests.
 
-Frames (``../shared/notes/frames-and-placement.md``):
+Frames (``docs/reference/frames-and-placement.md``):
 
 - **VWorld global**: ``X = R cos(lat) cos(lon), Y = -R cos(lat) sin(lon), Z = R sin(lat)``, metres,
   R = 6 378 137 m (VWorld's sphere). ``.xdo`` positions are float32 metre offsets from the

@@ -1,7 +1,7 @@
 // Placement arithmetic in double precision, Unity's conventions, no Unity types.
 //
 // Sources: the paper's equations (1)-(2) and Fig. 5 (globe placement), worked out in
-// ../shared/notes/frames-and-placement.md; Unity's Transform composition
+// docs/reference/frames-and-placement.md; Unity's Transform composition
 //   world.position = parent.position + parent.rotation * (parent.scale * child.position)
 //   world.rotation = parent.rotation * child.rotation,  world.scale = parent.scale * child.scale
 // and Unity's (ordinary, Hamilton) quaternion product, components x, y, z, w.
