@@ -23,7 +23,8 @@ point, and the memory in MB; then the new/baseline memory ratio. Last, the issue
 lod0.glb at 15 m, every texel at most ``--sse`` px, memory within 2x the baseline's.
 
 Usage: ``python benchmarks/bench_texel_path.py [--work /tmp/vworld-texel-path] [--baseline main]
-[--count 60] [--atlas 512] [--frames 10] [--jobs 2] [--inputs generated,rotterdam_textured]``
+[--count 60] [--atlas 512] [--frames 10] [--jobs 2] [--inputs generated,rotterdam_textured]
+[--no-all-lod0]``
 """
 
 from __future__ import annotations
@@ -147,8 +148,11 @@ def run_input(name: str, folder: Path, work: Path, baseline: Path, args) -> bool
     target, building = target_building(outs["new"])
     path = camera_path(building, args.frames)
     rows = {key: frames_of(out, target, path, args.height) for key, out in outs.items()}
-    all_lod0(outs["new"])
-    every = frames_of(outs["new"], target, path, args.height, "all_lod0.json")
+    if args.all_lod0:
+        all_lod0(outs["new"])
+        every = frames_of(outs["new"], target, path, args.height, "all_lod0.json")
+    else:  # the slowest view to render (every building's finest level): left out on request
+        every = [{"memory": float("nan")} for _ in path]
     print(f"\n{name}: target {target} ({args.height} lines, {args.sse:g} px SSE)")
     print(f"{'distance m':>10} | {'baseline content':<18} {'texel px':>8} {'MB':>7} | "
           f"{'new content':<18} {'texel px':>8} {'MB':>7} | memory new/base | all-LOD0 MB, /base")  # fmt: skip
@@ -183,6 +187,10 @@ def main() -> int:
     parser.add_argument("--sse", type=float, default=16.0)
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--inputs", default="generated,rotterdam_textured")
+    parser.add_argument(
+        "--no-all-lod0", dest="all_lod0", action="store_false",
+        help="leave out the all-LOD0 view (for scale only; the slowest to render)",
+    )  # fmt: skip
     args = parser.parse_args()
     inputs = args.inputs.split(",")
     args.work.mkdir(parents=True, exist_ok=True)
