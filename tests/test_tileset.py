@@ -584,8 +584,12 @@ def test_tiles_json_lists_the_proxies_for_the_unity_streamer(city):
             entry["geometric_error"] == visits[name].tile["geometricError"]
         )  # tileset.json's, metres
         # radius_m: a sphere about the frame's origin holding every vertex of the proxy
-        points = np.vstack([p.positions for p in read_primitives(city / entry["file"])])
+        primitives = read_primitives(city / entry["file"])
+        points = np.vstack([p.positions for p in primitives])
         assert np.linalg.norm(points, axis=1).max() <= entry["radius_m"] + 1e-6
+        # atlas_px: its atlas's side as written (proxies' atlases differ in size)
+        (image,) = [p.image for p in primitives]
+        assert image is not None and (entry["atlas_px"],) * 2 == Image.open(io.BytesIO(image)).size
 
 
 def test_a_proxy_in_unity_stands_where_tileset_json_puts_it(city):

@@ -150,6 +150,7 @@ class Proxy:
     low: list[float]  # glTF-frame bounds, metres
     high: list[float]
     triangles: int
+    atlas_px: int = 0  # pixels per side of its atlas (0: a record written before 0.6.0)
 
     @property
     def error(self) -> float:
@@ -535,15 +536,14 @@ def build_proxy(task: ProxyTask) -> tuple[Proxy, bytes, dict] | None:
     local = stored.astype(np.float64) * [-1.0, 1.0, 1.0]
     part = Part(local, faces[:, [0, 2, 1]], uvs=uvs, texture=texture)
     data = proxy_glb(part, owners.astype(np.uint32), values, f"{name}_proxy")
-    proxy = Proxy(
-        task.key, geometric, texel, [float(v) for v in low], [float(v) for v in high], len(faces)
-    )
+    bounds = [float(v) for v in low], [float(v) for v in high]
+    proxy = Proxy(task.key, geometric, texel, *bounds, len(faces), size)
     record = {
         "hash": proxy.hash,
         "size": len(data),
         "geometric": proxy.geometric,
         "texel": proxy.texel,
-        "atlas_px": size,
+        "atlas_px": proxy.atlas_px,
         "low": proxy.low,
         "high": proxy.high,
         "triangles": proxy.triangles,
@@ -562,6 +562,7 @@ def proxy_of(record: dict) -> Proxy:
         [float(v) for v in record["low"]],
         [float(v) for v in record["high"]],
         int(record["triangles"]),
+        int(record.get("atlas_px", 0)),
     )
 
 
