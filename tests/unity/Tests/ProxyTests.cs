@@ -232,18 +232,18 @@ namespace VWorldLod.Tests
                 Assert.Equal("P", string.Join(" ", w.Wanted()), "whole textures: the coarsest within the error limit, as before");
                 w.Dispose();
                 // tiles.json's atlas_px (since 0.6.0 each proxy's atlas is as large as its error needs)
-                foreach (ProxyEntry e in tree) e.atlas_px = e.name == "P" ? 2048 : 512;
-                var small = new FakeProxyBackend();
-                var sm = new ProxyStreamer(tree, p => at[p.name], new StreamingSettings { ProxyTextureScreenSpaceError = 16 }, small);
-                sm.Update(0, 0, 1500, 1000, 90);
-                Assert.Equal("Q1 Q2", string.Join(" ", sm.Wanted()), "from 1.5 km: Q1 and Q2's 512-texel atlases, 1 level left out, hold 1/32 of P's 2048 texels");
-                sm.Dispose();
-                foreach (ProxyEntry e in tree) e.atlas_px = e.name == "P" ? 512 : 2048;
-                var large = new FakeProxyBackend();
-                var lg = new ProxyStreamer(tree, p => at[p.name], new StreamingSettings { ProxyTextureScreenSpaceError = 16 }, large);
-                lg.Update(0, 0, 2000, 1000, 90);
-                Assert.Equal("P", string.Join(" ", lg.Wanted()), "from 2 km: Q1 and Q2's 2048-texel atlases, 2 levels left out, hold twice P's whole 512");
-                lg.Dispose();
+                Func<int, int, double, string> sized = (parent, child, distance) =>
+                {
+                    foreach (ProxyEntry e in tree) e.atlas_px = e.name == "P" ? parent : child;
+                    var sb = new FakeProxyBackend();
+                    var ss = new ProxyStreamer(tree, p => at[p.name], new StreamingSettings { ProxyTextureScreenSpaceError = 16 }, sb);
+                    ss.Update(0, 0, distance, 1000, 90);
+                    string names = string.Join(" ", ss.Wanted());
+                    ss.Dispose();
+                    return names;
+                };
+                Assert.Equal("Q1 Q2", sized(2048, 512, 1500), "from 1.5 km: Q1 and Q2's 512-texel atlases, 1 level left out, hold 1/32 of P's 2048 texels");
+                Assert.Equal("P", sized(512, 2048, 2000), "from 2 km: Q1 and Q2's 2048-texel atlases, 2 levels left out, hold twice P's whole 512");
             });
 
             t.Check("proxies: the coarser proxy holds over shown buildings while a finer one loads; Covers names the tiles under shown proxies", () =>
