@@ -498,9 +498,9 @@ def test_the_atlas_gives_each_primitive_a_cell_and_a_broken_texture_its_colour()
         1.0,
     ]  # into 128 px: its texels are twice a cell's
     assert atlas.getpixel((10, 10)) == (0, 0, 255) and atlas.getpixel((42, 10)) == (255, 0, 0)
-    # Cell-grid uvs (cells 2 apart, a cell's uvs in [0, 1]) into the atlas, inset half a texel;
-    # the colour cell's vertices at its centre.
-    grid = np.array([[0.0, 0.0], [1.0, 1.0], [2.0, 0.0], [3.0, 1.0]])
+    # Cell-grid uvs ((column, row) + the uv in the cell) into the atlas, inset half a texel; the
+    # colour cell's vertices at its centre.
+    grid = np.array([[0.0, 0.0], [1.0, 1.0], [1.0, 0.0], [1.5, 0.7]])
     uvs = atlas_uvs(grid, np.array([0, 0, 1, 1]), plain, 2, 64)
     assert uvs.tolist() == [[1 / 128, 1 / 128], [63 / 128, 63 / 128], [0.75, 0.25], [0.75, 0.25]]
 

@@ -56,7 +56,7 @@ from ..atomic import write_bytes_if_changed, write_text_atomic
 from ..config import TilesetOptions
 from ..gltf_writer import glb_bytes
 from ..model import Part, Texture, TileId
-from ..texel import TEXEL_ERROR_FACTOR, face_texels, weighted_quantile
+from ..texel import TEXEL_ERROR_FACTOR, face_texels, kept_face_texels, weighted_quantile
 from ..tiles import tile_size_deg
 from . import features, frames
 from .cluster import cluster
@@ -69,9 +69,9 @@ PROXY_FORMAT = "vworld-lod-proxy 7"  # 7: atlas sized from the error; 6: from th
 # size below ``proxy_atlas_size`` (smaller cells would blur texture into colour).
 ATLAS_FLOOR_PX = 64
 MIN_CELL_PX = 4
-# Cell-grid uvs (:func:`atlas_uvs`): cells GRID_STEP apart, a cell's uvs in [0, 1], so that
-# clustering's uv bins never span two cells.
-GRID_STEP = 2.0
+# Cell-grid uvs (:func:`atlas_uvs`): (column, row) of the cell + the uv in it, at most LOCAL_MAX
+# (below 1: clustering's uv bins, whole fractions of a cell, never span two cells).
+LOCAL_MAX = 1.0 - 2.0**-30
 UNBOUNDED_PX = 1 << 62  # a cell larger than any texture: :func:`finest_fitting` gives the finest
 METRES_PER_DEGREE = math.pi / 180.0 * 6378137.0  # along a meridian, on the sphere
 TRANSFORM_SLACK_M = 1e-6  # float64 rounding of the frame changes (ECEF-sized numbers), metres
@@ -176,17 +176,24 @@ def atlas_sizes(count: int, largest: int) -> list[int]:
     return sizes + [largest]
 
 
+def cell_local(grid: np.ndarray, cells: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """(uvs in their cell (n, 2), (column, row) of the cell (n, 2)) of cell-grid uvs ``grid``
+    (n, 2) whose cells are ``cells`` (n,), ``count`` cells (:func:`atlas_uvs`)."""
+    side, _ = atlas_cells(count, 1)
+    corner = np.column_stack([cells % side, cells // side]).astype(np.float64)
+    return np.asarray(grid, np.float64) - corner, corner
+
+
 def atlas_uvs(
     grid: np.ndarray, cells: np.ndarray, plain: np.ndarray, count: int, size: int
 ) -> np.ndarray:
     """(n, 2) float32 uvs in a ``size``-pixel atlas of ``count`` cells (:func:`atlas_cells`,
-    row-major) from the size-free cell-grid form ``grid`` (n, 2) (``GRID_STEP`` x (column, row)
-    of the vertex's cell + its uv in the cell, in [0, 1]); ``cells`` (n,) each vertex's cell;
+    row-major) from the size-free cell-grid form ``grid`` (n, 2) ((column, row) of the vertex's
+    cell + its uv in the cell, in [0, 1]); ``cells`` (n,) each vertex's cell;
     ``plain`` (count,) bool: cells filled with one colour (their vertices take the cell's
     centre). A cell's uvs are inset half a texel (bilinear filtering stays inside the cell)."""
-    side, cell = atlas_cells(count, size)
-    corner = np.column_stack([cells % side, cells // side]).astype(np.float64)
-    local = np.asarray(grid, np.float64) - GRID_STEP * corner
+    _, cell = atlas_cells(count, size)
+    local, corner = cell_local(grid, cells, count)
     local[plain[cells]] = 0.5
     inset = 0.5 / cell
     scaled = inset + local * (1.0 - 2.0 * inset)
@@ -403,8 +410,8 @@ def merge_inputs(task: ProxyTask) -> Merged:
         if primitive.uvs is None:  # a colour cell: its centre
             local = np.full((len(primitive.positions), 2), 0.5)
         else:  # the files' uvs are in [0, 1]; a repeat would bleed into a neighbour
-            local = np.clip(primitive.uvs.astype(np.float64), 0.0, 1.0)
-        grid.append(local + GRID_STEP * np.array([col, row], np.float64))
+            local = np.clip(primitive.uvs.astype(np.float64), 0.0, LOCAL_MAX)
+        grid.append(local + np.array([col, row], np.float64))
     offsets = np.cumsum([0] + [len(p.positions) for p in primitives])
     return Merged(
         np.concatenate([p.positions for p in primitives]),
@@ -450,28 +457,55 @@ def proxy_glb(part: Part, owners: np.ndarray, values: list[dict], name: str) -> 
     return features.with_features(data, owners, values)
 
 
-def choose_atlas(
-    merged: Merged,
-    positions: np.ndarray,
-    faces: np.ndarray,
-    grid: np.ndarray,
-    cells: np.ndarray,
-    target: float,
-    largest: int,
-) -> int:
+class CellTexels:
+    """The clustered mesh's faces as :func:`proxy_texel` measures them, at any atlas size: per
+    face its surface area (m^2) and its metres per unit of its cell's own uvs (a cell spans 0..1),
+    so at ``p`` atlas pixels per cell unit its texel is that / ``p``. Built once (``positions``
+    (n, 3) metres, ``faces`` (m, 3), ``grid`` uvs and ``cells`` (n,) as :class:`Merged` has them,
+    ``count`` cells); each size then costs a division and at most one weighted median."""
+
+    def __init__(
+        self,
+        positions: np.ndarray,
+        faces: np.ndarray,
+        grid: np.ndarray,
+        cells: np.ndarray,
+        count: int,
+    ) -> None:
+        local, _ = cell_local(grid, cells, count)
+        self.metres, self.area, kept = kept_face_texels(positions, faces, local, (1, 1))
+        self.cell = cells[faces[kept, 0]] if len(faces) else cells[:0]
+        self._median: float | None = None  # of self.metres: what one scale for all divides
+
+    def at(self, per_unit: np.ndarray, plain: np.ndarray) -> float:
+        """Metres: the area-weighted median texel with ``per_unit`` (cells,) atlas pixels per cell
+        unit (the cell's side less its half-texel insets, times its fineness); faces of ``plain``
+        (cells,) colour cells left out; 0 without textured faces."""
+        used = ~plain[self.cell]
+        if not used.any():
+            return 0.0
+        scale = per_unit[self.cell[used]]
+        if used.all() and (scale == scale[0]).all():  # most sizes: the order does not change
+            if self._median is None:
+                self._median = weighted_quantile(self.metres, self.area)
+            return self._median / scale[0]
+        return weighted_quantile(self.metres[used] / scale, self.area[used])
+
+
+def choose_atlas(merged: Merged, texels: CellTexels, target: float, largest: int) -> int:
     """Pixels per side of the proxy's atlas: the smallest of :func:`atlas_sizes` at which its
-    :func:`proxy_texel` (measured on the clustered mesh: ``positions`` (n, 3) metres, ``faces``,
-    ``grid`` uvs and ``cells`` as :class:`Merged` has them) is at most ``target`` metres, else
-    ``largest``; and not beyond the first size whose cells are at least as large as every image
-    they hold (a larger atlas would only upsample: the same texels, more memory). Only image
-    headers are read (a cell is predicted textured when its image's header reads; one that then
-    fails to decode is measured as a colour cell in the end)."""
+    texel (:class:`CellTexels`, as :func:`proxy_texel` measures it on the clustered mesh) is at
+    most ``target`` metres, else ``largest``; and not beyond the first size whose cells are at
+    least as large as every image they hold (a larger atlas would only upsample: the same
+    texels, more memory). Only image headers are read (a cell is predicted textured when its
+    image's header reads; one that then fails to decode is measured as a colour cell in the
+    end, when the texel is measured again on the atlas written)."""
     count = merged.count
     for size in atlas_sizes(count, largest):
         _, cell = atlas_cells(count, size)
         pixels = merged.textures.pixels(merged.textures.images(cell))
-        uvs = atlas_uvs(grid, cells, pixels == 0, count, size)
-        if proxy_texel(positions, faces, uvs, fineness_of(pixels, cell)[cells], size) <= target:
+        # a cell's uvs span its side less half a texel at each end: cell - 1 pixels
+        if cell > 1 and texels.at((cell - 1) * fineness_of(pixels, cell), pixels == 0) <= target:
             return size
         # Larger cells would only upsample every image (first seen at the images of this size,
         # then against the finest each cell has: a building's LOD0 texture, a child's atlas).
@@ -489,7 +523,7 @@ def build_proxy(task: ProxyTask) -> tuple[Proxy, bytes, dict] | None:
     budget = budget_m(task.tile, task.options)
     cell, target = budget * CELL_RATIO, task.options.proxy_max_triangles // 2
     limit = tile_size_deg(task.tile.level) * METRES_PER_DEGREE
-    # uv bins: about 1/1024 of the largest atlas (GRID_STEP units a cell; never across two cells)
+    # uv bins: about 1/1024 of the atlas, a whole number a cell (never across two cells)
     side, _ = atlas_cells(merged.count, 1)
     bins = max(1, 1024 // side)
     while cell > 0:
@@ -519,7 +553,8 @@ def build_proxy(task: ProxyTask) -> tuple[Proxy, bytes, dict] | None:
     cells, surface = merged.cells[used], stored.astype(np.float64)
     wanted = max(geometric / TEXEL_ERROR_FACTOR, merged.texel_floor)
     largest = task.options.proxy_atlas_size
-    size = choose_atlas(merged, surface, faces, grid, cells, wanted, largest)
+    texels = CellTexels(surface, faces, grid, cells, merged.count)
+    size = choose_atlas(merged, texels, wanted, largest)
     _, pixels = atlas_cells(merged.count, size)
     images = merged.textures.images(pixels)
     colors = [primitive.color for primitive, _, _ in merged.textures.entries]
