@@ -29,11 +29,16 @@ simplification (the feature ids of ``EXT_mesh_features``).
   (area-weighted median) of the faces' texel edges in the atlas, each face's taken no finer than
   its source texture (a cell upsampled from a small texture has that texture's texels) and the
   whole no finer than the children's. Its error (``geometricError``) is the larger of the two.
+- Its **atlas size** (:func:`choose_atlas`, after clustering, before any texture is decoded): the
+  smallest power of two from :data:`ATLAS_FLOOR_PX` at which that texel is at most the geometric
+  bound / :data:`exporter.texel.TEXEL_ERROR_FACTOR` (what the building levels keep: 2 px a texel
+  when the proxy switches at 16 px; or at most the children's texel, the floor), no larger than
+  its cells' finest images need (larger only upsamples), at most ``proxy_atlas_size``.
 
 A proxy with more than ``proxy_max_triangles`` is not written (nor are its ancestors').
 
 Files: ``OUT/tileset_proxies/<tile>.glb`` and ``<tile>.json`` (its inputs' hash, bounds, sizes,
-``buildings`` and ``owners``: per vertex, run-length ``[[building index, vertices], ...]``).
+``atlas_px``, ``buildings`` and ``owners``: per vertex, run-length ``[[building index, vertices], ...]``).
 :func:`make_proxy` builds one from a :class:`ProxyTask` alone (files in, files out), so proxies of
 one quadtree level run in parallel (:mod:`.schedule`).
 """
