@@ -53,17 +53,25 @@ def face_texels(
 
     ``atlas_size`` is (width, height) in pixels. Returns two (k,) float64 arrays, k <= m.
     """
+    texels, area, _ = kept_face_texels(positions, faces, uvs, atlas_size)
+    return texels, area
+
+
+def kept_face_texels(
+    positions: np.ndarray, faces: np.ndarray, uvs: np.ndarray, atlas_size: tuple[int, int]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`face_texels` and the (m,) bool mask of the faces it kept."""
     faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
     width, height = atlas_size
     if len(faces) == 0 or width <= 0 or height <= 0:
-        return np.zeros(0), np.zeros(0)
+        return np.zeros(0), np.zeros(0), np.zeros(len(faces), bool)
     area = triangle_areas(np.asarray(positions, dtype=np.float64)[faces])
     texels = triangle_areas(np.asarray(uvs, dtype=np.float64)[faces]) * (float(width) * height)
     keep = (area > _NEGLIGIBLE * max(area.max(), 0.0)) & (
         texels > _NEGLIGIBLE * max(texels.max(), 0.0)
     )
     keep &= np.isfinite(area) & np.isfinite(texels)
-    return np.sqrt(area[keep] / texels[keep]), area[keep]
+    return np.sqrt(area[keep] / texels[keep]), area[keep], keep
 
 
 def weighted_quantile(values: np.ndarray, weights: np.ndarray, q: float = 0.5) -> float:

@@ -20,7 +20,8 @@ have them (the proxy's glTF frame, +X West, +Y Up, +Z North, sits at ``center``,
 ``placement`` (that frame's Unity-globe placement, :func:`exporter.placement.tile_placement`),
 ``radius_m`` (metres: a sphere about ``center`` holding the proxy), ``geometric_error`` (metres,
 tileset.json's), ``texel_m`` (metres per texel of its atlas on its surface: the streamer leaves
-out the mip levels a proxy's distance does not need), ``children`` (child proxies' names) and ``tiles`` (names of the building tiles
+out the mip levels a proxy's distance does not need), ``atlas_px`` (pixels per side of its atlas:
+proxies' atlases differ in size since 0.6.0), ``children`` (child proxies' names) and ``tiles`` (names of the building tiles
 directly under it). A proxy is listed only when its file exists and all its children are listed.
 
 Tiles are listed in (level, idx, idy) order. The index lists every tile folder of ``OUT`` that holds
@@ -96,7 +97,8 @@ def tile_entry(tile: TileId, buildings: int, globe: dict) -> dict:
 
 def proxy_entry(record: dict, globe: dict) -> dict:
     """The index entry of a proxy: ``record`` (from :func:`exporter.tileset.write_tileset`:
-    ``tile`` (TileId), ``file``, ``radius_m``, ``geometric_error`` and ``texel_m`` (metres), ``children``,
+    ``tile`` (TileId), ``file``, ``radius_m``, ``geometric_error`` and ``texel_m`` (metres),
+    ``atlas_px``, ``children``,
     ``tiles``) with the radii ``globe`` of the tiles below it."""
     tile = record["tile"]
     radii = GlobeOptions(
@@ -110,6 +112,7 @@ def proxy_entry(record: dict, globe: dict) -> dict:
         "radius_m": float(record["radius_m"]),
         "geometric_error": float(record["geometric_error"]),
         "texel_m": float(record.get("texel_m", 0.0)),
+        "atlas_px": int(record.get("atlas_px", 0)),
         "children": sorted(record["children"]),
         "tiles": sorted(record["tiles"]),
         "globe": dict(globe),

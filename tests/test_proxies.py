@@ -21,10 +21,16 @@ from exporter.mesh.distance import SurfaceIndex
 from exporter.model import TileId
 from exporter.pipeline import export_tiles
 from exporter.samplegen import generate_tile
-from exporter.texel import texel_size_m
+from exporter.texel import TEXEL_ERROR_FACTOR, texel_size_m
 from exporter.tileset import write_tileset
 from exporter.tileset.glb import read_primitives
-from exporter.tileset.proxy import LevelSource, finest_fitting, owner_runs, owners_of
+from exporter.tileset.proxy import (
+    LevelSource,
+    atlas_sizes,
+    finest_fitting,
+    owner_runs,
+    owners_of,
+)
 from tests import test_tileset
 from tests.tileset_check import content_mesh, load, structural_problems, walk
 
@@ -96,10 +102,14 @@ def test_a_parent_reads_its_children_s_proxies_not_the_buildings(quad, tmp_path,
         f"tileset_proxies/{name}.glb"
         for name in ["14_139708_58056", "14_139709_58056"] + [t.name for t in TILES]
     )
-    # (its coarsest level, and LOD0 for its texture: no level's texture fills a 1024 px cell)
-    assert len(read) - len(from_proxies) == 24
+    # Each building's levels once each: its coarsest (the geometry), then the finer ones as the
+    # atlas grows (LOD1's 32 px fill a 32 px cell; LOD0's 64 px, the finest, a 64 px one)
+    assert len(read) == len(set(read))
+    assert len(read) - len(from_proxies) == 36
     assert all(
-        name.endswith(("/lod0.glb", "/lod2.glb")) for name in read if name not in from_proxies
+        name.endswith(("/lod0.glb", "/lod1.glb", "/lod2.glb"))
+        for name in read
+        if name not in from_proxies
     )
     assert proxy_files(out) == proxy_files(quad)  # force rebuilds the same bytes
 
@@ -159,9 +169,8 @@ def test_the_finest_level_that_fits_fills_a_cell_by_filtering_down(quad, tmp_pat
     # textured from the finest level whose texture fills the cell.
     out = tmp_path / "out"
     shutil.copytree(quad, out)
-    for size in (16, 2048):  # cells of 8 px (LOD2's 16 px fit) and 1024 px (none fits: LOD0)
+    for size in (16, 2048):  # cells of 8 px (LOD2's 16 px fit) and, at most, 1024 px
         write_tileset(out, TilesetOptions(proxy_atlas_size=size, proxy_error_ratio=0.0))
-        cell = size // 2  # three buildings: two cells a side
         for tile in TILES:
             manifest = json.loads((out / tile.name / "lod_manifest.json").read_text())
             buildings = sorted(manifest["buildings"], key=lambda b: b["id"])  # the cells' order
@@ -170,6 +179,10 @@ def test_the_finest_level_that_fits_fills_a_cell_by_filtering_down(quad, tmp_pat
             (proxy,) = read_primitives(out / "tileset_proxies" / f"{tile.name}.glb")
             assert proxy.image is not None
             atlas = np.asarray(Image.open(io.BytesIO(proxy.image)).convert("RGB"), np.float64)
+            # three buildings: two cells a side; at most 2048 px, the atlas stops growing once
+            # its cells hold LOD0's 64 px whole (larger would only upsample them)
+            assert atlas.shape[0] == (16 if size == 16 else 128)
+            cell = atlas.shape[0] // 2
             for index, building in enumerate(buildings if size == 2048 else []):
                 row, col = divmod(index, 2)
                 got = atlas[row * cell : (row + 1) * cell, col * cell : (col + 1) * cell]
@@ -180,7 +193,7 @@ def test_the_finest_level_that_fits_fills_a_cell_by_filtering_down(quad, tmp_pat
                     image = Image.open(io.BytesIO(level.image)).convert("RGB")
                     scaled = image.resize((cell, cell), Image.Resampling.BOX)
                     by_level[lod["level"]] = np.abs(np.asarray(scaled, np.float64) - got).mean()
-                # None fills a 1024 px cell: LOD0's texture (not the coarsest level's, scaled up)
+                # Only LOD0 fills a 64 px cell: its texture (not the coarsest level's, scaled up)
                 assert by_level[0] == min(by_level.values()), by_level
 
 
@@ -257,3 +270,72 @@ def test_the_clustering_bound_holds_densely_on_small_and_isolated_parts():
         assert measured <= done.bound + 1e-9, (cell, measured, done.bound)
         far = done.owners == 3
         assert far.any()  # the isolated box: kept (as it was or clustered)
+
+
+@pytest.fixture(scope="module")
+def fine(tmp_path_factory) -> Path:
+    """One tile of three buildings whose 256 px atlases are finer than a small proxy needs."""
+    root = tmp_path_factory.mktemp("fine")
+    folder = generate_tile(
+        root / "in" / TILES[0].name, 3, seed=7, tile=TILES[0], atlas_size=256, mean_triangles=80
+    )
+    export_tiles([folder], root / "out", Config(), jobs=1)
+    return root / "out"
+
+
+def leaf_atlas(out: Path, options: TilesetOptions) -> tuple[int, float, dict]:
+    """The one leaf proxy rebuilt with ``options``: its atlas side (pixels, from the file), its
+    texel measured on the written file (metres) and its record; also checks its tileset error."""
+    write_tileset(out, options, force=True)
+    name = TILES[0].name
+    (primitive,) = read_primitives(out / "tileset_proxies" / f"{name}.glb")
+    assert primitive.image is not None and primitive.uvs is not None
+    side, height = Image.open(io.BytesIO(primitive.image)).size
+    assert side == height
+    texel = texel_size_m(primitive.positions, primitive.triangles, primitive.uvs, (side, side))
+    record = records(out)[name]
+    assert record["atlas_px"] == side
+    (visit,) = [v for v in walk(load(out)) if v.uri == f"tileset_proxies/{name}.glb"]
+    error = visit.tile["geometricError"]
+    assert error >= record["texel"] and error >= record["geometric"]
+    assert error >= 0.5 * texel  # issue 34's bar on the atlas actually written
+    return side, texel, record
+
+
+def test_a_proxy_s_atlas_is_as_fine_as_its_error_lets_a_viewer_see(fine, tmp_path):
+    out = tmp_path / "out"
+    shutil.copytree(fine, out)
+    # Merged only (its bound: the coarsest levels', centimetres) against simplified on 6 m cells
+    # (a bound of metres): the coarser proxy's texels may be coarser, its atlas smaller.
+    exact = leaf_atlas(out, TilesetOptions(proxy_error_ratio=0.0))
+    coarse = leaf_atlas(out, TilesetOptions(proxy_error_ratio=0.1))
+    assert coarse[2]["geometric"] > 10 * exact[2]["geometric"]
+    assert coarse[0] < exact[0] < 2048  # (2048 for every proxy before 0.6.0)
+    for side, texel, record in (exact, coarse):
+        if side == 2048:
+            continue
+        # Below the maximum: texels within 1/8 of the bound (2 px where the proxy switches at
+        # 16 px), unless the cells already hold their finest images whole (LOD0's 256 px).
+        if side // 2 < 256:
+            assert record["texel"] <= record["geometric"] / TEXEL_ERROR_FACTOR
+        # The smallest such size: half the side would double the texel, past 1/8 of the bound
+        if side // 2 > 64:
+            assert 2 * texel > record["geometric"] / TEXEL_ERROR_FACTOR
+    assert exact[0] == 512  # merged only: its cells grow to LOD0's 256 px, no larger
+    # The record's texel is the one measured on the file (within the float32 rounding of the uvs)
+    assert coarse[2]["texel"] == pytest.approx(coarse[1], rel=1e-3)
+
+
+def test_proxy_atlas_size_is_the_largest_atlas(fine, tmp_path):
+    out = tmp_path / "out"
+    shutil.copytree(fine, out)
+    for largest in (128, 100):  # a power of two or not: never exceeded, taken when needed
+        side, texel, record = leaf_atlas(
+            out, TilesetOptions(proxy_error_ratio=0.0, proxy_atlas_size=largest)
+        )
+        assert side == largest
+        assert record["texel"] > record["geometric"] / TEXEL_ERROR_FACTOR  # as fine as allowed
+    assert atlas_sizes(3, 2048) == [64, 128, 256, 512, 1024, 2048]
+    assert atlas_sizes(3, 100) == [64, 100] and atlas_sizes(3, 16) == [16]
+    # 400 cells: 20 a side; 64 px would leave 3 px cells (under MIN_CELL_PX), so from 128 px
+    assert atlas_sizes(400, 2048) == [128, 256, 512, 1024, 2048]

@@ -483,30 +483,30 @@ def test_tiles_of_earlier_runs_stay_in_the_tileset(tmp_path):
 
 
 def test_the_atlas_gives_each_primitive_a_cell_and_a_broken_texture_its_colour():
-    from exporter.tileset.glb import GlbPrimitive
-    from exporter.tileset.proxy import pack_atlas
+    from exporter.tileset.proxy import CellTextures, atlas_uvs, fineness_of, pack_atlas
 
-    square = np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0]])
-    uvs = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]], np.float32)
     good = io.BytesIO()
     Image.new("RGB", (64, 64), (0, 0, 255)).save(good, "PNG")
-    primitives = [
-        GlbPrimitive(
-            square, np.array([[0, 1, 2]]), uvs, good.getvalue(), "image/png", (1, 1, 1, 1)
-        ),
-        GlbPrimitive(
-            square, np.array([[0, 1, 2]]), uvs, b"not an image", "image/jpeg", (1, 0, 0, 1)
-        ),
-    ]
-    atlas, cell_uvs, shrink = pack_atlas(primitives, 64)
-    assert shrink == [2.0, 0.0]  # 64 px into a 32 px cell; the broken one has no texture
+    images = [good.getvalue(), b"not an image"]
+    atlas, plain = pack_atlas(images, [(1, 1, 1, 1), (1, 0, 0, 1)], 64)
+    assert plain.tolist() == [False, True]  # the broken one: its colour
+    pixels = CellTextures(Path(".")).pixels(images)
+    assert pixels.tolist() == [64, 0]
+    assert fineness_of(pixels, 32).tolist() == [1.0, 1.0]  # 64 px into a 32 px cell: filtered down
+    assert fineness_of(pixels, 128).tolist() == [
+        0.5,
+        1.0,
+    ]  # into 128 px: its texels are twice a cell's
     assert atlas.getpixel((10, 10)) == (0, 0, 255) and atlas.getpixel((42, 10)) == (255, 0, 0)
-    assert (cell_uvs[0] <= 0.5).all() and (cell_uvs[1][:, 0] > 0.5).all()
+    # Cell-grid uvs ((column, row) + the uv in the cell) into the atlas, inset half a texel; the
+    # colour cell's vertices at its centre.
+    grid = np.array([[0.0, 0.0], [1.0, 1.0], [1.0, 0.0], [1.5, 0.7]])
+    uvs = atlas_uvs(grid, np.array([0, 0, 1, 1]), plain, 2, 64)
+    assert uvs.tolist() == [[1 / 128, 1 / 128], [63 / 128, 63 / 128], [0.75, 0.25], [0.75, 0.25]]
 
 
 def test_a_jpeg_cell_is_decoded_at_a_reduced_scale_and_keeps_its_source_s_texel_size():
-    from exporter.tileset.glb import GlbPrimitive
-    from exporter.tileset.proxy import pack_atlas
+    from exporter.tileset.proxy import CellTextures, fineness_of, pack_atlas
 
     rows = np.linspace(0, 255, 256, dtype=np.uint8)
     pixels = np.stack(
@@ -519,13 +519,11 @@ def test_a_jpeg_cell_is_decoded_at_a_reduced_scale_and_keeps_its_source_s_texel_
     )
     jpeg = io.BytesIO()
     Image.fromarray(pixels.astype(np.uint8), "RGB").save(jpeg, "JPEG", quality=90)
-    square = np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0]])
-    uvs = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]], np.float32)
-    primitive = GlbPrimitive(
-        square, np.array([[0, 1, 2]]), uvs, jpeg.getvalue(), "image/jpeg", (1, 1, 1, 1)
-    )
-    atlas, _, shrink = pack_atlas([primitive], 48)
-    assert shrink == [256 / 48]  # the texel size is the source's, not the reduced decode's
+    atlas, plain = pack_atlas([jpeg.getvalue()], [(1, 1, 1, 1)], 48)
+    assert not plain.any()
+    # the texel size is the source's (256 px from its header), not the reduced decode's
+    assert CellTextures(Path(".")).pixels([jpeg.getvalue()]).tolist() == [256]
+    assert fineness_of(np.array([256]), 48).tolist() == [1.0]
     with Image.open(io.BytesIO(jpeg.getvalue())) as image:
         image.draft("RGB", (48, 48))
         assert image.size == (64, 64)  # libjpeg's 1/4 scale: the smallest not below the cell
@@ -586,8 +584,12 @@ def test_tiles_json_lists_the_proxies_for_the_unity_streamer(city):
             entry["geometric_error"] == visits[name].tile["geometricError"]
         )  # tileset.json's, metres
         # radius_m: a sphere about the frame's origin holding every vertex of the proxy
-        points = np.vstack([p.positions for p in read_primitives(city / entry["file"])])
+        primitives = read_primitives(city / entry["file"])
+        points = np.vstack([p.positions for p in primitives])
         assert np.linalg.norm(points, axis=1).max() <= entry["radius_m"] + 1e-6
+        # atlas_px: its atlas's side as written (proxies' atlases differ in size)
+        (image,) = [p.image for p in primitives]
+        assert image is not None and (entry["atlas_px"],) * 2 == Image.open(io.BytesIO(image)).size
 
 
 def test_a_proxy_in_unity_stands_where_tileset_json_puts_it(city):

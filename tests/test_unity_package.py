@@ -843,10 +843,12 @@ def test_streaming_benchmark_one_level_per_building_and_no_holes(tmp_path):
     assert s["levels"]["new"] < s["levels"]["old"], s
     # Proxies leave out the mip levels their atlas texel (tiles.json's texel_m) does not need at
     # their distance (default: texels within 2 px); the fakes make it deterministic. Measured here
-    # 0.133x of the old peak (these 128 px atlases leave proxies coarse texels to keep); the
-    # benchmark's own cities, 512 px atlases: 0.046x and 0.08x (issue 35's target: 1/8).
+    # 0.133x of the old peak while every proxy atlas was 2048 px (0.5.0); since 0.6.0 each is as
+    # large as its error needs (here 256-1024 px), which shrinks the old streamer's proxies too:
+    # 0.38x of its peak (6.7 MiB, its proxies), the new one's peak (2.6 MiB) being its levels.
+    # The benchmark's own cities, 512 px atlases: 0.079x (issue 35's target: 1/8).
     assert s["proxies"]["new"] <= s["proxies"]["old"] / 4, s
-    assert s["peak"]["new"] <= s["peak"]["old"] * 0.2, s
+    assert s["peak"]["new"] <= s["peak"]["old"] * 0.5, s
 
 
 # --------------------------------------------------------------------------- Editor textures

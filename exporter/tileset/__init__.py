@@ -60,7 +60,8 @@ def proxy_records(tops: list[Node]) -> list[dict]:
     OUT), ``radius_m`` (metres: the farthest corner of its content box from its frame's origin,
     the tile centre at elevation 0), ``geometric_error`` (metres, as tileset.json has it), ``texel_m``
     (metres per texel of its atlas on its surface: what its texture shows, finer than that error
-    when the geometry decides it), the names of its child proxies (``children``) and of the building tile it holds (``tiles``)."""
+    when the geometry decides it), ``atlas_px`` (pixels per side of its atlas), the names of its
+    child proxies (``children``) and of the building tile it holds (``tiles``)."""
     records: list[dict] = []
 
     def visit(node: Node) -> None:
@@ -79,6 +80,7 @@ def proxy_records(tops: list[Node]) -> list[dict]:
                 "radius_m": radius,
                 "geometric_error": node.error,
                 "texel_m": node.texel,
+                "atlas_px": node.atlas_px,
                 "children": children,
                 "tiles": [node.tile.name] if holds else [],
             }

@@ -29,11 +29,16 @@ simplification (the feature ids of ``EXT_mesh_features``).
   (area-weighted median) of the faces' texel edges in the atlas, each face's taken no finer than
   its source texture (a cell upsampled from a small texture has that texture's texels) and the
   whole no finer than the children's. Its error (``geometricError``) is the larger of the two.
+- Its **atlas size** (:func:`choose_atlas`, after clustering, before any texture is decoded): the
+  smallest power of two from :data:`ATLAS_FLOOR_PX` at which that texel is at most the geometric
+  bound / :data:`exporter.texel.TEXEL_ERROR_FACTOR` (what the building levels keep: 2 px a texel
+  when the proxy switches at 16 px; or at most the children's texel, the floor), no larger than
+  its cells' finest images need (larger only upsamples), at most ``proxy_atlas_size``.
 
 A proxy with more than ``proxy_max_triangles`` is not written (nor are its ancestors').
 
 Files: ``OUT/tileset_proxies/<tile>.glb`` and ``<tile>.json`` (its inputs' hash, bounds, sizes,
-``buildings`` and ``owners``: per vertex, run-length ``[[building index, vertices], ...]``).
+``atlas_px``, ``buildings`` and ``owners``: per vertex, run-length ``[[building index, vertices], ...]``).
 :func:`make_proxy` builds one from a :class:`ProxyTask` alone (files in, files out), so proxies of
 one quadtree level run in parallel (:mod:`.schedule`).
 """
@@ -56,7 +61,7 @@ from ..atomic import write_bytes_if_changed, write_text_atomic
 from ..config import TilesetOptions
 from ..gltf_writer import glb_bytes
 from ..model import Part, Texture, TileId
-from ..texel import face_texels, weighted_quantile
+from ..texel import TEXEL_ERROR_FACTOR, face_texels, kept_face_texels, weighted_quantile
 from ..tiles import tile_size_deg
 from . import features, frames
 from .cluster import cluster
@@ -64,7 +69,15 @@ from .glb import GlbPrimitive, read_primitives
 from .tree import rounding_slack
 
 PROXY_DIR = "tileset_proxies"
-PROXY_FORMAT = "vworld-lod-proxy 6"  # 6: from the children's proxies; cells from a finer level
+PROXY_FORMAT = "vworld-lod-proxy 7"  # 7: atlas sized from the error; 6: from the children's
+# Proxy atlas sides, pixels: the smallest chosen, and the fewest pixels a cell side gets at a
+# size below ``proxy_atlas_size`` (smaller cells would blur texture into colour).
+ATLAS_FLOOR_PX = 64
+MIN_CELL_PX = 4
+# Cell-grid uvs (:func:`atlas_uvs`): (column, row) of the cell + the uv in it, at most LOCAL_MAX
+# (below 1: clustering's uv bins, whole fractions of a cell, never span two cells).
+LOCAL_MAX = 1.0 - 2.0**-30
+UNBOUNDED_PX = 1 << 62  # a cell larger than any texture: :func:`finest_fitting` gives the finest
 METRES_PER_DEGREE = math.pi / 180.0 * 6378137.0  # along a meridian, on the sphere
 TRANSFORM_SLACK_M = 1e-6  # float64 rounding of the frame changes (ECEF-sized numbers), metres
 # Grid cell of the vertex clustering, as a fraction of the budget: a vertex moves at most the
@@ -142,6 +155,7 @@ class Proxy:
     low: list[float]  # glTF-frame bounds, metres
     high: list[float]
     triangles: int
+    atlas_px: int = 0  # pixels per side of its atlas (0: a record written before 0.6.0)
 
     @property
     def error(self) -> float:
@@ -154,55 +168,148 @@ def atlas_cells(count: int, size: int) -> tuple[int, int]:
     return side, max(1, size // side)
 
 
-def _cell_image(primitive: GlbPrimitive, cell: int) -> Image.Image | None:
-    """The primitive's texture box-filtered to ``cell`` x ``cell`` RGB (its source size in
-    ``info["source_size"]``), or None without a usable one (then its base colour is used)."""
-    if primitive.image is None:
+def atlas_sizes(count: int, largest: int) -> list[int]:
+    """Candidate atlas sides in pixels for ``count`` cells, ascending: the powers of two from
+    :data:`ATLAS_FLOOR_PX` below ``largest`` whose cells get at least :data:`MIN_CELL_PX` a side,
+    then ``largest`` (``proxy_atlas_size``, the maximum; always a candidate)."""
+    side, _ = atlas_cells(count, largest)
+    sizes, size = [], ATLAS_FLOOR_PX
+    while size < largest:
+        if size // side >= MIN_CELL_PX:
+            sizes.append(size)
+        size *= 2
+    return sizes + [largest]
+
+
+def cell_local(grid: np.ndarray, cells: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """(uvs in their cell (n, 2), (column, row) of the cell (n, 2)) of cell-grid uvs ``grid``
+    (n, 2) whose cells are ``cells`` (n,), ``count`` cells (:func:`atlas_uvs`)."""
+    side, _ = atlas_cells(count, 1)
+    corner = np.column_stack([cells % side, cells // side]).astype(np.float64)
+    return np.asarray(grid, np.float64) - corner, corner
+
+
+def atlas_uvs(
+    grid: np.ndarray, cells: np.ndarray, plain: np.ndarray, count: int, size: int
+) -> np.ndarray:
+    """(n, 2) float32 uvs in a ``size``-pixel atlas of ``count`` cells (:func:`atlas_cells`,
+    row-major) from the size-free cell-grid form ``grid`` (n, 2) ((column, row) of the vertex's
+    cell + its uv in the cell, in [0, 1]); ``cells`` (n,) each vertex's cell;
+    ``plain`` (count,) bool: cells filled with one colour (their vertices take the cell's
+    centre). A cell's uvs are inset half a texel (bilinear filtering stays inside the cell)."""
+    _, cell = atlas_cells(count, size)
+    local, corner = cell_local(grid, cells, count)
+    local[plain[cells]] = 0.5
+    inset = 0.5 / cell
+    scaled = inset + local * (1.0 - 2.0 * inset)
+    return ((scaled + corner) * cell / size).astype(np.float32)
+
+
+def _image_px(data: bytes | None) -> int:
+    """Larger side in pixels of an encoded image (its header only), 0 when it cannot be read."""
+    if data is None:
+        return 0
+    try:
+        with Image.open(io.BytesIO(data)) as image:
+            return max(image.size)
+    except (OSError, ValueError, Image.DecompressionBombError):
+        return 0
+
+
+class CellTextures:
+    """Per atlas cell (one per input primitive, in order) the encoded image that fills it at a
+    given cell size, without decoding: a building's part takes the texture of
+    :func:`finest_fitting` level (``.glb`` files read once, on first need), a child proxy's its
+    atlas. The images' pixel sizes come from their headers."""
+
+    def __init__(self, out: Path) -> None:
+        self.out = out
+        # per cell: (its primitive, its building's levels or None, its part index)
+        self.entries: list[tuple[GlbPrimitive, list[LevelSource] | None, int]] = []
+        self._files: dict[str, list[GlbPrimitive]] = {}
+        self._px: dict[int, int] = {}  # id of an image's bytes -> its larger side
+
+    def add(self, primitive: GlbPrimitive, levels: list[LevelSource] | None, part: int) -> None:
+        self.entries.append((primitive, levels, part))
+
+    def parts(self, file: str) -> list[GlbPrimitive]:
+        """The primitives of ``file`` (relative to OUT), read once."""
+        if file not in self._files:
+            self._files[file] = read_primitives(self.out / file)
+        return self._files[file]
+
+    def images(self, cell: int) -> list[bytes | None]:
+        """Per cell, the image that fills it at ``cell`` pixels a side (None: its colour). A
+        building's levels carry one atlas scaled with the same uv layout (exporter/textures.py),
+        so its coarsest geometry's uvs address any level's texture; its own texture is kept when
+        the finer level's parts do not match one to one."""
+        found: list[bytes | None] = []
+        for primitive, levels, part in self.entries:
+            image = primitive.image
+            if levels is not None and primitive.uvs is not None and image is not None:
+                level = finest_fitting(levels, cell)
+                if level.file != levels[0].file:
+                    finer = self.parts(level.file)
+                    if len(finer) == len(self.parts(levels[0].file)):
+                        image = finer[part].image or image
+            found.append(image if primitive.uvs is not None else None)
+        return found
+
+    def finest(self) -> np.ndarray:
+        """(cells,) larger side in pixels of the finest image each cell could hold."""
+        return self.pixels(self.images(UNBOUNDED_PX))
+
+    def pixels(self, images: list[bytes | None]) -> np.ndarray:
+        """(cells,) larger side in pixels of each image (0 without one)."""
+        for image in images:
+            if image is not None and id(image) not in self._px:
+                self._px[id(image)] = _image_px(image)
+        return np.array([self._px[id(i)] if i is not None else 0 for i in images], np.int64)
+
+
+def fineness_of(pixels: np.ndarray, cell: int) -> np.ndarray:
+    """(cells,) source texels per atlas texel of each cell, at most 1 (a cell upsampled from a
+    smaller image shows that image's texels); 1 for a colour cell (``pixels`` 0)."""
+    return np.where(pixels > 0, np.minimum(1.0, pixels / cell), 1.0)
+
+
+def _cell_image(image: bytes | None, cell: int) -> Image.Image | None:
+    """The encoded ``image`` box-filtered to ``cell`` x ``cell`` RGB, or None without a usable
+    one (then its base colour is used)."""
+    if image is None:
         return None
     try:
-        with Image.open(io.BytesIO(primitive.image)) as image:
-            size = image.size
+        with Image.open(io.BytesIO(image)) as opened:
             # A JPEG is decoded at the smallest DCT scale (1/2, 1/4, 1/8) not below the cell
             # (libjpeg's scaled IDCT): a 256 px texture for a 56 px cell decodes 64 px, not 256.
-            image.draft("RGB", (cell, cell))
+            opened.draft("RGB", (cell, cell))
             # convert() copies even an RGB image (the files' JPEGs are): only other modes need it
-            rgb = image if image.mode == "RGB" else image.convert("RGB")
-            tile = rgb.resize((cell, cell), Image.Resampling.BOX)
+            rgb = opened if opened.mode == "RGB" else opened.convert("RGB")
+            return rgb.resize((cell, cell), Image.Resampling.BOX)
     except (OSError, ValueError, Image.DecompressionBombError):
         return None
-    tile.info["source_size"] = size
-    return tile
 
 
 def pack_atlas(
-    primitives: list[GlbPrimitive], size: int
-) -> tuple[Image.Image, list[np.ndarray], list[float]]:
-    """One RGB atlas (``size`` x ``size``) with a cell per primitive (its image box-filtered, or
-    its base colour), each primitive's uvs (n, 2) moved into its cell (clamped to it: the files'
-    uvs are in [0, 1], a repeat would bleed into a neighbour), and each primitive's shrink factor
-    (its image's larger side / the cell's; 0 without image)."""
-    side, cell = atlas_cells(len(primitives), size)
+    images: list[bytes | None], colors: list[tuple], size: int
+) -> tuple[Image.Image, np.ndarray]:
+    """One RGB atlas (``size`` x ``size``) with a cell per image (:func:`atlas_cells`, row-major),
+    each image box-filtered into its cell, or the cell filled with its base colour (r, g, b in
+    [0, 1]) without a usable image; returns it and (cells,) bool: the cells filled with a colour."""
+    side, cell = atlas_cells(len(images), size)
     atlas = Image.new("RGB", (size, size), (255, 255, 255))
-    uvs, shrink = [], []
-    inset = 0.5 / cell  # half a texel: bilinear filtering stays inside the cell
     # Decoding and box-filtering are most of a proxy's time; Pillow releases the GIL in both, so
     # threads use the cores the finished building workers left idle (map keeps the order).
-    with ThreadPoolExecutor(max_workers=max(1, min(len(primitives), os.cpu_count() or 1))) as pool:
-        tiles = pool.map(_cell_image, primitives, [cell] * len(primitives))
-    for index, (primitive, tile) in enumerate(zip(primitives, tiles)):
+    with ThreadPoolExecutor(max_workers=max(1, min(len(images), os.cpu_count() or 1))) as pool:
+        tiles = list(pool.map(_cell_image, images, [cell] * len(images)))
+    plain = np.array([tile is None for tile in tiles], bool)
+    for index, (tile, color) in enumerate(zip(tiles, colors)):
         row, col = divmod(index, side)
-        if tile is not None and primitive.uvs is not None:
-            shrink.append(max(tile.info["source_size"]) / cell)
-            local = np.clip(primitive.uvs.astype(np.float64), 0.0, 1.0)
-        else:
-            colour = tuple(int(round(255 * min(max(c, 0.0), 1.0))) for c in primitive.color[:3])
-            tile = Image.new("RGB", (cell, cell), colour)
-            local = np.full((len(primitive.positions), 2), 0.5)
-            shrink.append(0.0)
+        if tile is None:
+            rgb = tuple(int(round(255 * min(max(c, 0.0), 1.0))) for c in color[:3])
+            tile = Image.new("RGB", (cell, cell), rgb)
         atlas.paste(tile, (col * cell, row * cell))
-        scaled = inset + local * (1.0 - 2.0 * inset)
-        uvs.append(((scaled + [col, row]) * cell / size).astype(np.float32))
-    return atlas, uvs, shrink
+    return atlas, plain
 
 
 def budget_m(tile: TileId, options: TilesetOptions) -> float:
@@ -220,23 +327,6 @@ def finest_fitting(levels: list[LevelSource], cell: int) -> LevelSource:
             return level
     textured = [level for level in levels if level.texture_px > 0]
     return textured[-1] if textured else levels[0]
-
-
-def with_texture(
-    parts: list[GlbPrimitive], out: Path, level: LevelSource, coarsest: LevelSource
-) -> None:
-    """Give the coarsest level's ``parts`` the textures of ``level``: a building's levels carry
-    the same atlas scaled (exporter/textures.py: one source texture, a quarter of the pixels per
-    level, the same uv layout), so the coarsest geometry's uvs address any level's texture. Left
-    as they are when ``level`` is the coarsest or its parts do not match one to one."""
-    if level.file == coarsest.file:
-        return
-    finer = read_primitives(out / level.file)
-    if len(finer) != len(parts):
-        return
-    for part, source in zip(parts, finer):
-        if part.image is not None and source.image is not None:
-            part.image, part.mime = source.image, source.mime
 
 
 def owner_runs(owners: np.ndarray) -> list[list[int]]:
@@ -263,14 +353,19 @@ class Merged:
 
     positions: np.ndarray  # (n, 3) float64 metres
     faces: np.ndarray  # (m, 3) int64
-    uvs: np.ndarray  # (n, 2) float32, in the atlas
+    grid: np.ndarray  # (n, 2) float64: uvs in the size-free cell-grid form of :func:`atlas_uvs`
+    cells: np.ndarray  # (n,) int64: each vertex's atlas cell (its input primitive)
     owners: np.ndarray  # (n,) int64 into ``buildings``
-    fineness: np.ndarray  # (n,) float: source texels per atlas texel of its cell, at most 1
+    textures: CellTextures  # per cell, its image at a cell size (not decoded yet)
     buildings: list[str]
-    atlas: Image.Image
     bound: float  # metres: the largest of the inputs' bounds against their LOD0
     texel_floor: float  # metres: the coarsest child's texel (0 for a leaf)
     values: list[dict] = field(default_factory=list)  # per building: its metadata values
+
+    @property
+    def count(self) -> int:
+        """Atlas cells (input primitives)."""
+        return len(self.textures.entries)
 
 
 def stored_values(record: dict) -> list[dict]:
@@ -280,12 +375,11 @@ def stored_values(record: dict) -> list[dict]:
 
 
 def merge_inputs(task: ProxyTask) -> Merged:
-    """Read the task's inputs (buildings' chosen levels, child proxies) into one mesh and atlas."""
+    """Read the task's inputs (buildings' coarsest levels, child proxies) into one mesh; their
+    textures are only named (:class:`CellTextures`), decoded once the atlas size is chosen."""
     out = Path(task.out_dir)
     to_proxy = frames.inverse_rigid(frames.Y_UP) @ frames.inverse_rigid(task.world)
-    size = task.options.proxy_atlas_size
-    _, cell = atlas_cells(len(task.buildings) + len(task.children), size)
-    primitives: list[GlbPrimitive] = []
+    textures = CellTextures(out)
     owners: list[np.ndarray] = []
     buildings: list[str] = []
     values: list[dict] = []
@@ -293,11 +387,9 @@ def merge_inputs(task: ProxyTask) -> Merged:
     for building in task.buildings:
         coarsest = building.levels[0]
         matrix = to_proxy @ building.world @ frames.Y_UP
-        parts = read_primitives(out / coarsest.file)
-        with_texture(parts, out, finest_fitting(building.levels, cell), coarsest)
-        for primitive in parts:
+        for part, primitive in enumerate(textures.parts(coarsest.file)):
             primitive.positions = frames.apply(matrix, primitive.positions)
-            primitives.append(primitive)
+            textures.add(primitive, building.levels, part)
             owners.append(np.full(len(primitive.positions), len(buildings), np.int64))
         buildings.append(building.id)
         values.append(building.values)
@@ -309,27 +401,31 @@ def merge_inputs(task: ProxyTask) -> Merged:
         matrix = to_proxy @ child.world @ frames.Y_UP
         for primitive in read_primitives(out / PROXY_DIR / f"{child.tile}.glb"):
             primitive.positions = frames.apply(matrix, primitive.positions)
-            primitives.append(primitive)
+            textures.add(primitive, None, 0)
             owners.append(owners_of(record["owners"], len(primitive.positions)) + len(buildings))
         buildings.extend(str(b) for b in record["buildings"])
         values.extend(stored_values(record))
         bound = max(bound, child.geometric)
         texel_floor = max(texel_floor, child.texel)
-    atlas, uvs, shrink = pack_atlas(primitives, size)
+    primitives = [primitive for primitive, _, _ in textures.entries]
+    side, _ = atlas_cells(len(primitives), 1)
+    grid = []
+    for index, primitive in enumerate(primitives):
+        row, col = divmod(index, side)
+        if primitive.uvs is None:  # a colour cell: its centre
+            local = np.full((len(primitive.positions), 2), 0.5)
+        else:  # the files' uvs are in [0, 1]; a repeat would bleed into a neighbour
+            local = np.clip(primitive.uvs.astype(np.float64), 0.0, LOCAL_MAX)
+        grid.append(local + np.array([col, row], np.float64))
     offsets = np.cumsum([0] + [len(p.positions) for p in primitives])
     return Merged(
         np.concatenate([p.positions for p in primitives]),
         np.concatenate([p.triangles + offsets[i] for i, p in enumerate(primitives)]),
-        np.concatenate(uvs),
+        np.concatenate(grid),
+        np.repeat(np.arange(len(primitives)), [len(p.positions) for p in primitives]),
         np.concatenate(owners),
-        np.concatenate(
-            [
-                np.full(len(p.positions), min(1.0, f) if f else 1.0)
-                for p, f in zip(primitives, shrink)
-            ]
-        ),
+        textures,
         buildings,
-        atlas,
         bound,
         texel_floor,
         values,
@@ -366,21 +462,83 @@ def proxy_glb(part: Part, owners: np.ndarray, values: list[dict], name: str) -> 
     return features.with_features(data, owners, values)
 
 
+class CellTexels:
+    """The clustered mesh's faces as :func:`proxy_texel` measures them, at any atlas size: per
+    face its surface area (m^2) and its metres per unit of its cell's own uvs (a cell spans 0..1),
+    so at ``p`` atlas pixels per cell unit its texel is that / ``p``. Built once (``positions``
+    (n, 3) metres, ``faces`` (m, 3), ``grid`` uvs and ``cells`` (n,) as :class:`Merged` has them,
+    ``count`` cells); each size then costs a division and at most one weighted median."""
+
+    def __init__(
+        self,
+        positions: np.ndarray,
+        faces: np.ndarray,
+        grid: np.ndarray,
+        cells: np.ndarray,
+        count: int,
+    ) -> None:
+        local, _ = cell_local(grid, cells, count)
+        self.metres, self.area, kept = kept_face_texels(positions, faces, local, (1, 1))
+        self.cell = cells[faces[kept, 0]] if len(faces) else cells[:0]
+        self._median: float | None = None  # of self.metres: what one scale for all divides
+
+    def at(self, per_unit: np.ndarray, plain: np.ndarray) -> float:
+        """Metres: the area-weighted median texel with ``per_unit`` (cells,) atlas pixels per cell
+        unit (the cell's side less its half-texel insets, times its fineness); faces of ``plain``
+        (cells,) colour cells left out; 0 without textured faces."""
+        used = ~plain[self.cell]
+        if not used.any():
+            return 0.0
+        scale = per_unit[self.cell[used]]
+        if used.all() and (scale == scale[0]).all():  # most sizes: the order does not change
+            if self._median is None:
+                self._median = weighted_quantile(self.metres, self.area)
+            return self._median / scale[0]
+        return weighted_quantile(self.metres[used] / scale, self.area[used])
+
+
+def choose_atlas(merged: Merged, texels: CellTexels, target: float, largest: int) -> int:
+    """Pixels per side of the proxy's atlas: the smallest of :func:`atlas_sizes` at which its
+    texel (:class:`CellTexels`, as :func:`proxy_texel` measures it on the clustered mesh) is at
+    most ``target`` metres, else ``largest``; and not beyond the first size whose cells are at
+    least as large as every image they hold (a larger atlas would only upsample: the same
+    texels, more memory). Only image headers are read (a cell is predicted textured when its
+    image's header reads; one that then fails to decode is measured as a colour cell in the
+    end, when the texel is measured again on the atlas written)."""
+    count = merged.count
+    for size in atlas_sizes(count, largest):
+        _, cell = atlas_cells(count, size)
+        pixels = merged.textures.pixels(merged.textures.images(cell))
+        # a cell's uvs span its side less half a texel at each end: cell - 1 pixels
+        if cell > 1 and texels.at((cell - 1) * fineness_of(pixels, cell), pixels == 0) <= target:
+            return size
+        # Larger cells would only upsample every image (first seen at the images of this size,
+        # then against the finest each cell has: a building's LOD0 texture, a child's atlas).
+        if cell >= pixels.max(initial=0) and cell >= merged.textures.finest().max(initial=0):
+            return size
+    return largest
+
+
 def build_proxy(task: ProxyTask) -> tuple[Proxy, bytes, dict] | None:
     """The proxy of ``task``: (its summary, its ``.glb`` bytes, its record), or None when it has
     more than ``proxy_max_triangles`` triangles."""
     merged = merge_inputs(task)
-    positions, faces, uvs, owners_all = merged.positions, merged.faces, merged.uvs, merged.owners
+    positions, faces, grid, owners_all = merged.positions, merged.faces, merged.grid, merged.owners
     used, step = np.arange(len(positions)), 0.0
     budget = budget_m(task.tile, task.options)
     cell, target = budget * CELL_RATIO, task.options.proxy_max_triangles // 2
     limit = tile_size_deg(task.tile.level) * METRES_PER_DEGREE
+    # uv bins: about 1/1024 of the atlas, a whole number a cell (never across two cells)
+    side, _ = atlas_cells(merged.count, 1)
+    bins = max(1, 1024 // side)
     while cell > 0:
         # Coarser cells until the proxy holds at most half the cap: a parent's inputs (four
         # children within that) then cost about its own budget, whatever lies below.
-        done = cluster(positions, faces, uvs, owners_all, cell, max(budget * KEEP_RATIO, cell))
+        done = cluster(
+            positions, faces, grid, owners_all, cell, max(budget * KEEP_RATIO, cell), bins
+        )
         if len(done.faces) <= target or cell > limit:
-            positions, faces, uvs, owners_all = done.positions, done.faces, done.uvs, done.owners
+            positions, faces, grid, owners_all = done.positions, done.faces, done.uvs, done.owners
             used, step = done.source, done.bound
             break
         cell *= 2.0
@@ -394,25 +552,38 @@ def build_proxy(task: ProxyTask) -> tuple[Proxy, bytes, dict] | None:
     stored = positions.astype(np.float32)
     low, high = stored.min(axis=0).astype(np.float64), stored.max(axis=0).astype(np.float64)
     geometric = merged.bound + step + rounding_slack(low, high) + TRANSFORM_SLACK_M
-    size = task.options.proxy_atlas_size
-    measured = proxy_texel(stored.astype(np.float64), faces, uvs, merged.fineness[used], size)
+    # The atlas a viewer can tell apart: texels at most 1/TEXEL_ERROR_FACTOR of the geometric
+    # bound (2 px when the proxy switches at 16 px, as the building levels), and no finer than
+    # the children's (the parent's texel is floored there: finer would show nothing more).
+    cells, surface = merged.cells[used], stored.astype(np.float64)
+    wanted = max(geometric / TEXEL_ERROR_FACTOR, merged.texel_floor)
+    largest = task.options.proxy_atlas_size
+    texels = CellTexels(surface, faces, grid, cells, merged.count)
+    size = choose_atlas(merged, texels, wanted, largest)
+    _, pixels = atlas_cells(merged.count, size)
+    images = merged.textures.images(pixels)
+    colors = [primitive.color for primitive, _, _ in merged.textures.entries]
+    atlas, plain = pack_atlas(images, colors, size)
+    uvs = atlas_uvs(grid, cells, plain, merged.count, size)
+    fineness = fineness_of(np.where(plain, 0, merged.textures.pixels(images)), pixels)
+    measured = proxy_texel(surface, faces, uvs, fineness[cells], size)
     texel = max(measured, merged.texel_floor)
     buffer = io.BytesIO()
-    merged.atlas.save(buffer, "JPEG", quality=task.jpeg_quality)
+    atlas.save(buffer, "JPEG", quality=task.jpeg_quality)
     name = task.tile.name
     texture = Texture(buffer.getvalue(), "image/jpeg", size, size, f"{name}_atlas")
     # glTF frame -> local East/Up/North with outward winding (what the writer takes)
     local = stored.astype(np.float64) * [-1.0, 1.0, 1.0]
     part = Part(local, faces[:, [0, 2, 1]], uvs=uvs, texture=texture)
     data = proxy_glb(part, owners.astype(np.uint32), values, f"{name}_proxy")
-    proxy = Proxy(
-        task.key, geometric, texel, [float(v) for v in low], [float(v) for v in high], len(faces)
-    )
+    bounds = [float(v) for v in low], [float(v) for v in high]
+    proxy = Proxy(task.key, geometric, texel, *bounds, len(faces), size)
     record = {
         "hash": proxy.hash,
         "size": len(data),
         "geometric": proxy.geometric,
         "texel": proxy.texel,
+        "atlas_px": proxy.atlas_px,
         "low": proxy.low,
         "high": proxy.high,
         "triangles": proxy.triangles,
@@ -431,6 +602,7 @@ def proxy_of(record: dict) -> Proxy:
         [float(v) for v in record["low"]],
         [float(v) for v in record["high"]],
         int(record["triangles"]),
+        int(record.get("atlas_px", 0)),
     )
 
 

@@ -119,7 +119,7 @@ def _place(node: Node, proxy: Proxy) -> None:
     assert node.tile is not None and node.world is not None
     node.content = f"{PROXY_DIR}/{node.tile.name}.glb"
     node.proxy_hash = proxy.hash
-    node.geometric, node.texel = proxy.geometric, proxy.texel
+    node.geometric, node.texel, node.atlas_px = proxy.geometric, proxy.texel, proxy.atlas_px
     node.error = max([proxy.error] + [child.error for child in node.children])
     node.corners = frames.apply(
         node.world, frames.gltf_corners(np.array(proxy.low), np.array(proxy.high))

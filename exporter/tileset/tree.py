@@ -79,6 +79,7 @@ class Node:
     proxy_hash: str | None = None
     geometric: float = 0.0  # a proxy's certified geometric bound, metres
     texel: float = 0.0  # a proxy's metres per atlas texel
+    atlas_px: int = 0  # a proxy's atlas, pixels per side
     box: list[float] | None = None  # 3D Tiles box in its frame (set by write.finish)
     box_ecef: np.ndarray | None = None  # (8, 3) ECEF corners of ``box`` (a building's top)
 

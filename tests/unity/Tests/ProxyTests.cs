@@ -231,6 +231,19 @@ namespace VWorldLod.Tests
                 w.Update(0, 0, 2000, 1000, 90);
                 Assert.Equal("P", string.Join(" ", w.Wanted()), "whole textures: the coarsest within the error limit, as before");
                 w.Dispose();
+                // tiles.json's atlas_px (since 0.6.0 each proxy's atlas is as large as its error needs)
+                Func<int, int, double, string> sized = (parent, child, distance) =>
+                {
+                    foreach (ProxyEntry e in tree) e.atlas_px = e.name == "P" ? parent : child;
+                    var sb = new FakeProxyBackend();
+                    var ss = new ProxyStreamer(tree, p => at[p.name], new StreamingSettings { ProxyTextureScreenSpaceError = 16 }, sb);
+                    ss.Update(0, 0, distance, 1000, 90);
+                    string names = string.Join(" ", ss.Wanted());
+                    ss.Dispose();
+                    return names;
+                };
+                Assert.Equal("Q1 Q2", sized(2048, 512, 1500), "from 1.5 km: Q1 and Q2's 512-texel atlases, 1 level left out, hold 1/32 of P's 2048 texels");
+                Assert.Equal("P", sized(512, 2048, 2000), "from 2 km: Q1 and Q2's 2048-texel atlases, 2 levels left out, hold twice P's whole 512");
             });
 
             t.Check("proxies: the coarser proxy holds over shown buildings while a finer one loads; Covers names the tiles under shown proxies", () =>
@@ -377,7 +390,11 @@ namespace VWorldLod.Tests
                     double[] scene = p.ScenePosition(origin);
                     Assert.Near(0, Math.Abs(framed.px - scene[0]) + Math.Abs(framed.py - scene[1]) + Math.Abs(framed.pz - scene[2]), 1e-9, p.name + " georeferenced pose at its position");
                 }
-                var settings = new StreamingSettings { LoadRadius = load, UnloadRadius = load * 1.2, Horizontal = true };
+                // Whole proxy textures: what shows follows 3D Tiles' screen-space-error rule alone,
+                // as the steps expect (since the exporter's 0.6.0 a parent's atlas can hold its
+                // children's at 1:1, and the memory rule then refines into them earlier: tested
+                // on its own above).
+                var settings = new StreamingSettings { LoadRadius = load, UnloadRadius = load * 1.2, Horizontal = true, ProxyTextureScreenSpaceError = 0 };
                 var tileBackend = new FakeBackend(folder);
                 var tileStreamer = new TileStreamer(tiles, e => e.ScenePosition(origin), settings, tileBackend);
                 var backend = new FakeProxyBackend(folder);

@@ -20,7 +20,7 @@
 //      TextureBudget shared with TileStreamer); loads of proxies no longer wanted are cancelled,
 //      freeing their slot at once. The way back needs no cache of covered proxies: a tile leaving
 //      the radius keeps its buildings until a proxy over it shows (Covers, TileStreamer.ProxyShown)
-//      -- its levels are a fraction of a proxy's atlas (2048 texels a side: 21 MiB in RGBA32);
+//      -- its levels are a fraction of a proxy's atlas (up to 2048 texels a side: 21 MiB in RGBA32);
 //   5. start loads of wanted proxies, coarsest level first, nearer first, while fewer than
 //      MaxConcurrentLoads are in flight; a proxy whose tiles are all loading their buildings
 //      (TileLoading) is not loaded when a loaded ancestor stands in meanwhile (its buildings
@@ -274,17 +274,29 @@ namespace VWorldLod
         }
 
         // Whether n's children, with the mip levels each may leave out, hold less than half of n's
-        // texture bytes (every proxy's atlas the same size: the export's proxy_atlas_size): a
-        // coarse proxy seen close keeps its whole atlas, where its finer children seen as close
-        // may leave out levels (their texel is finer), so refining costs less memory. Once
-        // refined so, n stays refined until its children would hold twice its bytes (no loading
-        // back and forth while the camera moves along the boundary).
+        // texture bytes (tiles.json's atlas_px: since 0.6.0 each proxy's atlas is as large as its
+        // error needs; without it every atlas counts as the same size, as before): a coarse proxy
+        // seen close keeps its whole atlas, where its finer children seen as close may leave out
+        // levels (their texel is finer), so refining costs less memory. Once refined so, n stays
+        // refined until its children would hold twice its bytes (no loading back and forth while
+        // the camera moves along the boundary).
         bool ChildrenLighter(Node n)
         {
             if (!(settings.ProxyTextureScreenSpaceError > 0)) return false;
+            bool sized = n.Entry.atlas_px > 0;
+            foreach (int c in n.Children) sized &= nodes[c].Entry.atlas_px > 0;
             double children = 0;
-            foreach (int c in n.Children) children += Math.Pow(0.25, nodes[c].NeedLimit);
-            return n.RefinedLighter = children < (n.RefinedLighter ? 2 : 0.5) * Math.Pow(0.25, n.NeedLimit);
+            foreach (int c in n.Children) children += AtlasTexels(nodes[c], sized);
+            return n.RefinedLighter = children < (n.RefinedLighter ? 2 : 0.5) * AtlasTexels(n, sized);
+        }
+
+        // Texels of m's atlas with its NeedLimit finest mip levels left out: atlas_px's when sized
+        // (a level left out halves the side, down to one texel), else relative to a whole atlas.
+        static double AtlasTexels(Node m, bool sized)
+        {
+            if (!sized) return Math.Pow(0.25, m.NeedLimit);
+            double side = Math.Max(1.0, m.Entry.atlas_px / Math.Pow(2, m.NeedLimit));
+            return side * side;
         }
 
         // Adds what shows for n's region to show; returns whether that region is complete (every

@@ -58,6 +58,8 @@ namespace VWorldLod
         public double geometric_error;
         /// <summary>Metres per texel of the proxy's atlas on its surface (0: not stated, before 0.5.0).</summary>
         public double texel_m;
+        /// <summary>Pixels per side of the proxy's (square) atlas (0: not stated, before 0.6.0, when every proxy's was the export's proxy_atlas_size).</summary>
+        public int atlas_px;
         /// <summary>Names of the child proxies (finer, together covering this one's tiles below them).</summary>
         public string[] children;
         /// <summary>Names of the building tiles directly under it (tiles.json's names).</summary>
