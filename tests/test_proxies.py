@@ -21,10 +21,11 @@ from exporter.mesh.distance import SurfaceIndex
 from exporter.model import TileId
 from exporter.pipeline import export_tiles
 from exporter.samplegen import generate_tile
-from exporter.texel import TEXEL_ERROR_FACTOR, texel_size_m
+from exporter.texel import texel_size_m
 from exporter.tileset import write_tileset
 from exporter.tileset.glb import read_primitives
 from exporter.tileset.proxy import (
+    PROXY_TEXEL_FACTOR,
     LevelSource,
     atlas_sizes,
     finest_fitting,
@@ -317,10 +318,10 @@ def test_a_proxy_s_atlas_is_as_fine_as_its_error_lets_a_viewer_see(fine, tmp_pat
         # Below the maximum: texels within 1/8 of the bound (2 px where the proxy switches at
         # 16 px), unless the cells already hold their finest images whole (LOD0's 256 px).
         if side // 2 < 256:
-            assert record["texel"] <= record["geometric"] / TEXEL_ERROR_FACTOR
+            assert record["texel"] <= record["geometric"] / PROXY_TEXEL_FACTOR
         # The smallest such size: half the side would double the texel, past 1/8 of the bound
         if side // 2 > 64:
-            assert 2 * texel > record["geometric"] / TEXEL_ERROR_FACTOR
+            assert 2 * texel > record["geometric"] / PROXY_TEXEL_FACTOR
     assert exact[0] == 512  # merged only: its cells grow to LOD0's 256 px, no larger
     # The record's texel is the one measured on the file (within the float32 rounding of the uvs)
     assert coarse[2]["texel"] == pytest.approx(coarse[1], rel=1e-3)
@@ -334,7 +335,7 @@ def test_proxy_atlas_size_is_the_largest_atlas(fine, tmp_path):
             out, TilesetOptions(proxy_error_ratio=0.0, proxy_atlas_size=largest)
         )
         assert side == largest
-        assert record["texel"] > record["geometric"] / TEXEL_ERROR_FACTOR  # as fine as allowed
+        assert record["texel"] > record["geometric"] / PROXY_TEXEL_FACTOR  # as fine as allowed
     assert atlas_sizes(3, 2048) == [64, 128, 256, 512, 1024, 2048]
     assert atlas_sizes(3, 100) == [64, 100] and atlas_sizes(3, 16) == [16]
     # 400 cells: 20 a side; 64 px would leave 3 px cells (under MIN_CELL_PX), so from 128 px

@@ -845,10 +845,12 @@ def test_streaming_benchmark_one_level_per_building_and_no_holes(tmp_path):
     # their distance (default: texels within 2 px); the fakes make it deterministic. Measured here
     # 0.133x of the old peak while every proxy atlas was 2048 px (0.5.0); since 0.6.0 each is as
     # large as its error needs (here 256-1024 px), which shrinks the old streamer's proxies too:
-    # 0.38x of its peak (6.7 MiB, its proxies), the new one's peak (2.6 MiB) being its levels.
+    # 0.38x of its peak (6.7 MiB, its proxies), the new one's peak (2.6 MiB) being its levels;
+    # with proxies' texels at 1/4 of their bound (PROXY_TEXEL_FACTOR) the old streamer's proxies
+    # shrink again (its peak 4.5 MiB): 0.60x, the new one's peak still only its levels.
     # The benchmark's own cities, 512 px atlases: 0.079x (issue 35's target: 1/8).
     assert s["proxies"]["new"] <= s["proxies"]["old"] / 4, s
-    assert s["peak"]["new"] <= s["peak"]["old"] * 0.5, s
+    assert s["peak"]["new"] <= s["peak"]["old"] * 0.75, s
 
 
 # --------------------------------------------------------------------------- Editor textures
@@ -981,9 +983,9 @@ def test_editor_textures_of_the_sample_tile_take_at_most_a_quarter_of_the_gpu_me
     manifest = demo_tile_export(tmp_path / "out")
     measured = texture_bytes(build, manifest)
     today = measured.pop("embedded_RGBA32")
-    assert (
-        abs(today / 2**20 - 26.25) < 0.01
-    )  # the issue's figure (its 4/3 for the mips, here exact)
+    # The issue's figure was 26.25 MiB (its 4/3 for the mips, here exact); since 0.6.0 the
+    # three buildings that leave a third of an atlas unused have it cut (exporter/crop.py).
+    assert abs(today / 2**20 - 20.33) < 0.01, today / 2**20
     assert set(measured) == {"Standalone", "Android", "iPhone", "WebGL"}
     for platform, size in measured.items():
         assert size * 4 <= today, (platform, size, today)

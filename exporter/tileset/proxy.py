@@ -31,8 +31,8 @@ simplification (the feature ids of ``EXT_mesh_features``).
   whole no finer than the children's. Its error (``geometricError``) is the larger of the two.
 - Its **atlas size** (:func:`choose_atlas`, after clustering, before any texture is decoded): the
   smallest power of two from :data:`ATLAS_FLOOR_PX` at which that texel is at most the geometric
-  bound / :data:`exporter.texel.TEXEL_ERROR_FACTOR` (what the building levels keep: 2 px a texel
-  when the proxy switches at 16 px; or at most the children's texel, the floor), no larger than
+  bound / :data:`PROXY_TEXEL_FACTOR` (4 px a texel when the proxy switches at 16 px; or at
+  most the children's texel, the floor), no larger than
   its cells' finest images need (larger only upsamples), at most ``proxy_atlas_size``.
 
 A proxy with more than ``proxy_max_triangles`` is not written (nor are its ancestors').
@@ -61,7 +61,7 @@ from ..atomic import write_bytes_if_changed, write_text_atomic
 from ..config import TilesetOptions
 from ..gltf_writer import glb_bytes
 from ..model import Part, Texture, TileId
-from ..texel import TEXEL_ERROR_FACTOR, face_texels, kept_face_texels, weighted_quantile
+from ..texel import face_texels, kept_face_texels, weighted_quantile
 from ..tiles import tile_size_deg
 from . import features, frames
 from .cluster import cluster
@@ -69,10 +69,16 @@ from .glb import GlbPrimitive, read_primitives
 from .tree import rounding_slack
 
 PROXY_DIR = "tileset_proxies"
-PROXY_FORMAT = "vworld-lod-proxy 7"  # 7: atlas sized from the error; 6: from the children's
+PROXY_FORMAT = "vworld-lod-proxy 8"  # 8: texels 1/4 of the bound; 7: atlas sized from the error
 # Proxy atlas sides, pixels: the smallest chosen, and the fewest pixels a cell side gets at a
 # size below ``proxy_atlas_size`` (smaller cells would blur texture into colour).
 ATLAS_FLOOR_PX = 64
+# A proxy's texels at most this fraction of its geometric bound: 4 px when it switches at 16 px.
+# Its shape may then be off by 16 px (four texels): a finer texture would draw a truer picture
+# on a surface that is not there, for 4x the texture memory of the next size down. A building's
+# levels keep 2 px (exporter.texel.TEXEL_ERROR_FACTOR), their geometry being near-exact; a
+# proxy's error is its geometry (its budget, tileset.proxy_error_ratio), never its texture.
+PROXY_TEXEL_FACTOR = 4.0
 MIN_CELL_PX = 4
 # Cell-grid uvs (:func:`atlas_uvs`): (column, row) of the cell + the uv in it, at most LOCAL_MAX
 # (below 1: clustering's uv bins, whole fractions of a cell, never span two cells).
@@ -552,11 +558,11 @@ def build_proxy(task: ProxyTask) -> tuple[Proxy, bytes, dict] | None:
     stored = positions.astype(np.float32)
     low, high = stored.min(axis=0).astype(np.float64), stored.max(axis=0).astype(np.float64)
     geometric = merged.bound + step + rounding_slack(low, high) + TRANSFORM_SLACK_M
-    # The atlas a viewer can tell apart: texels at most 1/TEXEL_ERROR_FACTOR of the geometric
-    # bound (2 px when the proxy switches at 16 px, as the building levels), and no finer than
-    # the children's (the parent's texel is floored there: finer would show nothing more).
+    # The atlas a viewer can tell apart: texels at most 1/PROXY_TEXEL_FACTOR of the geometric
+    # bound, and no finer than the children's (the parent's texel is floored there: finer would
+    # show nothing more).
     cells, surface = merged.cells[used], stored.astype(np.float64)
-    wanted = max(geometric / TEXEL_ERROR_FACTOR, merged.texel_floor)
+    wanted = max(geometric / PROXY_TEXEL_FACTOR, merged.texel_floor)
     largest = task.options.proxy_atlas_size
     texels = CellTexels(surface, faces, grid, cells, merged.count)
     size = choose_atlas(merged, texels, wanted, largest)
