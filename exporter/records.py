@@ -18,6 +18,7 @@ the files back costs an unchanged re-run 1.25x the time of checking sizes only (
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import re
@@ -27,7 +28,8 @@ from pathlib import Path
 # 97 us for 300 KB here, the size of a building's lod0.glb.
 from isal.isal_zlib import crc32
 
-from .atomic import write_text_atomic
+from .atomic import write_bytes_if_changed, write_text_atomic
+from .manifest import MANIFEST_NAME
 
 STAMP = "hashed_ns"  # in-memory only: when an input was hashed (ns since the epoch)
 FROM_RECORD = "stamp_from_record"  # in-memory only: STAMP is a previous record's time
@@ -96,17 +98,31 @@ def top_level_values(text: str) -> dict[str, tuple[object, str]]:
     return out
 
 
-def write_record(path: str | Path, data: dict, inputs: list[dict]) -> None:
-    """Write the record file ``path`` holding ``data`` plus ``inputs`` (fingerprints without their
-    hash times), atomically, then set its modification time to the earliest time an input was
-    hashed in this run (module doc). Inputs trusted from a previous record were last modified
-    well before that record's time, so a later time is as safe for them."""
+def hash_time(inputs: list[dict]) -> int | None:
+    """The hash time a file recording ``inputs`` (fingerprints with their STAMP) may carry: the
+    earliest time an input was hashed in this run, else the earliest previous record's time
+    (None without any). Inputs trusted from a previous record were last modified well before
+    that record's time (``input_fingerprints`` trusts no other), so a later time is as safe for
+    them."""
     fresh = [item[STAMP] for item in inputs if STAMP in item and FROM_RECORD not in item]
     stamps = fresh or [item[STAMP] for item in inputs if STAMP in item]
-    stable = [{k: v for k, v in item.items() if k not in (STAMP, FROM_RECORD)} for item in inputs]
-    write_text_atomic(os.fspath(path), json.dumps({**data, "inputs": stable}, allow_nan=False))
-    if stamps:
-        os.utime(path, ns=(min(stamps), min(stamps)))
+    return min(stamps) if stamps else None
+
+
+def stable_inputs(inputs: list[dict]) -> list[dict]:
+    """``inputs`` without their in-memory hash times (what a file records)."""
+    return [{k: v for k, v in item.items() if k not in (STAMP, FROM_RECORD)} for item in inputs]
+
+
+def write_record(path: str | Path, data: dict, inputs: list[dict]) -> None:
+    """Write the record file ``path`` holding ``data`` plus ``inputs`` (fingerprints without their
+    hash times), atomically, then set its modification time to :func:`hash_time` (module doc)."""
+    stamp = hash_time(inputs)
+    write_text_atomic(
+        os.fspath(path), json.dumps({**data, "inputs": stable_inputs(inputs)}, allow_nan=False)
+    )
+    if stamp is not None:
+        os.utime(path, ns=(stamp, stamp))
 
 
 def stamped(inputs: list, path: Path) -> list[dict]:
@@ -120,3 +136,68 @@ def stamped(inputs: list, path: Path) -> list[dict]:
         for item in inputs
         if isinstance(item, dict) and "path" in item
     ]
+
+
+# --------------------------------------------------------------------------- a tile's summary
+
+SUMMARY_NAME = ".tile_records.json"  # beside the manifest; hidden: never taken for a building
+SUMMARY_FORMAT = "vworld-lod-tile-records"
+SUMMARY_VERSION = 1
+
+
+def summary_entry(record: dict, inputs: list[dict], files: list[dict]) -> dict:
+    """A building's item in its tile's summary: what a re-run checks to reuse it without reading
+    its record file (``record``: its manifest entry; ``inputs``: its input fingerprints;
+    ``files``: ``file_entry`` items of its level files and of its record file)."""
+    return {
+        "folder": record["folder"],
+        "source": record["source"],
+        "id": record["id"],
+        "input_hash": record.get("input_hash"),
+        "inputs": stable_inputs(inputs),
+        "files": files,
+    }
+
+
+def write_summary(tile_dir: str | Path, manifest: bytes, entries: list[dict], stamp: int | None):
+    """Write ``tile_dir``'s summary: ``entries`` (:func:`summary_entry`, in the manifest's order)
+    and the sha256 of the manifest text they were written with (``manifest``), atomically,
+    unless it holds these bytes already; then its modification time is ``stamp`` (the hash time
+    its inputs were fingerprinted at, :func:`hash_time`; the same racy rule as a record's).
+    No time is in its bytes: two runs over the same input write the same summary."""
+    path = os.path.join(tile_dir, SUMMARY_NAME)
+    data = {
+        "format": SUMMARY_FORMAT,
+        "version": SUMMARY_VERSION,
+        "manifest_sha256": hashlib.sha256(manifest).hexdigest(),
+        "buildings": entries,
+    }
+    write_bytes_if_changed(path, json.dumps(data, allow_nan=False).encode("utf-8"))
+    if stamp is not None:
+        os.utime(path, ns=(stamp, stamp))
+
+
+def read_summary(tile_dir: str | Path, manifest: bytes | None = None) -> dict[str, dict] | None:
+    """``tile_dir``'s summary items by building folder, their ``inputs`` stamped with the
+    summary's time (:func:`stamped`), or None when there is none, it cannot be read, or the
+    tile's manifest (``manifest``, its bytes when already read) is not the one it was written
+    with (an interrupted run, a manifest edited or replaced): then every record file is read."""
+    path = Path(tile_dir) / SUMMARY_NAME
+    try:
+        data = json.loads(path.read_bytes())
+        if manifest is None:
+            manifest = (Path(tile_dir) / MANIFEST_NAME).read_bytes()
+        if (
+            data["format"] != SUMMARY_FORMAT
+            or data["version"] != SUMMARY_VERSION
+            or data["manifest_sha256"] != hashlib.sha256(manifest).hexdigest()
+        ):
+            return None
+        stamp = path.stat().st_mtime_ns
+        out = {}
+        for item in data["buildings"]:
+            inputs = [{**i, STAMP: stamp, FROM_RECORD: True} for i in item["inputs"]]
+            out[str(item["folder"])] = {**item, "inputs": inputs}
+        return out
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return None
