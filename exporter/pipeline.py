@@ -27,6 +27,7 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from .atomic import remove_stale_temporaries, write_bytes_atomic
 from .config import Config, check_optional_features
@@ -48,6 +49,7 @@ from .readers import Entry, Scan, check_crs_option, scan_folder
 from .readers.folder import FORMAT as INDEX_FORMAT
 from .records import (
     STAMP,
+    Summary,
     file_entry,
     files_intact,
     hash_time,
@@ -246,22 +248,40 @@ def manifest_record(path: str) -> TileRecord | None:
         return None
 
 
-def manifest_buildings(text: bytes) -> dict[str, tuple[dict, str]]:
+def manifest_buildings(text: str) -> dict[str, tuple[dict, str]]:
     """The building entries of a manifest as :func:`exporter.manifest.dumps` wrote it (one line
     each), by folder, with their line; empty when it is not laid out so."""
-    lines = text.decode("utf-8").split("\n")
-    try:
-        start = lines.index(' "buildings": [')
-    except ValueError:
+    start = text.find('\n "buildings": [\n')
+    if start < 0:
         return {}
     out = {}
-    for line in lines[start + 1 :]:
+    for line in text[start:].split("\n")[2:]:
         if line in (" ]", " ],"):
             break
         item = line[2:-1] if line.endswith(",") else line[2:]
         record = json.loads(item)
         out[str(record["folder"])] = (record, item)
     return out
+
+
+def manifest_member(text: str, key: str) -> Any:
+    """The value of the top-level ``key`` of a manifest's text as
+    :func:`exporter.manifest.dumps` wrote it (each key at the start of a line), decoded alone:
+    the buildings are not parsed. Raises ValueError/KeyError when it is not there."""
+    start = text.find(f'\n "{key}": ')
+    if start < 0:
+        raise KeyError(key)
+    return _DECODER.raw_decode(text, start + len(key) + 6)[0]
+
+
+_DECODER = json.JSONDecoder()
+
+
+def manifest_head(tile: TileId, config: Config, skipped: list[Skipped]) -> str:
+    """sha256 of what a manifest holds besides its buildings (the tile, config, generator and
+    ``skipped``): with the same buildings, the same head makes the same manifest bytes."""
+    text = dumps(build_manifest(tile, tile_bounds(tile), {}, {}, config, [], skipped))
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
 def previous_records(out_dir: Path) -> tuple[dict[tuple[str, str], Path], dict[Path, str]]:
@@ -275,12 +295,13 @@ def previous_records(out_dir: Path) -> tuple[dict[tuple[str, str], Path], dict[P
     with os.scandir(out_dir) as tiles:
         tile_dirs = sorted(Path(e.path) for e in tiles if e.is_dir())
     for tile_dir in tile_dirs:
-        summary = read_summary(tile_dir) or {}
+        summary = read_summary(tile_dir)
+        items = summary.items if summary is not None else {}
         with os.scandir(tile_dir) as names:
             folders = sorted(e.name for e in names if e.is_dir())
         for name in folders:
             path = tile_dir / name / RECORD_NAME
-            record = summary.get(name) or (read_record(path) or {}).get("record")
+            record = items.get(name) or (read_record(path) or {}).get("record")
             if isinstance(record, dict) and "source" in record and "id" in record:
                 found[(record["source"], record["id"])] = path
                 sources[path.parent] = str(record["source"])
@@ -294,7 +315,7 @@ class TileSummaries:
     KEEP = 4
 
     def __init__(self) -> None:
-        self._read: dict[Path, dict[str, dict] | None] = {}
+        self._read: dict[Path, Summary | None] = {}
 
     def item(self, record_path: Path) -> dict | None:
         """The summary item of the building whose record file is ``record_path``, or None."""
@@ -304,7 +325,7 @@ class TileSummaries:
                 del self._read[next(iter(self._read))]
             self._read[tile_dir] = read_summary(tile_dir)
         summary = self._read[tile_dir]
-        return summary.get(record_path.parent.name) if summary is not None else None
+        return summary.items.get(record_path.parent.name) if summary is not None else None
 
 
 def summary_reusable(item: dict, digest: str, folder: Path, fingerprints: list[dict]) -> bool:
@@ -677,7 +698,7 @@ def _skip_key(item: Skipped) -> tuple:
 
 
 def previous_skipped(
-    tile_dir: Path, owns: Owns, current: list[Skipped], text: bytes | None = None
+    tile_dir: Path, owns: Owns, current: list[Skipped], text: str | None = None
 ) -> list[Skipped]:
     """The skipped buildings of the tile's previous manifest (``text``, when already read) that
     came from other inputs than this run's (kept beside their buildings), less those this run
@@ -686,8 +707,8 @@ def previous_skipped(
     seen = {_skip_key(item) for item in current}
     try:
         if text is None:
-            text = (tile_dir / MANIFEST_NAME).read_bytes()
-        manifest = json.loads(text.decode("utf-8"))
+            text = (tile_dir / MANIFEST_NAME).read_text(encoding="utf-8")
+        manifest = {"skipped": manifest_member(text, "skipped")}
         kept = [
             Skipped(str(s["source"]), str(s["reason"]), s.get("id"), None)
             for s in manifest["skipped"]
@@ -723,11 +744,32 @@ def write_tile_output(
     (:func:`exporter.records.write_summary`) after it.
 
     ``from_summary``: folders reused from the tile's summary: their manifest entry is taken
-    from the previous manifest that summary was written with (their record files are not read)."""
+    from the previous manifest that summary was written with (their record files are not read);
+    when they are all of the tile's buildings and the manifest's head is the same, the manifest
+    and the summary are left as they are, unread beyond the summary's check."""
     tile_dir = out_dir / tile.name
     tile_dir.mkdir(parents=True, exist_ok=True)
-    old_text = _previous_manifest(tile_dir)
-    summary = read_summary(tile_dir, old_text) if from_summary and old_text else None
+    old_bytes = _previous_manifest(tile_dir)
+    old_text = old_bytes.decode("utf-8", "replace") if old_bytes is not None else None
+    summary = read_summary(tile_dir, old_bytes) if from_summary and old_bytes else None
+    keep = set(folders)
+    with os.scandir(tile_dir) as found_names:  # a listing: no stat of the folders kept
+        others = [
+            e.path
+            for e in found_names
+            if e.name not in keep and e.name != MANIFEST_NAME and not e.name.startswith(".")
+        ]
+    kept_skips = previous_skipped(tile_dir, owns, skipped, old_text) if owns is not None else []
+    if (
+        summary is not None
+        and not others
+        and len(folders) == len(from_summary) == len(summary.items)
+        and keep == from_summary == summary.items.keys()
+        and summary.head == manifest_head(tile, config, skipped + kept_skips)
+    ):  # the same buildings and head: the same manifest
+        return TileResult(
+            tile, tile_dir / MANIFEST_NAME, len(folders), len(skipped) + len(kept_skips), reused
+        )
     old = manifest_buildings(old_text) if summary is not None and old_text else {}
     records = []
     lines_of: dict[int, str] = {}  # records' manifest lines copied from their files, by id()
@@ -743,13 +785,9 @@ def write_tile_output(
         stamps.extend(found.inputs)
 
     for folder in folders:
-        item = summary.get(folder) if summary is not None and folder in from_summary else None
+        item = summary.items.get(folder) if summary is not None and folder in from_summary else None
         entry = old.get(folder) if item is not None else None
-        if (
-            item is not None
-            and entry is not None
-            and entry[0].get("input_hash") == item["input_hash"]
-        ):
+        if item and entry and entry[0].get("input_hash") == item["input_hash"]:
             add(TileRecord(entry[0], entry[1], item, item["inputs"]))
             continue
         found = manifest_record(os.path.join(tile_dir, folder, RECORD_NAME))
@@ -764,11 +802,7 @@ def write_tile_output(
             ]
         else:
             add(found)
-    keep = set(folders)
-    with os.scandir(tile_dir) as found_names:  # a listing: no stat of the folders kept
-        others = [e.path for e in found_names if e.name not in keep and not e.name.startswith(".")]
-    if owns is not None:
-        skipped = skipped + previous_skipped(tile_dir, owns, skipped, old_text)
+    skipped = skipped + kept_skips
     for folder_path in sorted(others):  # only folders this tool made (as glob's "*" sees them)
         if os.path.islink(folder_path):  # never made by this tool: neither removed nor listed
             continue
@@ -792,9 +826,10 @@ def write_tile_output(
     )
     text = dumps(manifest, lines_of).encode("utf-8")
     path = tile_dir / MANIFEST_NAME
-    if text != old_text:  # an unchanged manifest keeps its time (and costs no fsync)
+    if text != old_bytes:  # an unchanged manifest keeps its time (and costs no fsync)
         write_bytes_atomic(path, text, durable=True)
     # In the manifest's order; a building without an item (an older record) is read next time.
     items = [items_of[id(r)] for r in manifest["buildings"] if id(r) in items_of]
-    write_summary(tile_dir, text, items, hash_time(stamps))
+    head = manifest_head(tile, config, skipped)
+    write_summary(tile_dir, text, head, items, hash_time(stamps))
     return TileResult(tile, path, len(records), len(skipped), reused)

@@ -22,6 +22,7 @@ import hashlib
 import json
 import os
 import re
+from dataclasses import dataclass
 from pathlib import Path
 
 # zlib's CRC-32 (same polynomial and values as zlib.crc32), ~10x faster than zlib 1.2's: 9 against
@@ -44,12 +45,15 @@ def files_intact(folder: Path, files: list[dict]) -> bool:
     """True when every file of ``files`` (``file_entry`` items) in ``folder`` has its recorded
     size and CRC-32 (only the size for items without one: records of 0.3.4 and older)."""
     for item in files:
-        path = folder / str(item.get("file", ""))
+        path = os.path.join(
+            folder, str(item.get("file", ""))
+        )  # os, not pathlib: 3 files a building
         try:
-            if path.stat().st_size != item.get("bytes"):
-                return False
-            if "crc32" in item and crc32(path.read_bytes()) != item["crc32"]:
-                return False
+            with open(path, "rb") as handle:
+                if os.fstat(handle.fileno()).st_size != item.get("bytes"):
+                    return False
+                if "crc32" in item and crc32(handle.read()) != item["crc32"]:
+                    return False
         except OSError:
             return False
     return True
@@ -159,9 +163,21 @@ def summary_entry(record: dict, inputs: list[dict], files: list[dict]) -> dict:
     }
 
 
-def write_summary(tile_dir: str | Path, manifest: bytes, entries: list[dict], stamp: int | None):
-    """Write ``tile_dir``'s summary: ``entries`` (:func:`summary_entry`, in the manifest's order)
-    and the sha256 of the manifest text they were written with (``manifest``), atomically,
+@dataclass
+class Summary:
+    """A tile's summary as read (:func:`read_summary`)."""
+
+    items: dict[str, dict]  # by building folder, their inputs stamped with the summary's time
+    head: str  # :func:`write_summary`'s ``head``
+
+
+def write_summary(
+    tile_dir: str | Path, manifest: bytes, head: str, entries: list[dict], stamp: int | None
+) -> None:
+    """Write ``tile_dir``'s summary: ``entries`` (:func:`summary_entry`, in the manifest's order),
+    the sha256 of the manifest text they were written with (``manifest``) and ``head`` (what
+    the manifest holds besides its buildings, as a hash: a re-run whose head and buildings are
+    the same leaves the manifest as it is without making it again), atomically,
     unless it holds these bytes already; then its modification time is ``stamp`` (the hash time
     its inputs were fingerprinted at, :func:`hash_time`; the same racy rule as a record's).
     No time is in its bytes: two runs over the same input write the same summary."""
@@ -170,6 +186,7 @@ def write_summary(tile_dir: str | Path, manifest: bytes, entries: list[dict], st
         "format": SUMMARY_FORMAT,
         "version": SUMMARY_VERSION,
         "manifest_sha256": hashlib.sha256(manifest).hexdigest(),
+        "head_sha256": head,
         "buildings": entries,
     }
     write_bytes_if_changed(path, json.dumps(data, allow_nan=False).encode("utf-8"))
@@ -177,9 +194,9 @@ def write_summary(tile_dir: str | Path, manifest: bytes, entries: list[dict], st
         os.utime(path, ns=(stamp, stamp))
 
 
-def read_summary(tile_dir: str | Path, manifest: bytes | None = None) -> dict[str, dict] | None:
-    """``tile_dir``'s summary items by building folder, their ``inputs`` stamped with the
-    summary's time (:func:`stamped`), or None when there is none, it cannot be read, or the
+def read_summary(tile_dir: str | Path, manifest: bytes | None = None) -> Summary | None:
+    """``tile_dir``'s summary (items by building folder, their ``inputs`` stamped with the
+    summary's time as :func:`stamped` does), or None when there is none, it cannot be read, or the
     tile's manifest (``manifest``, its bytes when already read) is not the one it was written
     with (an interrupted run, a manifest edited or replaced): then every record file is read."""
     path = Path(tile_dir) / SUMMARY_NAME
@@ -198,6 +215,6 @@ def read_summary(tile_dir: str | Path, manifest: bytes | None = None) -> dict[st
         for item in data["buildings"]:
             inputs = [{**i, STAMP: stamp, FROM_RECORD: True} for i in item["inputs"]]
             out[str(item["folder"])] = {**item, "inputs": inputs}
-        return out
+        return Summary(out, str(data["head_sha256"]))
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return None
