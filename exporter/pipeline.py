@@ -54,6 +54,7 @@ from .records import (
     files_intact,
     hash_time,
     read_summary,
+    stable_inputs,
     stamped,
     summary_entry,
     top_level_values,
@@ -788,7 +789,8 @@ def write_tile_output(
         item = summary.items.get(folder) if summary is not None and folder in from_summary else None
         entry = old.get(folder) if item is not None else None
         if item and entry and entry[0].get("input_hash") == item["input_hash"]:
-            add(TileRecord(entry[0], entry[1], item, item["inputs"]))
+            stable = {**item, "inputs": stable_inputs(item["inputs"])}
+            add(TileRecord(entry[0], entry[1], stable, item["inputs"]))
             continue
         found = manifest_record(os.path.join(tile_dir, folder, RECORD_NAME))
         if found is None:  # removed or damaged since this run wrote it: reported, not invented
