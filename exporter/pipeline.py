@@ -309,14 +309,26 @@ def previous_records(out_dir: Path) -> tuple[dict[tuple[str, str], Path], dict[P
     return found, sources
 
 
+@dataclass(frozen=True)
+class SummaryFacts:
+    """What a tile's summary says of the whole tile: enough for :func:`write_tile_output` to
+    see that the tile is unchanged without reading the summary again."""
+
+    manifest_sha256: str
+    head: str
+    folders: frozenset[str]
+
+
 class TileSummaries:
     """Tile summaries (:func:`exporter.records.read_summary`) read as their buildings come up,
-    a few tiles kept (a folder's buildings come one after the other)."""
+    a few tiles kept (a folder's buildings come one after the other); of every tile read, its
+    :class:`SummaryFacts` (``facts``, by tile folder name)."""
 
     KEEP = 4
 
     def __init__(self) -> None:
         self._read: dict[Path, Summary | None] = {}
+        self.facts: dict[str, SummaryFacts] = {}
 
     def item(self, record_path: Path) -> dict | None:
         """The summary item of the building whose record file is ``record_path``, or None."""
@@ -325,6 +337,10 @@ class TileSummaries:
             if len(self._read) >= self.KEEP:
                 del self._read[next(iter(self._read))]
             self._read[tile_dir] = read_summary(tile_dir)
+            found = self._read[tile_dir]
+            if found is not None:
+                folders = frozenset(found.items)
+                self.facts[tile_dir.name] = SummaryFacts(found.manifest_sha256, found.head, folders)
         summary = self._read[tile_dir]
         return summary.items.get(record_path.parent.name) if summary is not None else None
 
@@ -644,6 +660,7 @@ def export_tiles(
                     reused.get(tile, 0),
                     owns,
                     from_summary.get(tile, set()),
+                    summaries.facts.get(tile.name),
                 )
             )
         # After the manifests (the tileset and tiles.json reference only complete files);
@@ -736,6 +753,7 @@ def write_tile_output(
     reused: int = 0,
     owns: Owns | None = None,
     from_summary: set[str] | frozenset[str] = frozenset(),
+    facts: SummaryFacts | None = None,
 ) -> TileResult:
     """Read the records of the tile's buildings (``folders``, in result order), remove building
     folders of earlier runs that this run did not produce but that came from its inputs
@@ -746,13 +764,13 @@ def write_tile_output(
 
     ``from_summary``: folders reused from the tile's summary: their manifest entry is taken
     from the previous manifest that summary was written with (their record files are not read);
-    when they are all of the tile's buildings and the manifest's head is the same, the manifest
-    and the summary are left as they are, unread beyond the summary's check."""
+    when they are all of the tile's buildings (``facts``: what the summary said of the tile when
+    this run read it) and the manifest's head is the same, the manifest and the summary are left
+    as they are."""
     tile_dir = out_dir / tile.name
     tile_dir.mkdir(parents=True, exist_ok=True)
     old_bytes = _previous_manifest(tile_dir)
     old_text = old_bytes.decode("utf-8", "replace") if old_bytes is not None else None
-    summary = read_summary(tile_dir, old_bytes) if from_summary and old_bytes else None
     keep = set(folders)
     with os.scandir(tile_dir) as found_names:  # a listing: no stat of the folders kept
         others = [
@@ -762,15 +780,18 @@ def write_tile_output(
         ]
     kept_skips = previous_skipped(tile_dir, owns, skipped, old_text) if owns is not None else []
     if (
-        summary is not None
+        facts is not None
+        and old_bytes is not None
         and not others
-        and len(folders) == len(from_summary) == len(summary.items)
-        and keep == from_summary == summary.items.keys()
-        and summary.head == manifest_head(tile, config, skipped + kept_skips)
+        and len(folders) == len(from_summary) == len(facts.folders)
+        and keep == from_summary == facts.folders
+        and facts.head == manifest_head(tile, config, skipped + kept_skips)
+        and facts.manifest_sha256 == hashlib.sha256(old_bytes).hexdigest()
     ):  # the same buildings and head: the same manifest
         return TileResult(
             tile, tile_dir / MANIFEST_NAME, len(folders), len(skipped) + len(kept_skips), reused
         )
+    summary = read_summary(tile_dir, old_bytes) if from_summary and old_bytes else None
     old = manifest_buildings(old_text) if summary is not None and old_text else {}
     records = []
     lines_of: dict[int, str] = {}  # records' manifest lines copied from their files, by id()

@@ -169,6 +169,7 @@ class Summary:
 
     items: dict[str, dict]  # by building folder, their inputs stamped with the summary's time
     head: str  # :func:`write_summary`'s ``head``
+    manifest_sha256: str  # of the manifest it goes with
 
 
 def write_summary(
@@ -215,6 +216,6 @@ def read_summary(tile_dir: str | Path, manifest: bytes | None = None) -> Summary
         for item in data["buildings"]:
             inputs = [{**i, STAMP: stamp, FROM_RECORD: True} for i in item["inputs"]]
             out[str(item["folder"])] = {**item, "inputs": inputs}
-        return Summary(out, str(data["head_sha256"]))
+        return Summary(out, str(data["head_sha256"]), str(data["manifest_sha256"]))
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return None
