@@ -14,6 +14,13 @@ A re-run reuses a building only when every file the record lists is still there 
 CRC-32 (:func:`files_intact`): a truncated or damaged ``lod1.glb`` is rebuilt, not kept. Reading
 the files back costs an unchanged re-run 1.25x the time of checking sizes only (200 buildings,
 20.9 MB of ``.glb``, files in the page cache: 0.30 s against 0.24 s; first run 21.9 s).
+
+A tile's summary (``.tile_records.json`` beside its manifest, :func:`write_summary`) gathers what
+a re-run checks of each of the tile's buildings (input hash, input fingerprints, files' size and
+CRC-32, the record file's own among them) with the sha256 of the manifest it goes with, so that
+an unchanged tile is recognised without parsing its buildings' record files (issue 37). It is
+written after the manifest and trusted only while that manifest is the one it was written
+with; its modification time is its inputs' hash time, as a record's (:func:`hash_time`).
 """
 
 from __future__ import annotations

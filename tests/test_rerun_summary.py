@@ -211,3 +211,25 @@ def test_force_redoes_every_building_and_a_tile_left_out_of_a_run_stays(inputs, 
     fresh = tmp_path / "fresh"
     export(inputs, fresh)
     assert tree(out) == tree(fresh)
+
+
+def test_a_config_change_outside_the_buildings_remakes_the_manifests_only(inputs, tmp_path, reads):
+    """The tileset's options are not in a building's input hash but are in its tile's manifest
+    (``config``): every building is reused from the summaries, and the manifests are made again
+    (a new head), as a fresh export with that config writes them."""
+    out = tmp_path / "out"
+    export(inputs, out)
+    other = Config()
+    other.tileset.proxy_max_triangles += 1
+    reads.clear()
+    run = export(inputs, out, other)
+    assert run.reused == 8 and reads == []
+    for tile in TILES:
+        manifest = json.loads((out / tile.name / "lod_manifest.json").read_text())
+        assert (
+            manifest["config"]["tileset"]["proxy_max_triangles"]
+            == other.tileset.proxy_max_triangles
+        )
+    fresh = tmp_path / "fresh"
+    export(inputs, fresh, other)
+    assert tree(out) == tree(fresh)
