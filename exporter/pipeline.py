@@ -27,8 +27,9 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
-from .atomic import remove_stale_temporaries, write_text_atomic
+from .atomic import remove_stale_temporaries, write_bytes_atomic
 from .config import Config, check_optional_features
 from .distributed import (
     ClusterOptions,
@@ -46,8 +47,21 @@ from .names import printable, unique_ids
 from .placement import tile_placement
 from .readers import Entry, Scan, check_crs_option, scan_folder
 from .readers.folder import FORMAT as INDEX_FORMAT
-from .records import files_intact, stamped, top_level_values, write_record
-from .tile_index import fresh_facts, write_tile_index
+from .records import (
+    STAMP,
+    Summary,
+    file_entry,
+    files_intact,
+    hash_time,
+    read_summary,
+    stable_inputs,
+    stamped,
+    summary_entry,
+    top_level_values,
+    write_record,
+    write_summary,
+)
+from .tile_index import fresh_facts, tile_from_name, write_tile_index
 from .tiles import tile_bounds, tile_center
 from .tileset import TilesetResult, write_tileset
 from .workers import start_worker
@@ -202,30 +216,145 @@ def read_record(path: Path) -> dict | None:
         return None
 
 
-def manifest_record(path: str) -> tuple[dict, str | None] | None:
-    """The manifest entry (``record``) of a record file written this run and its manifest line
-    when its text can be copied (:func:`exporter.manifest.record_line`), or None when it cannot
-    be read (no input fingerprints or stat: :func:`read_record` is for reuse)."""
+@dataclass
+class TileRecord:
+    """A building's record file as its tile's manifest and summary take it."""
+
+    record: dict  # its manifest entry
+    line: str | None  # its manifest line when its text can be copied (manifest.record_line)
+    summary: dict  # its item of the tile's summary (exporter.records.summary_entry)
+    inputs: list[dict]  # its input fingerprints with their hash times (records.stamped)
+
+
+def manifest_record(path: str) -> TileRecord | None:
+    """A record file of the tile being written (:class:`TileRecord`; its inputs stamped with the
+    file's time as hashed in this run, which only makes the summary's time earlier), or None
+    when it cannot be read."""
     try:
-        with open(path, encoding="utf-8") as handle:
-            record, text = top_level_values(handle.read())["record"]
-        return (record, record_line(text)) if isinstance(record, dict) else None
+        with open(path, "rb") as handle:
+            data = handle.read()
+            stamp = os.fstat(handle.fileno()).st_mtime_ns
+        members = top_level_values(data.decode("utf-8"))
+        record, text = members["record"]
+        inputs = members.get("inputs", ([], ""))[0]
+        files = members.get("files", ([], ""))[0]
+        if not (isinstance(record, dict) and isinstance(inputs, list) and isinstance(files, list)):
+            return None
+        inputs = [item for item in inputs if isinstance(item, dict) and "path" in item]
+        files = [item for item in files if isinstance(item, dict)]
+        entry = summary_entry(record, inputs, files + [file_entry(RECORD_NAME, data)])
+        fresh = [{**item, STAMP: stamp} for item in inputs] or [{STAMP: stamp}]
+        return TileRecord(record, record_line(text), entry, fresh)
     except (OSError, ValueError, KeyError, TypeError):
         return None
 
 
+def manifest_buildings(text: str) -> dict[str, tuple[dict, str]]:
+    """The building entries of a manifest as :func:`exporter.manifest.dumps` wrote it (one line
+    each), by folder, with their line; empty when it is not laid out so."""
+    start = text.find('\n "buildings": [\n')
+    if start < 0:
+        return {}
+    out = {}
+    for line in text[start:].split("\n")[2:]:
+        if line in (" ]", " ],"):
+            break
+        item = line[2:-1] if line.endswith(",") else line[2:]
+        record = json.loads(item)
+        out[str(record["folder"])] = (record, item)
+    return out
+
+
+def manifest_member(text: str, key: str) -> Any:
+    """The value of the top-level ``key`` of a manifest's text as
+    :func:`exporter.manifest.dumps` wrote it (each key at the start of a line), decoded alone:
+    the buildings are not parsed. Raises ValueError/KeyError when it is not there."""
+    start = text.find(f'\n "{key}": ')
+    if start < 0:
+        raise KeyError(key)
+    return _DECODER.raw_decode(text, start + len(key) + 6)[0]
+
+
+_DECODER = json.JSONDecoder()
+
+
+def manifest_head(tile: TileId, config: Config, skipped: list[Skipped]) -> str:
+    """sha256 of what a manifest holds besides its buildings (the tile, config, generator and
+    ``skipped``): with the same buildings, the same head makes the same manifest bytes."""
+    text = dumps(build_manifest(tile, tile_bounds(tile), {}, {}, config, [], skipped))
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
 def previous_records(out_dir: Path) -> tuple[dict[tuple[str, str], Path], dict[Path, str]]:
     """Record files a previous run left in ``out_dir``: their paths keyed by (source, id), and
-    each building folder's source (to say which building of another input a run replaces). Only
-    the paths are kept: a record is read again when its building comes up (memory stays flat
-    over a city)."""
+    each building folder's source (to say which building of another input a run replaces). A
+    tile whose summary matches its manifest (:func:`exporter.records.read_summary`) names its
+    buildings from there; a record file is read only for a folder it does not list. Only the
+    paths are kept: a building's summary item or record is read again when it comes up (memory
+    stays flat over a city)."""
     found, sources = {}, {}
-    for path in out_dir.glob(f"*/*/{RECORD_NAME}"):
-        record = (read_record(path) or {}).get("record")
-        if isinstance(record, dict) and "source" in record and "id" in record:
-            found[(record["source"], record["id"])] = path
-            sources[path.parent] = str(record["source"])
+    with os.scandir(out_dir) as tiles:
+        tile_dirs = sorted(Path(e.path) for e in tiles if e.is_dir())
+    for tile_dir in tile_dirs:
+        summary = read_summary(tile_dir)
+        items = summary.items if summary is not None else {}
+        with os.scandir(tile_dir) as names:
+            folders = sorted(e.name for e in names if e.is_dir())
+        for name in folders:
+            path = tile_dir / name / RECORD_NAME
+            record = items.get(name) or (read_record(path) or {}).get("record")
+            if isinstance(record, dict) and "source" in record and "id" in record:
+                found[(record["source"], record["id"])] = path
+                sources[path.parent] = str(record["source"])
     return found, sources
+
+
+@dataclass(frozen=True)
+class SummaryFacts:
+    """What a tile's summary says of the whole tile: enough for :func:`write_tile_output` to
+    see that the tile is unchanged without reading the summary again."""
+
+    manifest_sha256: str
+    head: str
+    folders: frozenset[str]
+
+
+class TileSummaries:
+    """Tile summaries (:func:`exporter.records.read_summary`) read as their buildings come up,
+    a few tiles kept (a folder's buildings come one after the other); of every tile read, its
+    :class:`SummaryFacts` (``facts``, by tile folder name)."""
+
+    KEEP = 4
+
+    def __init__(self) -> None:
+        self._read: dict[Path, Summary | None] = {}
+        self.facts: dict[str, SummaryFacts] = {}
+
+    def item(self, record_path: Path) -> dict | None:
+        """The summary item of the building whose record file is ``record_path``, or None."""
+        tile_dir = record_path.parent.parent
+        if tile_dir not in self._read:
+            if len(self._read) >= self.KEEP:
+                del self._read[next(iter(self._read))]
+            self._read[tile_dir] = read_summary(tile_dir)
+            found = self._read[tile_dir]
+            if found is not None:
+                folders = frozenset(found.items)
+                self.facts[tile_dir.name] = SummaryFacts(found.manifest_sha256, found.head, folders)
+        summary = self._read[tile_dir]
+        return summary.items.get(record_path.parent.name) if summary is not None else None
+
+
+def summary_reusable(item: dict, digest: str, folder: Path, fingerprints: list[dict]) -> bool:
+    """True when a building's summary item lets this run reuse it without reading its record
+    file: same input hash, same input fingerprints (else its record gets the new ones), its
+    folder not a link, and its level files and record file intact (size and CRC-32)."""
+    return (
+        item.get("input_hash") == digest
+        and fingerprints == item["inputs"]
+        and not folder.is_symlink()
+        and files_intact(folder, item["files"])
+    )
 
 
 Owns = Callable[[Iterable[str]], bool]
@@ -424,6 +553,9 @@ def export_tiles(
     previous, folder_sources = previous_records(out_dir)
     if force:
         previous = {}
+    summaries = TileSummaries()
+    # Per tile, the buildings reused from its summary: their manifest entry is the old manifest's.
+    from_summary: dict[TileId, set[str]] = {}
     owns = input_owner(scans)
     config_hash = config_fingerprint(config)
     jobs = max(1, jobs or os.cpu_count() or 1)
@@ -439,11 +571,21 @@ def export_tiles(
     def work() -> Iterable[tuple | EntryResult]:
         for entry in entries:
             before_path = previous.get((entry.source, entry.id))
-            before = read_record(before_path) if before_path is not None else None
+            item = summaries.item(before_path) if before_path is not None else None
+            before = read_record(before_path) if before_path and item is None else None
+            known = item or before
             fingerprints = input_fingerprints(
-                entry.inputs, {f["path"]: f for f in before["inputs"]} if before else {}
+                entry.inputs, {f["path"]: f for f in known["inputs"]} if known else {}
             )
             digest = input_hash(entry, config_hash, fingerprints)
+            if item is not None and before_path is not None:
+                tile = tile_from_name(before_path.parent.parent.name)
+                if tile and summary_reusable(item, digest, before_path.parent, fingerprints):
+                    from_summary.setdefault(tile, set()).add(item["folder"])
+                    record = {key: item[key] for key in ("id", "folder", "source")}
+                    yield EntryResult(tile=tile, record=record, reused=True)
+                    continue
+                before = read_record(before_path)  # the record decides (e.g. new fingerprints)
             previous_run = reusable_record(before, digest, out_dir)
             if previous_run is not None and before is not None:
                 if (
@@ -478,7 +620,12 @@ def export_tiles(
             if result.record is not None:
                 assert result.tile is not None  # a building written is filed in a tile
                 replaced = folder_sources.get(out_dir / result.tile.name / result.record["folder"])
-                if replaced is not None and not owns([replaced]):
+                # The building's own earlier output is not another input's (no realpath needed).
+                if (
+                    replaced is not None
+                    and replaced != result.record["source"]
+                    and not owns([replaced])
+                ):
                     stats.replaced.append(replaced_notice(out_dir, result, replaced))
                 folders_of.setdefault(result.tile, []).append(result.record["folder"])
                 stats.buildings += 1
@@ -512,6 +659,8 @@ def export_tiles(
                     skipped.get(tile, []) + unplaced,
                     reused.get(tile, 0),
                     owns,
+                    from_summary.get(tile, set()),
+                    summaries.facts.get(tile.name),
                 )
             )
         # After the manifests (the tileset and tiles.json reference only complete files);
@@ -550,21 +699,15 @@ def replaced_notice(out_dir: Path, result: EntryResult, source: str) -> str:
     )
 
 
-def other_inputs_record(path: str) -> tuple[dict, str | None, list[str]] | None:
-    """(record, its manifest line, its source and input paths) of a record file an earlier run
-    left, or None when it cannot be read (a damaged leftover is not listed)."""
-    try:
-        with open(path, encoding="utf-8") as handle:
-            members = top_level_values(handle.read())
-        record, text = members["record"]
-        inputs = members.get("inputs", ([], ""))[0]
-        if not isinstance(record, dict) or not isinstance(inputs, list):
-            return None
-        paths = [str(record.get("source", ""))]
-        paths += [str(i["path"]) for i in inputs if isinstance(i, dict) and "path" in i]
-        return record, record_line(text), paths
-    except (OSError, ValueError, KeyError, TypeError):
+def other_inputs_record(path: str) -> tuple[TileRecord, list[str]] | None:
+    """A record file an earlier run left (:class:`TileRecord`) and its source and input paths,
+    or None when it cannot be read (a damaged leftover is not listed)."""
+    found = manifest_record(path)
+    if found is None:
         return None
+    paths = [str(found.record.get("source", ""))]
+    paths += [str(i["path"]) for i in found.summary["inputs"]]
+    return found, paths
 
 
 def _skip_key(item: Skipped) -> tuple:
@@ -572,13 +715,18 @@ def _skip_key(item: Skipped) -> tuple:
     return tuple(printable([item.source, item.reason, item.id]))
 
 
-def previous_skipped(tile_dir: Path, owns: Owns, current: list[Skipped]) -> list[Skipped]:
-    """The skipped buildings of the tile's previous manifest that came from other inputs than
-    this run's (kept beside their buildings), less those this run skips again (``current``): a
-    source that cannot be matched (a non-UTF-8 name in its printable form) is never listed twice."""
+def previous_skipped(
+    tile_dir: Path, owns: Owns, current: list[Skipped], text: str | None = None
+) -> list[Skipped]:
+    """The skipped buildings of the tile's previous manifest (``text``, when already read) that
+    came from other inputs than this run's (kept beside their buildings), less those this run
+    skips again (``current``): a source that cannot be matched (a non-UTF-8 name in its printable
+    form) is never listed twice."""
     seen = {_skip_key(item) for item in current}
     try:
-        manifest = json.loads((tile_dir / MANIFEST_NAME).read_text(encoding="utf-8"))
+        if text is None:
+            text = (tile_dir / MANIFEST_NAME).read_text(encoding="utf-8")
+        manifest = {"skipped": manifest_member(text, "skipped")}
         kept = [
             Skipped(str(s["source"]), str(s["reason"]), s.get("id"), None)
             for s in manifest["skipped"]
@@ -589,6 +737,13 @@ def previous_skipped(tile_dir: Path, owns: Owns, current: list[Skipped]) -> list
     return [item for item in kept if _skip_key(item) not in seen]
 
 
+def _previous_manifest(tile_dir: Path) -> bytes | None:
+    try:
+        return (tile_dir / MANIFEST_NAME).read_bytes()
+    except OSError:
+        return None
+
+
 def write_tile_output(
     out_dir: Path,
     tile: TileId,
@@ -597,16 +752,67 @@ def write_tile_output(
     skipped: list[Skipped],
     reused: int = 0,
     owns: Owns | None = None,
+    from_summary: set[str] | frozenset[str] = frozenset(),
+    facts: SummaryFacts | None = None,
 ) -> TileResult:
     """Read the records of the tile's buildings (``folders``, in result order), remove building
     folders of earlier runs that this run did not produce but that came from its inputs
     (``owns``, :func:`input_owner`; without it every earlier folder is this run's), keep those of
-    other inputs in the manifest, then write the manifest (last, atomically)."""
+    other inputs in the manifest, then write the manifest (last of the buildings' files,
+    atomically; left as it is when its bytes are the same) and the tile's summary
+    (:func:`exporter.records.write_summary`) after it.
+
+    ``from_summary``: folders reused from the tile's summary: their manifest entry is taken
+    from the previous manifest that summary was written with (their record files are not read);
+    when they are all of the tile's buildings (``facts``: what the summary said of the tile when
+    this run read it) and the manifest's head is the same, the manifest and the summary are left
+    as they are."""
     tile_dir = out_dir / tile.name
     tile_dir.mkdir(parents=True, exist_ok=True)
+    old_bytes = _previous_manifest(tile_dir)
+    old_text = old_bytes.decode("utf-8", "replace") if old_bytes is not None else None
+    keep = set(folders)
+    with os.scandir(tile_dir) as found_names:  # a listing: no stat of the folders kept
+        others = [
+            e.path
+            for e in found_names
+            if e.name not in keep and e.name != MANIFEST_NAME and not e.name.startswith(".")
+        ]
+    kept_skips = previous_skipped(tile_dir, owns, skipped, old_text) if owns is not None else []
+    if (
+        facts is not None
+        and old_bytes is not None
+        and not others
+        and len(folders) == len(from_summary) == len(facts.folders)
+        and keep == from_summary == facts.folders
+        and facts.head == manifest_head(tile, config, skipped + kept_skips)
+        and facts.manifest_sha256 == hashlib.sha256(old_bytes).hexdigest()
+    ):  # the same buildings and head: the same manifest
+        return TileResult(
+            tile, tile_dir / MANIFEST_NAME, len(folders), len(skipped) + len(kept_skips), reused
+        )
+    summary = read_summary(tile_dir, old_bytes) if from_summary and old_bytes else None
+    old = manifest_buildings(old_text) if summary is not None and old_text else {}
     records = []
     lines_of: dict[int, str] = {}  # records' manifest lines copied from their files, by id()
+    items_of: dict[int, dict] = {}  # records' summary items, by id()
+    stamps: list[dict] = []  # their inputs' hash times (exporter.records.hash_time)
+
+    def add(found: TileRecord) -> None:
+        records.append(found.record)
+        if found.line is not None:
+            lines_of[id(found.record)] = found.line
+        if has_level_errors(found.record):  # else redone next time: read from its record file
+            items_of[id(found.record)] = found.summary
+        stamps.extend(found.inputs)
+
     for folder in folders:
+        item = summary.items.get(folder) if summary is not None and folder in from_summary else None
+        entry = old.get(folder) if item is not None else None
+        if item and entry and entry[0].get("input_hash") == item["input_hash"]:
+            stable = {**item, "inputs": stable_inputs(item["inputs"])}
+            add(TileRecord(entry[0], entry[1], stable, item["inputs"]))
+            continue
         found = manifest_record(os.path.join(tile_dir, folder, RECORD_NAME))
         if found is None:  # removed or damaged since this run wrote it: reported, not invented
             skipped = skipped + [
@@ -618,15 +824,8 @@ def write_tile_output(
                 )
             ]
         else:
-            record, line = found
-            records.append(record)
-            if line is not None:
-                lines_of[id(record)] = line
-    keep = set(folders)
-    with os.scandir(tile_dir) as found_names:  # a listing: no stat of the folders kept
-        others = [e.path for e in found_names if e.name not in keep and not e.name.startswith(".")]
-    if owns is not None:
-        skipped = skipped + previous_skipped(tile_dir, owns, skipped)
+            add(found)
+    skipped = skipped + kept_skips
     for folder_path in sorted(others):  # only folders this tool made (as glob's "*" sees them)
         if os.path.islink(folder_path):  # never made by this tool: neither removed nor listed
             continue
@@ -634,10 +833,8 @@ def write_tile_output(
         if not os.path.isfile(record_path):
             continue
         kept = other_inputs_record(record_path) if owns is not None else None
-        if owns is not None and kept is not None and not owns(kept[2]):  # another input's: kept
-            records.append(kept[0])
-            if kept[1] is not None:
-                lines_of[id(kept[0])] = kept[1]
+        if owns is not None and kept is not None and not owns(kept[1]):  # another input's: kept
+            add(kept[0])
             continue
         shutil.rmtree(folder_path, ignore_errors=True)
     lon, lat = tile_center(tile)
@@ -650,5 +847,12 @@ def write_tile_output(
         records,
         skipped,
     )
-    path = write_text_atomic(tile_dir / MANIFEST_NAME, dumps(manifest, lines_of), durable=True)
+    text = dumps(manifest, lines_of).encode("utf-8")
+    path = tile_dir / MANIFEST_NAME
+    if text != old_bytes:  # an unchanged manifest keeps its time (and costs no fsync)
+        write_bytes_atomic(path, text, durable=True)
+    # In the manifest's order; a building without an item (an older record) is read next time.
+    items = [items_of[id(r)] for r in manifest["buildings"] if id(r) in items_of]
+    head = manifest_head(tile, config, skipped)
+    write_summary(tile_dir, text, head, items, hash_time(stamps))
     return TileResult(tile, path, len(records), len(skipped), reused)

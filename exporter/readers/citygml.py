@@ -994,7 +994,9 @@ def is_citygml_file(path: Path) -> bool:
 
 
 def _candidate_files(folder: Path) -> list[Path]:
-    return [p for p in sorted(folder.iterdir()) if p.is_file() and is_citygml_file(p)]
+    # Names first: a tile folder of other data (hundreds of .xdo/.jpg) costs no stat or sort.
+    named = (p for p in folder.iterdir() if p.name.lower().endswith(SUFFIXES))
+    return sorted(p for p in named if p.is_file() and is_citygml_file(p))
 
 
 def detect(folder: Path) -> bool:

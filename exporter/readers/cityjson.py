@@ -570,7 +570,9 @@ def is_cityjson_file(path: Path) -> bool:
 
 
 def _candidate_files(folder: Path) -> list[Path]:
-    return [p for p in sorted(folder.iterdir()) if p.is_file() and is_cityjson_file(p)]
+    # Names first: a tile folder of other data (hundreds of .xdo/.jpg) costs no stat or sort.
+    named = (p for p in folder.iterdir() if p.name.lower().endswith((".json", ".jsonl")))
+    return sorted(p for p in named if p.is_file() and is_cityjson_file(p))
 
 
 def detect(folder: Path) -> bool:
