@@ -36,7 +36,7 @@ import signal
 import time
 import uuid
 from collections.abc import Iterable, Iterator
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 from functools import cache
@@ -535,13 +535,35 @@ class ProxyWorkers:
         if not items:
             return []
         if self.cluster is not None:
-            if self._client is None:
-                session = cluster_session(self.cluster, self.folders, out_dir, self.notify)
-                self._client = self._stack.enter_context(session)
+            client = self._session(out_dir)
             self.remote += len(items)
-            return self._client.gather(self._client.map(function, items, pure=False))
+            return client.gather(client.map(function, items, pure=False))
         if self.jobs == 1:
             return [function(item) for item in items]
+        self.remote += len(items)
+        return list(self._local_pool().map(function, items))
+
+    def submit(self, function, item, out_dir: str) -> Any:
+        """``function(item)`` started where this runs it, not waited for: a future (its
+        ``result()`` waits); with one job it runs here, now."""
+        if self.cluster is not None:
+            self.remote += 1
+            return self._session(out_dir).submit(function, item, pure=False)
+        if self.jobs == 1:
+            future: Future = Future()
+            future.set_result(function(item))
+            return future
+        self.remote += 1
+        return self._local_pool().submit(function, item)
+
+    def _session(self, out_dir: str) -> Any:
+        assert self.cluster is not None
+        if self._client is None:
+            session = cluster_session(self.cluster, self.folders, out_dir, self.notify)
+            self._client = self._stack.enter_context(session)
+        return self._client
+
+    def _local_pool(self) -> ProcessPoolExecutor:
         if self._pool is None:
             from .workers import start_worker
 
@@ -550,8 +572,7 @@ class ProxyWorkers:
                     max_workers=self.jobs, initializer=start_worker, initargs=(os.getpid(),)
                 )
             )
-        self.remote += len(items)
-        return list(self._pool.map(function, items))
+        return self._pool
 
     def close(self) -> None:
         self._stack.close()
