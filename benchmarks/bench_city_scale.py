@@ -4,10 +4,11 @@ For each size, a square block of generated level-15 VWorld-like tiles (``--build
 the same for every size so that per-tile figures compare) is exported into a fresh ``OUT`` in a
 child process (``--jobs``), which prints:
 
-- building work: seconds from the start to the first tile manifest (reading, simplifying,
-  certifying and writing every building, on the workers);
-- tail: seconds from there to the end (manifests, ``tiles.json``, ``tileset.json`` and the tile
-  proxies), its share of the export and its seconds per tile;
+- building work: seconds from the start to the last building's result (reading, simplifying,
+  certifying and writing every building, on the workers; tiles completed before then have their
+  manifests and leaf proxies made meanwhile);
+- tail: seconds from there to the end (what is left of the manifests and leaf proxies, the parent
+  proxies, ``tiles.json``, ``tileset.json``), its share of the export and its seconds per tile;
 - peak RSS (MiB) of the main process (``VmHWM``) and of its largest worker (``RUSAGE_CHILDREN``);
 - proxies built and how many of them ran on pool or cluster workers.
 
@@ -49,16 +50,15 @@ def child_export(folders: list[str], out: str, jobs: int, scheduler: str | None)
     from exporter.config import Config
 
     marks: list[float] = []
-    real = pipeline.write_tile_output
 
-    def first_manifest(*args, **kwargs):
-        if not marks:
+    def last_building(done: int, total: int) -> None:
+        if done == total:
             marks.append(time.perf_counter())
-        return real(*args, **kwargs)
 
-    pipeline.write_tile_output = first_manifest
     started = time.perf_counter()
-    stats = pipeline.export_tiles(folders, out, Config(), jobs=jobs, scheduler=scheduler)
+    stats = pipeline.export_tiles(
+        folders, out, Config(), jobs=jobs, progress=last_building, scheduler=scheduler
+    )
     ended = time.perf_counter()
     # After the exporter's import: bench_throughput puts this checkout first on the path.
     from benchmarks.bench_throughput import peak_rss_mb
