@@ -113,10 +113,10 @@ class Overlap:
     (:class:`exporter.tileset.schedule.LeafProxies`), on the proxies' ``workers``.
 
     Active with a pool of several jobs or a cluster (with one job the run is as before: the
-    buildings and every proxy one after the other in this process). Leaf proxies start early on
-    the local pool only: on a cluster they would need a second session during the building work
-    (with ``--scheduler local`` a second cluster); there they are built with the tileset, as
-    before. Used as a context around the results: an error closes the workers."""
+    buildings and every proxy one after the other in this process). Used as a context around the
+    results, inside the cluster session if any (the leaf proxies run on it,
+    :meth:`ProxyWorkers.share`): its end waits for the leaf proxies and gives the workers back
+    their own session for the tileset; an error closes the workers."""
 
     def __init__(
         self,
@@ -133,8 +133,9 @@ class Overlap:
         known = [(entry.id, known_tile(entry.format, entry.tile)) for entry in entries]
         self.tracker = TileCompletion(known) if active else None
         self.leaves: LeafProxies | None = None
+        self._records: dict[str, dict] = {}
         options = config.tileset
-        if active and scheduler is None and options.enabled and options.proxies:
+        if active and options.enabled and options.proxies:
             tiles = {tile for _, tile in known if tile is not None} | tiles_in(out_dir)
             self.leaves = LeafProxies(
                 out_dir, options, config.textures.jpeg_quality, force, workers, tiles
@@ -159,13 +160,21 @@ class Overlap:
             self.leaves.start(tile)
 
     def proxy_records(self) -> dict[str, dict]:
-        """The leaf proxies' records by task key, once all are built (for ``write_tileset``)."""
-        return self.leaves.records() if self.leaves is not None else {}
+        """The leaf proxies' records by task key (for ``write_tileset``), after the context."""
+        return self._records
 
     def __enter__(self) -> Overlap:
         return self
 
     def __exit__(self, kind, error, trace) -> None:
+        try:
+            if error is None and self.leaves is not None:
+                self._records = self.leaves.records()
+        except BaseException:
+            self.workers.close()
+            raise
+        finally:
+            self.workers.share(None)  # the session ends with the results
         if error is not None:  # stopped mid-run: the early proxies' pool ends with it
             self.workers.close()
 

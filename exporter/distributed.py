@@ -528,6 +528,7 @@ class ProxyWorkers:
         self._stack = ExitStack()
         self._pool: ProcessPoolExecutor | None = None
         self._client: Any = None
+        self._shared: Any = None
         self.remote = 0  # proxies built on pool or cluster workers (what the benchmark shows)
 
     def map(self, function, items: list, out_dir: str) -> list:
@@ -556,8 +557,16 @@ class ProxyWorkers:
         self.remote += 1
         return self._local_pool().submit(function, item)
 
+    def share(self, client: Any) -> None:
+        """Run on ``client`` (the buildings' checked session: no second session, and with
+        ``--scheduler local`` no second cluster, while the buildings are made) until
+        ``share(None)``; then a session of its own as before."""
+        self._shared = client
+
     def _session(self, out_dir: str) -> Any:
         assert self.cluster is not None
+        if self._shared is not None:
+            return self._shared
         if self._client is None:
             session = cluster_session(self.cluster, self.folders, out_dir, self.notify)
             self._client = self._stack.enter_context(session)

@@ -369,16 +369,20 @@ def _result_stream(
     out_dir: Path,
     scheduler: str | ClusterOptions | None,
     notify: Callable[[str], None] | None,
+    workers: ProxyWorkers | None = None,
 ) -> Iterator[Iterable[EntryResult]]:
     """The results of ``work``: from the local pool (``_results``), or, with ``scheduler`` (an
     address, ``"local"`` or :class:`exporter.distributed.ClusterOptions`), from a Dask cluster
-    checked before any work starts (``exporter.distributed``)."""
+    checked before any work starts (``exporter.distributed``), whose session the proxies'
+    ``workers`` share meanwhile."""
     if scheduler is None:
         yield _results(work, min(jobs, max(1, total)), total)
         return
     options = cluster_options(scheduler, jobs)
     assert options is not None
     with cluster_session(options, [str(f) for f in folders], str(out_dir), notify) as client:
+        if workers is not None:
+            workers.share(client)
         yield cluster_results(client, work, total, options)
 
 
@@ -480,7 +484,8 @@ def export_tiles(
     )
     early = Overlap(entries, out_dir, config, force, jobs, scheduler, workers)
     written: dict[TileId, TileResult] = {}
-    with _result_stream(work(), jobs, total, folders, out_dir, scheduler, notify) as results, early:
+    stream = _result_stream(work(), jobs, total, folders, out_dir, scheduler, notify, workers)
+    with stream as results, early:
         for result in results:
             done += 1
             for stage, value in result.seconds.items():
