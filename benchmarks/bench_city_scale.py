@@ -10,7 +10,8 @@ child process (``--jobs``), which prints:
 - tail: seconds from there to the end (what is left of the manifests and leaf proxies, the parent
   proxies, ``tiles.json``, ``tileset.json``), its share of the export and its seconds per tile;
 - peak RSS (MiB) of the main process (``VmHWM``) and of its largest worker (``RUSAGE_CHILDREN``);
-- proxies built and how many of them ran on pool or cluster workers.
+- proxies built and how many of them ran on pool or cluster workers;
+- CPU seconds of the export's process and its finished workers (pool or local cluster).
 
 Then, on the 16-tile ``OUT``: one tile changed (regenerated with another seed) and re-exported
 with the 15 others unchanged, against exporting that changed tile alone into an empty ``OUT``;
@@ -30,6 +31,7 @@ import argparse
 import json
 import math
 import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -64,6 +66,12 @@ def child_export(folders: list[str], out: str, jobs: int, scheduler: str | None)
     from benchmarks.bench_throughput import peak_rss_mb
 
     main_mb, worker_mb = peak_rss_mb()
+    # CPU seconds of this process and its finished workers: less sensitive than wall seconds to
+    # other work on a shared machine (what the overlap must not add to).
+    cpu = sum(
+        usage.ru_utime + usage.ru_stime
+        for usage in map(resource.getrusage, (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN))
+    )
     tileset = stats.tileset
     print(
         json.dumps(
@@ -73,6 +81,7 @@ def child_export(folders: list[str], out: str, jobs: int, scheduler: str | None)
                 "tail": ended - (marks[0] if marks else ended),
                 "buildings": stats.buildings,
                 "reused": stats.reused,
+                "cpu": cpu,
                 "main_mb": main_mb,
                 "worker_mb": worker_mb,
                 "proxies": tileset.proxies if tileset else 0,
@@ -129,7 +138,7 @@ def row(label: str, result: dict, tiles: int) -> str:
         f"{label:14} {tiles:5d} {result['buildings']:7d} {result['work']:8.1f} "
         f"{result['tail']:7.2f} {result['tail'] / result['seconds']:6.1%} "
         f"{result['tail'] / tiles:8.3f} {result['main_mb']:7.0f} {result['worker_mb']:7.0f} "
-        f"{result['built']:5d} {result['on_workers']:5d}"
+        f"{result['built']:5d} {result['on_workers']:5d} {result.get('cpu', 0):7.1f}"
     )
 
 
@@ -156,7 +165,7 @@ def main() -> None:
     everything = make_tiles(work, block(max(sizes)), args.buildings, args.atlas)
     header = (
         f"{'code':14} {'tiles':>5} {'bldgs':>7} {'work s':>8} {'tail s':>7} {'tail%':>6} "
-        f"{'tail/tile':>8} {'main MB':>7} {'wrkr MB':>7} {'built':>5} {'onwkr':>5}"
+        f"{'tail/tile':>8} {'main MB':>7} {'wrkr MB':>7} {'built':>5} {'onwkr':>5} {'cpu s':>7}"
     )
     lines = [header]
     results: dict[tuple[str, int], dict] = {}
