@@ -179,3 +179,18 @@ def test_an_early_proxy_that_failed_is_reported_and_its_tile_shown_without(input
     assert problems == [problem]
     assert (placed, built) == (1, 2)  # the other leaf; no parent above a tile without proxy
     assert not (out / "tileset_proxies" / f"{TILES[0].name}.glb").exists()  # not built again
+
+
+def test_a_tile_with_a_finer_tile_below_it_waits_for_the_tileset(inputs, tmp_path):
+    out = tmp_path / "out"
+    pipeline.export_tiles(inputs[:1], out, Config(), jobs=1)
+    shutil.rmtree(out / "tileset_proxies")
+
+    class Here:
+        def submit(self, function, item, out_dir):
+            raise AssertionError("no proxy to start")
+
+    below = TileId(16, 2 * TILES[0].idx + 1, 2 * TILES[0].idy)
+    leaves = schedule.LeafProxies(out, TilesetOptions(), 85, False, Here(), {TILES[0], below})
+    assert leaves.start(TILES[0]) is False  # in the tree it has the level-16 tile as a child
+    assert leaves.records() == {}

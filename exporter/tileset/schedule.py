@@ -214,10 +214,13 @@ class Submits(Protocol):
         ...
 
 
-def _descends(tile: TileId, other: TileId) -> bool:
-    """True when ``other`` lies inside ``tile`` at a finer level."""
-    shift = other.level - tile.level
-    return shift > 0 and (other.idx >> shift, other.idy >> shift) == (tile.idx, tile.idy)
+def _above(tiles: set[TileId]) -> set[TileId]:
+    """Every tile that holds one of ``tiles`` at a finer level (its quadtree ancestors)."""
+    return {
+        TileId(level, tile.idx >> (tile.level - level), tile.idy >> (tile.level - level))
+        for tile in tiles
+        for level in range(tile.level)
+    }
 
 
 class LeafProxies:
@@ -239,12 +242,13 @@ class LeafProxies:
         tiles: set[TileId],
     ) -> None:
         self.out_dir, self.options, self.jpeg_quality = out_dir, options, jpeg_quality
-        self.force, self.workers, self.tiles = force, workers, tiles
+        self.force, self.workers = force, workers
+        self._inner = _above(tiles)  # tiles with a child tile: their proxy is not a leaf
         self._started: list[tuple[str, Future]] = []
 
     def start(self, tile: TileId) -> bool:
         """Start ``tile``'s leaf proxy when it is one and must be built; True when started."""
-        if any(_descends(tile, other) for other in self.tiles):
+        if tile in self._inner:
             return False
         task = leaf_task(self.out_dir, tile, self.options, self.jpeg_quality)
         if task is None:
