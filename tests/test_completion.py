@@ -5,6 +5,7 @@ last building is done, with the same bytes as a run without overlap."""
 
 from __future__ import annotations
 
+import json
 import random
 import shutil
 from pathlib import Path
@@ -194,3 +195,20 @@ def test_a_tile_with_a_finer_tile_below_it_waits_for_the_tileset(inputs, tmp_pat
     leaves = schedule.LeafProxies(out, TilesetOptions(), 85, False, Here(), {TILES[0], below})
     assert leaves.start(TILES[0]) is False  # in the tree it has the level-16 tile as a child
     assert leaves.records() == {}
+
+
+def test_broken_buildings_are_listed_as_without_overlap(inputs, tmp_path):
+    root = tmp_path / "in"
+    folders = []
+    for folder in inputs:
+        shutil.copytree(folder, root / folder.name)
+        folders.append(root / folder.name)
+    for folder in (folders[0], folders[2]):  # two unreadable buildings in two tiles
+        for model in sorted(folder.glob("*.xdo"))[1:3]:
+            model.write_bytes(b"\x00" * 7)
+    plain = pipeline.export_tiles(folders, tmp_path / "plain", Config(), jobs=1)
+    overlap = pipeline.export_tiles(folders, tmp_path / "overlap", Config(), jobs=2)
+    assert plain.skipped == overlap.skipped == 4
+    manifest = json.loads((tmp_path / "overlap" / TILES[0].name / "lod_manifest.json").read_text())
+    assert len(manifest["skipped"]) == 2
+    assert files(tmp_path / "overlap") == files(tmp_path / "plain")
