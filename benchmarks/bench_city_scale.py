@@ -4,12 +4,14 @@ For each size, a square block of generated level-15 VWorld-like tiles (``--build
 the same for every size so that per-tile figures compare) is exported into a fresh ``OUT`` in a
 child process (``--jobs``), which prints:
 
-- building work: seconds from the start to the first tile manifest (reading, simplifying,
-  certifying and writing every building, on the workers);
-- tail: seconds from there to the end (manifests, ``tiles.json``, ``tileset.json`` and the tile
-  proxies), its share of the export and its seconds per tile;
+- building work: seconds from the start to the last building's result (reading, simplifying,
+  certifying and writing every building, on the workers; tiles completed before then have their
+  manifests and leaf proxies made meanwhile);
+- tail: seconds from there to the end (what is left of the manifests and leaf proxies, the parent
+  proxies, ``tiles.json``, ``tileset.json``), its share of the export and its seconds per tile;
 - peak RSS (MiB) of the main process (``VmHWM``) and of its largest worker (``RUSAGE_CHILDREN``);
-- proxies built and how many of them ran on pool or cluster workers.
+- proxies built and how many of them ran on pool or cluster workers;
+- CPU seconds of the export's process and its finished workers (pool or local cluster).
 
 Then, on the 16-tile ``OUT``: an unchanged re-run (against the first export), then one tile
 changed (regenerated with another seed) and re-exported with the 15 others unchanged, against
@@ -30,6 +32,7 @@ import argparse
 import json
 import math
 import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -50,21 +53,26 @@ def child_export(folders: list[str], out: str, jobs: int, scheduler: str | None)
     from exporter.config import Config
 
     marks: list[float] = []
-    real = pipeline.write_tile_output
 
-    def first_manifest(*args, **kwargs):
-        if not marks:
+    def last_building(done: int, total: int) -> None:
+        if done == total:
             marks.append(time.perf_counter())
-        return real(*args, **kwargs)
 
-    pipeline.write_tile_output = first_manifest
     started = time.perf_counter()
-    stats = pipeline.export_tiles(folders, out, Config(), jobs=jobs, scheduler=scheduler)
+    stats = pipeline.export_tiles(
+        folders, out, Config(), jobs=jobs, progress=last_building, scheduler=scheduler
+    )
     ended = time.perf_counter()
     # After the exporter's import: bench_throughput puts this checkout first on the path.
     from benchmarks.bench_throughput import peak_rss_mb
 
     main_mb, worker_mb = peak_rss_mb()
+    # CPU seconds of this process and its finished workers: less sensitive than wall seconds to
+    # other work on a shared machine (what the overlap must not add to).
+    cpu = sum(
+        usage.ru_utime + usage.ru_stime
+        for usage in map(resource.getrusage, (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN))
+    )
     tileset = stats.tileset
     print(
         json.dumps(
@@ -74,6 +82,7 @@ def child_export(folders: list[str], out: str, jobs: int, scheduler: str | None)
                 "tail": ended - (marks[0] if marks else ended),
                 "buildings": stats.buildings,
                 "reused": stats.reused,
+                "cpu": cpu,
                 "main_mb": main_mb,
                 "worker_mb": worker_mb,
                 "proxies": tileset.proxies if tileset else 0,
@@ -130,7 +139,7 @@ def row(label: str, result: dict, tiles: int) -> str:
         f"{label:14} {tiles:5d} {result['buildings']:7d} {result['work']:8.1f} "
         f"{result['tail']:7.2f} {result['tail'] / result['seconds']:6.1%} "
         f"{result['tail'] / tiles:8.3f} {result['main_mb']:7.0f} {result['worker_mb']:7.0f} "
-        f"{result['built']:5d} {result['on_workers']:5d}"
+        f"{result['built']:5d} {result['on_workers']:5d} {result.get('cpu', 0):7.1f}"
     )
 
 
@@ -157,7 +166,7 @@ def main() -> None:
     everything = make_tiles(work, block(max(sizes)), args.buildings, args.atlas)
     header = (
         f"{'code':14} {'tiles':>5} {'bldgs':>7} {'work s':>8} {'tail s':>7} {'tail%':>6} "
-        f"{'tail/tile':>8} {'main MB':>7} {'wrkr MB':>7} {'built':>5} {'onwkr':>5}"
+        f"{'tail/tile':>8} {'main MB':>7} {'wrkr MB':>7} {'built':>5} {'onwkr':>5} {'cpu s':>7}"
     )
     lines = [header]
     results: dict[tuple[str, int], dict] = {}

@@ -36,7 +36,7 @@ import signal
 import time
 import uuid
 from collections.abc import Iterable, Iterator
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 from functools import cache
@@ -528,6 +528,7 @@ class ProxyWorkers:
         self._stack = ExitStack()
         self._pool: ProcessPoolExecutor | None = None
         self._client: Any = None
+        self._shared: Any = None
         self.remote = 0  # proxies built on pool or cluster workers (what the benchmark shows)
 
     def map(self, function, items: list, out_dir: str) -> list:
@@ -535,13 +536,43 @@ class ProxyWorkers:
         if not items:
             return []
         if self.cluster is not None:
-            if self._client is None:
-                session = cluster_session(self.cluster, self.folders, out_dir, self.notify)
-                self._client = self._stack.enter_context(session)
+            client = self._session(out_dir)
             self.remote += len(items)
-            return self._client.gather(self._client.map(function, items, pure=False))
+            return client.gather(client.map(function, items, pure=False))
         if self.jobs == 1:
             return [function(item) for item in items]
+        self.remote += len(items)
+        return list(self._local_pool().map(function, items))
+
+    def submit(self, function, item, out_dir: str) -> Any:
+        """``function(item)`` started where this runs it, not waited for: a future (its
+        ``result()`` waits); with one job it runs here, now."""
+        if self.cluster is not None:
+            self.remote += 1
+            return self._session(out_dir).submit(function, item, pure=False)
+        if self.jobs == 1:
+            future: Future = Future()
+            future.set_result(function(item))
+            return future
+        self.remote += 1
+        return self._local_pool().submit(function, item)
+
+    def share(self, client: Any) -> None:
+        """Run on ``client`` (the buildings' checked session: no second session, and with
+        ``--scheduler local`` no second cluster, while the buildings are made) until
+        ``share(None)``; then a session of its own as before."""
+        self._shared = client
+
+    def _session(self, out_dir: str) -> Any:
+        assert self.cluster is not None
+        if self._shared is not None:
+            return self._shared
+        if self._client is None:
+            session = cluster_session(self.cluster, self.folders, out_dir, self.notify)
+            self._client = self._stack.enter_context(session)
+        return self._client
+
+    def _local_pool(self) -> ProcessPoolExecutor:
         if self._pool is None:
             from .workers import start_worker
 
@@ -550,8 +581,7 @@ class ProxyWorkers:
                     max_workers=self.jobs, initializer=start_worker, initargs=(os.getpid(),)
                 )
             )
-        self.remote += len(items)
-        return list(self._pool.map(function, items))
+        return self._pool
 
     def close(self) -> None:
         self._stack.close()

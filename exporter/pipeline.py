@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from .atomic import remove_stale_temporaries, write_bytes_atomic
+from .completion import Overlap, tile_skips
 from .config import Config, check_optional_features
 from .distributed import (
     ClusterOptions,
@@ -497,16 +498,20 @@ def _result_stream(
     out_dir: Path,
     scheduler: str | ClusterOptions | None,
     notify: Callable[[str], None] | None,
+    workers: ProxyWorkers | None = None,
 ) -> Iterator[Iterable[EntryResult]]:
     """The results of ``work``: from the local pool (``_results``), or, with ``scheduler`` (an
     address, ``"local"`` or :class:`exporter.distributed.ClusterOptions`), from a Dask cluster
-    checked before any work starts (``exporter.distributed``)."""
+    checked before any work starts (``exporter.distributed``), whose session the proxies'
+    ``workers`` share meanwhile."""
     if scheduler is None:
         yield _results(work, min(jobs, max(1, total)), total)
         return
     options = cluster_options(scheduler, jobs)
     assert options is not None
     with cluster_session(options, [str(f) for f in folders], str(out_dir), notify) as client:
+        if workers is not None:
+            workers.share(client)
         yield cluster_results(client, work, total, options)
 
 
@@ -609,10 +614,20 @@ def export_tiles(
     # Buildings that fail are listed after the scan's skips in entry order, not in the order
     # results come back, so that every scheduler writes the same manifest.
     failed: list[Skipped] = []
+    order = {entry.id: index for index, entry in enumerate(entries)}
     stats = RunStats()
     done = 0
     total = len(entries)
-    with _result_stream(work(), jobs, total, folders, out_dir, scheduler, notify) as results:
+    # The tileset's proxies are built on the same kind of workers as the buildings (a pool or the
+    # cluster, started at the first proxy to build): a tile whose buildings are all done gets its
+    # manifest and leaf proxy while the others' buildings are made (docs/running-at-scale.md).
+    workers = ProxyWorkers(
+        jobs, cluster_options(scheduler, jobs), [str(f) for f in folders], notify
+    )
+    early = Overlap(entries, out_dir, config, force, jobs, scheduler, workers)
+    written: dict[TileId, TileResult] = {}
+    stream = _result_stream(work(), jobs, total, folders, out_dir, scheduler, notify, workers)
+    with stream as results, early:
         for result in results:
             done += 1
             for stage, value in result.seconds.items():
@@ -634,9 +649,22 @@ def export_tiles(
             elif result.skipped is not None:
                 failed.append(result.skipped)
                 stats.skipped += 1
+            for tile in early.completed(result, written):
+                skips = tile_skips(tile, skipped, failed, order)
+                written[tile] = write_tile_output(
+                    out_dir,
+                    tile,
+                    config,
+                    folders_of.get(tile, []),
+                    skips,
+                    reused.get(tile, 0),
+                    owns,
+                    from_summary.get(tile, set()),
+                    summaries.facts.get(tile.name),
+                )
+                early.start_proxy(tile)
             if progress:
                 progress(done, total)
-    order = {entry.id: index for index, entry in enumerate(entries)}
     for item in sorted(failed, key=lambda item: order.get(item.id or "", len(order))):
         skipped.setdefault(item.tile, []).append(item)
 
@@ -651,7 +679,8 @@ def export_tiles(
     with without_gc():
         for tile in sorted(tiles, key=lambda t: (t.level, t.idx, t.idy)):
             stats.tiles.append(
-                write_tile_output(
+                written.get(tile)
+                or write_tile_output(
                     out_dir,
                     tile,
                     config,
@@ -665,12 +694,7 @@ def export_tiles(
             )
         # After the manifests (the tileset and tiles.json reference only complete files);
         # tiles.json once, after the tileset, listing its proxies for the streamer, and also when
-        # the tileset fails.
-        # The proxies of one quadtree level are built in parallel, on the same kind of workers
-        # as the buildings (a pool or the cluster, started at the first proxy to build).
-        workers = ProxyWorkers(
-            jobs, cluster_options(scheduler, jobs), [str(f) for f in folders], notify
-        )
+        # the tileset fails. The proxies of one quadtree level are built in parallel.
         try:
             if config.tileset.enabled:
                 stats.tileset = write_tileset(
@@ -680,6 +704,7 @@ def export_tiles(
                     fresh_facts(stats.tiles, config.globe),
                     force,
                     workers,
+                    early.proxy_records(),
                 )
         finally:
             workers.close()

@@ -63,6 +63,7 @@ LAYERS: list[tuple[str, int, tuple[str, ...]]] = [
         2,
         (
             "exporter.job",
+            "exporter.completion",
             "exporter.distributed",
             "exporter.pipeline",
             "exporter.records",

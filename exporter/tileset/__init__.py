@@ -98,11 +98,13 @@ def write_tileset(
     fresh: dict[str, tuple[int, dict]] | None = None,
     force: bool = False,
     workers: Workers | None = None,
+    early: dict[str, dict] | None = None,
 ) -> TilesetResult:
     """Write ``OUT/tileset.json`` for every building of ``out_dir``; see the module doc.
     ``fresh``: the index facts of the run's tiles (:func:`exporter.tile_index.fresh_facts`);
     ``force``: rebuild every proxy (``export --force``); ``workers``: where the proxies are built
-    (:class:`.schedule.Workers`; default this process)."""
+    (:class:`.schedule.Workers`; default this process); ``early``: proxies this run built already
+    (:class:`.schedule.LeafProxies`' records, by task key), taken as they are."""
     out_dir = Path(out_dir)
     by_tile, left_out = read_buildings(out_dir, fresh)
     tops = quadtree(by_tile)
@@ -117,7 +119,9 @@ def write_tileset(
     if options.proxies:
         from .schedule import add_proxies
 
-        proxies, built = add_proxies(out_dir, tops, options, jpeg_quality, left_out, force, workers)
+        proxies, built = add_proxies(
+            out_dir, tops, options, jpeg_quality, left_out, force, workers, early
+        )
     path = write_tileset_json(out_dir, tileset_json(tops, left_out))
     count = sum(len(chains) for chains in by_tile.values())
     remote = workers.remote if workers is not None else 0

@@ -15,12 +15,15 @@ from __future__ import annotations
 import hashlib
 import json
 from collections.abc import Callable
+from concurrent.futures import Future
 from pathlib import Path
 from typing import Protocol
 
 import numpy as np
 
 from ..config import TilesetOptions
+from ..manifest import MANIFEST_NAME
+from ..model import TileId
 from . import frames
 from .metadata import chain_values
 from .proxy import (
@@ -35,7 +38,7 @@ from .proxy import (
     proxy_of,
     remove_stale,
 )
-from .tree import Node
+from .tree import Node, quadtree, read_chain
 
 
 class Workers(Protocol):
@@ -134,32 +137,42 @@ def add_proxies(
     problems: list[str],
     force: bool = False,
     workers: Workers | None = None,
+    early: dict[str, dict] | None = None,
 ) -> tuple[int, int]:
     """Give every tile node of ``tops`` that can have one its proxy (content, error, corners);
     returns (proxies in the tree, proxies built this time); a proxy that cannot be built is
     appended to ``problems``. Stale proxy files are removed. ``force``: build every proxy, none
-    taken from an earlier run (a rebuilt file whose bytes come out the same is left as it was)."""
+    taken from an earlier run (a rebuilt file whose bytes come out the same is left as it was).
+    ``early``: what :func:`make_proxy` returned for proxies this run built already, by
+    :attr:`ProxyTask.key` (:class:`LeafProxies`): a node whose task has one of these keys takes
+    that record as if built here, even with ``force``."""
     folder = out_dir / PROXY_DIR
     kept: set[str] = set()
     placed = built = 0
     workers = workers or InProcess()
     for level in _tile_nodes_by_height(tops):
-        todo: list[tuple[Node, ProxyTask]] = []
+        # Proxies to build, in tree order, each with its record when built early (LeafProxies).
+        todo: list[tuple[Node, ProxyTask, dict | None]] = []
         for node in level:
             task = _task(out_dir, node, options, jpeg_quality)
             if task is None:
                 continue
             name, key = node.tile.name, task.key  # type: ignore[union-attr]
             kept.update({f"{name}.json", f"{name}.glb"})
+            if early and key in early:
+                todo.append((node, task, early[key]))
+                continue
             found, proxy = (False, None) if force else cached(folder, name, key)
             if not found:
-                todo.append((node, task))
+                todo.append((node, task, None))
             elif proxy is not None:
                 _place(node, proxy)
                 placed += 1
-        records = workers.map(make_proxy, [task for _, task in todo], str(out_dir))
+        tasks = [task for _, task, record in todo if record is None]
+        records = iter(workers.map(make_proxy, tasks, str(out_dir)))
         built += len(todo)
-        for (node, _), record in zip(todo, records):
+        for node, _, record in todo:
+            record = record if record is not None else next(records)
             if "problem" in record:
                 problems.append(record["problem"])
             elif not record.get("too_large"):
@@ -167,3 +180,85 @@ def add_proxies(
                 placed += 1
     remove_stale(folder, kept)
     return placed, built
+
+
+# --------------------------------------------------------------------------- leaf proxies early
+
+
+def leaf_task(
+    out_dir: Path, tile: TileId, options: TilesetOptions, jpeg_quality: int
+) -> ProxyTask | None:
+    """The task of ``tile``'s proxy as a leaf (the tile's buildings, no child tile), from its
+    manifest under ``out_dir`` alone and with the code :func:`.write_tileset` uses
+    (:func:`.tree.read_chain`, :func:`.tree.quadtree`), so its :attr:`ProxyTask.key` is the one
+    the tileset computes for that tile when it has no child tile; None when the manifest or every
+    building is unusable (what is left out is reported by the tileset, not here)."""
+    try:
+        manifest = json.loads((out_dir / tile.name / MANIFEST_NAME).read_text(encoding="utf-8"))
+        records = manifest["buildings"]
+        left_out: list[str] = []
+        chains = [read_chain(out_dir, tile, record, left_out) for record in records]
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return None
+    kept = sorted((c for c in chains if c is not None), key=lambda c: c.id)
+    tops = quadtree({tile: kept}) if kept else []
+    return _task(out_dir, tops[0], options, jpeg_quality) if tops else None
+
+
+class Submits(Protocol):
+    """Workers that also take one proxy at a time without waiting for it
+    (:class:`exporter.distributed.ProxyWorkers`)."""
+
+    def submit(self, function: Callable, item, out_dir: str) -> Future:
+        """``function(item)`` started where the workers run it; its result later."""
+        ...
+
+
+def _above(tiles: set[TileId]) -> set[TileId]:
+    """Every tile that holds one of ``tiles`` at a finer level (its quadtree ancestors)."""
+    return {
+        TileId(level, tile.idx >> (tile.level - level), tile.idy >> (tile.level - level))
+        for tile in tiles
+        for level in range(tile.level)
+    }
+
+
+class LeafProxies:
+    """Leaf proxies started while the buildings of other tiles are still being made: ``export_tiles``
+    calls :meth:`start` when a tile's manifest is written (``exporter.completion``), and hands
+    :meth:`records` to :func:`.write_tileset` (``add_proxies``' ``early``), which then builds
+    only what is left. ``tiles``: the tiles known to be in ``OUT`` at the end (this run's and
+    earlier runs'); a tile with one of them below it gets child tiles in the tree, so its proxy
+    is not a leaf and waits for the tileset. A proxy whose record matches (without ``force``) is
+    left to the tileset's cache, as at the end."""
+
+    def __init__(
+        self,
+        out_dir: Path,
+        options: TilesetOptions,
+        jpeg_quality: int,
+        force: bool,
+        workers: Submits,
+        tiles: set[TileId],
+    ) -> None:
+        self.out_dir, self.options, self.jpeg_quality = out_dir, options, jpeg_quality
+        self.force, self.workers = force, workers
+        self._inner = _above(tiles)  # tiles with a child tile: their proxy is not a leaf
+        self._started: list[tuple[str, Future]] = []
+
+    def start(self, tile: TileId) -> bool:
+        """Start ``tile``'s leaf proxy when it is one and must be built; True when started."""
+        if tile in self._inner:
+            return False
+        task = leaf_task(self.out_dir, tile, self.options, self.jpeg_quality)
+        if task is None:
+            return False
+        key = task.key
+        if not self.force and cached(self.out_dir / PROXY_DIR, tile.name, key)[0]:
+            return False
+        self._started.append((key, self.workers.submit(make_proxy, task, str(self.out_dir))))
+        return True
+
+    def records(self) -> dict[str, dict]:
+        """What each started proxy's :func:`make_proxy` returned, by task key (waits for them)."""
+        return {key: future.result() for key, future in self._started}
