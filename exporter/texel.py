@@ -30,7 +30,7 @@ import numpy as np
 
 # The texture error of a level coarser in texture than LOD0, in texels of that level: see the
 # module doc (chosen by the camera-path benchmark, benchmarks/bench_texel_path.py).
-TEXEL_ERROR_FACTOR = 8.0
+TEXEL_ERROR_FACTOR = 4.0
 
 # Relative to the largest value in the set: areas below this are rounding, not surface.
 _NEGLIGIBLE = 1e-12

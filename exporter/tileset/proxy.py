@@ -30,10 +30,11 @@ simplification (the feature ids of ``EXT_mesh_features``).
   its source texture (a cell upsampled from a small texture has that texture's texels) and the
   whole no finer than the children's. Its error (``geometricError``) is the larger of the two.
 - Its **atlas size** (:func:`choose_atlas`, after clustering, before any texture is decoded): the
-  smallest power of two from :data:`ATLAS_FLOOR_PX` at which that texel is at most the geometric
-  bound / :data:`PROXY_TEXEL_FACTOR` (4 px a texel when the proxy switches at 16 px; or at
-  most the children's texel, the floor), no larger than
-  its cells' finest images need (larger only upsamples), at most ``proxy_atlas_size``.
+  smallest power of two from :data:`ATLAS_FLOOR_PX` at which that texel is at most the error
+  the tile is shown at (its geometric bound, or its children's largest ``geometricError`` when
+  larger: ``ProxyTask.shown_floor``) / :data:`PROXY_TEXEL_FACTOR` (4 px a texel when the proxy
+  switches at 16 px; or at most the children's texel, the floor), no larger than its cells'
+  finest images need (larger only upsamples), at most ``proxy_atlas_size``.
 
 A proxy with more than ``proxy_max_triangles`` is not written (nor are its ancestors').
 
@@ -69,15 +70,14 @@ from .glb import GlbPrimitive, read_primitives
 from .tree import rounding_slack
 
 PROXY_DIR = "tileset_proxies"
-PROXY_FORMAT = "vworld-lod-proxy 8"  # 8: texels 1/4 of the bound; 7: atlas sized from the error
+PROXY_FORMAT = "vworld-lod-proxy 9"  # 9: texels 1/4 of the error shown at; 7: atlas sized
 # Proxy atlas sides, pixels: the smallest chosen, and the fewest pixels a cell side gets at a
 # size below ``proxy_atlas_size`` (smaller cells would blur texture into colour).
 ATLAS_FLOOR_PX = 64
-# A proxy's texels at most this fraction of its geometric bound: 4 px when it switches at 16 px.
-# Its shape may then be off by 16 px (four texels): a finer texture would draw a truer picture
-# on a surface that is not there, for 4x the texture memory of the next size down. A building's
-# levels keep 2 px (exporter.texel.TEXEL_ERROR_FACTOR), their geometry being near-exact; a
-# proxy's error is its geometry (its budget, tileset.proxy_error_ratio), never its texture.
+# A proxy's texels at most this fraction of the error it is shown at: 4 px when it switches at
+# 16 px, as the building levels' (exporter.texel.TEXEL_ERROR_FACTOR). Its shape may then be off
+# by 16 px (four texels): a finer texture would draw a truer picture on a surface that is not
+# there, for 4x the texture memory of the next size down.
 PROXY_TEXEL_FACTOR = 4.0
 MIN_CELL_PX = 4
 # Cell-grid uvs (:func:`atlas_uvs`): (column, row) of the cell + the uv in it, at most LOCAL_MAX
@@ -129,6 +129,11 @@ class ProxyTask:
     jpeg_quality: int
     buildings: list[BuildingSource] = field(default_factory=list)
     children: list[ChildSource] = field(default_factory=list)
+    # Metres: the largest geometricError of the tile's children in the tileset (building chains'
+    # coarsest levels, child proxies). The tile's own error is at least that, so a client shows
+    # the proxy only where that error is within its screen-space error: its atlas need not be
+    # finer than what shows there.
+    shown_floor: float = 0.0
 
     @property
     def key(self) -> str:
@@ -146,6 +151,7 @@ class ProxyTask:
                     for b in self.buildings
                 ],
                 [[c.tile, c.key, repr(c.geometric), repr(c.texel)] for c in self.children],
+                repr(self.shown_floor),
             ]
         )
         return hashlib.sha256(text.encode("utf-8")).hexdigest()
@@ -558,11 +564,13 @@ def build_proxy(task: ProxyTask) -> tuple[Proxy, bytes, dict] | None:
     stored = positions.astype(np.float32)
     low, high = stored.min(axis=0).astype(np.float64), stored.max(axis=0).astype(np.float64)
     geometric = merged.bound + step + rounding_slack(low, high) + TRANSFORM_SLACK_M
-    # The atlas a viewer can tell apart: texels at most 1/PROXY_TEXEL_FACTOR of the geometric
-    # bound, and no finer than the children's (the parent's texel is floored there: finer would
-    # show nothing more).
+    # The atlas a viewer can tell apart: texels at most 1/PROXY_TEXEL_FACTOR of the error the
+    # tile is shown at (its geometric bound, or its children's errors when larger: the tileset's
+    # geometricError of the tile is the larger), and no finer than the children's texels (the
+    # parent's texel is floored there: finer would show nothing more).
     cells, surface = merged.cells[used], stored.astype(np.float64)
-    wanted = max(geometric / PROXY_TEXEL_FACTOR, merged.texel_floor)
+    shown = max(geometric, task.shown_floor)
+    wanted = max(shown / PROXY_TEXEL_FACTOR, merged.texel_floor)
     largest = task.options.proxy_atlas_size
     texels = CellTexels(surface, faces, grid, cells, merged.count)
     size = choose_atlas(merged, texels, wanted, largest)
@@ -593,6 +601,7 @@ def build_proxy(task: ProxyTask) -> tuple[Proxy, bytes, dict] | None:
         "low": proxy.low,
         "high": proxy.high,
         "triangles": proxy.triangles,
+        "shown_floor": task.shown_floor,  # metres: what the atlas was sized against, with geometric
         "buildings": buildings,
         "owners": owner_runs(owners),
         "values": values,  # a parent's property table rows come from here

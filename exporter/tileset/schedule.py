@@ -114,6 +114,7 @@ def _task(
             )
         else:
             return None
+    task.shown_floor = max((child.error for child in node.children), default=0.0)
     return task
 
 
