@@ -24,8 +24,8 @@ namespace VWorldLod
         /// manifest's error_m) looks at most this large at the building's distance; a finer level
         /// than the LODGroup's transitions ask for is loaded where a coarse level's (texture)
         /// error would show more. error_m is tileset.json's geometricError: a textured level's is
-        /// 8 x its on-surface texel (docs/tileset.md), so 16 (Cesium's default, as for proxies)
-        /// keeps a shown level's texels within 2 pixels, where LOD0's reach 1.
+        /// 4 x its on-surface texel (docs/tileset.md), so 16 (Cesium's default, as for proxies)
+        /// keeps a shown level's texels within 4 pixels, where LOD0's reach 2.
         /// </summary>
         public double LevelMaximumScreenSpaceError = 16;
         /// <summary>
