@@ -96,7 +96,7 @@ def passed_failed(output: str) -> tuple[int, int]:
 
 def test_package_json_is_a_unity_package_depending_on_gltfast():
     data = json.loads((PACKAGE / "package.json").read_text(encoding="utf-8"))
-    assert data["name"] == "com.vworldlod.importer" and data["version"] == "0.3.0"
+    assert data["name"] == "com.vworldlod.importer" and data["version"] == "0.3.1"
     assert data["unity"] == "2022.3" and data["displayName"] and data["description"]
     # glTFast 6.3.0: the first release without the HDRP 17 compiler error and the exception on a
     # missing runtime shader (its CHANGELOG); the API the package calls exists there (see
