@@ -626,6 +626,21 @@ def export_tiles(
     )
     early = Overlap(entries, out_dir, config, force, jobs, scheduler, workers)
     written: dict[TileId, TileResult] = {}
+
+    def write_tile(tile: TileId, skips: list[Skipped]) -> TileResult:
+        # One call for a tile made early and one made at the end: the same manifest either way.
+        return write_tile_output(
+            out_dir,
+            tile,
+            config,
+            folders_of.get(tile, []),
+            skips,
+            reused.get(tile, 0),
+            owns,
+            from_summary.get(tile, set()),
+            summaries.facts.get(tile.name),
+        )
+
     stream = _result_stream(work(), jobs, total, folders, out_dir, scheduler, notify, workers)
     with stream as results, early:
         for result in results:
@@ -650,18 +665,7 @@ def export_tiles(
                 failed.append(result.skipped)
                 stats.skipped += 1
             for tile in early.completed(result, written):
-                skips = tile_skips(tile, skipped, failed, order)
-                written[tile] = write_tile_output(
-                    out_dir,
-                    tile,
-                    config,
-                    folders_of.get(tile, []),
-                    skips,
-                    reused.get(tile, 0),
-                    owns,
-                    from_summary.get(tile, set()),
-                    summaries.facts.get(tile.name),
-                )
+                written[tile] = write_tile(tile, tile_skips(tile, skipped, failed, order))
                 early.start_proxy(tile)
             if progress:
                 progress(done, total)
@@ -679,18 +683,7 @@ def export_tiles(
     with without_gc():
         for tile in sorted(tiles, key=lambda t: (t.level, t.idx, t.idy)):
             stats.tiles.append(
-                written.get(tile)
-                or write_tile_output(
-                    out_dir,
-                    tile,
-                    config,
-                    folders_of.get(tile, []),
-                    skipped.get(tile, []) + unplaced,
-                    reused.get(tile, 0),
-                    owns,
-                    from_summary.get(tile, set()),
-                    summaries.facts.get(tile.name),
-                )
+                written.get(tile) or write_tile(tile, skipped.get(tile, []) + unplaced)
             )
         # After the manifests (the tileset and tiles.json reference only complete files);
         # tiles.json once, after the tileset, listing its proxies for the streamer, and also when

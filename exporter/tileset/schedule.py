@@ -38,7 +38,7 @@ from .proxy import (
     proxy_of,
     remove_stale,
 )
-from .tree import Node, quadtree, read_chain
+from .tree import Node, ancestor, quadtree, read_chain
 
 
 class Workers(Protocol):
@@ -217,11 +217,7 @@ class Submits(Protocol):
 
 def _above(tiles: set[TileId]) -> set[TileId]:
     """Every tile that holds one of ``tiles`` at a finer level (its quadtree ancestors)."""
-    return {
-        TileId(level, tile.idx >> (tile.level - level), tile.idy >> (tile.level - level))
-        for tile in tiles
-        for level in range(tile.level)
-    }
+    return {ancestor(tile, level) for tile in tiles for level in range(tile.level)}
 
 
 class LeafProxies:

@@ -296,7 +296,8 @@ def tile_world(tile: TileId) -> np.ndarray:
     return frames.world_matrix(lon, lat, 0.0)
 
 
-def _ancestor(tile: TileId, level: int) -> TileId:
+def ancestor(tile: TileId, level: int) -> TileId:
+    """The tile of ``level`` (at most ``tile.level``) that holds ``tile``."""
     shift = tile.level - level
     return TileId(level, tile.idx >> shift, tile.idy >> shift)
 
@@ -322,7 +323,7 @@ def quadtree(by_tile: dict[TileId, list[BuildingChain]]) -> list[Node]:
             TileId(level, i, j + 1),
             TileId(level, i + 1, j + 1),
         ):
-            inside = [t for t in below if _ancestor(t, level) == child]
+            inside = [t for t in below if ancestor(t, level) == child]
             node = build(child, inside) if inside else None
             if node is not None:
                 subtiles.append(node)
@@ -334,6 +335,6 @@ def quadtree(by_tile: dict[TileId, list[BuildingChain]]) -> list[Node]:
         return Node(tile.name, tile_world(tile), children=children, tile=tile)
 
     leaves = sorted(by_tile, key=lambda t: (t.level, t.idx, t.idy))
-    tops = sorted({_ancestor(t, 0) for t in leaves}, key=lambda t: (t.idx, t.idy))
-    nodes = [build(top, [t for t in leaves if _ancestor(t, 0) == top]) for top in tops]
+    tops = sorted({ancestor(t, 0) for t in leaves}, key=lambda t: (t.idx, t.idy))
+    nodes = [build(top, [t for t in leaves if ancestor(t, 0) == top]) for top in tops]
     return [node for node in nodes if node is not None]
