@@ -12,14 +12,16 @@ The target: the textured building nearest the centre of its tile's buildings. Th
 north at the centre of the target's south face (LOD0's box, glTF frame +X West, +Y Up, +Z North)
 from ``--frames`` distances between 3,000 m and 15 m (evenly on a log scale), 20 degrees above
 it. CesiumJS (tests/tileset_client/render.js, POSES mode: headless Chromium, ``--width`` x
-``--height`` pixels, 60 degree vertical field of view, default 16 px maximum screen-space error)
-loads the tileset afresh per view and reports the contents selected for the target (a proxy when
+``--height`` pixels, 16:9, CesiumJS's default 60 degree field of view, which is horizontal on a
+landscape canvas: 36 degrees vertically; default 16 px maximum screen-space error) loads the
+tileset afresh per view and reports the contents selected for the target (a proxy when
 the target's own chain is not reached) and ``totalMemoryUsageInBytes``.
 
 Per frame and tileset: the content, ``texel px`` = the content's on-surface texel size
 (exporter/texel.py: the area-weighted median over its faces, read from the .glb itself; a proxy's
-over its whole surface) x ``height / (2 d tan(fov / 2))`` at the distance ``d`` to the aimed
-point, and the memory in MB; then the new/baseline memory ratio. Last, the issue's targets:
+over its whole surface) x ``height / (2 d tan(fovy / 2))`` (:func:`tests.texel_views.screen_px`:
+CesiumJS's own rule; 16/9 of what a 60 degree vertical field of view gives) at the distance ``d``
+to the aimed point, and the memory in MB; then the new/baseline memory ratio. Last, the issue's targets:
 lod0.glb at 15 m, every texel at most ``--sse`` px, memory within 2x the baseline's.
 
 Usage: ``python benchmarks/bench_texel_path.py [--work /tmp/vworld-texel-path] [--baseline main]
@@ -32,7 +34,6 @@ from __future__ import annotations
 import argparse
 import io
 import json
-import math
 import os
 import shutil
 import subprocess
@@ -46,11 +47,16 @@ sys.path.insert(0, str(REPO))
 
 from exporter.model import TileId  # noqa: E402
 from exporter.samplegen import generate_tile  # noqa: E402
-from tests.texel_views import camera_path, content_texel, fly, target_building  # noqa: E402
+from tests.texel_views import (  # noqa: E402
+    camera_path,
+    content_texel,
+    fly,
+    screen_px,
+    target_building,
+)
 
 ROTTERDAM = REPO / "tests" / "data" / "real" / "rotterdam_textured"
 TILE = TileId(15, 279418, 116113)
-FOV = math.radians(60.0)  # CesiumJS's default vertical field of view
 
 
 def baseline_tree(work: Path, ref: str) -> Path:
@@ -99,14 +105,15 @@ def frames_of(
     memory (bytes)."""
     texels: dict[str, float | None] = {}
     rows = []
-    views = fly(out, target, path, round(height * 16 / 9), height, name)
+    width = round(height * 16 / 9)
+    views = fly(out, target, path, width, height, name)
     for (distance, _), view in zip(path, views):
         shown = view["target"]
         for uri in shown:
             if uri not in texels:
                 texels[uri] = content_texel(out / uri)
         metres = [texels[u] for u in shown if texels[u] is not None]
-        pixels = max(metres) * height / (2 * distance * math.tan(FOV / 2)) if metres else 0.0
+        pixels = screen_px(max(metres), distance, width, height) if metres else 0.0
         rows.append(
             {"distance": distance, "content": ",".join(u.rsplit("/", 1)[-1] for u in shown) or "-",
              "texel_px": pixels, "memory": view["memory"], "errors": view["errors"]}

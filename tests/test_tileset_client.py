@@ -6,7 +6,6 @@ tileset's own statistics and on the page's console errors and failed requests.""
 from __future__ import annotations
 
 import json
-import math
 import os
 import subprocess
 from pathlib import Path
@@ -114,7 +113,7 @@ def test_cesium_shows_lod0_of_the_nearest_building_from_15_m(tmp_path):
     """The level's error includes its texture (issue 34): CesiumJS at its default 16 px
     screen-space error refines a textured building to lod0.glb at 15 m from its face (with
     geometric errors alone it kept LOD2's atlas, a quarter per side of LOD0's, down to ~0.2 mm)."""
-    from tests.texel_views import camera_path, content_texel, fly, target_building
+    from tests.texel_views import camera_path, content_texel, fly, screen_px, target_building
 
     tile = TILES[0]
     folder = generate_tile(tmp_path / "in" / tile.name, 3, seed=34, tile=tile, atlas_size=128)
@@ -122,8 +121,7 @@ def test_cesium_shows_lod0_of_the_nearest_building_from_15_m(tmp_path):
     export_tiles([folder], out, Config(), jobs=1)
     target, building = target_building(out)
     path = camera_path(building, 2, first=1000.0, last=15.0)
-    lines = 720  # render.js's usual window: 1280 x 720
-    views = fly(out, target, path, 1280, lines, "tileset.json")
+    views = fly(out, target, path, 1280, 720, "tileset.json")  # render.js's usual window
     for view in views:
         assert view["errors"] == [] and view["loaded"], view
     assert views[-1]["target"] == [f"{target}lod0.glb"]
@@ -131,4 +129,4 @@ def test_cesium_shows_lod0_of_the_nearest_building_from_15_m(tmp_path):
     shown = views[0]["target"]
     assert shown and shown != views[-1]["target"], views
     texel = max(content_texel(out / uri) or 0.0 for uri in shown)
-    assert texel * lines / (2 * 1000.0 * math.tan(math.radians(30.0))) <= 16.0
+    assert screen_px(texel, 1000.0, 1280, 720) <= 16.0

@@ -27,6 +27,19 @@ from exporter.tileset.glb import read_primitives
 
 CLIENT = Path(__file__).resolve().parent / "tileset_client"
 ELEVATION = math.radians(20.0)  # the camera above the aimed point, seen from it
+# CesiumJS's default field of view: 60 degrees across the *larger* side of the canvas
+# (PerspectiveFrustum: fovy = 2 atan(tan(fov / 2) / aspect) when wider than high), so on a 16:9
+# canvas the vertical one is 36 degrees, not 60.
+CESIUM_FOV = math.radians(60.0)
+
+
+def screen_px(metres: float, distance: float, width: int, height: int) -> float:
+    """Pixels that ``metres`` facing the camera cover at ``distance`` metres in CesiumJS's
+    default view on a ``width`` x ``height`` canvas: the rule its screen-space error uses
+    (``error * height / (distance * 2 tan(fovy / 2))``, Cesium3DTile.getScreenSpaceError)."""
+    aspect = width / height
+    fovy = CESIUM_FOV if aspect <= 1 else 2.0 * math.atan(math.tan(CESIUM_FOV / 2) / aspect)
+    return metres * height / (distance * 2.0 * math.tan(fovy / 2))
 
 
 def target_building(out: Path) -> tuple[str, dict]:
