@@ -36,7 +36,26 @@ simplification (the feature ids of ``EXT_mesh_features``).
   switches at 16 px; or at most the children's texel, the floor), no larger than its cells'
   finest images need (larger only upsamples), at most ``proxy_atlas_size``.
 
-A proxy with more than ``proxy_max_triangles`` is not written (nor are its ancestors').
+**Triangles** (:func:`triangle_target`, :func:`coarsened`). Clustering starts on the budget's
+cell (:data:`CELL_RATIO` x :func:`budget_m`); coarser cells are tried while the result holds more
+than the proxy's target: for a leaf half of ``proxy_max_triangles``; for a parent its largest
+child proxy's triangles (each proxy then costs about one child, whatever lies below it: Erikson
+et al.), at least ``proxy_max_triangles`` x :data:`PARENT_FLOOR_FRACTION` (9,375 triangles at the
+default: a mesh of ~0.2 MB, less than its atlas weighs in a client, so a coarser shape would cost
+accuracy and save nothing) and at most half the cap. A parent is coarsened past its budget's cell
+only while its faces fall at least as fast as cell^-2 (:data:`DENSITY_SLOPE`; measured from its
+children's clustering, on half its cell, to its own first pass, then between passes): its
+certified error grows about as the cell, and a client shows it from that much farther away, so
+where faces fall slower (buildings already at a box each: the generated cities) a coarser parent
+would raise the triangles a viewer sees per screen area and keep the children drawn longer; it
+keeps its budget's clustering (or, once within half the cap, the last pass before the slowdown).
+Half the cap stays hard. The cells lie on a lattice (2^(1/8) apart, :data:`CELL_STEPS`), each
+pass's predicted from the faces measured so far (:func:`next_step`: the cell that meets the
+target if faces fall as the slope measured, one step more), so the search is deterministic and
+takes fewer passes than doubling the cell did, and stops on a cell of 2^(k/8) rather than 2^k
+times the first (a finer cell, a smaller error, where the prediction holds). A proxy with
+more than ``proxy_max_triangles`` even on cells larger than its tile is not written (nor are its
+ancestors').
 
 Files: ``OUT/tileset_proxies/<tile>.glb`` and ``<tile>.json`` (its inputs' hash, bounds, sizes,
 ``atlas_px``, ``buildings`` and ``owners``: per vertex, run-length ``[[building index, vertices], ...]``).
