@@ -13,7 +13,6 @@ import shutil
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 from exporter.config import Config, TilesetOptions
 from exporter.model import TileId
@@ -55,7 +54,9 @@ def sheet(origin: tuple[float, float], size: float, spacing: float) -> tuple:
     as cell^-2 under clustering."""
     k = int(round(size / spacing))
     x, z = np.meshgrid(np.arange(k + 1) * spacing, np.arange(k + 1) * spacing, indexing="ij")
-    positions = np.column_stack([x.ravel() + origin[0], np.full(x.size, 10.0), z.ravel() + origin[1]])
+    positions = np.column_stack(
+        [x.ravel() + origin[0], np.full(x.size, 10.0), z.ravel() + origin[1]]
+    )
     i, j = np.meshgrid(np.arange(k), np.arange(k), indexing="ij")
     a = (i * (k + 1) + j).ravel()
     faces = np.concatenate(
@@ -173,9 +174,10 @@ def test_proxies_coarsened_by_a_small_cap_stay_within_it_certified_and_the_same_
     parents = {name: r for name, r in found.items() if not name.startswith("15_")}
     for name, record in parents.items():
         assert record["triangles"] <= largest, name
-        assert record["geometric"] > json.loads(
-            (quad / "tileset_proxies" / f"{name}.json").read_text()
-        )["geometric"], name  # coarser than at its budget: a larger, certified error
+        assert (
+            record["geometric"]
+            > json.loads((quad / "tileset_proxies" / f"{name}.json").read_text())["geometric"]
+        ), name  # coarser than at its budget: a larger, certified error
     test_tileset.test_every_proxy_error_bounds_its_distance_to_the_lod0_below_it(outs[1])
     assert proxy_files(outs[2]) == proxy_files(outs[1])
     assert (outs[2] / "tileset.json").read_bytes() == (outs[1] / "tileset.json").read_bytes()
