@@ -183,22 +183,3 @@ def test_proxies_coarsened_by_a_small_cap_stay_within_it_certified_and_the_same_
     assert (outs[2] / "tileset.json").read_bytes() == (outs[1] / "tileset.json").read_bytes()
     assert write_tileset(outs[1], options, force=True).proxies_built == 7
     assert proxy_files(outs[1]) == proxy_files(outs[2])  # and again the same bytes
-
-
-def test_one_probe_a_shared_corner_gives_upper_bounds_and_the_same_exact_distances():
-    """The clustering's reach index (one corner probe per distinct vertex): its upper bounds are
-    at least the exact distances, which it gives as the full index does."""
-    import trimesh
-
-    from exporter.mesh.distance import SurfaceIndex
-
-    mesh = trimesh.creation.icosphere(subdivisions=3, radius=5.0)
-    positions, faces = np.asarray(mesh.vertices), np.asarray(mesh.faces, np.int64)
-    points = np.random.default_rng(7).uniform(-8.0, 8.0, (400, 3))
-    full = SurfaceIndex(positions, faces, samples_per_face=0)
-    shared = SurfaceIndex(positions, faces, samples_per_face=0, shared_corners=True)
-    assert shared.tree is not None and full.tree is not None
-    assert shared.tree.n == len(positions) + len(faces) < full.tree.n
-    exact = full.distance(points)
-    assert np.all(shared.upper(points, memo=False) >= exact - 1e-12)
-    assert np.allclose(shared.distance(points), exact, rtol=0, atol=1e-12)

@@ -135,12 +135,8 @@ class SurfaceIndex:
         faces: np.ndarray,
         samples_per_face: int = 2,
         tri: np.ndarray | None = None,
-        shared_corners: bool = False,
     ) -> None:
-        """``tri``: ``positions[faces]`` (m, 3, 3) when the caller has it; ``shared_corners``:
-        one corner probe per distinct vertex (labelled with the first triangle using it) instead
-        of three per triangle: a smaller tree for many upper bounds (vertex clustering's reach
-        queries), the same exact distances."""
+        """``tri``: ``positions[faces]`` (m, 3, 3) when the caller has it."""
         self.tri = positions[faces] if tri is None else tri
         m = len(faces)
         if samples_per_face * m:
@@ -151,12 +147,8 @@ class SurfaceIndex:
             samples, sample_faces = np.zeros((0, 3)), np.zeros(0, np.int64)
         # tri.mean(axis=1) and each corner's largest distance to it (compiled: c/surface.c).
         self.centres, self.radii = _surface.centres_radii(self.tri)
-        corners, corner_faces = self.tri.reshape(-1, 3), np.repeat(np.arange(m), 3)
-        if shared_corners:
-            vertices, first = np.unique(np.asarray(faces).reshape(-1), return_index=True)
-            corners, corner_faces = positions[vertices], first // 3
-        probes = np.concatenate([corners, self.centres, samples])
-        self.owner = np.concatenate([corner_faces, np.arange(m), sample_faces])
+        probes = np.concatenate([self.tri.reshape(-1, 3), self.centres, samples])
+        self.owner = np.concatenate([np.repeat(np.arange(m), 3), np.arange(m), sample_faces])
         self.tree = cKDTree(probes) if m else None
         self._centre_tree: cKDTree | None = None  # of the centres, made when first needed
         # Per-point answers (probes, upper bounds, nearest faces), kept for a surface whose

@@ -149,7 +149,7 @@ def _reach(
     reach = np.zeros(len(gone))
     open_ = ~on_edge
     if open_.any():
-        index = SurfaceIndex(centre, kept, samples_per_face=0, shared_corners=True)
+        index = SurfaceIndex(centre, kept, samples_per_face=0)
         reach[open_] = segment_reach(index, centre, gone[open_], spacing)
     return reach
 
