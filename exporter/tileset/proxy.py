@@ -121,12 +121,12 @@ STEP_RANGE = (2, 16)
 # Faces fall about as cell^-2 on surfaces (the slope assumed after one pass; then measured, within
 # SLOPE_RANGE); one step more than predicted (the slope flattens as kept parts dominate).
 SURFACE_SLOPE = 2.0
-# A parent is coarsened below its budget's cell only while its faces fall at least as fast as
+SLOPE_RANGE = (0.5, 4.0)
+SAFETY_STEPS = 1
+# A parent is coarsened past its budget's cell only while its faces fall at least as fast as
 # cell^-2: its error grows about as the cell, and it is shown from that much farther away, so
 # its triangles per screen area (faces x error^2) must not grow (see the module doc).
 DENSITY_SLOPE = 2.0
-SLOPE_RANGE = (0.5, 4.0)
-SAFETY_STEPS = 1
 
 
 @dataclass(frozen=True)
