@@ -428,7 +428,7 @@ class TilesetOptions:
         default=300_000,
         metadata=meta(
             _integer(1),
-            "a proxy is clustered on coarser cells until it holds at most half this; a tile gets no proxy (nor do its ancestors) when even tile-sized cells leave more",
+            "a proxy is clustered on coarser cells until it holds at most half this (a parent: at most its largest child, at least 1/32 of this, while its faces fall as fast as cell^-2; docs/tileset.md); a tile gets no proxy (nor do its ancestors) when even tile-sized cells leave more",
         ),
     )
     proxy_error_ratio: float = field(

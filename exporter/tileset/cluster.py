@@ -60,8 +60,31 @@ def unique_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     key = np.zeros(len(rows), np.int64)
     for column, width in enumerate(bits):  # most significant first: sorted keys = sorted rows
         key = (key << width) | (rows[:, column] - low[column])
-    keys, first, inverse = np.unique(key, return_index=True, return_inverse=True)
-    return rows[first], inverse.reshape(-1)
+    # Without return_index np.unique sorts unstably (quicksort): the same keys and inverse, and
+    # any row of a key is that key's row (written in one scatter).
+    keys, inverse = np.unique(key, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    found = np.empty((len(keys), rows.shape[1]), rows.dtype)
+    found[inverse] = rows
+    return found, inverse
+
+
+def members(indices: np.ndarray, size: int) -> np.ndarray:
+    """``np.unique(indices)`` for int ``indices`` in [0, ``size``): one pass over a mask, no
+    sort."""
+    mask = np.zeros(size, bool)
+    mask[indices.reshape(-1)] = True
+    return np.flatnonzero(mask)
+
+
+def contained(values: np.ndarray, pool: np.ndarray) -> np.ndarray:
+    """``np.isin(values, pool)`` for int64 arrays: the pool sorted once, the values found in it
+    by binary search (no sort of both together)."""
+    pool = np.sort(pool)
+    if len(pool) == 0:
+        return np.zeros(len(values), bool)
+    at = np.minimum(np.searchsorted(pool, values), len(pool) - 1)
+    return pool[at] == values
 
 
 def _means(ids: np.ndarray, values: np.ndarray, count: int) -> np.ndarray:
@@ -70,6 +93,18 @@ def _means(ids: np.ndarray, values: np.ndarray, count: int) -> np.ndarray:
         [np.bincount(ids, weights=values[:, d], minlength=count) for d in range(values.shape[1])]
     )
     return sums / np.bincount(ids, minlength=count)[:, None]
+
+
+def spot_bins(spot: np.ndarray, uvs: np.ndarray, uv_bins: int) -> np.ndarray:
+    """(n,) int64: one number per (cell ``spot``, u bin, v bin) of each vertex, in their
+    lexicographic order (mixed radix), so that a row (building, 0, it) sorts as (building, 0,
+    spot, u bin, v bin) would, in three columns whose bits fit one sort key."""
+    uv_bin = np.floor(np.asarray(uvs, np.float64) * uv_bins).astype(np.int64)
+    if len(uv_bin) == 0:
+        return np.zeros(0, np.int64)
+    uv_bin -= uv_bin.min(axis=0)
+    span = uv_bin.max(axis=0) + 1
+    return (spot * span[0] + uv_bin[:, 0]) * span[1] + uv_bin[:, 1]
 
 
 def segment_reach(
@@ -109,7 +144,7 @@ def _reach(
     )
     edges = np.sort(np.concatenate([kept[:, [0, 1]], kept[:, [1, 2]], kept[:, [2, 0]]]), axis=1)
     width = max(1, int(len(centre)).bit_length())
-    on_edge = np.isin((ends[:, 0] << width) | ends[:, 1], (edges[:, 0] << width) | edges[:, 1])
+    on_edge = contained((ends[:, 0] << width) | ends[:, 1], (edges[:, 0] << width) | edges[:, 1])
     on_edge &= ends[:, 0] != ends[:, 1]  # a point image is measured (its cell may be gone)
     reach = np.zeros(len(gone))
     open_ = ~on_edge
@@ -154,19 +189,11 @@ def cluster(
     # Output vertices: one per (building, cell, uv bin) for the clustered triangles, and the
     # vertices of restored triangles as they were; sorted by building (owners stay grouped).
     n = len(positions)
-    uv_bin = np.floor(np.asarray(uvs, np.float64) * uv_bins).astype(np.int64)
-    originals = np.unique(faces[restored])
+    originals = members(faces[restored], n)
     rows = np.concatenate(
         [
-            np.column_stack([owners, np.zeros(n, np.int64), spot, uv_bin, np.zeros(n, np.int64)]),
-            np.column_stack(
-                [
-                    owners[originals],
-                    np.ones(len(originals), np.int64),
-                    np.zeros((len(originals), 3), np.int64),
-                    originals,
-                ]
-            ),
+            np.column_stack([owners, np.zeros(n, np.int64), spot_bins(spot, uvs, uv_bins)]),
+            np.column_stack([owners[originals], np.ones(len(originals), np.int64), originals]),
         ]
     )
     kept_rows, vertex = unique_rows(rows)
@@ -178,7 +205,7 @@ def cluster(
     out_faces = np.concatenate(
         [vertex[faces[clustered]], vertex[n + np.searchsorted(originals, faces[restored])]]
     )
-    used = np.unique(faces[~restored])  # every moved vertex: of kept and of dropped triangles
+    used = members(faces[~restored], n)  # every moved vertex: of kept and of dropped triangles
     moved = float(np.linalg.norm(positions[used] - centre[spot[used]], axis=1).max(initial=0.0))
     bound = moved + float(reach[vanished & ~restored].max(initial=0.0))
     return Clustered(

@@ -36,7 +36,26 @@ simplification (the feature ids of ``EXT_mesh_features``).
   switches at 16 px; or at most the children's texel, the floor), no larger than its cells'
   finest images need (larger only upsamples), at most ``proxy_atlas_size``.
 
-A proxy with more than ``proxy_max_triangles`` is not written (nor are its ancestors').
+**Triangles** (:func:`triangle_target`, :func:`coarsened`). Clustering starts on the budget's
+cell (:data:`CELL_RATIO` x :func:`budget_m`); coarser cells are tried while the result holds more
+than the proxy's target: for a leaf half of ``proxy_max_triangles``; for a parent its largest
+child proxy's triangles (each proxy then costs about one child, whatever lies below it: Erikson
+et al.), at least ``proxy_max_triangles`` x :data:`PARENT_FLOOR_FRACTION` (9,375 triangles at the
+default: a mesh of ~0.2 MB, less than its atlas weighs in a client, so a coarser shape would cost
+accuracy and save nothing) and at most half the cap. A parent is coarsened past its budget's cell
+only while its faces fall at least as fast as cell^-2 (:data:`DENSITY_SLOPE`; measured from its
+children's clustering, on half its cell, to its own first pass, then between passes): its
+certified error grows about as the cell, and a client shows it from that much farther away, so
+where faces fall slower (buildings already at a box each: the generated cities) a coarser parent
+would raise the triangles a viewer sees per screen area and keep the children drawn longer; it
+keeps its budget's clustering (or, once within half the cap, the last pass before the slowdown).
+Half the cap stays hard. The cells lie on a lattice (2^(1/8) apart, :data:`CELL_STEPS`), each
+pass's predicted from the faces measured so far (:func:`next_step`: the cell that meets the
+target if faces fall as the slope measured, one step more), so the search is deterministic and
+takes fewer passes than doubling the cell did, and stops on a cell of 2^(k/8) rather than 2^k
+times the first (a finer cell, a smaller error, where the prediction holds). A proxy with
+more than ``proxy_max_triangles`` even on cells larger than its tile is not written (nor are its
+ancestors').
 
 Files: ``OUT/tileset_proxies/<tile>.glb`` and ``<tile>.json`` (its inputs' hash, bounds, sizes,
 ``atlas_px``, ``buildings`` and ``owners``: per vertex, run-length ``[[building index, vertices], ...]``).
@@ -65,12 +84,12 @@ from ..model import Part, Texture, TileId
 from ..texel import face_texels, kept_face_texels, weighted_quantile
 from ..tiles import tile_size_deg
 from . import features, frames
-from .cluster import cluster
+from .cluster import Clustered, cluster
 from .glb import GlbPrimitive, read_primitives
 from .tree import rounding_slack
 
 PROXY_DIR = "tileset_proxies"
-PROXY_FORMAT = "vworld-lod-proxy 9"  # 9: texels 1/4 of the error shown at; 7: atlas sized
+PROXY_FORMAT = "vworld-lod-proxy 10"  # 10: parents held to a child; 9: texels 1/4 of the error
 # Proxy atlas sides, pixels: the smallest chosen, and the fewest pixels a cell side gets at a
 # size below ``proxy_atlas_size`` (smaller cells would blur texture into colour).
 ATLAS_FLOOR_PX = 64
@@ -91,6 +110,23 @@ TRANSFORM_SLACK_M = 1e-6  # float64 rounding of the frame changes (ECEF-sized nu
 CELL_RATIO = 0.5
 # A part that would vanish is kept when its distance to what is kept exceeds this x the budget.
 KEEP_RATIO = 0.5
+# A parent is clustered down to its largest child's triangles, never below this x
+# ``proxy_max_triangles`` (9,375 at the default): below it a proxy's mesh weighs far less than its
+# atlas (see the module doc), so coarser cells would cost accuracy and save nothing.
+PARENT_FLOOR_FRACTION = 1.0 / 32.0
+# Coarser cells (:func:`coarsened`) lie on a lattice: CELL_STEPS per doubling (2^(1/8): 9 %).
+CELL_STEPS = 8
+# A pass grows the cell by 2^(2/8) (1.19x) to 2^(16/8) (4x): progress, and no leap far past.
+STEP_RANGE = (2, 16)
+# Faces fall about as cell^-2 on surfaces (the slope assumed after one pass; then measured, within
+# SLOPE_RANGE); one step more than predicted (the slope flattens as kept parts dominate).
+SURFACE_SLOPE = 2.0
+SLOPE_RANGE = (0.5, 4.0)
+SAFETY_STEPS = 1
+# A parent is coarsened past its budget's cell only while its faces fall at least as fast as
+# cell^-2: its error grows about as the cell, and it is shown from that much farther away, so
+# its triangles per screen area (faces x error^2) must not grow (see the module doc).
+DENSITY_SLOPE = 2.0
 
 
 @dataclass(frozen=True)
@@ -373,6 +409,7 @@ class Merged:
     bound: float  # metres: the largest of the inputs' bounds against their LOD0
     texel_floor: float  # metres: the coarsest child's texel (0 for a leaf)
     values: list[dict] = field(default_factory=list)  # per building: its metadata values
+    largest_child: int = 0  # triangles of its largest child proxy (0: a leaf)
 
     @property
     def count(self) -> int:
@@ -396,6 +433,7 @@ def merge_inputs(task: ProxyTask) -> Merged:
     buildings: list[str] = []
     values: list[dict] = []
     bound = texel_floor = 0.0
+    largest_child = 0
     for building in task.buildings:
         coarsest = building.levels[0]
         matrix = to_proxy @ building.world @ frames.Y_UP
@@ -419,6 +457,7 @@ def merge_inputs(task: ProxyTask) -> Merged:
         values.extend(stored_values(record))
         bound = max(bound, child.geometric)
         texel_floor = max(texel_floor, child.texel)
+        largest_child = max(largest_child, int(record["triangles"]))
     primitives = [primitive for primitive, _, _ in textures.entries]
     side, _ = atlas_cells(len(primitives), 1)
     grid = []
@@ -441,6 +480,7 @@ def merge_inputs(task: ProxyTask) -> Merged:
         bound,
         texel_floor,
         values,
+        largest_child,
     )
 
 
@@ -531,6 +571,85 @@ def choose_atlas(merged: Merged, texels: CellTexels, target: float, largest: int
     return largest
 
 
+def triangle_target(options: TilesetOptions, largest_child: int, parent: bool) -> int:
+    """Triangles a proxy is clustered down to: half of ``proxy_max_triangles`` for a leaf; for a
+    parent, its largest child's triangles (``largest_child``), at least
+    ``proxy_max_triangles`` x :data:`PARENT_FLOOR_FRACTION` and at most the leaves' target (see
+    the module doc: each proxy then costs about one child, whatever lies below it)."""
+    cap = options.proxy_max_triangles // 2
+    if not parent:
+        return cap
+    floor = int(options.proxy_max_triangles * PARENT_FLOOR_FRACTION)
+    return min(cap, max(largest_child, floor))
+
+
+def fall_slope(before: tuple[int, int], after: tuple[int, int]) -> float:
+    """How fast faces fell between two clusterings, (step, faces) each on the lattice of
+    :func:`coarsened`: the exponent s of faces ~ cell^-s (0 when they did not fall)."""
+    (step_a, faces_a), (step_b, faces_b) = before, after
+    if faces_b <= 0 or faces_a <= faces_b or step_b <= step_a:
+        return 0.0
+    return math.log2(faces_a / faces_b) * CELL_STEPS / (step_b - step_a)
+
+
+def next_step(measured: list[tuple[int, int]], target: int) -> int:
+    """The next clustering pass's cell, in steps of :data:`CELL_STEPS` per doubling, from
+    ``measured``: (step, faces) of the clusterings so far (a parent's first is its input: its
+    children's clustering, at step -:data:`CELL_STEPS`), the last with more than ``target``
+    faces. Faces fall about as cell^-slope (2 on surfaces: assumed after one measure; then the
+    slope between the last two, within :data:`SLOPE_RANGE`), so the cell that meets the target is
+    the last x (faces / target)^(1 / slope); :data:`SAFETY_STEPS` more, and the growth kept within
+    :data:`STEP_RANGE` (progress, and no leap far past the target's cell)."""
+    step, faces = measured[-1]
+    slope = SURFACE_SLOPE
+    if len(measured) > 1:
+        slope = fall_slope(measured[-2], measured[-1])
+        slope = min(max(slope, SLOPE_RANGE[0]), SLOPE_RANGE[1])
+    wanted = CELL_STEPS * math.log2(faces / target) / slope if target > 0 else math.inf
+    grow = math.ceil(wanted) + SAFETY_STEPS if math.isfinite(wanted) else STEP_RANGE[1]
+    return step + min(max(grow, STEP_RANGE[0]), STEP_RANGE[1])
+
+
+def coarsened(
+    merged: Merged, tile: TileId, budget: float, cap: int, target: int, parent: bool
+) -> Clustered | None:
+    """The clustering of ``merged`` (in ``tile``'s proxy frame, metres) on cells of the lattice
+    ``budget`` x :data:`CELL_RATIO` x 2^(k / :data:`CELL_STEPS`), k >= 0, tried in the order of
+    :func:`next_step`; None when ``budget`` is 0 (merged only). It is the first tried that holds
+    at most ``target`` faces, or the first larger than the tile (its north-south size), except
+    for a ``parent`` (whose input is its children's clustering on half its first cell): once at
+    most ``cap`` faces, a pass whose faces fell slower than :data:`DENSITY_SLOPE` since the
+    clustering before it ends the search with that one (the first pass: itself), since a coarser
+    cell would raise the triangles a viewer sees per screen area (see the module doc)."""
+    first = budget * CELL_RATIO
+    if first <= 0:
+        return None
+    limit = tile_size_deg(tile.level) * METRES_PER_DEGREE
+    # uv bins: about 1/1024 of the atlas, a whole number a cell (never across two cells)
+    side, _ = atlas_cells(merged.count, 1)
+    bins = max(1, 1024 // side)
+    measured = [(-CELL_STEPS, len(merged.faces))] if parent else []
+    step, before = 0, None
+    while True:
+        cell = first * 2.0 ** (step / CELL_STEPS)  # the lattice: the same cells on any machine
+        done = cluster(
+            merged.positions,
+            merged.faces,
+            merged.grid,
+            merged.owners,
+            cell,
+            max(budget * KEEP_RATIO, cell),
+            bins,
+        )
+        faces = len(done.faces)
+        if faces <= target or cell > limit:
+            return done
+        if parent and faces <= cap and fall_slope(measured[-1], (step, faces)) < DENSITY_SLOPE:
+            return before if before is not None and measured[-1][1] <= cap else done
+        measured.append((step, faces))
+        before, step = done, next_step(measured, target if faces <= cap else cap)
+
+
 def build_proxy(task: ProxyTask) -> tuple[Proxy, bytes, dict] | None:
     """The proxy of ``task``: (its summary, its ``.glb`` bytes, its record), or None when it has
     more than ``proxy_max_triangles`` triangles."""
@@ -538,22 +657,12 @@ def build_proxy(task: ProxyTask) -> tuple[Proxy, bytes, dict] | None:
     positions, faces, grid, owners_all = merged.positions, merged.faces, merged.grid, merged.owners
     used, step = np.arange(len(positions)), 0.0
     budget = budget_m(task.tile, task.options)
-    cell, target = budget * CELL_RATIO, task.options.proxy_max_triangles // 2
-    limit = tile_size_deg(task.tile.level) * METRES_PER_DEGREE
-    # uv bins: about 1/1024 of the atlas, a whole number a cell (never across two cells)
-    side, _ = atlas_cells(merged.count, 1)
-    bins = max(1, 1024 // side)
-    while cell > 0:
-        # Coarser cells until the proxy holds at most half the cap: a parent's inputs (four
-        # children within that) then cost about its own budget, whatever lies below.
-        done = cluster(
-            positions, faces, grid, owners_all, cell, max(budget * KEEP_RATIO, cell), bins
-        )
-        if len(done.faces) <= target or cell > limit:
-            positions, faces, grid, owners_all = done.positions, done.faces, done.uvs, done.owners
-            used, step = done.source, done.bound
-            break
-        cell *= 2.0
+    cap = task.options.proxy_max_triangles // 2
+    target = triangle_target(task.options, merged.largest_child, bool(task.children))
+    done = coarsened(merged, task.tile, budget, cap, target, bool(task.children))
+    if done is not None:
+        positions, faces, grid, owners_all = done.positions, done.faces, done.uvs, done.owners
+        used, step = done.source, done.bound
     if len(faces) > task.options.proxy_max_triangles:
         return None
     present, owners = np.unique(owners_all, return_inverse=True)  # buildings left, in order
