@@ -442,7 +442,7 @@ class TilesetOptions:
         default=2048,
         metadata=meta(
             _integer(16, 16384),
-            "largest pixels per side of a proxy's one texture atlas: each proxy's is the smallest power of two (from 64) whose texels on its surface are at most 1/8 of its geometric error, or whose cells hold their images whole, up to this",
+            "largest pixels per side of a proxy's one texture atlas: each proxy's is the smallest power of two (from 64) whose texels on its surface are at most 1/4 of the error it is shown at (its geometric error, or its children's when larger), or whose cells hold their images whole, up to this",
         ),
     )
 
