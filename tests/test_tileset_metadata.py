@@ -26,6 +26,7 @@ from exporter.samplegen import generate_tile
 from exporter.tileset.features import with_features
 from exporter.tileset.metadata import building_values, property_id
 from exporter.tileset.proxy import owners_of
+from tests.tileset_check import external_problems, load
 
 REAL = Path(__file__).resolve().parent / "data" / "real"
 VALIDATOR_BIN = Path(__file__).resolve().parent / "tileset_client" / "node_modules" / ".bin"
@@ -103,9 +104,10 @@ def property_table(path: Path) -> tuple[np.ndarray, list[dict]]:
 
 
 def check_tileset(out: Path) -> tuple[dict, dict]:
-    """tileset.json's schema and groups against the manifests; returns (tileset, records by
-    '<tile>/<id>')."""
-    tileset = json.loads((out / "tileset.json").read_text())
+    """tileset.json's schema and groups (its tiles' own tilesets resolved: tests/tileset_check.py)
+    against the manifests; returns (the resolved tileset, records by '<tile>/<id>')."""
+    tileset = load(out)
+    assert external_problems(out, tileset) == []
     records = {
         f"{m.parent.name}/{r['id']}": r
         for m in out.glob("*/lod_manifest.json")
