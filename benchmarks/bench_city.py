@@ -49,6 +49,7 @@ from exporter.tileset.frames import ecef_of, enu_to_ecef  # noqa: E402
 from exporter.tileset.glb import read_header  # noqa: E402
 from exporter.tileset.tree import quadtree, read_buildings  # noqa: E402
 from exporter.tileset.write import tileset_json  # noqa: E402
+from tests.tileset_check import load  # noqa: E402
 
 WIDTH, HEIGHT, FOV = 1920, 1080, math.radians(60.0)
 FIRST_TILE = TileId(15, 279418, 116113)
@@ -242,7 +243,7 @@ def main() -> int:
     args = parser.parse_args()
 
     out = make_city(args.work, args.side, args.per_tile, args.jobs)
-    with_proxies = json.loads((out / "tileset.json").read_text())
+    with_proxies = load(out)  # the tiles' own tilesets resolved, as a client holds them
     by_tile, left_out = read_buildings(out)
     chains_only = tileset_json(quadtree(by_tile), left_out)
     buildings = sum(len(v) for v in by_tile.values())

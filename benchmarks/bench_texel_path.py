@@ -47,6 +47,7 @@ sys.path.insert(0, str(REPO))
 from exporter.model import TileId  # noqa: E402
 from exporter.samplegen import generate_tile  # noqa: E402
 from tests.texel_views import camera_path, content_texel, fly, target_building  # noqa: E402
+from tests.tileset_check import load  # noqa: E402
 
 ROTTERDAM = REPO / "tests" / "data" / "real" / "rotterdam_textured"
 TILE = TileId(15, 279418, 116113)
@@ -117,10 +118,12 @@ def frames_of(
 def all_lod0(out: Path) -> Path:
     """The new tileset with every building chain cut to its LOD0 (error 0), no proxy drawn and
     every tile without content refined at once (error 1e7 m), written beside it as
-    ``all_lod0.json``: the memory of showing the finest level of everything in view, for scale."""
-    tileset = json.loads((out / "tileset.json").read_text())
+    ``all_lod0.json``: the memory of showing the finest level of everything in view, for scale
+    (the tiles' own tilesets resolved into it: one file)."""
+    tileset = load(out)
 
     def visit(node: dict) -> None:
+        node.pop("external", None)  # load's record of the external tileset, not 3D Tiles
         uri = node.get("content", {}).get("uri", "")
         if "/lod" in uri:
             node["content"]["uri"] = uri.rsplit("/", 1)[0] + "/lod0.glb"

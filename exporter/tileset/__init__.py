@@ -155,8 +155,8 @@ def typed_alike(
     of those whose metadata class does not read the same against the export's (the union of
     all tiles', types widened over all values: a property INT32 in one tile and STRING in
     another is STRING; :func:`.metadata.fits`): they take the export's class (3D Tiles: an
-    external tileset's classes are the top-level schema's, and CesiumJS reads their groups with
-    it). A tile whose own class fits is written with its own (a tileset typed with the export's
+    external tileset's classes are the top-level schema's, and CesiumJS reads their content
+    metadata with it). A tile whose own class fits is written with its own (a tileset typed with the export's
     class earlier is written again with its own once the mixed types are gone)."""
     union = properties_of(merge_property_kinds([s.kinds for s in shown]))
     out = {}

@@ -4,7 +4,7 @@ export's ``tileset.json`` is made from small per-tile records, never from the bu
 Source: 3D Tiles 1.1, "External tilesets" (https://docs.ogc.org/cs/22-025r4/22-025r4.html: a
 tile whose content URI is another tileset JSON, without children; transforms accumulate into
 it) and "Metadata" (every class of an external tileset's schema is in the top-level tileset's
-schema; CesiumJS resolves an external tileset's groups against the top-level schema,
+schema; CesiumJS reads an external tileset's content metadata with the top-level schema,
 CesiumGS/cesium#13407, CesiumGS/3d-tiles#684).
 
 A tile's tileset is written with its manifest (``exporter.pipeline.write_tile_output``, early or

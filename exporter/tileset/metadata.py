@@ -1,5 +1,6 @@
 """3D Tiles 1.1 metadata of the buildings: the ``building`` class, each building's values, and the
-tileset's ``schema`` + ``groups`` (one group per building, its chain's contents point at it).
+tileset's ``schema`` + each building content's ``metadata`` (the building's entity on every
+level of its chain).
 
 Sources: 3D Tiles 1.1 specification, "Metadata" (schema, classes, property types, groups;
 https://docs.ogc.org/cs/22-025r4/22-025r4.html#toc31) and the 3D Metadata Specification
@@ -223,24 +224,31 @@ def chain_values(chain) -> dict[str, tuple[str, object]]:
     )
 
 
-def add_groups(tileset: dict, root, properties: dict[str, dict] | None = None) -> dict:
+def add_metadata(tileset: dict, root, properties: dict[str, dict] | None = None) -> dict:
     """Give ``tileset`` (the JSON of the tree under ``root``, a :class:`.tree.Node`) its
-    ``schema`` and one group per building chain (in tree order), and point every content of
-    each chain at its group (``content.group``); returns :func:`property_kinds` of its buildings.
-    ``properties``: the class's properties to type the values with (default: typed from these
-    buildings, :func:`class_properties`; a tile's tileset takes the export's union when its own
-    types differ from it). Tiles without a building (quadtree tiles, proxies) get no group: a
-    proxy's buildings are told apart by its feature ids."""
-    chains: list = []
+    ``schema`` and every content of each building chain the building's metadata entity
+    (``content.metadata``, 3D Tiles 1.1 content metadata); returns :func:`property_kinds` of its
+    buildings. ``properties``: the class's properties to type the values with (default: typed
+    from these buildings, :func:`class_properties`; a tile's tileset takes the export's union
+    when its own types differ from it).
 
-    def visit(node, tile: dict, group: int | None) -> None:
+    Content metadata, not ``groups``: a building tile's tileset is an external tileset, and
+    CesiumJS (1.145, ``findGroupMetadata``) looks a content's ``group`` up in the top-level
+    tileset's groups only, while it reads content metadata with the top-level schema's class
+    (which holds every tile's: :mod:`exporter.tileset`). Tiles without a building (quadtree
+    tiles, proxies) get none: a proxy's buildings are told apart by its feature ids."""
+    chains: list = []
+    contents: list[list[dict]] = []  # per chain, its contents' JSON
+
+    def visit(node, tile: dict, chain: int | None) -> None:
         if node.building is not None:
             chains.append(node.building)
-            group = len(chains) - 1
-        if group is not None and "content" in tile:
-            tile["content"]["group"] = group
+            contents.append([])
+            chain = len(chains) - 1
+        if chain is not None and "content" in tile:
+            contents[chain].append(tile["content"])
         for child, child_tile in zip(node.children, tile.get("children", [])):
-            visit(child, child_tile, group)
+            visit(child, child_tile, chain)
 
     visit(root, tileset["root"], None)
     if not chains:
@@ -250,5 +258,8 @@ def add_groups(tileset: dict, root, properties: dict[str, dict] | None = None) -
     if properties is None:
         properties = properties_of(kinds)
     tileset["schema"] = schema(properties)
-    tileset["groups"] = [entity(record, properties) for record in records]
+    for record, found in zip(records, contents):
+        metadata = entity(record, properties)
+        for content in found:
+            content["metadata"] = metadata
     return kinds

@@ -26,7 +26,7 @@ from .. import __version__
 from ..atomic import write_bytes_atomic
 from ..model import TileId
 from . import frames
-from .metadata import add_groups, schema
+from .metadata import add_metadata, schema
 from .tree import BuildingChain, Node, building_nodes, tile_world
 
 TILESET_NAME = "tileset.json"
@@ -166,7 +166,7 @@ def tileset_json(
     class of an external tileset's schema is in the top-level tileset's)."""
     root = collapsed(tops[0] if len(tops) == 1 else Node("root", None, children=tops))
     tileset = document(root, np.eye(4))
-    add_groups(tileset, root)  # the buildings' metadata (schema, groups): .metadata
+    add_metadata(tileset, root)  # the buildings' metadata (schema, contents'): .metadata
     if properties and "schema" not in tileset:
         tileset["schema"] = schema(properties)
     add_extras(tileset, building_tops(root), left_out)
@@ -180,7 +180,7 @@ def tile_tileset_json(
     properties: dict[str, dict] | None = None,
 ) -> tuple[dict, Node, dict[str, dict]]:
     """A building tile's own tileset (``OUT/<tile>/tileset.json``): its ``chains`` (by id) under a
-    root without content in the tile's frame, its buildings' ``schema`` and ``groups``
+    root without content in the tile's frame, its buildings' ``schema`` and content ``metadata``
     (``properties``: the class to type them with, default their own), ``extras``: ``left_out``
     and the levels left out. Returns (tileset, its root node, .metadata.property_kinds of its
     buildings)."""
@@ -194,7 +194,7 @@ def tile_tileset_json(
             node = node.children[0] if node.children else None
     root = Node(tile.name, None, children=tops)
     tileset = document(root, tile_world(tile))
-    kinds = add_groups(tileset, root, properties)
+    kinds = add_metadata(tileset, root, properties)
     add_extras(tileset, tops, left_out)
     return tileset, root, kinds
 

@@ -8,7 +8,7 @@
 // SCREENSHOTS=folder also saves view_<height>m.png per view.
 // PICK='[[lon, lat, height], ...]' also picks each point's screen position in every view (scene.pick)
 // and reports what it found: a proxy's feature (its property table's values) or a building level's
-// content (its group's metadata values), with the content's uri.
+// content (its content metadata or group metadata values), with the content's uri.
 // POSES=file.json (then LON LAT HEIGHT are not given): {"width", "height", "target", "tileset"
 // (a file in OUT, default tileset.json), "views":
 // [{"position": [x, y, z], "direction": [...], "up": [...]}]} (ECEF metres, unit vectors), each
@@ -68,9 +68,10 @@ window.view = async (lon, lat, height) => {
     if (found instanceof Cesium.Cesium3DTileFeature) {
       return { at: [at.x, at.y], kind: "feature", uri, featureId: found.featureId, values: values(found) };
     }
+    // A building level's values: its content metadata (a tile's own tileset), or its group.
     const group = found.content && found.content.group;
-    return { at: [at.x, at.y], kind: "content", uri,
-      values: group && group.metadata ? values(group.metadata) : null };
+    const entity = (found.content && found.content.metadata) || (group && group.metadata);
+    return { at: [at.x, at.y], kind: "content", uri, values: entity ? values(entity) : null };
   });
   return { height, picks, selected: s.selected, commands: s.numberOfCommands,
     triangles: s.numberOfTrianglesSelected, visited: s.visited,
