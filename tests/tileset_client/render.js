@@ -99,11 +99,15 @@ window.pose = async (view, target, name) => {
     ? decodeURIComponent(new URL(tile._contentResource.url).pathname).slice("/out/".length) : "";
   let selected = [...visible].map(uri).filter((u) => u.startsWith(target));
   if (!selected.length) {  // a coarser content covers the target: the selected tile above it
+    // The target's chain, or the tile referencing its tile's own tileset when that is not
+    // loaded yet (an external tileset is fetched only when its tile is refined).
+    const own = target.split("/")[0] + "/tileset.json";
     const stack = [tileset.root];
     let top = null;
     while (stack.length && !top) {
       const tile = stack.pop();
-      if (uri(tile).startsWith(target)) top = tile; else stack.push(...tile.children);
+      if (uri(tile).startsWith(target) || uri(tile) === own) top = tile;
+      else stack.push(...tile.children);
     }
     for (let tile = top; tile && !selected.length; tile = tile.parent) {
       if (visible.has(tile) && uri(tile)) selected = [uri(tile)];
