@@ -179,3 +179,21 @@ def test_types_differing_between_tiles_give_the_union_and_that_tile_is_typed_wit
     tileset = load(out)
     assert external_problems(out, tileset) == []
     assert floors(json.loads((out / "tileset.json").read_text()))[0] == "INT32"
+
+
+def test_a_proxy_built_on_a_worker_sends_back_no_per_building_list(city, tmp_path):
+    """What comes back to the main process of a proxy is what the tree needs (hash, errors,
+    bounds): a parent's record lists every building below it, which stays on disk."""
+    from exporter.tileset.proxy import proxy_of
+    from exporter.tileset.schedule import PER_BUILDING, build_proxy_record, leaf_task
+
+    out = tmp_path / "out"
+    shutil.copytree(city[0], out)
+    task = leaf_task(out, TILES[0], TilesetOptions(), Config().textures.jpeg_quality)
+    assert task is not None
+    (out / "tileset_proxies" / f"{TILES[0].name}.json").unlink()  # built again, not cached
+    record = build_proxy_record(task)
+    on_disk = json.loads((out / "tileset_proxies" / f"{TILES[0].name}.json").read_text())
+    assert len(on_disk["buildings"]) == 3 and on_disk["owners"] and on_disk["values"]
+    assert not set(PER_BUILDING) & set(record)
+    assert proxy_of(record) == proxy_of(on_disk)

@@ -62,6 +62,19 @@ class InProcess:
         return [function(item) for item in items]
 
 
+# A proxy record's per-building lists (its buildings, vertex owners, property rows): they stay in
+# the record file on disk, never come back to the main process.
+PER_BUILDING = ("buildings", "owners", "values")
+
+
+def build_proxy_record(task: ProxyTask) -> dict:
+    """:func:`.proxy.make_proxy` where the workers run it, returning its record without
+    :data:`PER_BUILDING` (a parent's lists every building below it): what the tree needs (hash,
+    errors, bounds) is all that comes back, so the main process holds no per-building state."""
+    record = make_proxy(task)
+    return {key: value for key, value in record.items() if key not in PER_BUILDING}
+
+
 def _tile_nodes_by_height(tops: list[Node]) -> list[list[Node]]:
     """Tile nodes grouped by height above the building tiles (0: no child tile), each group in
     tree order (depth first, children before parents)."""
@@ -174,7 +187,7 @@ def add_proxies(
     returns (proxies in the tree, proxies built this time); a proxy that cannot be built is
     appended to ``problems``. Stale proxy files are removed. ``force``: build every proxy, none
     taken from an earlier run (a rebuilt file whose bytes come out the same is left as it was).
-    ``early``: what :func:`make_proxy` returned for proxies this run built already, by
+    ``early``: what :func:`build_proxy_record` returned for proxies this run built already, by
     :attr:`ProxyTask.key` (:class:`LeafProxies`): a node whose task has one of these keys takes
     that record as if built here, even with ``force``."""
     folder = out_dir / PROXY_DIR
@@ -209,7 +222,7 @@ def add_proxies(
                 _place(node, proxy)
                 placed += 1
         tasks = [task for _, task, record in todo if record is None]
-        records = iter(workers.map(make_proxy, tasks, str(out_dir)))
+        records = iter(workers.map(build_proxy_record, tasks, str(out_dir)))
         built += len(todo)
         for node, _, record in todo:
             record = record if record is not None else next(records)
@@ -300,9 +313,12 @@ class LeafProxies:
         key = task.key
         if not self.force and cached(self.out_dir / PROXY_DIR, tile.name, key)[0]:
             return False
-        self._started.append((key, self.workers.submit(make_proxy, task, str(self.out_dir))))
+        self._started.append(
+            (key, self.workers.submit(build_proxy_record, task, str(self.out_dir)))
+        )
         return True
 
     def records(self) -> dict[str, dict]:
-        """What each started proxy's :func:`make_proxy` returned, by task key (waits for them)."""
+        """What each started proxy's :func:`build_proxy_record` returned, by task key (waits for
+        them)."""
         return {key: future.result() for key, future in self._started}
