@@ -196,6 +196,10 @@ def test_the_same_input_gives_the_same_bytes_and_a_rerun_rebuilds_nothing(city, 
     shutil.copytree(city.parent / "in", tmp_path / "in")
     stats = export(sorted((tmp_path / "in").iterdir()), again)
     assert (again / "tileset.json").read_bytes() == (city / "tileset.json").read_bytes()
+    for tile in (SEOUL, EAST_OF_SEOUL):  # each tile's own (its summary names its manifest's
+        # sha256, and the manifests name the inputs' paths, another folder here)
+        own = (again / tile.name / "tileset.json").read_bytes()
+        assert own == (city / tile.name / "tileset.json").read_bytes()
     for proxy in (city / "tileset_proxies").iterdir():
         assert (again / "tileset_proxies" / proxy.name).read_bytes() == proxy.read_bytes()
     assert stats.tileset is not None and stats.tileset.proxies_built == 3
