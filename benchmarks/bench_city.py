@@ -108,7 +108,8 @@ def flatten(tileset: dict) -> list[dict]:
             {
                 "centre": world[:3, :3] @ box[:3] + world[:3, 3],
                 "axes": box[3:].reshape(3, 3) @ world[:3, :3].T,
-                "error": tile["geometricError"],
+                # A tile referencing a tile's own tileset: clients always descend into it.
+                "error": math.inf if "external" in tile else tile["geometricError"],
                 "uri": tile.get("content", {}).get("uri"),
                 "children": [],
             }
