@@ -197,3 +197,30 @@ def test_a_proxy_built_on_a_worker_sends_back_no_per_building_list(city, tmp_pat
     assert len(on_disk["buildings"]) == 3 and on_disk["owners"] and on_disk["values"]
     assert not set(PER_BUILDING) & set(record)
     assert proxy_of(record) == proxy_of(on_disk)
+
+
+def test_a_tile_holding_buildings_and_a_finer_tile_has_both_under_its_proxy(tmp_path):
+    """Inputs of mixed levels: the level-15 tile's proxy node has its own tileset's reference and
+    the level-16 tile's proxy as children; its proxy (its buildings read from its manifest, its
+    child's proxy) is built once, then taken as it is."""
+    coarse = TILES[0]
+    fine = TileId(16, 2 * coarse.idx + 1, 2 * coarse.idy)
+    folders = [
+        generate_tile(tmp_path / "in" / coarse.name, 3, seed=1, tile=coarse, atlas_size=64),
+        generate_tile(tmp_path / "in" / fine.name, 2, seed=2, tile=fine, atlas_size=64),
+    ]
+    out = tmp_path / "out"
+    first = export_tiles(folders, out, Config(), jobs=1)
+    assert first.tileset is not None and first.tileset.proxies_built == 2
+    tileset = load(out)
+    assert structural_problems(out, tileset) == [] and external_problems(out, tileset) == []
+    root = json.loads((out / "tileset.json").read_text())["root"]
+    assert root["content"]["uri"] == f"tileset_proxies/{coarse.name}.glb"
+    assert [child["content"]["uri"] for child in root["children"]] == [
+        f"{coarse.name}/tileset.json",
+        f"tileset_proxies/{fine.name}.glb",
+    ]
+    proxy = json.loads((out / "tileset_proxies" / f"{coarse.name}.json").read_text())
+    assert len(proxy["buildings"]) == 5  # its own three and the finer tile's two
+    again = export_tiles(folders, out, Config(), jobs=1)
+    assert again.tileset is not None and again.tileset.proxies_built == 0
