@@ -49,6 +49,7 @@ from exporter.tileset.frames import ecef_of, enu_to_ecef  # noqa: E402
 from exporter.tileset.glb import read_header  # noqa: E402
 from exporter.tileset.tree import quadtree, read_buildings  # noqa: E402
 from exporter.tileset.write import tileset_json  # noqa: E402
+from tests.tileset_check import load  # noqa: E402
 
 WIDTH, HEIGHT, FOV = 1920, 1080, math.radians(60.0)
 FIRST_TILE = TileId(15, 279418, 116113)
@@ -107,7 +108,8 @@ def flatten(tileset: dict) -> list[dict]:
             {
                 "centre": world[:3, :3] @ box[:3] + world[:3, 3],
                 "axes": box[3:].reshape(3, 3) @ world[:3, :3].T,
-                "error": tile["geometricError"],
+                # A tile referencing a tile's own tileset: clients always descend into it.
+                "error": math.inf if "external" in tile else tile["geometricError"],
                 "uri": tile.get("content", {}).get("uri"),
                 "children": [],
             }
@@ -242,7 +244,7 @@ def main() -> int:
     args = parser.parse_args()
 
     out = make_city(args.work, args.side, args.per_tile, args.jobs)
-    with_proxies = json.loads((out / "tileset.json").read_text())
+    with_proxies = load(out)  # the tiles' own tilesets resolved, as a client holds them
     by_tile, left_out = read_buildings(out)
     chains_only = tileset_json(quadtree(by_tile), left_out)
     buildings = sum(len(v) for v in by_tile.values())

@@ -54,6 +54,7 @@ from tests.texel_views import (  # noqa: E402
     screen_px,
     target_building,
 )
+from tests.tileset_check import load  # noqa: E402
 
 ROTTERDAM = REPO / "tests" / "data" / "real" / "rotterdam_textured"
 TILE = TileId(15, 279418, 116113)
@@ -124,10 +125,12 @@ def frames_of(
 def all_lod0(out: Path) -> Path:
     """The new tileset with every building chain cut to its LOD0 (error 0), no proxy drawn and
     every tile without content refined at once (error 1e7 m), written beside it as
-    ``all_lod0.json``: the memory of showing the finest level of everything in view, for scale."""
-    tileset = json.loads((out / "tileset.json").read_text())
+    ``all_lod0.json``: the memory of showing the finest level of everything in view, for scale
+    (the tiles' own tilesets resolved into it: one file)."""
+    tileset = load(out)
 
     def visit(node: dict) -> None:
+        node.pop("external", None)  # load's record of the external tileset, not 3D Tiles
         uri = node.get("content", {}).get("uri", "")
         if "/lod" in uri:
             node["content"]["uri"] = uri.rsplit("/", 1)[0] + "/lod0.glb"

@@ -64,7 +64,8 @@ from .records import (
 )
 from .tile_index import fresh_facts, tile_from_name, write_tile_index
 from .tiles import tile_bounds, tile_center
-from .tileset import TilesetResult, write_tileset
+from .tileset import TILESET_NAME, TilesetResult, write_tileset
+from .tileset.external import write_tile_tileset
 from .workers import start_worker
 
 # --------------------------------------------------------------------------- small pure helpers
@@ -777,8 +778,10 @@ def write_tile_output(
     folders of earlier runs that this run did not produce but that came from its inputs
     (``owns``, :func:`input_owner`; without it every earlier folder is this run's), keep those of
     other inputs in the manifest, then write the manifest (last of the buildings' files,
-    atomically; left as it is when its bytes are the same) and the tile's summary
-    (:func:`exporter.records.write_summary`) after it.
+    atomically; left as it is when its bytes are the same), the tile's summary
+    (:func:`exporter.records.write_summary`) after it and, with the tileset on, the tile's own
+    tileset and its summary (:func:`exporter.tileset.external.write_tile_tileset`; from the
+    records in hand: the end of the run reads no building).
 
     ``from_summary``: folders reused from the tile's summary: their manifest entry is taken
     from the previous manifest that summary was written with (their record files are not read);
@@ -794,7 +797,9 @@ def write_tile_output(
         others = [
             e.path
             for e in found_names
-            if e.name not in keep and e.name != MANIFEST_NAME and not e.name.startswith(".")
+            if e.name not in keep
+            and e.name not in (MANIFEST_NAME, TILESET_NAME)
+            and not e.name.startswith(".")
         ]
     kept_skips = previous_skipped(tile_dir, owns, skipped, old_text) if owns is not None else []
     if (
@@ -873,4 +878,13 @@ def write_tile_output(
     items = [items_of[id(r)] for r in manifest["buildings"] if id(r) in items_of]
     head = manifest_head(tile, config, skipped)
     write_summary(tile_dir, text, head, items, hash_time(stamps))
+    if config.tileset.enabled:  # the tile's own tileset, with it (exporter.tileset.external)
+        write_tile_tileset(
+            out_dir,
+            tile,
+            manifest["buildings"],
+            text,
+            config.tileset,
+            config.textures.jpeg_quality,
+        )
     return TileResult(tile, path, len(records), len(skipped), reused)

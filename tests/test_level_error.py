@@ -20,6 +20,7 @@ from exporter.samplegen import generate_tile
 from exporter.texel import TEXEL_ERROR_FACTOR, level_texel_m
 from exporter.tileset.glb import read_primitives
 from exporter.tileset.tree import redundant
+from tests.tileset_check import load
 
 TILE = TileId(15, 279418, 116113)
 
@@ -94,7 +95,7 @@ def check_the_tileset_bar(out: Path) -> int:
     """Every level is in its chain with an error that sees its texture: at least a quarter of
     its texel (the issue's bar) and its ``error_m``. Returns the chains whose LOD1 has LOD2's
     mesh (kept for its finer atlas)."""
-    tileset = json.loads((out / "tileset.json").read_text())
+    tileset = load(out)
     error_of = {
         node["content"]["uri"]: node["geometricError"]
         for node in tiles_of(tileset)
@@ -141,7 +142,7 @@ def test_a_level_equal_in_mesh_and_atlas_to_the_coarser_one_is_left_out_and_said
     )
     out = tmp_path / "out"
     export_tiles([tile], out, config, jobs=1)
-    tileset = json.loads((out / "tileset.json").read_text())
+    tileset = load(out)
     referenced = {node["content"]["uri"] for node in tiles_of(tileset) if "content" in node}
     notes = tileset.get("extras", {}).get("levels_left_out", [])
     equal = [b for b in manifest(out)["buildings"] if b["lods"][2]["same_geometry_as_above"]]

@@ -196,6 +196,10 @@ def test_the_same_input_gives_the_same_bytes_and_a_rerun_rebuilds_nothing(city, 
     shutil.copytree(city.parent / "in", tmp_path / "in")
     stats = export(sorted((tmp_path / "in").iterdir()), again)
     assert (again / "tileset.json").read_bytes() == (city / "tileset.json").read_bytes()
+    for tile in (SEOUL, EAST_OF_SEOUL):  # each tile's own (its summary names its manifest's
+        # sha256, and the manifests name the inputs' paths, another folder here)
+        own = (again / tile.name / "tileset.json").read_bytes()
+        assert own == (city / tile.name / "tileset.json").read_bytes()
     for proxy in (city / "tileset_proxies").iterdir():
         assert (again / "tileset_proxies" / proxy.name).read_bytes() == proxy.read_bytes()
     assert stats.tileset is not None and stats.tileset.proxies_built == 3
@@ -264,11 +268,21 @@ def test_a_tile_whose_buildings_all_failed_is_left_out_and_said_so(tmp_path):
     assert any(EAST_OF_SEOUL.name in line for line in tileset["extras"]["left_out"])
 
 
+def _forget_tile_tileset(tile_dir: Path) -> None:
+    """Remove a tile's tileset summary: the tileset trusts it (and reads none of the tile's
+    buildings) while the manifest and the tile's tileset are those it was written with; an
+    export re-run redoes a building whose files were removed or damaged (their CRC-32) and
+    writes its tile's tileset again. Without it the tile's tileset is made again from the
+    manifest, checking every level file."""
+    (tile_dir / ".tileset_summary.json").unlink()
+
+
 def test_deleted_building_files_are_never_referenced(city, tmp_path):
     out = tmp_path / "out"
     shutil.copytree(city, out)
     gone = sorted((out / SEOUL.name).glob("*/lod0.glb"))[0].parent
     shutil.rmtree(gone)
+    _forget_tile_tileset(out / SEOUL.name)
     result = write_tileset(out, TilesetOptions())
     tileset = load(out)
     assert structural_problems(out, tileset) == []
@@ -360,6 +374,7 @@ def test_a_missing_or_damaged_level_file_is_left_out_though_its_record_has_bound
     first, second = sorted((out / SEOUL.name).glob("*/lod1.glb"))[:2]
     first.unlink()
     second.write_bytes(second.read_bytes()[:16])  # truncated: not the size its record states
+    _forget_tile_tileset(out / SEOUL.name)
     result = write_tileset(out, TilesetOptions())
     tileset = load(out)
     assert structural_problems(out, tileset) == []

@@ -86,7 +86,7 @@ def test_cesium_renders_the_sample_tile_without_errors(tmp_path):
 def test_cesium_picks_a_building_on_its_proxy_and_on_its_own_level(tmp_path):
     """scene.pick at a known building's screen position: from 1 km the tile's proxy is drawn and
     its feature ids resolve to the building's row of the proxy's property table; at 80 m the
-    building's own level is drawn and its content's group holds the same values."""
+    building's own level is drawn and its content's metadata holds the same values."""
     sample = Path(__file__).resolve().parents[1] / "samples" / "15_279418_116113"
     out = tmp_path / "out"
     export_tiles([sample], out, Config(), jobs=1)

@@ -1,4 +1,4 @@
-"""The buildings' metadata in 3D Tiles 1.1: tileset.json's schema and groups, the proxies'
+"""The buildings' metadata in 3D Tiles 1.1: the tilesets' schema and content metadata, the proxies'
 EXT_mesh_features + EXT_structural_metadata (docs/tileset.md "Metadata").
 
 The rules the CesiumGS 3d-tiles-validator applies to them are checked here independently of the
@@ -26,6 +26,7 @@ from exporter.samplegen import generate_tile
 from exporter.tileset.features import with_features
 from exporter.tileset.metadata import building_values, property_id
 from exporter.tileset.proxy import owners_of
+from tests.tileset_check import external_problems, load
 
 REAL = Path(__file__).resolve().parent / "data" / "real"
 VALIDATOR_BIN = Path(__file__).resolve().parent / "tileset_client" / "node_modules" / ".bin"
@@ -103,9 +104,10 @@ def property_table(path: Path) -> tuple[np.ndarray, list[dict]]:
 
 
 def check_tileset(out: Path) -> tuple[dict, dict]:
-    """tileset.json's schema and groups against the manifests; returns (tileset, records by
-    '<tile>/<id>')."""
-    tileset = json.loads((out / "tileset.json").read_text())
+    """tileset.json's schema and content metadata (its tiles' own tilesets resolved: tests/tileset_check.py)
+    against the manifests; returns (the resolved tileset, records by '<tile>/<id>')."""
+    tileset = load(out)
+    assert external_problems(out, tileset) == []
     records = {
         f"{m.parent.name}/{r['id']}": r
         for m in out.glob("*/lod_manifest.json")
@@ -116,35 +118,35 @@ def check_tileset(out: Path) -> tuple[dict, dict]:
     assert IDENTIFIER.match(schema["id"])
     assert {"id", "source_id", "source_file", "height"} <= set(properties)
     assert all(IDENTIFIER.match(pid) for pid in properties)
-    groups = tileset["groups"]
-    seen: dict[str, int] = {}  # building key -> its group
+    assert "groups" not in tileset  # content metadata: CesiumJS reads it in external tilesets
+    seen: dict[str, dict] = {}  # building key -> its entity
 
-    def visit(tile: dict, group: int | None) -> None:
+    def visit(tile: dict, entity: dict | None) -> None:
         content = tile.get("content")
         if content is not None:
             uri = content["uri"]
             if uri.startswith("tileset_proxies/"):
-                assert "group" not in content
+                assert "metadata" not in content
             else:
-                entity = groups[content["group"]]
-                key = f"{uri.split('/')[0]}/{entity['properties']['id']}"
+                found = content["metadata"]
+                key = f"{uri.split('/')[0]}/{found['properties']['id']}"
                 assert uri.startswith(f"{key.split('/')[0]}/{records[key]['folder']}/")
-                assert group is None or group == content["group"]  # one building per chain
-                group = content["group"]
-                seen[key] = group
+                assert entity is None or entity == found  # one building per chain
+                entity = found
+                seen[key] = found
         for child in tile.get("children", []):
-            visit(child, group if content is not None and "group" in content else None)
+            visit(child, entity if content is not None and "metadata" in content else None)
 
     visit(tileset["root"], None)
     assert set(seen) == set(records)
-    for entity in groups:
+    for entity in seen.values():
         assert entity["class"] == "building"
         for pid, value in entity["properties"].items():
             check_value(value, properties[pid])
         for pid, item in properties.items():
             assert pid in entity["properties"] or not item.get("required")
     for key, record in records.items():
-        values = groups[seen[key]]["properties"]
+        values = seen[key]["properties"]
         for name, value in record.get("attributes", {}).items():
             pid = property_id(name)
             assert properties[pid]["name"] == name

@@ -1,5 +1,10 @@
 """Independent checks of an ``OUT/tileset.json`` (3D Tiles 1.1) for the tests and the benchmark.
 
+External tilesets (3D Tiles 1.1: a content URI naming a tileset JSON; the export gives each
+building tile its own, ``OUT/<tile>/tileset.json``) are followed by :func:`load`, which returns
+one resolved tileset (as the tileset a client assembles in memory) plus what the rules of external
+tilesets need (:func:`external_problems`).
+
 Frames: ``world`` matrices map a tile's frame to ECEF (EPSG:4978) metres, composed from the root
 down from the column-major ``transform``s; glTF content is turned y-up -> z-up first, as the
 specification says ((x, y, z) -> (x, -z, y)). Written from the specification, not from the
@@ -8,10 +13,12 @@ exporter's code.
 
 from __future__ import annotations
 
+import copy
 import json
+import posixpath
 from dataclasses import dataclass, field
 from pathlib import Path
-from urllib.parse import unquote, urlparse
+from urllib.parse import quote, unquote, urlparse
 
 import numpy as np
 
@@ -34,8 +41,89 @@ class Visit:
         return None if content is None else content["uri"]
 
 
-def load(out: Path) -> dict:
-    return json.loads((out / "tileset.json").read_text(encoding="utf-8"))
+def load(out: Path, name: str = "tileset.json") -> dict:
+    """``OUT/name`` with every external tileset it references resolved, recursively: a tile
+    whose content URI ends in ``.json`` loses that content and gets the external tileset's root
+    as its only child (its content URIs made relative to OUT, its groups appended to the
+    resolved ``groups`` with their indices shifted, its ``extras`` lists appended to the
+    resolved ones), and keeps under ``"external"`` what the rules need: ``uri``, the file as
+    read (``tileset``) and whether the referencing tile had children (``had_children``)."""
+    tileset = json.loads((out / name).read_text(encoding="utf-8"))
+    resolved = copy.deepcopy(tileset)
+    resolved.setdefault("groups", [])
+
+    def rebase(tile: dict, base: str, shift: int) -> None:
+        content = tile.get("content")
+        if content is not None:
+            if base:
+                content["uri"] = quote(posixpath.join(base, unquote(content["uri"])))
+            if "group" in content:
+                content["group"] += shift
+        for child in tile.get("children", []):
+            rebase(child, base, shift)
+
+    def resolve(tile: dict) -> None:
+        uri = tile.get("content", {}).get("uri", "")
+        if unquote(uri).endswith(".json"):
+            external = json.loads((out / unquote(uri)).read_text(encoding="utf-8"))
+            tile["external"] = {
+                "uri": unquote(uri),
+                "tileset": external,
+                "had_children": "children" in tile,
+            }
+            root = copy.deepcopy(external["root"])
+            rebase(root, posixpath.dirname(unquote(uri)), len(resolved["groups"]))
+            resolved["groups"] += external.get("groups", [])
+            for key, lines in external.get("extras", {}).items():
+                resolved.setdefault("extras", {}).setdefault(key, []).extend(lines)
+            del tile["content"]
+            tile["children"] = [root]
+            resolve(root)
+            return
+        for child in tile.get("children", []):
+            resolve(child)
+
+    resolve(resolved["root"])
+    if not resolved["groups"]:
+        del resolved["groups"]
+    return resolved
+
+
+def external_problems(out: Path, tileset: dict) -> list[str]:
+    """The rules of external tilesets in the resolved ``tileset`` (:func:`load`); [] when all
+    hold: a tile referencing one has no children of its own (3D Tiles 1.1), the external file is
+    a 3D Tiles 1.1 tileset with a top-level geometricError, every class of its schema is in the
+    top-level tileset's with the same properties (the specification asks for the classes;
+    CesiumJS reads an external tileset's groups with the top-level class, cesium#13407), and
+    every content's group indexes its own tileset's groups."""
+    problems = []
+    top_classes = tileset.get("schema", {}).get("classes", {})
+    for visit in walk(tileset):
+        found = visit.tile.get("external")
+        if found is None:
+            continue
+        uri, external = found["uri"], found["tileset"]
+        if found["had_children"]:
+            problems.append(f"the tile referencing {uri} has children")
+        if external.get("asset", {}).get("version") != "1.1" or "geometricError" not in external:
+            problems.append(f"{uri}: not a 3D Tiles 1.1 tileset with a geometricError")
+        for name, item in external.get("schema", {}).get("classes", {}).items():
+            if name not in top_classes:
+                problems.append(f"{uri}: class {name} not in the top-level schema")
+                continue
+            top = top_classes[name].get("properties", {})
+            for pid, definition in item.get("properties", {}).items():
+                if top.get(pid) != definition:
+                    problems.append(f"{uri}: {name}.{pid} defined otherwise at the top level")
+        count = len(external.get("groups", []))
+        stack = [external["root"]]
+        while stack:
+            tile = stack.pop()
+            group = tile.get("content", {}).get("group")
+            if group is not None and not (isinstance(group, int) and 0 <= group < count):
+                problems.append(f"{uri}: group {group} out of range ({count} groups)")
+            stack.extend(tile.get("children", []))
+    return problems
 
 
 def walk(tileset: dict) -> list[Visit]:
@@ -96,11 +184,15 @@ def structural_problems(out: Path, tileset: dict) -> list[str]:
         problems.append(f"asset.version {tileset.get('asset')}")
     if "geometricError" not in tileset:
         problems.append("no top-level geometricError")
+    problems += external_problems(out, tileset)
     for visit in walk(tileset):
         tile = visit.tile
         box = tile["boundingVolume"]["box"]
         error = tile["geometricError"]
-        if visit.parent is not None and error > visit.parent.tile["geometricError"]:
+        # Errors never grow within one tileset; an external tileset's root (no content: refined
+        # as soon as it is reached) may have a larger error than the tile referencing it.
+        across = visit.parent is not None and "external" in visit.parent.tile
+        if visit.parent is not None and not across and error > visit.parent.tile["geometricError"]:
             problems.append(
                 f"geometricError grows {visit.parent.tile['geometricError']} -> {error}"
             )

@@ -1,11 +1,14 @@
 """``OUT/tileset.json``: the export as one 3D Tiles 1.1 tileset (glTF content, the existing files).
 
-Entry point: :func:`write_tileset` (``export_tiles`` calls it after the manifests and
-``tiles.json``). It reads every tile manifest under ``OUT`` (this run's and earlier runs', as
-``tiles.json`` lists them), builds the tree (:mod:`.tree`: buildings as LoD chains with their
-certified errors, under the VWorld quadtree), adds the tiles' proxies (:mod:`.proxy`, each built
-from its children's, level by level in parallel: :mod:`.schedule`) and
-writes the JSON (:mod:`.write`). Frames: :mod:`.frames`.
+Entry point: :func:`write_tileset` (``export_tiles`` calls it after the manifests). Each
+building tile has its own tileset, ``OUT/<tile>/tileset.json`` (its buildings as LoD chains with
+their certified errors, :mod:`.tree`), written with its manifest, and a small summary beside it
+(:mod:`.external`). From the summaries of every tile under ``OUT`` (this run's and earlier
+runs', as ``tiles.json`` lists them) this builds the VWorld quadtree of tiles, each building
+tile referencing its own tileset (3D Tiles external tilesets), adds the tiles' proxies
+(:mod:`.proxy`, each built from its children's, level by level in parallel: :mod:`.schedule`)
+and writes the JSON (:mod:`.write`): its size and time grow with the tiles, not the buildings.
+Frames: :mod:`.frames`.
 """
 
 from __future__ import annotations
@@ -17,7 +20,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..config import TextureOptions, TilesetOptions
-from .tree import Node, quadtree, read_buildings
+from .external import tile_summaries, tile_summary
+from .metadata import fits, merge_property_kinds, properties_digest, properties_of
+from .tree import Node, TileSummary, tile_tree, tileset_reference
 from .write import TILESET_NAME, tileset_json, write_tileset_json
 
 if TYPE_CHECKING:
@@ -72,7 +77,10 @@ def proxy_records(tops: list[Node]) -> list[dict]:
         assert node.corners is not None and node.content is not None
         radius = float(np.linalg.norm(node.corners - node.world[:3, 3], axis=1).max())
         children = [c.tile.name for c in node.children if c.tile is not None]
-        holds = any(c.building is not None for c in node.children)
+        holds = any(
+            c.building is not None or (c.holds is not None and c.holds.tile == node.tile)
+            for c in node.children
+        )
         records.append(
             {
                 "tile": node.tile,
@@ -106,15 +114,22 @@ def write_tileset(
     (:class:`.schedule.Workers`; default this process); ``early``: proxies this run built already
     (:class:`.schedule.LeafProxies`' records, by task key), taken as they are."""
     out_dir = Path(out_dir)
-    by_tile, left_out = read_buildings(out_dir, fresh)
-    tops = quadtree(by_tile)
+    left_out: list[str] = []
+    found = tile_summaries(out_dir, fresh, options, jpeg_quality, left_out)
+    left_out += [
+        f"{s.tile.name}: no building to show; tile left out" for s in found if not s.buildings
+    ]
+    shown = typed_alike(out_dir, [s for s in found if s.buildings], options, jpeg_quality, left_out)
+    properties = properties_of(merge_property_kinds([s.kinds for s in shown.values()]))
+    tops = tile_tree(shown, lambda tile: [tileset_reference(shown[tile])])
     if not options.proxies or not tops:
         from .proxy import PROXY_DIR, remove_stale
 
         remove_stale(out_dir / PROXY_DIR, set())
+    problems = [line for s in found for line in s.left_out]  # buildings': in their tilesets
     if not tops:
         (out_dir / TILESET_NAME).unlink(missing_ok=True)  # it would name files no longer shown
-        return TilesetResult(None, 0, left_out=left_out)
+        return TilesetResult(None, 0, left_out=left_out + problems)
     proxies = built = 0
     if options.proxies:
         from .schedule import add_proxies
@@ -122,7 +137,36 @@ def write_tileset(
         proxies, built = add_proxies(
             out_dir, tops, options, jpeg_quality, left_out, force, workers, early
         )
-    path = write_tileset_json(out_dir, tileset_json(tops, left_out))
-    count = sum(len(chains) for chains in by_tile.values())
+    path = write_tileset_json(out_dir, tileset_json(tops, left_out, properties))
+    count = sum(s.buildings for s in shown.values())
     remote = workers.remote if workers is not None else 0
-    return TilesetResult(path, count, proxies, built, left_out, proxy_records(tops), remote)
+    records = proxy_records(tops)
+    return TilesetResult(path, count, proxies, built, left_out + problems, records, remote)
+
+
+def typed_alike(
+    out_dir: Path,
+    shown: list[TileSummary],
+    options: TilesetOptions,
+    jpeg_quality: int,
+    problems: list[str],
+) -> dict:
+    """``shown`` (summaries of tiles with buildings) by tile, after writing again the tilesets
+    of those whose metadata class does not read the same against the export's (the union of
+    all tiles', types widened over all values: a property INT32 in one tile and STRING in
+    another is STRING; :func:`.metadata.fits`): they take the export's class (3D Tiles: an
+    external tileset's classes are the top-level schema's, and CesiumJS reads their content
+    metadata with it). A tile whose own class fits is written with its own (a tileset typed with the export's
+    class earlier is written again with its own once the mixed types are gone)."""
+    union = properties_of(merge_property_kinds([s.kinds for s in shown]))
+    out = {}
+    for summary in shown:
+        own = properties_of(summary.kinds)
+        target = own if fits(own, union) else union
+        if properties_digest(target) != summary.typed:
+            again = tile_summary(out_dir, summary.tile, options, jpeg_quality, problems, target)
+            if again is None or not again.buildings:
+                continue
+            summary = again
+        out[summary.tile] = summary
+    return out

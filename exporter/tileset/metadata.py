@@ -1,5 +1,6 @@
 """3D Tiles 1.1 metadata of the buildings: the ``building`` class, each building's values, and the
-tileset's ``schema`` + ``groups`` (one group per building, its chain's contents point at it).
+tileset's ``schema`` + each building content's ``metadata`` (the building's entity on every
+level of its chain).
 
 Sources: 3D Tiles 1.1 specification, "Metadata" (schema, classes, property types, groups;
 https://docs.ogc.org/cs/22-025r4/22-025r4.html#toc31) and the 3D Metadata Specification
@@ -62,19 +63,51 @@ def building_values(
     return values
 
 
-def value_type(values: Iterable[object]) -> str:
-    """BOOLEAN, INT32, INT64, FLOAT64 or STRING for a property's values (module doc)."""
-    kinds = {
-        bool if isinstance(v, bool) else int if isinstance(v, int) else type(v) for v in values
+def value_kinds(values: Iterable[object]) -> dict:
+    """What decides a property's type, of ``values``: ``kinds`` (sorted: ``bool``, ``float``,
+    ``int``, ``other``), and the smallest and largest integer (``low``, ``high``; None without
+    integers). Kinds of two sets of values merge (:func:`merge_kinds`) into the kinds of both, so
+    a type can be decided over tiles from small per-tile summaries."""
+    kinds: set[str] = set()
+    low = high = None
+    for v in values:
+        if isinstance(v, bool):
+            kinds.add("bool")
+        elif isinstance(v, int):
+            kinds.add("int")
+            low = v if low is None else min(low, v)
+            high = v if high is None else max(high, v)
+        else:
+            kinds.add("float" if isinstance(v, float) else "other")
+    return {"kinds": sorted(kinds), "low": low, "high": high}
+
+
+def merge_kinds(a: dict, b: dict) -> dict:
+    """:func:`value_kinds` of the values of ``a`` and ``b`` together."""
+    lows = [v for v in (a["low"], b["low"]) if v is not None]
+    highs = [v for v in (a["high"], b["high"]) if v is not None]
+    return {
+        "kinds": sorted(set(a["kinds"]) | set(b["kinds"])),
+        "low": min(lows) if lows else None,
+        "high": max(highs) if highs else None,
     }
-    if kinds == {bool}:
+
+
+def kinds_type(found: dict) -> str:
+    """BOOLEAN, INT32, INT64, FLOAT64 or STRING of :func:`value_kinds` (module doc)."""
+    kinds = set(found["kinds"])
+    if kinds == {"bool"}:
         return "BOOLEAN"
-    if kinds == {int}:
-        numbers = [int(v) for v in values]  # type: ignore[call-overload]
-        return "INT32" if INT32[0] <= min(numbers) and max(numbers) <= INT32[1] else "INT64"
-    if kinds and kinds <= {int, float}:
+    if kinds == {"int"}:
+        return "INT32" if INT32[0] <= found["low"] and found["high"] <= INT32[1] else "INT64"
+    if kinds and kinds <= {"int", "float"}:
         return "FLOAT64"
     return "STRING"
+
+
+def value_type(values: Iterable[object]) -> str:
+    """BOOLEAN, INT32, INT64, FLOAT64 or STRING for a property's values (module doc)."""
+    return kinds_type(value_kinds(values))
 
 
 def as_type(value: object, kind: str) -> object:
@@ -86,21 +119,40 @@ def as_type(value: object, kind: str) -> object:
     return value
 
 
-def class_properties(records: list[dict[str, tuple[str, object]]]) -> dict[str, dict]:
-    """The ``building`` class's ``properties`` for ``records`` (:func:`building_values`), sorted
-    by id (the fixed four first), each typed from its values."""
+def property_kinds(records: list[dict[str, tuple[str, object]]]) -> dict[str, dict]:
+    """Per property id of ``records`` (:func:`building_values`): its ``name`` and the
+    :func:`value_kinds` of its values (what :func:`properties_of` types it from; JSON)."""
     names: dict[str, str] = {}
     values: dict[str, list] = {}
     for record in records:
         for pid, (name, value) in record.items():
             names.setdefault(pid, name)
             values.setdefault(pid, []).append(value)
+    return {pid: {"name": names[pid], **value_kinds(values[pid])} for pid in values}
+
+
+def merge_property_kinds(found: list[dict[str, dict]]) -> dict[str, dict]:
+    """:func:`property_kinds` of several sets of buildings (each a :func:`property_kinds`, in
+    order: a property keeps the first name seen) as of all of them together."""
+    out: dict[str, dict] = {}
+    for kinds in found:
+        for pid, item in kinds.items():
+            if pid in out:
+                out[pid] = {"name": out[pid]["name"], **merge_kinds(out[pid], item)}
+            else:
+                out[pid] = item
+    return out
+
+
+def properties_of(kinds: dict[str, dict]) -> dict[str, dict]:
+    """The ``building`` class's ``properties`` for :func:`property_kinds` ``kinds``, sorted by
+    id (the fixed four first), each typed from its values' kinds."""
     properties = {}
-    for pid in [*FIXED, *sorted(set(values) - set(FIXED))]:
-        if pid not in values:
+    for pid in [*FIXED, *sorted(set(kinds) - set(FIXED))]:
+        if pid not in kinds:
             continue
-        kind = FIXED[pid][0] if pid in FIXED else value_type(values[pid])
-        item: dict = {"name": names[pid]}
+        kind = FIXED[pid][0] if pid in FIXED else kinds_type(kinds[pid])
+        item: dict = {"name": kinds[pid]["name"]}
         if pid in FIXED:
             item["description"] = FIXED[pid][1]
         if kind in ("STRING", "BOOLEAN"):
@@ -113,20 +165,40 @@ def class_properties(records: list[dict[str, tuple[str, object]]]) -> dict[str, 
     return properties
 
 
+def class_properties(records: list[dict[str, tuple[str, object]]]) -> dict[str, dict]:
+    """The ``building`` class's ``properties`` for ``records`` (:func:`building_values`), sorted
+    by id (the fixed four first), each typed from its values."""
+    return properties_of(property_kinds(records))
+
+
+def fits(own: dict[str, dict], union: dict[str, dict]) -> bool:
+    """True when every property of ``own`` (a class's ``properties``) is defined the same in
+    ``union``: a tileset typed ``own`` reads the same against ``union``'s class (its groups'
+    values have ``union``'s types)."""
+    return all(union.get(pid) == item for pid, item in own.items())
+
+
+def properties_digest(properties: dict[str, dict]) -> str:
+    """sha256 of a class's ``properties`` (what a tile's tileset was typed with)."""
+    text = json.dumps(properties, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
 def kind_of(item: dict) -> str:
     """A class property's BOOLEAN/STRING or component type."""
     return item.get("componentType") or item["type"]
 
 
-def schema(records: list[dict[str, tuple[str, object]]]) -> dict:
-    """The metadata ``schema`` with the ``building`` class of ``records``."""
+def schema(properties: dict[str, dict]) -> dict:
+    """The metadata ``schema`` with the ``building`` class of ``properties``
+    (:func:`class_properties`, :func:`properties_of`)."""
     return {
         "id": SCHEMA_ID,
         "classes": {
             CLASS: {
                 "name": "Building",
                 "description": "a building of the export; its source attributes (docs/input.md)",
-                "properties": class_properties(records),
+                "properties": properties,
             }
         },
     }
@@ -152,27 +224,42 @@ def chain_values(chain) -> dict[str, tuple[str, object]]:
     )
 
 
-def add_groups(tileset: dict, root) -> None:
+def add_metadata(tileset: dict, root, properties: dict[str, dict] | None = None) -> dict:
     """Give ``tileset`` (the JSON of the tree under ``root``, a :class:`.tree.Node`) its
-    ``schema`` and one group per building chain (in tree order), and point every content of
-    each chain at its group (``content.group``). Tiles without a building (quadtree tiles,
-    proxies) get no group: a proxy's buildings are told apart by its feature ids."""
-    chains: list = []
+    ``schema`` and every content of each building chain the building's metadata entity
+    (``content.metadata``, 3D Tiles 1.1 content metadata); returns :func:`property_kinds` of its
+    buildings. ``properties``: the class's properties to type the values with (default: typed
+    from these buildings, :func:`class_properties`; a tile's tileset takes the export's union
+    when its own types differ from it).
 
-    def visit(node, tile: dict, group: int | None) -> None:
+    Content metadata, not ``groups``: a building tile's tileset is an external tileset, and
+    CesiumJS (1.145, ``findGroupMetadata``) looks a content's ``group`` up in the top-level
+    tileset's groups only, while it reads content metadata with the top-level schema's class
+    (which holds every tile's: :mod:`exporter.tileset`). Tiles without a building (quadtree
+    tiles, proxies) get none: a proxy's buildings are told apart by its feature ids."""
+    chains: list = []
+    contents: list[list[dict]] = []  # per chain, its contents' JSON
+
+    def visit(node, tile: dict, chain: int | None) -> None:
         if node.building is not None:
             chains.append(node.building)
-            group = len(chains) - 1
-        if group is not None and "content" in tile:
-            tile["content"]["group"] = group
+            contents.append([])
+            chain = len(chains) - 1
+        if chain is not None and "content" in tile:
+            contents[chain].append(tile["content"])
         for child, child_tile in zip(node.children, tile.get("children", [])):
-            visit(child, child_tile, group)
+            visit(child, child_tile, chain)
 
     visit(root, tileset["root"], None)
     if not chains:
-        return
+        return {}
     records = [chain_values(chain) for chain in chains]
-    found = schema(records)
-    properties = found["classes"][CLASS]["properties"]
-    tileset["schema"] = found
-    tileset["groups"] = [entity(record, properties) for record in records]
+    kinds = property_kinds(records)
+    if properties is None:
+        properties = properties_of(kinds)
+    tileset["schema"] = schema(properties)
+    for record, found in zip(records, contents):
+        metadata = entity(record, properties)
+        for content in found:
+            content["metadata"] = metadata
+    return kinds

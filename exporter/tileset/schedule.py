@@ -4,7 +4,8 @@ Proxies of one quadtree level are independent (each reads only its own inputs' f
 :func:`.proxy.make_proxy`), so a level's proxies to build go to :class:`Workers` at once: this
 process (one job), a local process pool (``--jobs N``), or the Dask cluster of ``--scheduler``
 (one task per proxy). The main process keeps per tile only what the tree needs (hash, errors,
-bounds) and hands the workers a :class:`.proxy.ProxyTask` (the names of the input files and their
+bounds; a building tile's :class:`.tree.TileSummary`, whose recorded leaf proxy key spares
+reading the tile's buildings unless its proxy must be built) and hands the workers a :class:`.proxy.ProxyTask` (the names of the input files and their
 errors, no mesh). A proxy whose record matches its inputs' hash is taken as it is (a changed tile
 rebuilds its own proxy and its ancestors', each from its children); the bytes do not depend on
 where a proxy was built.
@@ -38,7 +39,7 @@ from .proxy import (
     proxy_of,
     remove_stale,
 )
-from .tree import Node, ancestor, quadtree, read_chain
+from .tree import BuildingChain, Node, ancestor, building_nodes, read_chain, tile_world
 
 
 class Workers(Protocol):
@@ -61,6 +62,19 @@ class InProcess:
         return [function(item) for item in items]
 
 
+# A proxy record's per-building lists (its buildings, vertex owners, property rows): they stay in
+# the record file on disk, never come back to the main process.
+PER_BUILDING = ("buildings", "owners", "values")
+
+
+def build_proxy_record(task: ProxyTask) -> dict:
+    """:func:`.proxy.make_proxy` where the workers run it, returning its record without
+    :data:`PER_BUILDING` (a parent's lists every building below it): what the tree needs (hash,
+    errors, bounds) is all that comes back, so the main process holds no per-building state."""
+    record = make_proxy(task)
+    return {key: value for key, value in record.items() if key not in PER_BUILDING}
+
+
 def _tile_nodes_by_height(tops: list[Node]) -> list[list[Node]]:
     """Tile nodes grouped by height above the building tiles (0: no child tile), each group in
     tree order (depth first, children before parents)."""
@@ -80,31 +94,52 @@ def _tile_nodes_by_height(tops: list[Node]) -> list[list[Node]]:
     return groups
 
 
+def _building_source(chain: BuildingChain) -> BuildingSource:
+    """What a proxy takes of one building: its levels' files, errors, texture sizes and values."""
+    levels = [LevelSource(level.file, level.geometric, level.texture_px) for level in chain.levels]
+    values = chain_values(chain)
+    digest = hashlib.sha256(
+        json.dumps(values, sort_keys=True, default=str).encode("utf-8")
+    ).hexdigest()[:16]
+    return BuildingSource(
+        f"{chain.tile.name}/{chain.id}",
+        chain.world,
+        levels,
+        f"{chain.input_hash}:{digest}",  # a changed attribute rebuilds the proxy
+        values,
+    )
+
+
+def manifest_chains(out_dir: Path, tile: TileId) -> list[BuildingChain] | None:
+    """``tile``'s buildings as chains (by id) from its manifest under ``out_dir``, as its own
+    tileset has them; None when the manifest cannot be read (what is left out is reported by the
+    tileset, not here)."""
+    try:
+        manifest = json.loads((out_dir / tile.name / MANIFEST_NAME).read_text(encoding="utf-8"))
+        records = manifest["buildings"]
+        left_out: list[str] = []
+        chains = [read_chain(out_dir, tile, record, left_out) for record in records]
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return None
+    return sorted((c for c in chains if c is not None), key=lambda c: c.id)
+
+
 def _task(
     out_dir: Path, node: Node, options: TilesetOptions, jpeg_quality: int
 ) -> ProxyTask | None:
-    """What ``node``'s proxy is made from, or None when a child tile has no proxy."""
+    """What ``node``'s proxy is made from, or None when a child tile has no proxy. A child that
+    references a tile's own tileset (:func:`.tree.tileset_reference`) stands for that tile's
+    buildings, read from its manifest."""
     assert node.tile is not None and node.world is not None
     task = ProxyTask(str(out_dir), node.tile, node.world, options, jpeg_quality)
     for child in node.children:
-        chain = child.building
-        if chain is not None:
-            levels = [
-                LevelSource(level.file, level.geometric, level.texture_px) for level in chain.levels
-            ]
-            values = chain_values(chain)
-            digest = hashlib.sha256(
-                json.dumps(values, sort_keys=True, default=str).encode("utf-8")
-            ).hexdigest()[:16]
-            task.buildings.append(
-                BuildingSource(
-                    f"{chain.tile.name}/{chain.id}",
-                    chain.world,
-                    levels,
-                    f"{chain.input_hash}:{digest}",  # a changed attribute rebuilds the proxy
-                    values,
-                )
-            )
+        if child.building is not None:
+            task.buildings.append(_building_source(child.building))
+        elif child.holds is not None:
+            chains = manifest_chains(out_dir, child.holds.tile)
+            if not chains:
+                return None
+            task.buildings.extend(_building_source(chain) for chain in chains)
         elif child.proxy_hash is not None and child.tile is not None:
             assert child.world is not None
             task.children.append(
@@ -116,6 +151,14 @@ def _task(
             return None
     task.shown_floor = max((child.error for child in node.children), default=0.0)
     return task
+
+
+def _leaf_key(node: Node) -> str | None:
+    """The proxy key ``node``'s tile summary recorded, when ``node`` is a leaf (its only child the
+    reference to its own tileset): its task is then made only if the proxy must be built."""
+    if len(node.children) == 1 and node.children[0].holds is not None:
+        return node.children[0].holds.proxy_key
+    return None
 
 
 def _place(node: Node, proxy: Proxy) -> None:
@@ -144,7 +187,7 @@ def add_proxies(
     returns (proxies in the tree, proxies built this time); a proxy that cannot be built is
     appended to ``problems``. Stale proxy files are removed. ``force``: build every proxy, none
     taken from an earlier run (a rebuilt file whose bytes come out the same is left as it was).
-    ``early``: what :func:`make_proxy` returned for proxies this run built already, by
+    ``early``: what :func:`build_proxy_record` returned for proxies this run built already, by
     :attr:`ProxyTask.key` (:class:`LeafProxies`): a node whose task has one of these keys takes
     that record as if built here, even with ``force``."""
     folder = out_dir / PROXY_DIR
@@ -153,24 +196,33 @@ def add_proxies(
     workers = workers or InProcess()
     for level in _tile_nodes_by_height(tops):
         # Proxies to build, in tree order, each with its record when built early (LeafProxies).
-        todo: list[tuple[Node, ProxyTask, dict | None]] = []
+        todo: list[tuple[Node, ProxyTask | None, dict | None]] = []
         for node in level:
-            task = _task(out_dir, node, options, jpeg_quality)
-            if task is None:
-                continue
-            name, key = node.tile.name, task.key  # type: ignore[union-attr]
-            kept.update({f"{name}.json", f"{name}.glb"})
+            assert node.tile is not None
+            task, key = None, _leaf_key(node)
+            if key is None:
+                task = _task(out_dir, node, options, jpeg_quality)
+                if task is None:
+                    continue
+                key = task.key
+            name = node.tile.name
             if early and key in early:
+                kept.update({f"{name}.json", f"{name}.glb"})
                 todo.append((node, task, early[key]))
                 continue
             found, proxy = (False, None) if force else cached(folder, name, key)
+            if not found and task is None:  # a changed leaf: its task from its manifest
+                task = leaf_task(out_dir, node.tile, options, jpeg_quality)
+                if task is None:
+                    continue
+            kept.update({f"{name}.json", f"{name}.glb"})
             if not found:
                 todo.append((node, task, None))
             elif proxy is not None:
                 _place(node, proxy)
                 placed += 1
         tasks = [task for _, task, record in todo if record is None]
-        records = iter(workers.map(make_proxy, tasks, str(out_dir)))
+        records = iter(workers.map(build_proxy_record, tasks, str(out_dir)))
         built += len(todo)
         for node, _, record in todo:
             record = record if record is not None else next(records)
@@ -186,24 +238,32 @@ def add_proxies(
 # --------------------------------------------------------------------------- leaf proxies early
 
 
+def leaf_task_of(
+    out_dir: Path,
+    tile: TileId,
+    tops: list[Node],
+    options: TilesetOptions,
+    jpeg_quality: int,
+) -> ProxyTask | None:
+    """The task of ``tile``'s proxy as a leaf, whose buildings' chains have the top nodes
+    ``tops`` (:func:`.tree.building_nodes`, by id): the one :func:`add_proxies` builds for that
+    tile when it has no child tile."""
+    if not tops:
+        return None
+    node = Node(tile.name, tile_world(tile), children=tops, tile=tile)
+    return _task(out_dir, node, options, jpeg_quality)
+
+
 def leaf_task(
     out_dir: Path, tile: TileId, options: TilesetOptions, jpeg_quality: int
 ) -> ProxyTask | None:
     """The task of ``tile``'s proxy as a leaf (the tile's buildings, no child tile), from its
-    manifest under ``out_dir`` alone and with the code :func:`.write_tileset` uses
-    (:func:`.tree.read_chain`, :func:`.tree.quadtree`), so its :attr:`ProxyTask.key` is the one
-    the tileset computes for that tile when it has no child tile; None when the manifest or every
-    building is unusable (what is left out is reported by the tileset, not here)."""
-    try:
-        manifest = json.loads((out_dir / tile.name / MANIFEST_NAME).read_text(encoding="utf-8"))
-        records = manifest["buildings"]
-        left_out: list[str] = []
-        chains = [read_chain(out_dir, tile, record, left_out) for record in records]
-    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+    manifest under ``out_dir`` alone (:func:`leaf_task_of`); None when the manifest or every
+    building is unusable."""
+    chains = manifest_chains(out_dir, tile)
+    if not chains:
         return None
-    kept = sorted((c for c in chains if c is not None), key=lambda c: c.id)
-    tops = quadtree({tile: kept}) if kept else []
-    return _task(out_dir, tops[0], options, jpeg_quality) if tops else None
+    return leaf_task_of(out_dir, tile, building_nodes(chains), options, jpeg_quality)
 
 
 class Submits(Protocol):
@@ -253,9 +313,12 @@ class LeafProxies:
         key = task.key
         if not self.force and cached(self.out_dir / PROXY_DIR, tile.name, key)[0]:
             return False
-        self._started.append((key, self.workers.submit(make_proxy, task, str(self.out_dir))))
+        self._started.append(
+            (key, self.workers.submit(build_proxy_record, task, str(self.out_dir)))
+        )
         return True
 
     def records(self) -> dict[str, dict]:
-        """What each started proxy's :func:`make_proxy` returned, by task key (waits for them)."""
+        """What each started proxy's :func:`build_proxy_record` returned, by task key (waits for
+        them)."""
         return {key: future.result() for key, future in self._started}

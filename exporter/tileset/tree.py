@@ -14,8 +14,14 @@ Data form: :class:`Node` (one 3D Tiles tile). ``world`` is the node's tile frame
   file's header for records without them). A level is left out only when its mesh and atlas
   equal the next coarser kept level's (:func:`redundant`; the reason kept in
   ``BuildingChain.dropped`` for the tileset's ``extras``), so errors never grow towards LOD0's 0.
-- Tiles holding buildings have the buildings as children; above them the quadtree, compressed: a
-  tile with one child is that child. Several top tiles hang under one root without content.
+- Each tile holding buildings has its own tileset (``OUT/<tile>/tileset.json``, :mod:`.external`):
+  its buildings' chains under a root without content, in the tile's frame. The export's
+  ``tileset.json`` holds the quadtree of tiles (:func:`tile_tree`), each building tile
+  summarised by a :class:`TileSummary` (its box, error, proxy key; never its buildings) and
+  shown by a node referencing its tileset (:func:`tileset_reference`); compressed: a tile with
+  one child is that child. Several top tiles hang under one root without content.
+  :func:`quadtree` builds the same tree with the chains themselves (one tile's tileset, a leaf
+  proxy's task, benchmarks).
 - Buildings or levels whose files are missing are left out and listed (never referenced).
 """
 
@@ -24,6 +30,7 @@ from __future__ import annotations
 import json
 import math
 import os
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -67,6 +74,21 @@ class BuildingChain:
 
 
 @dataclass
+class TileSummary:
+    """What the export's tileset keeps of one building tile (:mod:`.external` writes it beside
+    the tile's own tileset): no per-building state."""
+
+    tile: TileId
+    buildings: int  # chains in its tileset (0: none to show; no tileset)
+    box: list[float]  # 3D Tiles box of its tileset's root in the tile frame (tile_world), metres
+    error: float  # metres: the largest geometricError of its chains' coarsest levels
+    proxy_key: str | None  # its leaf proxy's ProxyTask.key (None: not computed, proxies off)
+    left_out: list[str]  # its buildings' and levels' problems (files unusable, no bound)
+    kinds: dict[str, dict]  # .metadata.property_kinds of its buildings (the export's schema)
+    typed: str  # .metadata.properties_digest of the class its tileset was written with
+
+
+@dataclass
 class Node:
     key: str
     world: np.ndarray | None
@@ -82,6 +104,7 @@ class Node:
     atlas_px: int = 0  # a proxy's atlas, pixels per side
     box: list[float] | None = None  # 3D Tiles box in its frame (set by write.finish)
     box_ecef: np.ndarray | None = None  # (8, 3) ECEF corners of ``box`` (a building's top)
+    holds: TileSummary | None = None  # the building tile whose own tileset this node references
 
 
 def rounding_slack(low, high) -> float:
@@ -303,17 +326,42 @@ def ancestor(tile: TileId, level: int) -> TileId:
 
 
 def quadtree(by_tile: dict[TileId, list[BuildingChain]]) -> list[Node]:
-    """The compressed quadtree over the building tiles: its top nodes (level-0 tiles in idx, idy
-    order).
-
-    A tile node's children: its buildings' chains (by id), then its child tiles' nodes (SW, SE,
-    NW, NE); a tile without buildings and with one child tile is replaced by that child."""
+    """The compressed quadtree over the building tiles with their chains (:func:`tile_tree`): a
+    tile node's children are its buildings' chains (by id), then its child tiles' nodes."""
 
     every = [chain for chains in by_tile.values() for chain in chains]
     node_of = {id(chain): node for chain, node in zip(every, building_nodes(every))}
+    return tile_tree(by_tile, lambda tile: [node_of[id(chain)] for chain in by_tile[tile]])
+
+
+def tileset_reference(summary: TileSummary) -> Node:
+    """The node of the export's tileset that shows a building tile: its content is the tile's own
+    tileset (``<tile>/tileset.json``, in the tile's frame: the node has its parent's, the tile
+    node's), its box that tileset root's, its error the tile's chains' largest (a client always
+    descends into an external tileset; the error bounds its parent's)."""
+    tile_frame = tile_world(summary.tile)
+    return Node(
+        f"{summary.tile.name}/tileset.json",
+        None,
+        summary.error,
+        f"{summary.tile.name}/tileset.json",
+        box=list(summary.box),
+        box_ecef=frames.apply(tile_frame, frames.box_corners(summary.box)),
+        holds=summary,
+    )
+
+
+def tile_tree(tiles: Iterable[TileId], own: Callable[[TileId], list[Node]]) -> list[Node]:
+    """The compressed quadtree over the building ``tiles``: its top nodes (level-0 tiles in idx,
+    idy order).
+
+    A tile node's children: ``own(tile)`` (what shows its buildings), then its child tiles' nodes
+    (SW, SE, NW, NE); a tile without buildings and with one child tile is replaced by that child."""
+
+    held = set(tiles)
 
     def build(tile: TileId, leaves: list[TileId]) -> Node | None:
-        own = by_tile.get(tile, [])
+        mine = own(tile) if tile in held else []
         below = [t for t in leaves if t.level > tile.level]
         subtiles: list[Node] = []
         level, i, j = tile.level + 1, 2 * tile.idx, 2 * tile.idy
@@ -327,14 +375,13 @@ def quadtree(by_tile: dict[TileId, list[BuildingChain]]) -> list[Node]:
             node = build(child, inside) if inside else None
             if node is not None:
                 subtiles.append(node)
-        if not own and not subtiles:
+        if not mine and not subtiles:
             return None
-        if not own and len(subtiles) == 1:
+        if not mine and len(subtiles) == 1:
             return subtiles[0]
-        children = [node_of[id(chain)] for chain in own] + subtiles
-        return Node(tile.name, tile_world(tile), children=children, tile=tile)
+        return Node(tile.name, tile_world(tile), children=mine + subtiles, tile=tile)
 
-    leaves = sorted(by_tile, key=lambda t: (t.level, t.idx, t.idy))
+    leaves = sorted(held, key=lambda t: (t.level, t.idx, t.idy))
     tops = sorted({ancestor(t, 0) for t in leaves}, key=lambda t: (t.idx, t.idy))
     nodes = [build(top, [t for t in leaves if ancestor(t, 0) == top]) for top in tops]
     return [node for node in nodes if node is not None]

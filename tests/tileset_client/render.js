@@ -8,7 +8,7 @@
 // SCREENSHOTS=folder also saves view_<height>m.png per view.
 // PICK='[[lon, lat, height], ...]' also picks each point's screen position in every view (scene.pick)
 // and reports what it found: a proxy's feature (its property table's values) or a building level's
-// content (its group's metadata values), with the content's uri.
+// content (its content metadata or group metadata values), with the content's uri.
 // POSES=file.json (then LON LAT HEIGHT are not given): {"width", "height", "target", "tileset"
 // (a file in OUT, default tileset.json), "views":
 // [{"position": [x, y, z], "direction": [...], "up": [...]}]} (ECEF metres, unit vectors), each
@@ -68,9 +68,10 @@ window.view = async (lon, lat, height) => {
     if (found instanceof Cesium.Cesium3DTileFeature) {
       return { at: [at.x, at.y], kind: "feature", uri, featureId: found.featureId, values: values(found) };
     }
+    // A building level's values: its content metadata (a tile's own tileset), or its group.
     const group = found.content && found.content.group;
-    return { at: [at.x, at.y], kind: "content", uri,
-      values: group && group.metadata ? values(group.metadata) : null };
+    const entity = (found.content && found.content.metadata) || (group && group.metadata);
+    return { at: [at.x, at.y], kind: "content", uri, values: entity ? values(entity) : null };
   });
   return { height, picks, selected: s.selected, commands: s.numberOfCommands,
     triangles: s.numberOfTrianglesSelected, visited: s.visited,
@@ -98,11 +99,15 @@ window.pose = async (view, target, name) => {
     ? decodeURIComponent(new URL(tile._contentResource.url).pathname).slice("/out/".length) : "";
   let selected = [...visible].map(uri).filter((u) => u.startsWith(target));
   if (!selected.length) {  // a coarser content covers the target: the selected tile above it
+    // The target's chain, or the tile referencing its tile's own tileset when that is not
+    // loaded yet (an external tileset is fetched only when its tile is refined).
+    const own = target.split("/")[0] + "/tileset.json";
     const stack = [tileset.root];
     let top = null;
     while (stack.length && !top) {
       const tile = stack.pop();
-      if (uri(tile).startsWith(target)) top = tile; else stack.push(...tile.children);
+      if (uri(tile).startsWith(target) || uri(tile) === own) top = tile;
+      else stack.push(...tile.children);
     }
     for (let tile = top; tile && !selected.length; tile = tile.parent) {
       if (visible.has(tile) && uri(tile)) selected = [uri(tile)];
