@@ -23,9 +23,11 @@ from typing import Any
 from .config import Config
 from .distributed import ProxyWorkers
 from .job import EntryResult
+from .manifest import MANIFEST_NAME
 from .model import Skipped, TileId
 from .readers import Entry
 from .tile_index import tile_from_name
+from .tileset.external import read_tile_summary
 from .tileset.schedule import LeafProxies
 
 # Readers whose building is filed under the entry's tile whatever its geometry (exporter.job).
@@ -155,9 +157,24 @@ class Overlap:
         return self.tracker.done(None if found is None else str(found), result.tile)
 
     def start_proxy(self, tile: TileId) -> None:
-        """Start ``tile``'s leaf proxy (its manifest is written)."""
+        """Start ``tile``'s leaf proxy (its manifest is written). An unchanged tile's summary
+        names its proxy's key: then its buildings are not read again to find it."""
         if self.leaves is not None:
-            self.leaves.start(tile)
+            self.leaves.start(tile, self._recorded_key(tile))
+
+    def _recorded_key(self, tile: TileId) -> str | None:
+        """The leaf proxy key ``tile``'s summary holds while it goes with the tile's manifest
+        (:func:`exporter.tileset.external.read_tile_summary`), else None."""
+        assert self.leaves is not None
+        out_dir = self.leaves.out_dir
+        try:
+            manifest = (out_dir / tile.name / MANIFEST_NAME).read_bytes()
+        except OSError:
+            return None
+        found = read_tile_summary(
+            out_dir, tile, manifest, self.leaves.options, self.leaves.jpeg_quality
+        )
+        return found.proxy_key if found is not None else None
 
     def proxy_records(self) -> dict[str, dict]:
         """The leaf proxies' records by task key (for ``write_tileset``), after the context."""

@@ -124,8 +124,8 @@ def test_a_tiles_leaf_proxy_starts_before_the_last_building_and_the_bytes_stay(
     events: list[tuple] = []
     start = schedule.LeafProxies.start
 
-    def recorded_start(self, tile):
-        started = start(self, tile)
+    def recorded_start(self, tile, known_key=None):
+        started = start(self, tile, known_key)
         events.append(("proxy", tile, started))
         return started
 
@@ -143,11 +143,21 @@ def test_a_tiles_leaf_proxy_starts_before_the_last_building_and_the_bytes_stay(
     assert stats.tileset is not None and stats.tileset.proxies_built == 5  # none built twice
     assert files(out) == files(plain)
 
-    # A re-run finds every proxy as it was (none started); --force builds each once.
+    # A re-run finds every proxy as it was (none started), from the tiles' summaries: no tile's
+    # buildings are read again to find its proxy's key; --force builds each once.
     events.clear()
+    read: list[TileId] = []
+    leaf_task = schedule.leaf_task
+
+    def counted_leaf_task(out_dir, tile, options, quality):
+        read.append(tile)
+        return leaf_task(out_dir, tile, options, quality)
+
+    monkeypatch.setattr(schedule, "leaf_task", counted_leaf_task)
     stats = pipeline.export_tiles(inputs, out, Config(), jobs=2)
     assert stats.tileset is not None and stats.tileset.proxies_built == 0
     assert [e[2] for e in events] == [False] * 3
+    assert read == []
     stats = pipeline.export_tiles(inputs, out, Config(), jobs=2, force=True)
     assert stats.tileset is not None and stats.tileset.proxies_built == 5
     assert files(out) == files(plain)

@@ -303,15 +303,20 @@ class LeafProxies:
         self._inner = _above(tiles)  # tiles with a child tile: their proxy is not a leaf
         self._started: list[tuple[str, Future]] = []
 
-    def start(self, tile: TileId) -> bool:
-        """Start ``tile``'s leaf proxy when it is one and must be built; True when started."""
+    def start(self, tile: TileId, known_key: str | None = None) -> bool:
+        """Start ``tile``'s leaf proxy when it is one and must be built; True when started.
+        ``known_key``: its task's key as the tile's summary recorded it (None: unknown); a proxy
+        built from it is taken without reading the tile's buildings (an unchanged tile)."""
         if tile in self._inner:
+            return False
+        folder = self.out_dir / PROXY_DIR
+        if known_key is not None and not self.force and cached(folder, tile.name, known_key)[0]:
             return False
         task = leaf_task(self.out_dir, tile, self.options, self.jpeg_quality)
         if task is None:
             return False
         key = task.key
-        if not self.force and cached(self.out_dir / PROXY_DIR, tile.name, key)[0]:
+        if not self.force and cached(folder, tile.name, key)[0]:
             return False
         self._started.append(
             (key, self.workers.submit(build_proxy_record, task, str(self.out_dir)))
