@@ -347,15 +347,14 @@ class TileSummaries:
         return summary.items.get(record_path.parent.name) if summary is not None else None
 
 
-def summary_reusable(item: dict, digest: str, folder: Path, fingerprints: list[dict]) -> bool:
+def summary_matches(item: dict, digest: str, folder: Path, fingerprints: list[dict]) -> bool:
     """True when a building's summary item lets this run reuse it without reading its record
-    file: same input hash, same input fingerprints (else its record gets the new ones), its
-    folder not a link, and its level files and record file intact (size and CRC-32)."""
+    file, once its files are found intact (:func:`exporter.records.files_intact`): same input
+    hash, same input fingerprints (else its record gets the new ones), its folder not a link."""
     return (
         item.get("input_hash") == digest
         and fingerprints == item["inputs"]
         and not folder.is_symlink()
-        and files_intact(folder, item["files"])
     )
 
 
@@ -574,7 +573,25 @@ def export_tiles(
     # Unchanged buildings are recognised here, in the main process, entry by entry as the pool
     # takes work: hashing is cheap I/O (and skipped for files whose stat is unchanged), and a
     # re-run that changes nothing starts no worker at all.
+    def by_record(
+        entry: Entry, before: dict | None, fingerprints: list[dict], digest: str
+    ) -> tuple | EntryResult:
+        """The entry's earlier result when its record file (``before``) lets it be reused, else
+        its task for the workers."""
+        previous_run = reusable_record(before, digest, out_dir)
+        if previous_run is not None and before is not None:
+            if fingerprints != before["inputs"]:  # e.g. touched, same bytes: record the new stat
+                _refresh_fingerprints(out_dir, previous_run, fingerprints)
+            return EntryResult(
+                tile=previous_run["tile"], record=previous_run["record"], reused=True
+            )
+        return (entry, config, str(out_dir), digest, tuple(fingerprints))
+
     def work() -> Iterable[tuple | EntryResult]:
+        # Buildings their tile's summary can reuse are confirmed last (their files read back for
+        # their CRC-32, most of a re-run's checking): the workers start on what changed first,
+        # while this process reads the unchanged files.
+        later: list[tuple[Entry, Path, dict, TileId, list[dict], str]] = []
         for entry in entries:
             before_path = previous.get((entry.source, entry.id))
             item = summaries.item(before_path) if before_path is not None else None
@@ -586,23 +603,18 @@ def export_tiles(
             digest = input_hash(entry, config_hash, fingerprints)
             if item is not None and before_path is not None:
                 tile = tile_from_name(before_path.parent.parent.name)
-                if tile and summary_reusable(item, digest, before_path.parent, fingerprints):
-                    from_summary.setdefault(tile, set()).add(item["folder"])
-                    record = {key: item[key] for key in ("id", "folder", "source")}
-                    yield EntryResult(tile=tile, record=record, reused=True)
+                if tile and summary_matches(item, digest, before_path.parent, fingerprints):
+                    later.append((entry, before_path, item, tile, fingerprints, digest))
                     continue
                 before = read_record(before_path)  # the record decides (e.g. new fingerprints)
-            previous_run = reusable_record(before, digest, out_dir)
-            if previous_run is not None and before is not None:
-                if (
-                    fingerprints != before["inputs"]
-                ):  # e.g. touched, same bytes: record the new stat
-                    _refresh_fingerprints(out_dir, previous_run, fingerprints)
-                yield EntryResult(
-                    tile=previous_run["tile"], record=previous_run["record"], reused=True
-                )
-            else:
-                yield (entry, config, str(out_dir), digest, tuple(fingerprints))
+            yield by_record(entry, before, fingerprints, digest)
+        for entry, before_path, item, tile, fingerprints, digest in later:
+            if files_intact(before_path.parent, item["files"]):
+                from_summary.setdefault(tile, set()).add(item["folder"])
+                record = {key: item[key] for key in ("id", "folder", "source")}
+                yield EntryResult(tile=tile, record=record, reused=True)
+            else:  # damaged since: its record decides, as without a summary
+                yield by_record(entry, read_record(before_path), fingerprints, digest)
 
     # Only each building's folder is kept: its record is on disk (written before its result came
     # back) and read again when the tile's manifest is made, so memory does not grow with records.

@@ -91,6 +91,41 @@ def test_one_changed_tile_reads_only_its_own_records(inputs, tmp_path, reads):
     assert tree(out) == tree(fresh)
 
 
+def test_what_changed_goes_to_the_workers_before_unchanged_files_are_read_back(
+    inputs, tmp_path, monkeypatch
+):
+    """The changed tile comes last in entry order; its buildings are handed out first, so the
+    workers make them while this process reads the unchanged buildings' files back (CRC-32)."""
+    from exporter.samplegen import generate_tile
+
+    out = tmp_path / "out"
+    export(inputs, out)
+    changed = generate_tile(
+        tmp_path / "changed" / TILES[1].name, 4, seed=9, tile=TILES[1], atlas_size=64
+    )
+    order: list[str] = []
+    results, intact = pipeline._results, pipeline.files_intact
+
+    def recorded(work, jobs, total=0):
+        def seen():
+            for item in work:
+                order.append("reused" if isinstance(item, pipeline.EntryResult) else "task")
+                yield item
+
+        return results(seen(), jobs, total)
+
+    def checked(folder, files):
+        order.append("read back")
+        return intact(folder, files)
+
+    monkeypatch.setattr(pipeline, "_results", recorded)
+    monkeypatch.setattr(pipeline, "files_intact", checked)
+    run = export([inputs[0], changed], out)
+    assert run.reused == 4 and run.buildings == 8
+    assert order[:4] == ["task"] * 4, order  # before any file is read back
+    assert order[4:] == ["read back", "reused"] * 4, order
+
+
 def test_a_damaged_output_file_still_makes_its_building_redone(inputs, tmp_path):
     out = tmp_path / "out"
     export(inputs, out)
