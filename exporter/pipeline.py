@@ -346,6 +346,12 @@ class TileSummaries:
         summary = self._read[tile_dir]
         return summary.items.get(record_path.parent.name) if summary is not None else None
 
+    def written_ns(self, record_path: Path) -> int | None:
+        """When the summary holding ``record_path``'s building was written (its ctime, ns;
+        :func:`exporter.records.files_intact`), None when unknown."""
+        summary = self._read.get(record_path.parent.parent)
+        return summary.written_ns or None if summary is not None else None
+
 
 def summary_matches(item: dict, digest: str, folder: Path, fingerprints: list[dict]) -> bool:
     """True when a building's summary item lets this run reuse it without reading its record
@@ -591,7 +597,7 @@ def export_tiles(
         # Buildings their tile's summary can reuse are confirmed last (their files read back for
         # their CRC-32, most of a re-run's checking): the workers start on what changed first,
         # while this process reads the unchanged files.
-        later: list[tuple[Entry, Path, dict, TileId, list[dict], str]] = []
+        later: list[tuple[Entry, Path, dict, TileId, list[dict], str, int | None]] = []
         for entry in entries:
             before_path = previous.get((entry.source, entry.id))
             item = summaries.item(before_path) if before_path is not None else None
@@ -604,12 +610,13 @@ def export_tiles(
             if item is not None and before_path is not None:
                 tile = tile_from_name(before_path.parent.parent.name)
                 if tile and summary_matches(item, digest, before_path.parent, fingerprints):
-                    later.append((entry, before_path, item, tile, fingerprints, digest))
+                    written = summaries.written_ns(before_path)
+                    later.append((entry, before_path, item, tile, fingerprints, digest, written))
                     continue
                 before = read_record(before_path)  # the record decides (e.g. new fingerprints)
             yield by_record(entry, before, fingerprints, digest)
-        for entry, before_path, item, tile, fingerprints, digest in later:
-            if files_intact(before_path.parent, item["files"]):
+        for entry, before_path, item, tile, fingerprints, digest, written in later:
+            if files_intact(before_path.parent, item["files"], written):
                 from_summary.setdefault(tile, set()).add(item["folder"])
                 record = {key: item[key] for key in ("id", "folder", "source")}
                 yield EntryResult(tile=tile, record=record, reused=True)
