@@ -20,7 +20,7 @@ from exporter.samplegen import generate_tile
 from exporter.texel import TEXEL_ERROR_FACTOR, level_texel_m
 from exporter.tileset.glb import read_primitives
 from exporter.tileset.tree import redundant
-from tests.tileset_check import load
+from tests.tileset_check import load, tiles_of
 
 TILE = TileId(15, 279418, 116113)
 
@@ -40,15 +40,6 @@ def out(tile, tmp_path_factory) -> Path:
 
 def manifest(out: Path) -> dict:
     return json.loads((out / TILE.name / "lod_manifest.json").read_text())
-
-
-def tiles_of(tileset: dict) -> list[dict]:
-    found, stack = [], [tileset["root"]]
-    while stack:
-        node = stack.pop()
-        found.append(node)
-        stack.extend(node.get("children", []))
-    return found
 
 
 def glb_texel(path: Path) -> float | None:

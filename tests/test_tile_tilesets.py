@@ -21,7 +21,7 @@ from exporter.model import TileId
 from exporter.pipeline import export_tiles
 from exporter.samplegen import generate_tile
 from exporter.tileset import write_tileset
-from tests.tileset_check import external_problems, load, structural_problems, walk
+from tests.tileset_check import external_problems, load, structural_problems, tiles_of, walk
 
 TILES = [TileId(15, 279418, 116113), TileId(15, 279419, 116113)]
 
@@ -50,16 +50,6 @@ def city(tmp_path_factory) -> tuple[Path, list[Path]]:
 def top_level_nodes(out: Path) -> list[dict]:
     """Every tile of ``OUT/tileset.json`` itself (external tilesets not followed)."""
     return tiles_of(json.loads((out / "tileset.json").read_text()))
-
-
-def tiles_of(tileset: dict) -> list[dict]:
-    """Every tile of ``tileset`` (one file)."""
-    found, stack = [], [tileset["root"]]
-    while stack:
-        tile = stack.pop()
-        found.append(tile)
-        stack.extend(tile.get("children", []))
-    return found
 
 
 def test_the_top_level_tileset_holds_tiles_and_each_tile_its_buildings(city, tmp_path):

@@ -116,14 +116,21 @@ def external_problems(out: Path, tileset: dict) -> list[str]:
                 if top.get(pid) != definition:
                     problems.append(f"{uri}: {name}.{pid} defined otherwise at the top level")
         count = len(external.get("groups", []))
-        stack = [external["root"]]
-        while stack:
-            tile = stack.pop()
+        for tile in tiles_of(external):
             group = tile.get("content", {}).get("group")
             if group is not None and not (isinstance(group, int) and 0 <= group < count):
                 problems.append(f"{uri}: group {group} out of range ({count} groups)")
-            stack.extend(tile.get("children", []))
     return problems
+
+
+def tiles_of(tileset: dict) -> list[dict]:
+    """Every tile of ``tileset`` as one file holds it (external tilesets not followed)."""
+    found, stack = [], [tileset["root"]]
+    while stack:
+        tile = stack.pop()
+        found.append(tile)
+        stack.extend(tile.get("children", []))
+    return found
 
 
 def walk(tileset: dict) -> list[Visit]:
