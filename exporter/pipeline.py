@@ -350,7 +350,7 @@ class TileSummaries:
         """When the summary holding ``record_path``'s building was written (its ctime, ns;
         :func:`exporter.records.files_intact`), None when unknown."""
         summary = self._read.get(record_path.parent.parent)
-        return summary.written_ns or None if summary is not None else None
+        return summary.written_ns if summary is not None else None
 
 
 def summary_matches(item: dict, digest: str, folder: Path, fingerprints: list[dict]) -> bool:

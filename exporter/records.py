@@ -190,8 +190,8 @@ class Summary:
     head: str  # :func:`write_summary`'s ``head``
     manifest_sha256: str  # of the manifest it goes with
     # Its file's status-change time (ns): when it was last written (its utime, after its tile's
-    # building files; :func:`files_intact`'s ``unchanged_before``), 0 when unknown.
-    written_ns: int = 0
+    # building files; :func:`files_intact`'s ``unchanged_before``).
+    written_ns: int
 
 
 def write_summary(
