@@ -171,7 +171,14 @@ def test_the_leaf_task_of_a_manifest_is_the_tilesets_own(inputs, tmp_path):
     by_tile, _ = read_buildings(out)
     tree_task = schedule._task(out, quadtree(by_tile)[0], options, 85)
     assert task is not None and tree_task is not None and task.key == tree_task.key
-    (out / TILES[0].name / "lod_manifest.json").write_text("{", encoding="utf-8")
+    # One unusable record leaves out that building only, as the tile's own tileset does.
+    path = out / TILES[0].name / "lod_manifest.json"
+    manifest = json.loads(path.read_text(encoding="utf-8"))
+    manifest["buildings"][0] = "not a record"
+    path.write_text(json.dumps(manifest), encoding="utf-8")
+    chains = schedule.manifest_chains(out, TILES[0])
+    assert chains is not None and len(chains) == len(manifest["buildings"]) - 1
+    path.write_text("{", encoding="utf-8")
     assert schedule.leaf_task(out, TILES[0], options, 85) is None  # left to the tileset
 
 

@@ -81,7 +81,7 @@ def test_the_top_level_tileset_holds_tiles_and_each_tile_its_buildings(city, tmp
 def test_one_changed_tile_rewrites_its_own_tileset_and_reads_no_other_building(
     city, tmp_path, monkeypatch
 ):
-    from exporter.tileset import external, schedule
+    from exporter.tileset import tree
 
     out, folders = city
     again = tmp_path / "out"
@@ -94,14 +94,13 @@ def test_one_changed_tile_rewrites_its_own_tileset_and_reads_no_other_building(
     unchanged = again / TILES[1].name / "tileset.json"
     before = unchanged.stat().st_mtime_ns
     read: list[str] = []
-    for module in (external, schedule):
-        real = module.read_chain
+    real = tree.read_chain  # every building record is read through it (tree.tile_chains)
 
-        def counted(out_dir, tile, record, left_out, real=real):
-            read.append(tile.name)
-            return real(out_dir, tile, record, left_out)
+    def counted(out_dir, tile, record, left_out):
+        read.append(tile.name)
+        return real(out_dir, tile, record, left_out)
 
-        monkeypatch.setattr(module, "read_chain", counted)
+    monkeypatch.setattr(tree, "read_chain", counted)
     export_tiles(inputs, again, Config(), jobs=1)
     assert read and set(read) == {TILES[0].name}
     assert unchanged.stat().st_mtime_ns == before

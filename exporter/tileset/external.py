@@ -30,7 +30,7 @@ from ..tile_index import build_index
 from .metadata import CLASS, properties_digest
 from .proxy import PROXY_FORMAT
 from .schedule import leaf_task_of
-from .tree import BuildingChain, TileSummary, read_chain
+from .tree import TileSummary, tile_chains
 from .write import TILESET_NAME, tile_tileset_json, tileset_bytes
 
 SUMMARY_NAME = ".tileset_summary.json"  # hidden: never taken for a building folder
@@ -50,18 +50,6 @@ def proxy_options(options: TilesetOptions, jpeg_quality: int) -> list:
         options.proxy_error_ratio,
         jpeg_quality,
     ]
-
-
-def tile_chains(out_dir: Path, tile: TileId, records: list, left_out: list[str]) -> list:
-    """The buildings of a manifest's ``records`` as chains, by id; problems appended to
-    ``left_out``."""
-    chains: list[BuildingChain | None] = []
-    for record in records:
-        try:
-            chains.append(read_chain(out_dir, tile, record, left_out))
-        except (KeyError, TypeError, ValueError, AttributeError) as problem:
-            left_out.append(f"{tile.name}: a building record unusable ({problem!r}); left out")
-    return sorted((c for c in chains if c is not None), key=lambda c: c.id)
 
 
 def _sha256(data: bytes) -> str:

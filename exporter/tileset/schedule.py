@@ -39,7 +39,7 @@ from .proxy import (
     proxy_of,
     remove_stale,
 )
-from .tree import BuildingChain, Node, ancestor, building_nodes, read_chain, tile_world
+from .tree import BuildingChain, Node, ancestor, building_nodes, tile_chains, tile_world
 
 
 class Workers(Protocol):
@@ -112,16 +112,13 @@ def _building_source(chain: BuildingChain) -> BuildingSource:
 
 def manifest_chains(out_dir: Path, tile: TileId) -> list[BuildingChain] | None:
     """``tile``'s buildings as chains (by id) from its manifest under ``out_dir``, as its own
-    tileset has them; None when the manifest cannot be read (what is left out is reported by the
-    tileset, not here)."""
+    tileset has them (:func:`.tree.tile_chains`); None when the manifest cannot be read (what is
+    left out is reported by the tileset, not here)."""
     try:
         manifest = json.loads((out_dir / tile.name / MANIFEST_NAME).read_text(encoding="utf-8"))
-        records = manifest["buildings"]
-        left_out: list[str] = []
-        chains = [read_chain(out_dir, tile, record, left_out) for record in records]
+        return tile_chains(out_dir, tile, manifest["buildings"], [])
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return None
-    return sorted((c for c in chains if c is not None), key=lambda c: c.id)
 
 
 def _task(

@@ -260,6 +260,18 @@ def read_chain(
     )
 
 
+def tile_chains(out_dir: Path, tile: TileId, records: list, left_out: list[str]) -> list:
+    """The buildings of ``tile``'s manifest ``records`` as chains, by id; a record that cannot be
+    read, with the reason, appended to ``left_out``."""
+    chains: list[BuildingChain | None] = []
+    for record in records:
+        try:
+            chains.append(read_chain(out_dir, tile, record, left_out))
+        except (KeyError, TypeError, ValueError, AttributeError) as problem:
+            left_out.append(f"{tile.name}: a building record unusable ({problem!r}); left out")
+    return sorted((c for c in chains if c is not None), key=lambda c: c.id)
+
+
 def read_buildings(
     out_dir: Path, fresh: dict[str, tuple[int, dict]] | None = None
 ) -> tuple[dict[TileId, list[BuildingChain]], list[str]]:
@@ -276,13 +288,7 @@ def read_buildings(
         except (OSError, ValueError, KeyError, TypeError) as error:
             left_out.append(f"{entry['manifest']}: unreadable ({error}); tile left out")
             continue
-        chains = []
-        for record in records:
-            try:
-                chains.append(read_chain(out_dir, tile, record, left_out))
-            except (KeyError, TypeError, ValueError, AttributeError) as problem:
-                left_out.append(f"{tile.name}: a building record unusable ({problem!r}); left out")
-        kept = sorted((c for c in chains if c is not None), key=lambda c: c.id)
+        kept = tile_chains(out_dir, tile, records, left_out)
         if kept:
             by_tile[tile] = kept
         else:
