@@ -105,11 +105,6 @@ def kinds_type(found: dict) -> str:
     return "STRING"
 
 
-def value_type(values: Iterable[object]) -> str:
-    """BOOLEAN, INT32, INT64, FLOAT64 or STRING for a property's values (module doc)."""
-    return kinds_type(value_kinds(values))
-
-
 def as_type(value: object, kind: str) -> object:
     """``value`` as a JSON value of 3D Tiles type ``kind``."""
     if kind == "STRING":
