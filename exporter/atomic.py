@@ -105,10 +105,19 @@ def write_text_atomic(path: PathT, text: str, durable: bool = False) -> PathT:
 
 
 def remove_stale_temporaries(folder: str | Path) -> int:
-    """Delete leftover ``.*.tmp`` files below ``folder`` (from an interrupted run); returns how many."""
+    """Delete leftover ``.*.tmp`` files below ``folder`` (from an interrupted run); returns how many.
+    Links to folders are not followed: nothing outside ``folder`` is deleted."""
     count = 0
-    for tmp in Path(folder).rglob(f".*{TMP_SUFFIX}"):
-        if tmp.is_file():
-            tmp.unlink(missing_ok=True)
-            count += 1
+    # os.walk's scandir types each name without a stat (Path.rglob: 3x the time on an OUT of
+    # thousands of building folders, a re-run's fixed cost).
+    for root, _, names in os.walk(folder):
+        for name in names:
+            if name.startswith(".") and name.endswith(TMP_SUFFIX):
+                path = os.path.join(root, name)
+                if os.path.isfile(path):
+                    try:
+                        os.unlink(path)  # a link itself, not what it names
+                    except FileNotFoundError:
+                        continue
+                    count += 1
     return count

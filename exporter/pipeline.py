@@ -395,6 +395,18 @@ def input_owner(scans: Iterable[Scan]) -> Owns:
     return owns
 
 
+def entry_groups(scans: list[Scan]) -> list[list[Entry]]:
+    """The scans' entries (in order) in runs of one scan and one tile: a folder's tile, the unit
+    a re-run finds changed or not (:func:`export_tiles` checks each run's first entry first)."""
+    groups: list[list[Entry]] = []
+    for scan in scans:
+        for index, entry in enumerate(scan.entries):
+            if index == 0 or entry.tile != scan.entries[index - 1].tile:
+                groups.append([])
+            groups[-1].append(entry)
+    return groups
+
+
 def _refresh_fingerprints(out_dir: Path, previous: dict, fingerprints: list[dict]) -> None:
     """Rewrite a reused building's record file with its inputs' current fingerprints, so the next
     run trusts their stat instead of hashing them again."""
@@ -593,28 +605,44 @@ def export_tiles(
             )
         return (entry, config, str(out_dir), digest, tuple(fingerprints))
 
+    Later = tuple[Entry, Path, dict, TileId, list[dict], str, int | None]
+
+    def checked(entry: Entry) -> tuple[tuple | EntryResult | None, Later | None]:
+        """(what to yield now, None), or (None, what to confirm last) for a building its tile's
+        summary can reuse once its files are found intact."""
+        before_path = previous.get((entry.source, entry.id))
+        item = summaries.item(before_path) if before_path is not None else None
+        before = read_record(before_path) if before_path and item is None else None
+        known = item or before
+        fingerprints = input_fingerprints(
+            entry.inputs, {f["path"]: f for f in known["inputs"]} if known else {}
+        )
+        digest = input_hash(entry, config_hash, fingerprints)
+        if item is not None and before_path is not None:
+            tile = tile_from_name(before_path.parent.parent.name)
+            if tile and summary_matches(item, digest, before_path.parent, fingerprints):
+                written = summaries.written_ns(before_path)
+                return None, (entry, before_path, item, tile, fingerprints, digest, written)
+            before = read_record(before_path)  # the record decides (e.g. new fingerprints)
+        return by_record(entry, before, fingerprints, digest), None
+
     def work() -> Iterable[tuple | EntryResult]:
         # Buildings their tile's summary can reuse are confirmed last (their files read back for
         # their CRC-32, most of a re-run's checking): the workers start on what changed first,
-        # while this process reads the unchanged files.
-        later: list[tuple[Entry, Path, dict, TileId, list[dict], str, int | None]] = []
-        for entry in entries:
-            before_path = previous.get((entry.source, entry.id))
-            item = summaries.item(before_path) if before_path is not None else None
-            before = read_record(before_path) if before_path and item is None else None
-            known = item or before
-            fingerprints = input_fingerprints(
-                entry.inputs, {f["path"]: f for f in known["inputs"]} if known else {}
-            )
-            digest = input_hash(entry, config_hash, fingerprints)
-            if item is not None and before_path is not None:
-                tile = tile_from_name(before_path.parent.parent.name)
-                if tile and summary_matches(item, digest, before_path.parent, fingerprints):
-                    written = summaries.written_ns(before_path)
-                    later.append((entry, before_path, item, tile, fingerprints, digest, written))
-                    continue
-                before = read_record(before_path)  # the record decides (e.g. new fingerprints)
-            yield by_record(entry, before, fingerprints, digest)
+        # while this process reads the unchanged files. Groups (a folder's tile) whose first
+        # building is not reused are checked first, so one changed tile of many starts the
+        # workers after a check a group, not after every unchanged building before it.
+        groups = entry_groups(scans)
+        probes = [checked(group[0]) for group in groups]
+        later: list[Later] = []
+        for index in sorted(range(len(groups)), key=lambda i: probes[i][1] is not None):
+            for position, entry in enumerate(groups[index]):
+                now, last = probes[index] if position == 0 else checked(entry)
+                if last is not None:
+                    later.append(last)
+                else:
+                    assert now is not None
+                    yield now
         for entry, before_path, item, tile, fingerprints, digest, written in later:
             if files_intact(before_path.parent, item["files"], written):
                 from_summary.setdefault(tile, set()).add(item["folder"])

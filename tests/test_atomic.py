@@ -45,6 +45,22 @@ def test_a_killed_writer_leaves_only_a_hidden_temporary_that_the_next_run_remove
     assert list((tmp_path / "t").iterdir()) == []
 
 
+def test_leftover_temporaries_are_removed_only_inside_the_folder(tmp_path):
+    """A link in OUT to a folder elsewhere is not followed: that folder's files are not OUT's."""
+    out, elsewhere = tmp_path / "out", tmp_path / "elsewhere"
+    (out / "tile" / "b").mkdir(parents=True)
+    elsewhere.mkdir()
+    mine = atomic.temporary_name(out / "tile" / "b" / "lod0.glb")
+    theirs = atomic.temporary_name(elsewhere / "lod0.glb")
+    mine.write_bytes(b"partial")
+    theirs.write_bytes(b"someone else's")
+    (out / "tile" / "b" / "kept.glb").write_bytes(b"complete")
+    (out / "linked").symlink_to(elsewhere, target_is_directory=True)
+    assert remove_stale_temporaries(out) == 1
+    assert not mine.exists() and theirs.read_bytes() == b"someone else's"
+    assert (out / "tile" / "b" / "kept.glb").is_file()
+
+
 def test_a_leftover_temporary_of_this_pid_is_replaced_not_written_through(tmp_path):
     target = tmp_path / "lod0.glb"
     leftover = atomic.temporary_name(target)

@@ -18,7 +18,7 @@ from exporter.config import Config, TilesetOptions
 from exporter.model import TileId
 from exporter.pipeline import export_tiles
 from exporter.tileset import proxy, write_tileset
-from exporter.tileset.cluster import cluster
+from exporter.tileset.cluster import cluster, clustered_faces
 from exporter.tileset.proxy import CellTextures, Merged, coarsened, next_step, triangle_target
 from tests import test_tileset
 from tests.test_proxies import proxy_files, quad, records  # noqa: F401 (the fixture)
@@ -73,15 +73,29 @@ def box(origin: tuple[float, float], size: float) -> tuple:
 
 
 def counted(monkeypatch) -> list[float]:
-    """The cells of every clustering pass :func:`coarsened` runs, in order."""
-    cells: list[float] = []
+    """The cells of every clustering pass :func:`coarsened` runs (clustered in full), in order."""
+    return passes(monkeypatch)[1]
+
+
+def passes(monkeypatch) -> tuple[list[float], list[float], list[int]]:
+    """(the cell of every pass :func:`coarsened` tries: each is counted first, the cells it
+    clusters in full, the count of each pass tried), in order."""
+    tried: list[float] = []
+    full: list[float] = []
+    kept: list[int] = []
+
+    def count(positions, faces, owners, cell):
+        tried.append(cell)
+        kept.append(clustered_faces(positions, faces, owners, cell))
+        return kept[-1]
 
     def recorded(positions, faces, uvs, owners, cell, keep_beyond, bins):
-        cells.append(cell)
+        full.append(cell)
         return cluster(positions, faces, uvs, owners, cell, keep_beyond, bins)
 
+    monkeypatch.setattr(proxy, "clustered_faces", count)
     monkeypatch.setattr(proxy, "cluster", recorded)
-    return cells
+    return tried, full, kept
 
 
 def doubling(merged: Merged, budget: float, target: int) -> tuple[int, float, int]:
@@ -101,14 +115,32 @@ def test_predicted_cells_meet_the_target_in_fewer_passes_than_doubling(monkeypat
     merged = merged_of([sheet((30.0 * i, 0.0), 24.0, 0.25) for i in range(4)])
     budget = 1.0
     for target in (1000, 3000):
-        cells = counted(monkeypatch)
+        cells, full, _ = passes(monkeypatch)
         done = coarsened(merged, TILE, budget, target, target, parent=False)
         assert done is not None and len(done.faces) <= target
-        passes, bound, _ = doubling(merged, budget, target)
-        assert len(cells) < passes, (target, cells, passes)
+        doubled, bound, _ = doubling(merged, budget, target)
+        assert len(cells) < doubled, (target, cells, doubled)
         # a finer cell than doubling's (on a lattice of 2^(1/8)): a bound no larger
         assert done.bound <= bound + 1e-9, (target, done.bound, bound)
         assert cells[0] == budget * proxy.CELL_RATIO  # the first pass is the budget's cell
+        # only the last pass was clustered: the others kept more than the cap (the target here)
+        assert full == cells[-1:], (cells, full)
+
+
+def test_a_pass_over_the_cap_is_counted_not_clustered(monkeypatch):
+    """Clustering's reach is most of a pass: a cell whose surviving triangles alone exceed the
+    cap cannot be accepted, so it is only counted, and the count is a lower bound of the faces
+    a full pass would give."""
+    merged = merged_of([sheet((30.0 * i, 0.0), 24.0, 0.25) for i in range(4)], 2000)
+    cells, full, kept = passes(monkeypatch)
+    done = coarsened(merged, TILE, 1.0, 3000, 2000, parent=True)
+    assert done is not None and len(done.faces) <= 3000
+    assert len(full) < len(cells)  # some passes were only counted
+    for cell, count in zip(cells, kept):
+        clustered = cell in full
+        assert clustered == (count <= 3000), (cell, count, full)
+        whole = cluster(merged.positions, merged.faces, merged.grid, merged.owners, cell, 0.5, 1)
+        assert count <= len(whole.faces)
 
 
 def test_next_step_grows_by_the_measured_slope_within_its_range():

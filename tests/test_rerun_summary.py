@@ -95,7 +95,9 @@ def test_what_changed_goes_to_the_workers_before_unchanged_files_are_read_back(
     inputs, tmp_path, monkeypatch
 ):
     """The changed tile comes last in entry order; its buildings are handed out first, so the
-    workers make them while this process reads the unchanged buildings' files back (CRC-32)."""
+    workers make them while this process reads the unchanged buildings' files back (CRC-32).
+    The first task goes out after one check per tile (its first building), not after every
+    unchanged building's check."""
     from exporter.samplegen import generate_tile
 
     out = tmp_path / "out"
@@ -118,12 +120,20 @@ def test_what_changed_goes_to_the_workers_before_unchanged_files_are_read_back(
         order.append("read back")
         return intact(folder, files, unchanged_before)
 
+    def fingerprinted(names, known):
+        order.append("check")
+        return fingerprints(names, known)
+
+    fingerprints = pipeline.input_fingerprints
     monkeypatch.setattr(pipeline, "_results", recorded)
     monkeypatch.setattr(pipeline, "files_intact", checked)
+    monkeypatch.setattr(pipeline, "input_fingerprints", fingerprinted)
     run = export([inputs[0], changed], out)
     assert run.reused == 4 and run.buildings == 8
-    assert order[:4] == ["task"] * 4, order  # before any file is read back
-    assert order[4:] == ["read back", "reused"] * 4, order
+    # one check a tile, then the changed tile's buildings, then the unchanged tile's checks
+    expected = ["check", "check", "task"] + ["check", "task"] * 3 + ["check"] * 3
+    assert order[:12] == expected, order  # before any file is read back
+    assert order[12:] == ["read back", "reused"] * 4, order
 
 
 def test_files_unchanged_since_their_summary_are_not_read_back(inputs, tmp_path, monkeypatch):

@@ -154,6 +154,30 @@ def _reach(
     return reach
 
 
+def cell_spots(positions: np.ndarray, owners: np.ndarray, cell: float) -> np.ndarray:
+    """(n,) int64: each vertex's (building, grid cell of ``cell`` metres), numbered in sorted
+    order."""
+    grid = np.floor(positions / cell).astype(np.int64)
+    return unique_rows(np.column_stack([owners, grid]))[1]
+
+
+def vanishing(corner: np.ndarray) -> np.ndarray:
+    """(m,) bool: the triangles whose corners' cells ``corner`` (m, 3) are not all different."""
+    return (
+        (corner[:, 0] == corner[:, 1])
+        | (corner[:, 1] == corner[:, 2])
+        | (corner[:, 0] == corner[:, 2])
+    )
+
+
+def clustered_faces(
+    positions: np.ndarray, faces: np.ndarray, owners: np.ndarray, cell: float
+) -> int:
+    """The triangles that survive clustering on ``cell`` metres without being restored: a lower
+    bound of :func:`cluster`'s faces, at a tenth of its cost (no reach is measured)."""
+    return int(np.count_nonzero(~vanishing(cell_spots(positions, owners, cell)[faces])))
+
+
 def cluster(
     positions: np.ndarray,
     faces: np.ndarray,
@@ -166,16 +190,11 @@ def cluster(
     """The clustering of the mesh on a grid of ``cell`` metres (see the module doc); vanished
     triangles' segments are measured at points ``cell`` / 2 apart at most."""
     sample = cell / 2.0
-    grid = np.floor(positions / cell).astype(np.int64)
-    _, spot = unique_rows(np.column_stack([owners, grid]))
+    spot = cell_spots(positions, owners, cell)
     spots = int(spot.max()) + 1 if len(spot) else 0
     centre = _means(spot, positions, spots)
     corner = spot[faces]  # (m, 3) cell of each corner
-    vanished = (
-        (corner[:, 0] == corner[:, 1])
-        | (corner[:, 1] == corner[:, 2])
-        | (corner[:, 0] == corner[:, 2])
-    )
+    vanished = vanishing(corner)
     # Reach of every vanished triangle from the kept surface; one that reaches farther than
     # keep_beyond (a pole above a roof, an isolated small building) is kept as it was (restoring
     # only adds to the kept surface: the other values stay upper bounds).

@@ -53,7 +53,9 @@ Half the cap stays hard. The cells lie on a lattice (2^(1/8) apart, :data:`CELL_
 pass's predicted from the faces measured so far (:func:`next_step`: the cell that meets the
 target if faces fall as the slope measured, one step more), so the search is deterministic and
 takes fewer passes than doubling the cell did, and stops on a cell of 2^(k/8) rather than 2^k
-times the first (a finer cell, a smaller error, where the prediction holds). A proxy with
+times the first (a finer cell, a smaller error, where the prediction holds). A pass whose
+triangles exceed half the cap before any is restored (:func:`.cluster.clustered_faces`) is only
+counted, not clustered: its reach, most of a pass, could not make it acceptable. A proxy with
 more than ``proxy_max_triangles`` even on cells larger than its tile is not written (nor are its
 ancestors').
 
@@ -84,12 +86,13 @@ from ..model import Part, Texture, TileId
 from ..texel import face_texels, kept_face_texels, weighted_quantile
 from ..tiles import tile_size_deg
 from . import features, frames
-from .cluster import Clustered, cluster
+from .cluster import Clustered, cluster, clustered_faces
 from .glb import GlbPrimitive, read_primitives
 from .tree import rounding_slack
 
 PROXY_DIR = "tileset_proxies"
-PROXY_FORMAT = "vworld-lod-proxy 10"  # 10: parents held to a child; 9: texels 1/4 of the error
+# 11: passes over half the cap counted, not clustered; 10: parents held to a child
+PROXY_FORMAT = "vworld-lod-proxy 11"
 # Proxy atlas sides, pixels: the smallest chosen, and the fewest pixels a cell side gets at a
 # size below ``proxy_atlas_size`` (smaller cells would blur texture into colour).
 ATLAS_FLOOR_PX = 64
@@ -632,6 +635,14 @@ def coarsened(
     step, before = 0, None
     while True:
         cell = first * 2.0 ** (step / CELL_STEPS)  # the lattice: the same cells on any machine
+        if cell <= limit:
+            # A pass that keeps more than the cap before any triangle is restored is passed over
+            # unmeasured (its reach is most of a pass): the next cell is predicted from that count.
+            kept = clustered_faces(merged.positions, merged.faces, merged.owners, cell)
+            if kept > cap:
+                measured.append((step, kept))
+                before, step = None, next_step(measured, cap)
+                continue
         done = cluster(
             merged.positions,
             merged.faces,
