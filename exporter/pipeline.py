@@ -18,6 +18,7 @@ from __future__ import annotations
 import dataclasses
 import gc
 import hashlib
+import itertools
 import json
 import os
 import shutil
@@ -287,14 +288,18 @@ def manifest_head(tile: TileId, config: Config, skipped: list[Skipped]) -> str:
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
-def previous_records(out_dir: Path) -> tuple[dict[tuple[str, str], Path], dict[Path, str]]:
-    """Record files a previous run left in ``out_dir``: their paths keyed by (source, id), and
-    each building folder's source (to say which building of another input a run replaces). A
-    tile whose summary matches its manifest (:func:`exporter.records.read_summary`) names its
-    buildings from there; a record file is read only for a folder it does not list. Only the
-    paths are kept: a building's summary item or record is read again when it comes up (memory
-    stays flat over a city)."""
-    found, sources = {}, {}
+def previous_records(
+    out_dir: Path, keep: Iterable[tuple[str, str]] = ()
+) -> tuple[dict[tuple[str, str], Path], dict[Path, str], dict[tuple[str, str], dict]]:
+    """Record files a previous run left in ``out_dir``: their paths keyed by (source, id), each
+    building folder's source (to say which building of another input a run replaces), and the
+    summary items of the buildings ``keep`` names (by (source, id)). A tile whose summary
+    matches its manifest (:func:`exporter.records.read_summary`) names its buildings from there;
+    a record file is read only for a folder it does not list. Only the paths are kept: a
+    building's summary item or record is read again when it comes up (memory stays flat over a
+    city)."""
+    found, sources, kept = {}, {}, {}
+    keep = set(keep)
     with os.scandir(out_dir) as tiles:
         tile_dirs = sorted(Path(e.path) for e in tiles if e.is_dir())
     for tile_dir in tile_dirs:
@@ -306,9 +311,13 @@ def previous_records(out_dir: Path) -> tuple[dict[tuple[str, str], Path], dict[P
             path = tile_dir / name / RECORD_NAME
             record = items.get(name) or (read_record(path) or {}).get("record")
             if isinstance(record, dict) and "source" in record and "id" in record:
-                found[(record["source"], record["id"])] = path
+                key = (record["source"], record["id"])
+                found[key] = path
                 sources[path.parent] = str(record["source"])
-    return found, sources
+                item = summary.item(name) if summary is not None and key in keep else None
+                if item is not None:
+                    kept[key] = item
+    return found, sources, kept
 
 
 @dataclass(frozen=True)
@@ -344,7 +353,7 @@ class TileSummaries:
                 folders = frozenset(found.items)
                 self.facts[tile_dir.name] = SummaryFacts(found.manifest_sha256, found.head, folders)
         summary = self._read[tile_dir]
-        return summary.items.get(record_path.parent.name) if summary is not None else None
+        return summary.item(record_path.parent.name) if summary is not None else None
 
     def written_ns(self, record_path: Path) -> int | None:
         """When the summary holding ``record_path``'s building was written (its ctime, ns;
@@ -460,27 +469,46 @@ def _process_batch(items: list[tuple]) -> list[EntryResult]:
 
 
 def _results(
-    work: Iterable[tuple | EntryResult], jobs: int, total: int = 0
+    work: Iterable[tuple | EntryResult],
+    jobs: int,
+    total: int = 0,
+    idle: Iterable[tuple | EntryResult] = (),
 ) -> Iterable[EntryResult]:
-    """Run ``process_entry`` over ``work`` (task tuples, or finished results passed through as
-    they come), in this process for one job, else in a process pool, in batches of up to
-    ``LOCAL_BATCH`` tasks, smaller when what is left of the ``total`` items would not give every
-    worker four more (so the workers finish together), with a bounded number of batches in
+    """Run ``process_entry`` over ``work`` then ``idle`` (task tuples, or finished results passed
+    through as they come), in this process for one job, else in a process pool, in batches of up
+    to ``LOCAL_BATCH`` tasks, smaller when what is left of the ``total`` items would not give
+    every worker four more (so the workers finish together), with a bounded number of batches in
     flight (memory stays bounded by the work in flight). ``work`` is consumed lazily, so the
-    caller's per-entry checks (input hashing) overlap the workers."""
+    caller's per-entry checks (input hashing) overlap the workers; ``idle`` (a re-run's unchanged
+    buildings: checks that mostly end in finished results) is also taken while every worker is
+    busy, its results passed through at once, its tasks kept for when ``work`` is done."""
+    idle = iter(idle)
     if jobs <= 1:
-        for item in work:
+        for item in itertools.chain(work, idle):
             yield item if isinstance(item, EntryResult) else process_entry(*item)
         return
     # Workers end with this process even when it is killed outright (exporter.workers).
     with ProcessPoolExecutor(
         max_workers=jobs, initializer=start_worker, initargs=(os.getpid(),)
     ) as pool:
-        pending = set()
+        pending: set = set()
         batch: list[tuple] = []
+        deferred: list[tuple] = []  # idle tasks met while the workers were busy
         size = taken = 0
-        try:
-            for item in work:
+
+        def while_busy() -> Iterator[EntryResult]:
+            while not any(future.done() for future in pending):
+                item = next(idle, None)
+                if item is None:
+                    return
+                if isinstance(item, EntryResult):
+                    yield item
+                else:
+                    deferred.append(item)
+
+        def feed(items: Iterable[tuple | EntryResult], fill: bool) -> Iterator[EntryResult]:
+            nonlocal batch, size, taken, pending
+            for item in items:
                 taken += 1
                 if isinstance(item, EntryResult):
                     yield item
@@ -493,9 +521,15 @@ def _results(
                 pending.add(pool.submit(_process_batch, batch))
                 batch = []
                 if len(pending) >= jobs * 2:
+                    if fill:
+                        yield from while_busy()
                     done, pending = wait(pending, return_when=FIRST_COMPLETED)
                     for future in done:
                         yield from future.result()
+
+        try:
+            yield from feed(work, True)
+            yield from feed(itertools.chain(deferred, idle), False)
             if batch:
                 pending.add(pool.submit(_process_batch, batch))
             while pending:
@@ -517,20 +551,21 @@ def _result_stream(
     scheduler: str | ClusterOptions | None,
     notify: Callable[[str], None] | None,
     workers: ProxyWorkers | None = None,
+    idle: Iterable[tuple | EntryResult] = (),
 ) -> Iterator[Iterable[EntryResult]]:
-    """The results of ``work``: from the local pool (``_results``), or, with ``scheduler`` (an
-    address, ``"local"`` or :class:`exporter.distributed.ClusterOptions`), from a Dask cluster
-    checked before any work starts (``exporter.distributed``), whose session the proxies'
-    ``workers`` share meanwhile."""
+    """The results of ``work`` and ``idle`` (:func:`_results`): from the local pool, or, with
+    ``scheduler`` (an address, ``"local"`` or :class:`exporter.distributed.ClusterOptions`), from
+    a Dask cluster checked before any work starts (``exporter.distributed``; ``idle`` after
+    ``work``), whose session the proxies' ``workers`` share meanwhile."""
     if scheduler is None:
-        yield _results(work, min(jobs, max(1, total)), total)
+        yield _results(work, min(jobs, max(1, total)), total, idle)
         return
     options = cluster_options(scheduler, jobs)
     assert options is not None
     with cluster_session(options, [str(f) for f in folders], str(out_dir), notify) as client:
         if workers is not None:
             workers.share(client)
-        yield cluster_results(client, work, total, options)
+        yield cluster_results(client, itertools.chain(work, idle), total, options)
 
 
 @contextmanager
@@ -573,9 +608,6 @@ def export_tiles(
     check_crs_option(scans, config.readers)
     out_dir.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(out_dir)
-    previous, folder_sources = previous_records(out_dir)
-    if force:
-        previous = {}
     summaries = TileSummaries()
     # Per tile, the buildings reused from its summary: their manifest entry is the old manifest's.
     from_summary: dict[TileId, set[str]] = {}
@@ -587,6 +619,12 @@ def export_tiles(
     # Ids must be unique in a run (also their folders, ignoring case): they name the output folders.
     for entry, unique in zip(entries, unique_ids(entry.id for entry in entries)):
         entry.id = unique
+    groups = entry_groups(scans)
+    previous, folder_sources, first_items = previous_records(
+        out_dir, [(group[0].source, group[0].id) for group in groups]
+    )
+    if force:
+        previous = {}
 
     # Unchanged buildings are recognised here, in the main process, entry by entry as the pool
     # takes work: hashing is cheap I/O (and skipped for files whose stat is unchanged), and a
@@ -605,11 +643,11 @@ def export_tiles(
             )
         return (entry, config, str(out_dir), digest, tuple(fingerprints))
 
-    Later = tuple[Entry, Path, dict, TileId, list[dict], str, int | None]
+    Confirm = tuple[Entry, Path, dict, TileId, list[dict], str, int | None]
 
-    def checked(entry: Entry) -> tuple[tuple | EntryResult | None, Later | None]:
-        """(what to yield now, None), or (None, what to confirm last) for a building its tile's
-        summary can reuse once its files are found intact."""
+    def checked(entry: Entry) -> tuple[tuple | EntryResult | None, Confirm | None]:
+        """(its task or earlier result, None), or (None, what :func:`files_intact` confirms) for
+        a building its tile's summary can reuse once its files are found intact."""
         before_path = previous.get((entry.source, entry.id))
         item = summaries.item(before_path) if before_path is not None else None
         before = read_record(before_path) if before_path and item is None else None
@@ -626,30 +664,40 @@ def export_tiles(
             before = read_record(before_path)  # the record decides (e.g. new fingerprints)
         return by_record(entry, before, fingerprints, digest), None
 
-    def work() -> Iterable[tuple | EntryResult]:
-        # Buildings their tile's summary can reuse are confirmed last (their files read back for
-        # their CRC-32, most of a re-run's checking): the workers start on what changed first,
-        # while this process reads the unchanged files. Groups (a folder's tile) whose first
-        # building is not reused are checked first, so one changed tile of many starts the
-        # workers after a check a group, not after every unchanged building before it.
-        groups = entry_groups(scans)
-        probes = [checked(group[0]) for group in groups]
-        later: list[Later] = []
-        for index in sorted(range(len(groups)), key=lambda i: probes[i][1] is not None):
-            for position, entry in enumerate(groups[index]):
-                now, last = probes[index] if position == 0 else checked(entry)
-                if last is not None:
-                    later.append(last)
-                else:
+    def probably_reused(entry: Entry) -> bool:
+        """Whether a group's first building (``entry``) looks unchanged from its summary item
+        (read with the record paths): its files are confirmed when its group's turn comes."""
+        item = first_items.get((entry.source, entry.id))
+        if item is None or (entry.source, entry.id) not in previous:
+            return False
+        fingerprints = input_fingerprints(entry.inputs, {f["path"]: f for f in item["inputs"]})
+        digest = input_hash(entry, config_hash, fingerprints)
+        folder = previous[(entry.source, entry.id)].parent
+        return summary_matches(item, digest, folder, fingerprints)
+
+    # Re-runs: the groups (a folder's tile) whose first building looks changed are the work; the
+    # others are idle work, checked while the workers are busy with the first (so one changed
+    # tile of many starts the workers after one look a tile, and the unchanged tiles' checks
+    # overlap its buildings). A first export is all work, in entry order.
+    reused_groups = [probably_reused(group[0]) for group in groups]
+
+    def run(reused: bool) -> Iterable[tuple | EntryResult]:
+        for group, probe in zip(groups, reused_groups):
+            if probe != reused:
+                continue
+            for entry in group:
+                now, confirm = checked(entry)
+                if confirm is None:
                     assert now is not None
                     yield now
-        for entry, before_path, item, tile, fingerprints, digest, written in later:
-            if files_intact(before_path.parent, item["files"], written):
-                from_summary.setdefault(tile, set()).add(item["folder"])
-                record = {key: item[key] for key in ("id", "folder", "source")}
-                yield EntryResult(tile=tile, record=record, reused=True)
-            else:  # damaged since: its record decides, as without a summary
-                yield by_record(entry, read_record(before_path), fingerprints, digest)
+                    continue
+                entry, before_path, item, tile, fingerprints, digest, written = confirm
+                if files_intact(before_path.parent, item["files"], written):
+                    from_summary.setdefault(tile, set()).add(item["folder"])
+                    record = {key: item[key] for key in ("id", "folder", "source")}
+                    yield EntryResult(tile=tile, record=record, reused=True)
+                else:  # damaged since: its record decides, as without a summary
+                    yield by_record(entry, read_record(before_path), fingerprints, digest)
 
     # Only each building's folder is kept: its record is on disk (written before its result came
     # back) and read again when the tile's manifest is made, so memory does not grow with records.
@@ -689,7 +737,9 @@ def export_tiles(
             summaries.facts.get(tile.name),
         )
 
-    stream = _result_stream(work(), jobs, total, folders, out_dir, scheduler, notify, workers)
+    stream = _result_stream(
+        run(False), jobs, total, folders, out_dir, scheduler, notify, workers, run(True)
+    )
     with stream as results, early:
         for result in results:
             done += 1
@@ -877,7 +927,7 @@ def write_tile_output(
         stamps.extend(found.inputs)
 
     for folder in folders:
-        item = summary.items.get(folder) if summary is not None and folder in from_summary else None
+        item = summary.item(folder) if summary is not None and folder in from_summary else None
         entry = old.get(folder) if item is not None else None
         if item and entry and entry[0].get("input_hash") == item["input_hash"]:
             stable = {**item, "inputs": stable_inputs(item["inputs"])}

@@ -60,18 +60,20 @@ def files_intact(folder: Path, files: list[dict], unchanged_before: int | None =
     since (its ctime earlier) is trusted on its size without being read back. Any write,
     truncation, rename onto it or ``utime`` sets a file's ctime to the present, which no call
     sets back, so only such a file is read (git's index trusts stat data the same way)."""
+    where = os.fspath(folder)
     for item in files:
-        path = os.path.join(
-            folder, str(item.get("file", ""))
-        )  # os, not pathlib: 3 files a building
+        path = os.path.join(where, str(item.get("file", "")))  # os, not pathlib: 3 a building
         try:
-            with open(path, "rb") as handle:
-                status = os.fstat(handle.fileno())
-                if status.st_size != item.get("bytes"):
-                    return False
-                if unchanged_before is not None and status.st_ctime_ns < unchanged_before:
-                    continue
-                if "crc32" in item and crc32(handle.read()) != item["crc32"]:
+            # one stat for a trusted file (no open: most of a re-run's files)
+            status = os.stat(path)
+            if status.st_size != item.get("bytes"):
+                return False
+            if unchanged_before is not None and status.st_ctime_ns < unchanged_before:
+                continue
+            if "crc32" in item:
+                with open(path, "rb") as handle:
+                    data = handle.read()
+                if len(data) != item.get("bytes") or crc32(data) != item["crc32"]:
                     return False
         except OSError:
             return False
@@ -186,12 +188,25 @@ def summary_entry(record: dict, inputs: list[dict], files: list[dict]) -> dict:
 class Summary:
     """A tile's summary as read (:func:`read_summary`)."""
 
-    items: dict[str, dict]  # by building folder, their inputs stamped with the summary's time
+    items: dict[str, dict]  # by building folder, as written (:meth:`item` stamps their inputs)
     head: str  # :func:`write_summary`'s ``head``
     manifest_sha256: str  # of the manifest it goes with
     # Its file's status-change time (ns): when it was last written (its utime, after its tile's
     # building files; :func:`files_intact`'s ``unchanged_before``).
     written_ns: int
+    stamp: int  # its modification time (ns): its inputs' hash time (:func:`stamped`)
+
+    def item(self, folder: str) -> dict | None:
+        """The item of the building in ``folder``, its ``inputs`` stamped with the summary's
+        time as :func:`stamped` does (on demand: a summary is read for a few of its items)."""
+        item = self.items.get(folder)
+        if item is None:
+            return None
+        try:
+            inputs = [{**i, STAMP: self.stamp, FROM_RECORD: True} for i in item["inputs"]]
+        except (KeyError, TypeError):  # damaged: its record file decides
+            return None
+        return {**item, "inputs": inputs}
 
 
 def write_summary(
@@ -218,10 +233,10 @@ def write_summary(
 
 
 def read_summary(tile_dir: str | Path, manifest: bytes | None = None) -> Summary | None:
-    """``tile_dir``'s summary (items by building folder, their ``inputs`` stamped with the
-    summary's time as :func:`stamped` does), or None when there is none, it cannot be read, or the
-    tile's manifest (``manifest``, its bytes when already read) is not the one it was written
-    with (an interrupted run, a manifest edited or replaced): then every record file is read."""
+    """``tile_dir``'s summary (items by building folder), or None when there is none, it cannot
+    be read, or the tile's manifest (``manifest``, its bytes when already read) is not the one it
+    was written with (an interrupted run, a manifest edited or replaced): then every record file
+    is read."""
     path = Path(tile_dir) / SUMMARY_NAME
     try:
         data = json.loads(path.read_bytes())
@@ -234,13 +249,15 @@ def read_summary(tile_dir: str | Path, manifest: bytes | None = None) -> Summary
         ):
             return None
         status = path.stat()
-        stamp = status.st_mtime_ns
         out = {}
         for item in data["buildings"]:
-            inputs = [{**i, STAMP: stamp, FROM_RECORD: True} for i in item["inputs"]]
-            out[str(item["folder"])] = {**item, "inputs": inputs}
+            out[str(item["folder"])] = item
         return Summary(
-            out, str(data["head_sha256"]), str(data["manifest_sha256"]), status.st_ctime_ns
+            out,
+            str(data["head_sha256"]),
+            str(data["manifest_sha256"]),
+            status.st_ctime_ns,
+            status.st_mtime_ns,
         )
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return None

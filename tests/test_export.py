@@ -618,3 +618,39 @@ def test_the_local_pool_takes_buildings_in_batches(monkeypatch):
     # shrinking to single buildings at the end (the workers finish together), not 40 tasks.
     assert sum(submitted) == 40 and submitted[0] == 5 and submitted[-1] == 1
     assert submitted == sorted(submitted, reverse=True) and len(submitted) < 20
+
+
+def test_idle_work_is_taken_while_every_worker_is_busy(monkeypatch):
+    """A re-run's unchanged buildings (idle work: checks ending in finished results) are taken
+    while the workers make the changed ones, not after them; a task met among them waits for
+    the work to be handed out, and runs too."""
+    import time
+
+    import exporter.pipeline as pipeline
+    from exporter.job import EntryResult
+
+    def slow(n):
+        time.sleep(0.05)
+        return EntryResult(tile=None, seconds={"n": n})
+
+    monkeypatch.setattr(pipeline, "process_entry", slow)
+    if multiprocessing.get_start_method() != "fork":
+        pytest.skip("the patched process_entry reaches the workers only when they are forked")
+    pulled: list[str] = []
+
+    def idle():
+        for n in range(100, 106):
+            pulled.append(f"idle {n}")
+            yield (n,) if n == 103 else EntryResult(tile=None, seconds={"n": n})
+
+    def work():
+        for n in range(24):
+            pulled.append(f"work {n}")
+            yield (n,)
+
+    order = [r.seconds["n"] for r in pipeline._results(work(), 2, 30, idle())]
+    assert sorted(order) == list(range(24)) + list(range(100, 106))
+    # every idle item was taken before the work ran out (the workers were busy), and its
+    # results came back before the last of the work's
+    assert pulled.index("idle 105") < pulled.index("work 23"), pulled
+    assert max(order.index(n) for n in (100, 101, 102, 104, 105)) < order.index(23), order

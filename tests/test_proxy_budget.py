@@ -18,7 +18,7 @@ from exporter.config import Config, TilesetOptions
 from exporter.model import TileId
 from exporter.pipeline import export_tiles
 from exporter.tileset import proxy, write_tileset
-from exporter.tileset.cluster import cluster, clustered_faces
+from exporter.tileset.cluster import cell_spots, cluster, clustered_faces
 from exporter.tileset.proxy import CellTextures, Merged, coarsened, next_step, triangle_target
 from tests import test_tileset
 from tests.test_proxies import proxy_files, quad, records  # noqa: F401 (the fixture)
@@ -84,15 +84,19 @@ def passes(monkeypatch) -> tuple[list[float], list[float], list[int]]:
     full: list[float] = []
     kept: list[int] = []
 
-    def count(positions, faces, owners, cell):
+    def spots(positions, owners, cell):
         tried.append(cell)
-        kept.append(clustered_faces(positions, faces, owners, cell))
+        return cell_spots(positions, owners, cell)
+
+    def count(spot, faces):
+        kept.append(clustered_faces(spot, faces))
         return kept[-1]
 
-    def recorded(positions, faces, uvs, owners, cell, keep_beyond, bins):
+    def recorded(positions, faces, uvs, owners, cell, keep_beyond, bins, spot=None):
         full.append(cell)
-        return cluster(positions, faces, uvs, owners, cell, keep_beyond, bins)
+        return cluster(positions, faces, uvs, owners, cell, keep_beyond, bins, spot)
 
+    monkeypatch.setattr(proxy, "cell_spots", spots)
     monkeypatch.setattr(proxy, "clustered_faces", count)
     monkeypatch.setattr(proxy, "cluster", recorded)
     return tried, full, kept

@@ -95,9 +95,9 @@ def test_what_changed_goes_to_the_workers_before_unchanged_files_are_read_back(
     inputs, tmp_path, monkeypatch
 ):
     """The changed tile comes last in entry order; its buildings are handed out first, so the
-    workers make them while this process reads the unchanged buildings' files back (CRC-32).
-    The first task goes out after one check per tile (its first building), not after every
-    unchanged building's check."""
+    workers make them while this process checks the unchanged buildings (their inputs, their
+    files read back). The first task goes out after one check per tile (its first building),
+    not after every unchanged building's check."""
     from exporter.samplegen import generate_tile
 
     out = tmp_path / "out"
@@ -108,13 +108,13 @@ def test_what_changed_goes_to_the_workers_before_unchanged_files_are_read_back(
     order: list[str] = []
     results, intact = pipeline._results, pipeline.files_intact
 
-    def recorded(work, jobs, total=0):
-        def seen():
-            for item in work:
+    def recorded(work, jobs, total=0, idle=()):
+        def seen(items):
+            for item in items:
                 order.append("reused" if isinstance(item, pipeline.EntryResult) else "task")
                 yield item
 
-        return results(seen(), jobs, total)
+        return results(seen(work), jobs, total, seen(idle))
 
     def checked(folder, files, unchanged_before=None):
         order.append("read back")
@@ -130,10 +130,11 @@ def test_what_changed_goes_to_the_workers_before_unchanged_files_are_read_back(
     monkeypatch.setattr(pipeline, "input_fingerprints", fingerprinted)
     run = export([inputs[0], changed], out)
     assert run.reused == 4 and run.buildings == 8
-    # one check a tile, then the changed tile's buildings, then the unchanged tile's checks
-    expected = ["check", "check", "task"] + ["check", "task"] * 3 + ["check"] * 3
-    assert order[:12] == expected, order  # before any file is read back
-    assert order[12:] == ["read back", "reused"] * 4, order
+    # a look at the unchanged tile's first building (the changed tile's, from another folder,
+    # has no earlier output to compare), then the changed tile's buildings (before any file is
+    # read back), then the unchanged tile's
+    expected = ["check"] + ["check", "task"] * 4 + ["check", "read back", "reused"] * 4
+    assert order == expected, order
 
 
 def test_files_unchanged_since_their_summary_are_not_read_back(inputs, tmp_path, monkeypatch):

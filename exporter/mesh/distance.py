@@ -135,8 +135,13 @@ class SurfaceIndex:
         faces: np.ndarray,
         samples_per_face: int = 2,
         tri: np.ndarray | None = None,
+        balanced: bool = True,
     ) -> None:
-        """``tri``: ``positions[faces]`` (m, 3, 3) when the caller has it."""
+        """``tri``: ``positions[faces]`` (m, 3, 3) when the caller has it. ``balanced``: the
+        probes' tree split at medians (scipy's default), else at sliding midpoints and not
+        compacted: built in ~0.4 of the time for about the same queries, but probes at equal
+        distance (a corner shared by several triangles) may come in another order, so an upper
+        bound may take another of those triangles."""
         self.tri = positions[faces] if tri is None else tri
         m = len(faces)
         if samples_per_face * m:
@@ -149,7 +154,8 @@ class SurfaceIndex:
         self.centres, self.radii = _surface.centres_radii(self.tri)
         probes = np.concatenate([self.tri.reshape(-1, 3), self.centres, samples])
         self.owner = np.concatenate([np.repeat(np.arange(m), 3), np.arange(m), sample_faces])
-        self.tree = cKDTree(probes) if m else None
+        options = {} if balanced else {"balanced_tree": False, "compact_nodes": False}
+        self.tree = cKDTree(probes, **options) if m else None
         self._centre_tree: cKDTree | None = None  # of the centres, made when first needed
         # Per-point answers (probes, upper bounds, nearest faces), kept for a surface whose
         # queries cost more than the keeping.

@@ -68,18 +68,26 @@ def value_kinds(values: Iterable[object]) -> dict:
     ``int``, ``other``), and the smallest and largest integer (``low``, ``high``; None without
     integers). Kinds of two sets of values merge (:func:`merge_kinds`) into the kinds of both, so
     a type can be decided over tiles from small per-tile summaries."""
-    kinds: set[str] = set()
+    values = values if isinstance(values, list) else list(values)
+    # Classified by type, not value by value: a parent proxy's table is tens of thousands of
+    # values, of a few types.
+    kind_of_type = {t: _kind_of_type(t) for t in {type(v) for v in values}}
+    kinds = set(kind_of_type.values())
     low = high = None
-    for v in values:
-        if isinstance(v, bool):
-            kinds.add("bool")
-        elif isinstance(v, int):
-            kinds.add("int")
-            low = v if low is None else min(low, v)
-            high = v if high is None else max(high, v)
-        else:
-            kinds.add("float" if isinstance(v, float) else "other")
+    if "int" in kinds:
+        integer = {t for t, kind in kind_of_type.items() if kind == "int"}
+        whole: list[int] = [v for v in values if type(v) in integer]  # type: ignore[misc]
+        low, high = min(whole), max(whole)
     return {"kinds": sorted(kinds), "low": low, "high": high}
+
+
+def _kind_of_type(kind: type) -> str:
+    """:func:`value_kinds`' kind of values of type ``kind`` (a bool is no int here)."""
+    if issubclass(kind, bool):
+        return "bool"
+    if issubclass(kind, int):
+        return "int"
+    return "float" if issubclass(kind, float) else "other"
 
 
 def merge_kinds(a: dict, b: dict) -> dict:
@@ -118,12 +126,14 @@ def property_kinds(records: list[dict[str, tuple[str, object]]]) -> dict[str, di
     """Per property id of ``records`` (:func:`building_values`): its ``name`` and the
     :func:`value_kinds` of its values (what :func:`properties_of` types it from; JSON)."""
     names: dict[str, str] = {}
-    values: dict[str, list] = {}
-    for record in records:
-        for pid, (name, value) in record.items():
-            names.setdefault(pid, name)
-            values.setdefault(pid, []).append(value)
-    return {pid: {"name": names[pid], **value_kinds(values[pid])} for pid in values}
+    for record in records:  # ids in first-seen order, each with its first name
+        if not names.keys() >= record.keys():
+            for pid, (name, _) in record.items():
+                names.setdefault(pid, name)
+    return {
+        pid: {"name": names[pid], **value_kinds([r[pid][1] for r in records if pid in r])}
+        for pid in names
+    }
 
 
 def merge_property_kinds(found: list[dict[str, dict]]) -> dict[str, dict]:

@@ -86,7 +86,7 @@ from ..model import Part, Texture, TileId
 from ..texel import face_texels, kept_face_texels, weighted_quantile
 from ..tiles import tile_size_deg
 from . import features, frames
-from .cluster import Clustered, cluster, clustered_faces
+from .cluster import Clustered, cell_spots, cluster, clustered_faces
 from .glb import GlbPrimitive, read_primitives
 from .tree import rounding_slack
 
@@ -635,10 +635,11 @@ def coarsened(
     step, before = 0, None
     while True:
         cell = first * 2.0 ** (step / CELL_STEPS)  # the lattice: the same cells on any machine
+        spot = cell_spots(merged.positions, merged.owners, cell)
         if cell <= limit:
             # A pass that keeps more than the cap before any triangle is restored is passed over
             # unmeasured (its reach is most of a pass): the next cell is predicted from that count.
-            kept = clustered_faces(merged.positions, merged.faces, merged.owners, cell)
+            kept = clustered_faces(spot, merged.faces)
             if kept > cap:
                 measured.append((step, kept))
                 before, step = None, next_step(measured, cap)
@@ -651,6 +652,7 @@ def coarsened(
             cell,
             max(budget * KEEP_RATIO, cell),
             bins,
+            spot,
         )
         faces = len(done.faces)
         if faces <= target or cell > limit:
