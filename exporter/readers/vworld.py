@@ -164,15 +164,25 @@ def _dat_files(folder: Path) -> list[Path]:
     return sorted(p for p in folder.iterdir() if p.suffix.lower() == ".dat" and p.is_file())
 
 
-def _find(folder: Path, raw_name: bytes) -> Path | None:
+def _plain_files(folder: Path) -> frozenset[str]:
+    """Names of ``folder``'s regular files (not links), from one listing."""
+    with os.scandir(folder) as found:
+        return frozenset(e.name for e in found if e.is_file(follow_symlinks=False))
+
+
+def _find(folder: Path, raw_name: bytes, plain: frozenset[str] = frozenset()) -> Path | None:
     """The file a raw VWorld string names: its exact bytes, its decoded text, then any case.
-    Raises OutsideInput when that file is a symlink leading out of ``folder``."""
+    Raises OutsideInput when that file is a symlink leading out of ``folder``. ``plain``:
+    :func:`_plain_files` of ``folder`` when the caller listed it (a scan: thousands of names),
+    such a name found without a stat."""
     if not raw_name:
         return None
     names = [os.fsdecode(raw_name), decode_text(raw_name)]
     for name in names:
         if "/" in name or "\\" in name or name in (".", ".."):
             continue
+        if name in plain:
+            return folder / name
         if os.path.isfile(os.path.join(folder, name)):
             return confined(name, folder)
     wanted = {n.lower() for n in names}
@@ -211,6 +221,7 @@ def scan(folder: str | Path, options: ReaderOptions | None = None) -> Scan:
     single = given.is_file()
     folder, dat_files = (given.parent, [given]) if single else (given, _dat_files(given))
     used_ids: set[str] = set()
+    plain = _plain_files(folder)
     for dat_path in dat_files:
         try:
             dat = parse_dat(_read(dat_path), str(dat_path))
@@ -232,9 +243,9 @@ def scan(folder: str | Path, options: ReaderOptions | None = None) -> Scan:
         for index, record in enumerate(dat.objects):
             refused = None
             try:
-                xdo_path = _find(folder, record.data_file)
+                xdo_path = _find(folder, record.data_file, plain)
                 if xdo_path is None and record.key:
-                    xdo_path = _find(folder, record.key + b".xdo")
+                    xdo_path = _find(folder, record.key + b".xdo", plain)
             except OutsideInput as error:
                 xdo_path, refused = None, f"object {index}: .xdo refused: {error}"
             if xdo_path is None and (refused or not record.data_file):
@@ -251,8 +262,9 @@ def scan(folder: str | Path, options: ReaderOptions | None = None) -> Scan:
             if xdo_path is None:
                 xdo_path = _expected(folder, record.data_file)
             building_id = _unique(decode_text(record.key).strip() or xdo_path.stem, used_ids)
-            inputs = [str(dat_path)] + ([str(xdo_path)] if xdo_path.is_file() else [])
-            inputs += [str(p) for p in _texture_files(folder, xdo_path, record)]
+            found = xdo_path.parent == folder and xdo_path.name in plain
+            inputs = [str(dat_path)] + ([str(xdo_path)] if found or xdo_path.is_file() else [])
+            inputs += [str(p) for p in _texture_files(folder, xdo_path, plain)]
             result.entries.append(
                 Entry(
                     format="vworld",
@@ -275,8 +287,9 @@ def _unique(name: str, used: set) -> str:
     return candidate
 
 
-def _texture_files(folder: Path, xdo_path: Path, record: DatObject) -> list[Path]:
-    """Texture files the model names (for hashing); nothing when the ``.xdo`` cannot be read yet."""
+def _texture_files(folder: Path, xdo_path: Path, plain: frozenset[str]) -> list[Path]:
+    """Texture files the model names (for hashing); nothing when the ``.xdo`` cannot be read yet.
+    ``plain``: :func:`_plain_files` of ``folder``."""
     try:
         xdo = parse_xdo(xdo_path.read_bytes(), str(xdo_path), None)
     except (OSError, ReadError):
@@ -284,7 +297,7 @@ def _texture_files(folder: Path, xdo_path: Path, record: DatObject) -> list[Path
     found = set()
     for mesh in xdo.meshes:
         try:
-            found.add(_find(folder, mesh.image_name))
+            found.add(_find(folder, mesh.image_name, plain))
         except OutsideInput:
             continue  # refused when the building is loaded (a problem)
     return sorted(p for p in found if p is not None)
