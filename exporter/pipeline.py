@@ -43,6 +43,7 @@ from .distributed import (
 )
 from .errors import InputError
 from .job import RECORD_NAME, STAGES, EntryResult, process_entry
+from .json_members import top_level_values
 from .manifest import MANIFEST_NAME, build_manifest, dumps, record_line
 from .model import Skipped, TileId
 from .names import printable, unique_ids
@@ -59,7 +60,6 @@ from .records import (
     stable_inputs,
     stamped,
     summary_entry,
-    top_level_values,
     write_record,
     write_summary,
 )

@@ -31,7 +31,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -78,49 +77,6 @@ def files_intact(folder: Path, files: list[dict], unchanged_before: int | None =
         except OSError:
             return False
     return True
-
-
-_DECODER = json.JSONDecoder()
-_SPACE = re.compile(r"[ \t\n\r]*")
-
-
-def _skip(text: str, at: int) -> int:
-    """The index of the first non-blank character of ``text`` from ``at``."""
-    match = _SPACE.match(text, at)
-    return match.end() if match else at
-
-
-def top_level_values(text: str) -> dict[str, tuple[object, str]]:
-    """The members of the JSON object ``text`` as (value, the value's exact text), by key (the
-    text lets a record be copied into the manifest without encoding it again). Raises
-    ValueError when ``text`` is not one JSON object."""
-    out: dict[str, tuple[object, str]] = {}
-    at = _skip(text, 0)
-    if text[at : at + 1] != "{":
-        raise ValueError("not a JSON object")
-    at = _skip(text, at + 1)
-    if text[at : at + 1] == "}":
-        at += 1
-    else:
-        while True:
-            key, at = _DECODER.raw_decode(text, at)
-            at = _skip(text, at)
-            if not isinstance(key, str) or text[at : at + 1] != ":":
-                raise ValueError(f"bad member at {at}")
-            start = _skip(text, at + 1)
-            value, end = _DECODER.raw_decode(text, start)
-            out[key] = (value, text[start:end])
-            at = _skip(text, end)
-            if text[at : at + 1] == ",":
-                at = _skip(text, at + 1)
-            elif text[at : at + 1] == "}":
-                at += 1
-                break
-            else:
-                raise ValueError(f"expected , or }} at {at}")
-    if text[at:].strip():
-        raise ValueError("extra data after the object")
-    return out
 
 
 def hash_time(inputs: list[dict]) -> int | None:

@@ -31,6 +31,7 @@ LAYERS: list[tuple[str, int, tuple[str, ...]]] = [
             "exporter.model",
             "exporter.config",
             "exporter.atomic",
+            "exporter.json_members",
             "exporter.geodesy",
             "exporter.tiles",
             "exporter.names",

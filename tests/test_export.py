@@ -544,7 +544,7 @@ def test_manifest_lines_copied_from_record_files_are_what_encoding_gives(tmp_pat
 
 
 def test_record_file_members_come_with_their_exact_text():
-    from exporter.records import top_level_values
+    from exporter.json_members import top_level_values
 
     text = '{"tile": {"level": 15}, "record": {"id": "B1", "x": [1.5, -0.0, 1e-07]}, "files": []}'
     found = top_level_values(text)
@@ -563,6 +563,21 @@ def test_record_file_members_come_with_their_exact_text():
     ]:
         with pytest.raises(ValueError):
             top_level_values(bad)
+
+
+def test_only_the_leading_members_are_read_until_the_keys_wanted():
+    """A proxy record's summary fields come before megabytes of per-building lists: reading
+    stops once every key wanted is read (the rest is not parsed, so not checked either)."""
+    from exporter.json_members import top_level_values
+
+    text = '{"hash": "h", "size": 3, "buildings": ["a", "b"], "values": [not json'
+    head = top_level_values(text, frozenset({"hash", "size"}))
+    assert {key: value for key, (value, _) in head.items()} == {"hash": "h", "size": 3}
+    with pytest.raises(ValueError):  # the whole of it is no JSON
+        top_level_values(text)
+    # a key that never comes: everything read (and checked)
+    with pytest.raises(ValueError):
+        top_level_values(text, frozenset({"hash", "triangles"}))
 
 
 def test_levels_report_their_error_budget_and_whether_they_shrank(tmp_path, small_tile):

@@ -82,6 +82,7 @@ from PIL import Image
 from ..atomic import write_bytes_if_changed, write_text_atomic
 from ..config import TilesetOptions
 from ..gltf_writer import glb_bytes
+from ..json_members import top_level_values
 from ..model import Part, Texture, TileId
 from ..texel import face_texels, kept_face_texels, weighted_quantile
 from ..tiles import tile_size_deg
@@ -743,12 +744,20 @@ def proxy_of(record: dict) -> Proxy:
     )
 
 
+# The fields of a proxy record that :func:`cached` reads (written first, :func:`build_proxy`).
+RECORD_HEAD = frozenset(
+    ["hash", "size", "geometric", "texel", "atlas_px", "low", "high", "triangles"]
+)
+
+
 def cached(folder: Path, name: str, key: str) -> tuple[bool, Proxy | None]:
     """(found, proxy): the recorded proxy of tile ``name`` when it was built from ``key`` (None
     when it was too large) and its file still has the size recorded; found is False when it must
     be built."""
     try:
-        data = json.loads((folder / f"{name}.json").read_text(encoding="utf-8"))
+        # A record's summary fields come before its per-building lists (megabytes at the top)
+        text = (folder / f"{name}.json").read_text(encoding="utf-8")
+        data = {k: v for k, (v, _) in top_level_values(text, RECORD_HEAD).items()}
         if data.get("hash") != key:
             return False, None
         if data.get("too_large"):
