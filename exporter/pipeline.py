@@ -20,6 +20,7 @@ import gc
 import hashlib
 import itertools
 import json
+import multiprocessing
 import os
 import shutil
 import time
@@ -32,7 +33,7 @@ from typing import Any
 
 from .atomic import remove_stale_temporaries, write_bytes_atomic
 from .completion import Overlap, tile_skips
-from .config import Config, check_optional_features
+from .config import Config, ReaderOptions, check_optional_features
 from .distributed import (
     ClusterOptions,
     ProxyWorkers,
@@ -404,6 +405,22 @@ def input_owner(scans: Iterable[Scan]) -> Owns:
     return owns
 
 
+def scan_folders(folders: list[str | Path], options: ReaderOptions, jobs: int) -> list[Scan]:
+    """:func:`exporter.readers.scan_folder` of each folder, in order: several folders in up to
+    ``jobs`` forked processes (a scan is Python parsing every model file's header: ~0.5 s for 16
+    VWorld tiles of 300 buildings, a re-run's fixed cost). The first folder in order that cannot
+    be used raises, as when they are scanned one after the other."""
+    if jobs <= 1 or len(folders) <= 1 or "fork" not in multiprocessing.get_all_start_methods():
+        return [scan_folder(folder, options) for folder in folders]
+    with ProcessPoolExecutor(
+        max_workers=min(jobs, len(folders)),
+        mp_context=multiprocessing.get_context("fork"),  # no re-import: starts in milliseconds
+        initializer=start_worker,
+        initargs=(os.getpid(),),
+    ) as pool:
+        return list(pool.map(scan_folder, folders, itertools.repeat(options)))
+
+
 def entry_groups(scans: list[Scan]) -> list[list[Entry]]:
     """The scans' entries (in order) in runs of one scan and one tile: a folder's tile, the unit
     a re-run finds changed or not (:func:`export_tiles` checks each run's first entry first)."""
@@ -604,7 +621,7 @@ def export_tiles(
     started = time.perf_counter()
     out_dir = Path(out)
     check_optional_features(config)  # a Config made in code skipped load_config's check
-    scans = [scan_folder(folder, config.readers) for folder in folders]  # all folders checked first
+    scans = scan_folders(folders, config.readers, jobs or os.cpu_count() or 1)  # all checked first
     check_crs_option(scans, config.readers)
     out_dir.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(out_dir)

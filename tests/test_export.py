@@ -669,3 +669,33 @@ def test_idle_work_is_taken_while_every_worker_is_busy(monkeypatch):
     # results came back before the last of the work's
     assert pulled.index("idle 105") < pulled.index("work 23"), pulled
     assert max(order.index(n) for n in (100, 101, 102, 104, 105)) < order.index(23), order
+
+
+def test_folders_scanned_in_processes_give_the_scans_of_one_process(tmp_path):
+    """Several folders are scanned in forked processes: the same scans, in order, and the first
+    unusable folder in order is the one named, as when they are scanned one after the other."""
+    import exporter.pipeline as pipeline
+    from exporter.config import ReaderOptions
+    from exporter.errors import InputError
+    from exporter.samplegen import generate_tile
+
+    if "fork" not in multiprocessing.get_all_start_methods():
+        pytest.skip("folders are scanned in processes only where they can be forked")
+    folders = [
+        generate_tile(tmp_path / f"t{n}", 3, seed=n, tile=TileId(15, 279418 + n, 116112))
+        for n in range(3)
+    ]
+    options = ReaderOptions()
+    one = pipeline.scan_folders(folders, options, 1)
+    several = pipeline.scan_folders(folders, options, 2)
+    assert [s.folder for s in several] == [str(f) for f in folders]
+    assert [[e.id for e in s.entries] for s in several] == [[e.id for e in s.entries] for s in one]
+    assert [[e.inputs for e in s.entries] for s in several] == [
+        [e.inputs for e in s.entries] for s in one
+    ]
+    missing = [tmp_path / "none1", folders[0], tmp_path / "none2"]
+    with pytest.raises(InputError) as one_error:
+        pipeline.scan_folders(missing, options, 1)
+    with pytest.raises(InputError) as several_error:
+        pipeline.scan_folders(missing, options, 2)
+    assert str(several_error.value) == str(one_error.value) and "none1" in str(one_error.value)
