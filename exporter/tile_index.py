@@ -35,6 +35,7 @@ is not complete yet.
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import os
@@ -54,6 +55,7 @@ VERSION = "1.1"
 INDEX_NAME = "tiles.json"
 
 
+@functools.lru_cache(maxsize=1024)  # a re-run asks once per building, of a few tile folders
 def tile_from_name(name: str) -> TileId | None:
     """The tile of a ``<level>_<idx>_<idy>`` folder name, or None when the name is not one."""
     parts = name.split("_")
