@@ -164,7 +164,7 @@ def input_hash(entry: Entry, config_hash: str, fingerprints: list[dict]) -> str:
     files hash as missing (the load reports them)."""
     digest = hashlib.sha256()
     digest.update(
-        f"vworld-lod {OUTPUT_VERSION}\n{config_hash}\n{entry.format}\n{entry.id}\n{entry.key!r}\n".encode()
+        f"vworld-lod {OUTPUT_VERSION}\n{config_hash}\n{entry.format}\n{entry.id}\n{entry.key_text}\n".encode()
     )
     for fingerprint in fingerprints:
         digest.update(
@@ -291,7 +291,7 @@ def manifest_head(tile: TileId, config: Config, skipped: list[Skipped]) -> str:
 
 def previous_records(
     out_dir: Path, keep: Iterable[tuple[str, str]] = ()
-) -> tuple[dict[tuple[str, str], Path], dict[Path, str], dict[tuple[str, str], dict]]:
+) -> tuple[dict[tuple[str, str], Path], dict[str, str], dict[tuple[str, str], dict]]:
     """Record files a previous run left in ``out_dir``: their paths keyed by (source, id), each
     building folder's source (to say which building of another input a run replaces), and the
     summary items of the buildings ``keep`` names (by (source, id)). A tile whose summary
@@ -314,7 +314,7 @@ def previous_records(
             if isinstance(record, dict) and "source" in record and "id" in record:
                 key = (record["source"], record["id"])
                 found[key] = path
-                sources[path.parent] = str(record["source"])
+                sources[os.path.join(tile_dir, name)] = str(record["source"])
                 item = summary.item(name) if summary is not None and key in keep else None
                 if item is not None:
                     kept[key] = item
@@ -764,7 +764,9 @@ def export_tiles(
                 stats.seconds[stage] += value
             if result.record is not None:
                 assert result.tile is not None  # a building written is filed in a tile
-                replaced = folder_sources.get(out_dir / result.tile.name / result.record["folder"])
+                replaced = folder_sources.get(
+                    os.path.join(out_dir, result.tile.name, result.record["folder"])
+                )
                 # The building's own earlier output is not another input's (no realpath needed).
                 if (
                     replaced is not None

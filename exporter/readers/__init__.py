@@ -21,6 +21,7 @@ and files mixed) into the list to scan.
 
 from __future__ import annotations
 
+import functools
 import importlib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -60,6 +61,13 @@ class Entry:
     tile: TileId | None
     inputs: list[str]
     key: Any = None
+
+    @functools.cached_property
+    def key_text(self) -> str:
+        """``repr(key)`` (part of the building's input hash): made once, in the scan's process
+        (:func:`scan_folder`), so a re-run's main process does not make it for every building.
+        A reader sets ``key`` during its scan only."""
+        return repr(self.key)
 
 
 @dataclass
@@ -184,6 +192,9 @@ def scan_folder(folder: str | Path, options: ReaderOptions | None = None) -> Sca
         except OSError as error:  # e.g. a file in it that cannot be opened
             where = error.filename or folder
             raise InputError(f"{where}: cannot be read ({error.strerror or error})") from None
+    for scan in scans:
+        for entry in scan.entries:
+            entry.key_text  # noqa: B018 (made here: scans may run in other processes)
     if len(scans) == 1:
         return scans[0]
     merged = Scan(folder=str(folder), format="+".join(names))
