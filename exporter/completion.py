@@ -15,6 +15,7 @@ every unknown entry is done (the last result then completes all tiles, as before
 from __future__ import annotations
 
 import os
+import threading
 from collections import Counter
 from collections.abc import Iterable
 from pathlib import Path
@@ -136,6 +137,9 @@ class Overlap:
         self.tracker = TileCompletion(known) if active else None
         self.leaves: LeafProxies | None = None
         self._records: dict[str, dict] = {}
+        self._ahead: threading.Thread | None = None
+        self._ahead_records: dict[str, dict] = {}
+        self._config, self._force, self._local = config, force, scheduler is None
         options = config.tileset
         if active and options.enabled and options.proxies:
             tiles = {tile for _, tile in known if tile is not None} | tiles_in(out_dir)
@@ -177,8 +181,49 @@ class Overlap:
         return found.proxy_key if found is not None else None
 
     def proxy_records(self) -> dict[str, dict]:
-        """The leaf proxies' records by task key (for ``write_tileset``), after the context."""
-        return self._records
+        """The records of the proxies built during the results (leaf proxies, and those built
+        ahead: :meth:`build_ahead`) by task key (``write_tileset``'s ``early``), after the
+        context."""
+        return {**self._ahead_records, **self._records}
+
+    @property
+    def can_build_ahead(self) -> bool:
+        """Whether :meth:`build_ahead` does anything: leaf proxies are made early on a local
+        pool and proxies may be taken from an earlier run (no ``--force``)."""
+        return self.leaves is not None and self._local and not self._force
+
+    def build_ahead(self, fresh: dict[str, tuple[int, dict]]) -> None:
+        """Start building, beside this process, the proxies the tileset would build from
+        ``OUT`` as it is now (:func:`exporter.tileset.prebuild_proxies`; ``fresh``: the index
+        facts of the tiles written so far), once the leaf proxies started so far are done.
+        ``export_tiles`` calls it on a re-run when every changed building is done but unchanged
+        ones are still being confirmed: a changed tile's ancestors are built meanwhile, on the
+        proxies' workers, instead of after every tile is confirmed. At the end the tileset takes
+        them by key (anything they are made from changed since: built again). A failure here only
+        leaves the work to the tileset."""
+        if not self.can_build_ahead or self._ahead is not None:
+            return
+        from .tileset import prebuild_proxies
+
+        leaves, options = self.leaves, self._config
+        assert leaves is not None
+
+        def run() -> None:
+            try:
+                early = leaves.records()
+                self._ahead_records = prebuild_proxies(
+                    leaves.out_dir,
+                    options.tileset,
+                    options.textures.jpeg_quality,
+                    fresh,
+                    self.workers,
+                    early,
+                )
+            except Exception:  # the tileset builds what is missing, and says why
+                self._ahead_records = {}
+
+        self._ahead = threading.Thread(target=run, name="proxies ahead", daemon=True)
+        self._ahead.start()
 
     def __enter__(self) -> Overlap:
         return self
@@ -187,6 +232,8 @@ class Overlap:
         try:
             if error is None and self.leaves is not None:
                 self._records = self.leaves.records()
+                if self._ahead is not None:
+                    self._ahead.join()
         except BaseException:
             self.workers.close()
             raise

@@ -33,6 +33,7 @@ import math
 import os
 import platform
 import signal
+import threading
 import time
 import uuid
 from collections.abc import Iterable, Iterator
@@ -526,6 +527,8 @@ class ProxyWorkers:
         self.folders = folders or []
         self.notify = notify
         self._stack = ExitStack()
+        # the proxies built ahead (exporter.completion.Overlap.speculate) share it from a thread
+        self._lock = threading.Lock()
         self._pool: ProcessPoolExecutor | None = None
         self._client: Any = None
         self._shared: Any = None
@@ -541,7 +544,8 @@ class ProxyWorkers:
             return client.gather(client.map(function, items, pure=False))
         if self.jobs == 1:
             return [function(item) for item in items]
-        self.remote += len(items)
+        with self._lock:
+            self.remote += len(items)
         return list(self._local_pool().map(function, items))
 
     def submit(self, function, item, out_dir: str) -> Any:
@@ -554,7 +558,8 @@ class ProxyWorkers:
             future: Future = Future()
             future.set_result(function(item))
             return future
-        self.remote += 1
+        with self._lock:
+            self.remote += 1
         return self._local_pool().submit(function, item)
 
     def share(self, client: Any) -> None:
@@ -573,15 +578,16 @@ class ProxyWorkers:
         return self._client
 
     def _local_pool(self) -> ProcessPoolExecutor:
-        if self._pool is None:
-            from .workers import start_worker
+        with self._lock:
+            if self._pool is None:
+                from .workers import start_worker
 
-            self._pool = self._stack.enter_context(
-                ProcessPoolExecutor(
-                    max_workers=self.jobs, initializer=start_worker, initargs=(os.getpid(),)
+                self._pool = self._stack.enter_context(
+                    ProcessPoolExecutor(
+                        max_workers=self.jobs, initializer=start_worker, initargs=(os.getpid(),)
+                    )
                 )
-            )
-        return self._pool
+            return self._pool
 
     def close(self) -> None:
         self._stack.close()

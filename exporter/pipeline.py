@@ -490,6 +490,7 @@ def _results(
     jobs: int,
     total: int = 0,
     idle: Iterable[tuple | EntryResult] = (),
+    after_work: Callable[[], None] | None = None,
 ) -> Iterable[EntryResult]:
     """Run ``process_entry`` over ``work`` then ``idle`` (task tuples, or finished results passed
     through as they come), in this process for one job, else in a process pool, in batches of up
@@ -498,10 +499,17 @@ def _results(
     flight (memory stays bounded by the work in flight). ``work`` is consumed lazily, so the
     caller's per-entry checks (input hashing) overlap the workers; ``idle`` (a re-run's unchanged
     buildings: checks that mostly end in finished results) is also taken while every worker is
-    busy, its results passed through at once, its tasks kept for when ``work`` is done."""
+    busy, its results passed through at once, its tasks kept for when ``work`` is done. With
+    ``after_work``, ``idle`` waits instead until every result of ``work`` is back, then
+    ``after_work()`` is called (it starts the proxies built ahead: the idle checks then run
+    beside them rather than beside the buildings)."""
     idle = iter(idle)
     if jobs <= 1:
-        for item in itertools.chain(work, idle):
+        for item in work:
+            yield item if isinstance(item, EntryResult) else process_entry(*item)
+        if after_work is not None:
+            after_work()
+        for item in idle:
             yield item if isinstance(item, EntryResult) else process_entry(*item)
         return
     # Workers end with this process even when it is killed outright (exporter.workers).
@@ -545,7 +553,16 @@ def _results(
                         yield from future.result()
 
         try:
-            yield from feed(work, True)
+            yield from feed(work, after_work is None)
+            if after_work is not None:
+                if batch:
+                    pending.add(pool.submit(_process_batch, batch))
+                    batch = []
+                while pending:
+                    done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                    for future in done:
+                        yield from future.result()
+                after_work()
             yield from feed(itertools.chain(deferred, idle), False)
             if batch:
                 pending.add(pool.submit(_process_batch, batch))
@@ -569,13 +586,14 @@ def _result_stream(
     notify: Callable[[str], None] | None,
     workers: ProxyWorkers | None = None,
     idle: Iterable[tuple | EntryResult] = (),
+    after_work: Callable[[], None] | None = None,
 ) -> Iterator[Iterable[EntryResult]]:
     """The results of ``work`` and ``idle`` (:func:`_results`): from the local pool, or, with
     ``scheduler`` (an address, ``"local"`` or :class:`exporter.distributed.ClusterOptions`), from
     a Dask cluster checked before any work starts (``exporter.distributed``; ``idle`` after
     ``work``), whose session the proxies' ``workers`` share meanwhile."""
     if scheduler is None:
-        yield _results(work, min(jobs, max(1, total)), total, idle)
+        yield _results(work, min(jobs, max(1, total)), total, idle, after_work)
         return
     options = cluster_options(scheduler, jobs)
     assert options is not None
@@ -754,8 +772,25 @@ def export_tiles(
             summaries.facts.get(tile.name),
         )
 
+    # A re-run of a few changed tiles among unchanged ones: once the changed buildings are done,
+    # their tiles' ancestor proxies are built ahead while the unchanged ones are confirmed (they
+    # would otherwise slow the buildings and then wait for them: docs/running-at-scale.md).
+    ahead = early.can_build_ahead and any(reused_groups) and not all(reused_groups)
+
+    def build_ahead() -> None:
+        early.build_ahead(fresh_facts(list(written.values()), config.globe))
+
     stream = _result_stream(
-        run(False), jobs, total, folders, out_dir, scheduler, notify, workers, run(True)
+        run(False),
+        jobs,
+        total,
+        folders,
+        out_dir,
+        scheduler,
+        notify,
+        workers,
+        run(True),
+        build_ahead if ahead else None,
     )
     with stream as results, early:
         for result in results:

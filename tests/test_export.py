@@ -699,3 +699,36 @@ def test_folders_scanned_in_processes_give_the_scans_of_one_process(tmp_path):
     with pytest.raises(InputError) as several_error:
         pipeline.scan_folders(missing, options, 2)
     assert str(several_error.value) == str(one_error.value) and "none1" in str(one_error.value)
+
+
+def test_with_after_work_idle_work_waits_for_every_result_of_the_work(monkeypatch):
+    """``after_work``: the idle items are taken only once every result of the work is back (the
+    buildings run alone), then ``after_work`` is called once, then the idle items run."""
+    import time
+
+    import exporter.pipeline as pipeline
+    from exporter.job import EntryResult
+
+    def slow(n):
+        time.sleep(0.02)
+        return EntryResult(tile=None, seconds={"n": n})
+
+    monkeypatch.setattr(pipeline, "process_entry", slow)
+    if multiprocessing.get_start_method() != "fork":
+        pytest.skip("the patched process_entry reaches the workers only when they are forked")
+    events: list[str] = []
+
+    def idle():
+        for n in range(100, 104):
+            events.append("idle")
+            yield (n,) if n == 102 else EntryResult(tile=None, seconds={"n": n})
+
+    def work():
+        for n in range(12):
+            yield (n,)
+
+    results = pipeline._results(work(), 2, 16, idle(), lambda: events.append("after"))
+    for result in results:
+        events.append("work" if result.seconds["n"] < 100 else "result")
+    assert events[:13] == ["work"] * 12 + ["after"], events
+    assert events.count("after") == 1 and sorted(events[13:]) == ["idle"] * 4 + ["result"] * 4

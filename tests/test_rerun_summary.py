@@ -108,13 +108,13 @@ def test_what_changed_goes_to_the_workers_before_unchanged_files_are_read_back(
     order: list[str] = []
     results, intact = pipeline._results, pipeline.files_intact
 
-    def recorded(work, jobs, total=0, idle=()):
+    def recorded(work, jobs, total=0, idle=(), after_work=None):
         def seen(items):
             for item in items:
                 order.append("reused" if isinstance(item, pipeline.EntryResult) else "task")
                 yield item
 
-        return results(seen(work), jobs, total, seen(idle))
+        return results(seen(work), jobs, total, seen(idle), after_work)
 
     def checked(folder, files, unchanged_before=None):
         order.append("read back")
@@ -135,6 +135,58 @@ def test_what_changed_goes_to_the_workers_before_unchanged_files_are_read_back(
     # read back), then the unchanged tile's
     expected = ["check"] + ["check", "task"] * 4 + ["check", "read back", "reused"] * 4
     assert order == expected, order
+
+
+def test_a_changed_tile_s_ancestors_are_built_while_the_unchanged_tiles_are_confirmed(
+    inputs, tmp_path, monkeypatch
+):
+    """With a pool: the changed tile's buildings first, alone (no check of the unchanged tile
+    beside them), then its ancestors' proxies are built ahead while the unchanged tile is
+    confirmed; the tileset takes them (counted as built) and the output is a fresh export's."""
+    import exporter.tileset as tileset
+    from exporter.samplegen import generate_tile
+
+    out = tmp_path / "out"
+    pipeline.export_tiles(inputs, out, Config(), jobs=2)
+    changed = generate_tile(
+        tmp_path / "changed" / TILES[1].name, 4, seed=9, tile=TILES[1], atlas_size=64
+    )
+    order: list[str] = []
+    results, prebuild = pipeline._results, tileset.prebuild_proxies
+
+    def recorded(work, jobs, total=0, idle=(), after_work=None):
+        def seen(items, kind):
+            for item in items:
+                order.append(kind)
+                yield item
+
+        def started():
+            order.append("ahead")
+            assert after_work is not None
+            after_work()
+
+        then = started if after_work is not None else None
+        return results(seen(work, "work"), jobs, total, seen(idle, "idle"), then)
+
+    ahead: list[dict] = []
+
+    def built(*args):
+        ahead.append(prebuild(*args))
+        return ahead[-1]
+
+    monkeypatch.setattr(pipeline, "_results", recorded)
+    monkeypatch.setattr(tileset, "prebuild_proxies", built)
+    run = pipeline.export_tiles([inputs[0], changed], out, Config(), jobs=2)
+    assert run.reused == 4 and run.buildings == 8
+    assert order == ["work"] * 4 + ["ahead"] + ["idle"] * 4, order
+    # the two tiles' parent (the root) was built ahead, from the changed tile's new leaf
+    assert len(ahead) == 1 and len(ahead[0]) == 1, ahead
+    assert run.tileset is not None and run.tileset.proxies_built == 2  # leaf and parent
+    fresh = tmp_path / "fresh"
+    order.clear()
+    pipeline.export_tiles([inputs[0], changed], fresh, Config(), jobs=2)
+    assert "ahead" not in order  # a first export: nothing to build ahead
+    assert tree(out) == tree(fresh)
 
 
 def test_files_unchanged_since_their_summary_are_not_read_back(inputs, tmp_path, monkeypatch):

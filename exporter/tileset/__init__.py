@@ -144,6 +144,31 @@ def write_tileset(
     return TilesetResult(path, count, proxies, built, left_out + problems, records, remote)
 
 
+def prebuild_proxies(
+    out_dir: str | Path,
+    options: TilesetOptions,
+    jpeg_quality: int,
+    fresh: dict[str, tuple[int, dict]] | None,
+    workers: Workers,
+    early: dict[str, dict],
+) -> dict[str, dict]:
+    """Build now the proxies :func:`write_tileset` would build from ``out_dir`` as it is (tiles
+    of earlier runs as they were), on ``workers``, writing nothing else and removing nothing;
+    returns their records by task key (``write_tileset``'s ``early``). A re-run builds a changed
+    tile's ancestors so while it still confirms its unchanged tiles (exporter.completion): at the
+    end they are taken by key, or built again if anything they are made from changed since."""
+    out_dir = Path(out_dir)
+    found = tile_summaries(out_dir, fresh, options, jpeg_quality, [])
+    shown = {s.tile: s for s in found if s.buildings}
+    tops = tile_tree(shown, lambda tile: [tileset_reference(shown[tile])])
+    built: dict[str, dict] = {}
+    if options.proxies and tops:
+        from .schedule import add_proxies
+
+        add_proxies(out_dir, tops, options, jpeg_quality, [], False, workers, early, built, False)
+    return built
+
+
 def typed_alike(
     out_dir: Path,
     shown: list[TileSummary],

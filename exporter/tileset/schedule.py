@@ -179,14 +179,17 @@ def add_proxies(
     force: bool = False,
     workers: Workers | None = None,
     early: dict[str, dict] | None = None,
+    built_records: dict[str, dict] | None = None,
+    remove: bool = True,
 ) -> tuple[int, int]:
     """Give every tile node of ``tops`` that can have one its proxy (content, error, corners);
     returns (proxies in the tree, proxies built this time); a proxy that cannot be built is
-    appended to ``problems``. Stale proxy files are removed. ``force``: build every proxy, none
-    taken from an earlier run (a rebuilt file whose bytes come out the same is left as it was).
-    ``early``: what :func:`build_proxy_record` returned for proxies this run built already, by
-    :attr:`ProxyTask.key` (:class:`LeafProxies`): a node whose task has one of these keys takes
-    that record as if built here, even with ``force``."""
+    appended to ``problems``. Stale proxy files are removed (unless ``remove`` is False).
+    ``force``: build every proxy, none taken from an earlier run (a rebuilt file whose bytes
+    come out the same is left as it was). ``early``: what :func:`build_proxy_record` returned for
+    proxies this run built already, by :attr:`ProxyTask.key` (:class:`LeafProxies`, proxies
+    built ahead): a node whose task has one of these keys takes that record as if built here,
+    even with ``force``. ``built_records``: gets the record of every proxy built here, by key."""
     folder = out_dir / PROXY_DIR
     kept: set[str] = set()
     placed = built = 0
@@ -221,14 +224,18 @@ def add_proxies(
         tasks = [task for _, task, record in todo if record is None]
         records = iter(workers.map(build_proxy_record, tasks, str(out_dir)))
         built += len(todo)
-        for node, _, record in todo:
-            record = record if record is not None else next(records)
+        for node, task, record in todo:
+            if record is None:
+                record = next(records)
+                if built_records is not None and task is not None:
+                    built_records[task.key] = record
             if "problem" in record:
                 problems.append(record["problem"])
             elif not record.get("too_large"):
                 _place(node, proxy_of(record))
                 placed += 1
-    remove_stale(folder, kept)
+    if remove:
+        remove_stale(folder, kept)
     return placed, built
 
 
@@ -323,4 +330,4 @@ class LeafProxies:
     def records(self) -> dict[str, dict]:
         """What each started proxy's :func:`build_proxy_record` returned, by task key (waits for
         them)."""
-        return {key: future.result() for key, future in self._started}
+        return {key: future.result() for key, future in list(self._started)}  # those started
