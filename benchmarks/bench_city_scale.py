@@ -168,7 +168,13 @@ def main() -> None:
     sizes = [int(s) for s in args.sizes.split(",")]
     work = Path(args.workdir or tempfile.mkdtemp(prefix="vworld-lod-city-"))
     print(f"work folder: {work}; {args.buildings} buildings a tile, {args.atlas}px atlases")
-    everything = make_tiles(work, block(max(sizes)), args.buildings, args.atlas)
+    make_tiles(work, block(max(sizes)), args.buildings, args.atlas)
+
+    def square(count: int) -> list[Path]:
+        # block(n) lies inside block(max): every size is a square block from FIRST (the first n
+        # of the largest block would be a strip, and its last tile not block(n)'s)
+        return [work / "in" / tile.name for tile in block(count)]
+
     header = (
         f"{'code':14} {'tiles':>5} {'bldgs':>7} {'work s':>8} {'tail s':>7} {'tail%':>6} "
         f"{'tail/tile':>8} {'main MB':>7} {'wrkr MB':>7} {'built':>5} {'onwkr':>5} {'cpu s':>7}"
@@ -177,7 +183,7 @@ def main() -> None:
     results: dict[tuple[str, int], dict] = {}
     codes = [("this", REPO)] + ([("baseline", Path(args.baseline))] if args.baseline else [])
     for count in sizes:
-        folders = everything[: len(block(count))]
+        folders = square(count)
         for name, code in codes:
             if name == "baseline" and count > args.baseline_max:
                 continue
@@ -189,7 +195,7 @@ def main() -> None:
     if not args.no_dask:
         count = 4 if 4 in sizes else min(sizes)
         out = fresh(work / "out_dask")
-        dask = run_export(everything[:count], out, args.jobs, scheduler="local")
+        dask = run_export(square(count), out, args.jobs, scheduler="local")
         pool = work / f"out_this_{count}"
         same = all(
             (out / p.relative_to(pool)).read_bytes() == p.read_bytes()
@@ -211,7 +217,7 @@ def main() -> None:
         out = work / f"out_{name}_{count}"
         if (name, count) in results:  # nothing changed: every tile recognised as it is
             first = results[(name, count)]["seconds"]
-            unchanged = run_export(everything[:count], out, args.jobs, code=code)
+            unchanged = run_export(square(count), out, args.jobs, code=code)
             lines.append(
                 f"{name}: unchanged re-run of {count} tiles {unchanged['seconds']:.2f} s, "
                 f"first export {first:.2f} s: {unchanged['seconds'] / first:.3f}x"
@@ -224,7 +230,7 @@ def main() -> None:
         generate_tile(
             folder, args.buildings, seed=1000 + repeat, tile=changed, atlas_size=args.atlas
         )
-        folders = everything[: count - 1] + [folder]
+        folders = square(count)[:-1] + [folder]
         os.sync()
         for name, code in codes:
             out = work / f"out_{name}_{count}"
