@@ -29,6 +29,7 @@ from .model import Skipped, TileId
 from .readers import Entry
 from .tile_index import tile_from_name
 from .tileset.external import read_tile_summary
+from .tileset.proxy import ProxyTask
 from .tileset.schedule import LeafProxies
 
 # Readers whose building is filed under the entry's tile whatever its geometry (exporter.job).
@@ -160,11 +161,13 @@ class Overlap:
             found = result.skipped.id
         return self.tracker.done(None if found is None else str(found), result.tile)
 
-    def start_proxy(self, tile: TileId) -> None:
-        """Start ``tile``'s leaf proxy (its manifest is written). An unchanged tile's summary
-        names its proxy's key: then its buildings are not read again to find it."""
+    def start_proxy(self, tile: TileId, task: ProxyTask | None = None) -> None:
+        """Start ``tile``'s leaf proxy (its manifest is written). ``task``: the one its tile
+        tileset was written with, if at hand; else an unchanged tile's summary names its key:
+        either way its buildings are not read again to find it."""
         if self.leaves is not None:
-            self.leaves.start(tile, self._recorded_key(tile))
+            known = task.key if task is not None else self._recorded_key(tile)
+            self.leaves.start(tile, known, task)
 
     def _recorded_key(self, tile: TileId) -> str | None:
         """The leaf proxy key ``tile``'s summary holds while it goes with the tile's manifest

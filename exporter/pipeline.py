@@ -758,7 +758,11 @@ def export_tiles(
     early = Overlap(entries, out_dir, config, force, jobs, scheduler, workers)
     written: dict[TileId, TileResult] = {}
 
-    def write_tile(tile: TileId, skips: list[Skipped]) -> TileResult:
+    # The leaf proxy task a tile written early made for its summary, handed to its start at once
+    # (its buildings not read again); popped there, so none is kept.
+    leaf_tasks: dict = {}
+
+    def write_tile(tile: TileId, skips: list[Skipped], tasks: dict | None = None) -> TileResult:
         # One call for a tile made early and one made at the end: the same manifest either way.
         return write_tile_output(
             out_dir,
@@ -770,6 +774,7 @@ def export_tiles(
             owns,
             from_summary.get(tile, set()),
             summaries.facts.get(tile.name),
+            tasks,
         )
 
     # A re-run of a few changed tiles among unchanged ones: once the changed buildings are done,
@@ -817,8 +822,9 @@ def export_tiles(
                 failed.append(result.skipped)
                 stats.skipped += 1
             for tile in early.completed(result, written):
-                written[tile] = write_tile(tile, tile_skips(tile, skipped, failed, order))
-                early.start_proxy(tile)
+                skips = tile_skips(tile, skipped, failed, order)
+                written[tile] = write_tile(tile, skips, leaf_tasks if early.leaves else None)
+                early.start_proxy(tile, leaf_tasks.pop(tile, None))
             if progress:
                 progress(done, total)
     for item in sorted(failed, key=lambda item: order.get(item.id or "", len(order))):
@@ -924,6 +930,7 @@ def write_tile_output(
     owns: Owns | None = None,
     from_summary: set[str] | frozenset[str] = frozenset(),
     facts: SummaryFacts | None = None,
+    leaf_tasks: dict | None = None,
 ) -> TileResult:
     """Read the records of the tile's buildings (``folders``, in result order), remove building
     folders of earlier runs that this run did not produce but that came from its inputs
@@ -1037,5 +1044,6 @@ def write_tile_output(
             text,
             config.tileset,
             config.textures.jpeg_quality,
+            leaf_tasks=leaf_tasks,
         )
     return TileResult(tile, path, len(records), len(skipped), reused)

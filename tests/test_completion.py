@@ -124,8 +124,8 @@ def test_a_tiles_leaf_proxy_starts_before_the_last_building_and_the_bytes_stay(
     events: list[tuple] = []
     start = schedule.LeafProxies.start
 
-    def recorded_start(self, tile, known_key=None):
-        started = start(self, tile, known_key)
+    def recorded_start(self, tile, known_key=None, task=None):
+        started = start(self, tile, known_key, task)
         events.append(("proxy", tile, started))
         return started
 

@@ -114,6 +114,34 @@ def test_one_changed_tile_rewrites_its_own_tileset_and_reads_no_other_building(
         assert (again / name).read_bytes() == (fresh / name).read_bytes(), name
 
 
+def test_a_changed_tile_s_buildings_are_read_once_for_its_tileset_and_its_leaf_proxy(
+    city, tmp_path, monkeypatch
+):
+    """With a pool the changed tile's leaf proxy starts as soon as its tileset is written, with
+    the task made for its summary's key: each of its building records is read once, not again
+    for the proxy."""
+    from exporter.tileset import tree
+
+    out, folders = city
+    again = tmp_path / "out"
+    shutil.copytree(out, again)
+    changed = make_inputs(tmp_path / "in", 3, seeds=(7, 2))
+    shutil.rmtree(changed[1])
+    shutil.copytree(folders[1], changed[1])
+    read: list[str] = []
+    real = tree.read_chain
+
+    def counted(out_dir, tile, record, left_out):
+        read.append(f"{tile.name}/{record['folder']}")
+        return real(out_dir, tile, record, left_out)
+
+    monkeypatch.setattr(tree, "read_chain", counted)
+    run = export_tiles([changed[0], folders[1]], again, Config(), jobs=2)
+    assert run.tileset is not None and run.tileset.proxies_built >= 2
+    assert read and all(name.startswith(TILES[0].name) for name in read)
+    assert sorted(read) == sorted(set(read)), read  # each once
+
+
 def set_attribute(out: Path, tile: TileId, value) -> None:
     """Give every building of ``tile``'s manifest the attribute ``floors`` = ``value`` (removed
     when None)."""

@@ -28,7 +28,7 @@ from ..manifest import MANIFEST_NAME
 from ..model import TileId
 from ..tile_index import build_index
 from .metadata import CLASS, properties_digest
-from .proxy import PROXY_FORMAT
+from .proxy import PROXY_FORMAT, ProxyTask
 from .schedule import leaf_task_of
 from .tree import TileSummary, tile_chains
 from .write import TILESET_NAME, tile_tileset_json, tileset_bytes
@@ -64,11 +64,14 @@ def write_tile_tileset(
     options: TilesetOptions,
     jpeg_quality: int,
     properties: dict[str, dict] | None = None,
+    leaf_tasks: dict[TileId, ProxyTask] | None = None,
 ) -> TileSummary:
     """Write ``tile``'s tileset from its manifest's building ``records`` (the manifest's bytes:
     ``manifest``) and its summary; returns the summary. ``properties``: the class to type its
     metadata with (default its own buildings', :mod:`.metadata`). A tile without a building to
-    show has no tileset (an earlier one is removed) and a summary saying so."""
+    show has no tileset (an earlier one is removed) and a summary saying so. ``leaf_tasks``: gets
+    the tile's leaf proxy task (whose key the summary holds), for a caller that starts it now
+    rather than read the tile's buildings again."""
     tile_dir = Path(out_dir) / tile.name
     path = tile_dir / TILESET_NAME
     left_out: list[str] = []
@@ -85,6 +88,8 @@ def write_tile_tileset(
         if options.proxies:
             task = leaf_task_of(Path(out_dir), tile, root.children, options, jpeg_quality)
             key = task.key if task is not None else None
+            if leaf_tasks is not None and task is not None:
+                leaf_tasks[tile] = task
         assert root.box is not None
         summary = TileSummary(
             tile,

@@ -307,16 +307,21 @@ class LeafProxies:
         self._inner = _above(tiles)  # tiles with a child tile: their proxy is not a leaf
         self._started: list[tuple[str, Future]] = []
 
-    def start(self, tile: TileId, known_key: str | None = None) -> bool:
+    def start(
+        self, tile: TileId, known_key: str | None = None, task: ProxyTask | None = None
+    ) -> bool:
         """Start ``tile``'s leaf proxy when it is one and must be built; True when started.
         ``known_key``: its task's key as the tile's summary recorded it (None: unknown); a proxy
-        built from it is taken without reading the tile's buildings (an unchanged tile)."""
+        built from it is taken without reading the tile's buildings (an unchanged tile).
+        ``task``: its task when the caller has it (made with its tile's tileset), else it is
+        made from the tile's manifest."""
         if tile in self._inner:
             return False
         folder = self.out_dir / PROXY_DIR
         if known_key is not None and not self.force and cached(folder, tile.name, known_key)[0]:
             return False
-        task = leaf_task(self.out_dir, tile, self.options, self.jpeg_quality)
+        if task is None:
+            task = leaf_task(self.out_dir, tile, self.options, self.jpeg_quality)
         if task is None:
             return False
         key = task.key
