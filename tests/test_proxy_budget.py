@@ -219,3 +219,21 @@ def test_proxies_coarsened_by_a_small_cap_stay_within_it_certified_and_the_same_
     assert (outs[2] / "tileset.json").read_bytes() == (outs[1] / "tileset.json").read_bytes()
     assert write_tileset(outs[1], options, force=True).proxies_built == 7
     assert proxy_files(outs[1]) == proxy_files(outs[2])  # and again the same bytes
+
+
+def test_each_segment_is_measured_once_with_the_same_values():
+    """Vanished triangles folding onto the same ordered pair of cells share one measure: the
+    values are those of measuring every triangle's segment on its own."""
+    from exporter.mesh.distance import SurfaceIndex
+    from exporter.tileset.cluster import segment_reach
+
+    rng = np.random.default_rng(3)
+    positions, faces = sheet((0.0, 0.0), 6.0, 0.5)
+    index = SurfaceIndex(positions, faces, samples_per_face=0, balanced=False)
+    centre = rng.uniform(-2.0, 8.0, (40, 3))
+    pairs = rng.integers(0, 40, (30, 2))
+    corner = np.column_stack([pairs[:, 0], pairs[:, 0], pairs[:, 1]])[rng.integers(0, 30, 500)]
+    corner[::3] = corner[::3][:, [0, 2, 2]]  # the other form: the second corner repeated
+    together = segment_reach(index, centre, corner, 0.7)
+    alone = np.concatenate([segment_reach(index, centre, row[None], 0.7) for row in corner])
+    np.testing.assert_array_equal(together, alone)

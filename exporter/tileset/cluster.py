@@ -114,8 +114,14 @@ def segment_reach(
     them equal), an upper bound in metres of the distance from its image segment to the surface
     of ``index``: upper bounds of the distance at points at most ``spacing`` apart along the
     segment, plus half that spacing (the distance is 1-Lipschitz)."""
-    a = centre[corner[:, 0]]
-    b = centre[np.where(corner[:, 0] == corner[:, 1], corner[:, 2], corner[:, 1])]
+    first = corner[:, 0]
+    second = np.where(corner[:, 0] == corner[:, 1], corner[:, 2], corner[:, 1])
+    # Many vanished triangles fold onto the same segment (ordered pair of cells: 8.9x on a
+    # level-13 proxy of 16 x 1,248 buildings): each is measured once, with the same arithmetic.
+    size = max(1, len(centre))
+    pairs, inverse = np.unique(first * size + second, return_inverse=True)
+    a = centre[pairs // size]
+    b = centre[pairs % size]
     length = np.linalg.norm(b - a, axis=1)
     steps = np.maximum(1, np.ceil(length / spacing).astype(np.int64))
     owner = np.repeat(np.arange(len(a)), steps + 1)
@@ -127,7 +133,7 @@ def segment_reach(
     distance = index.upper(points, memo=False)
     reach = np.full(len(a), -np.inf)
     np.maximum.at(reach, owner, distance)
-    return reach + length / steps / 2.0
+    return (reach + length / steps / 2.0)[inverse.reshape(-1)]
 
 
 def _reach(
