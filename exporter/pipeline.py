@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .atomic import remove_stale_temporaries, write_bytes_atomic
+from .atomic import end_writing, start_writing, write_bytes_atomic
 from .completion import Overlap, tile_skips
 from .config import Config, ReaderOptions, check_optional_features
 from .distributed import (
@@ -642,7 +642,7 @@ def export_tiles(
     scans = scan_folders(folders, config.readers, jobs or os.cpu_count() or 1)  # all checked first
     check_crs_option(scans, config.readers)
     out_dir.mkdir(parents=True, exist_ok=True)
-    remove_stale_temporaries(out_dir)
+    start_writing(out_dir)
     summaries = TileSummaries()
     # Per tile, the buildings reused from its summary: their manifest entry is the old manifest's.
     from_summary: dict[TileId, set[str]] = {}
@@ -861,6 +861,7 @@ def export_tiles(
             workers.close()
             proxies = stats.tileset.proxies_index if stats.tileset is not None else []
             write_tile_index(out_dir, stats.tiles, config.globe, proxies)
+    end_writing(out_dir)
     stats.wall_seconds = time.perf_counter() - started
     return stats
 

@@ -137,3 +137,25 @@ def test_an_unchanged_file_is_left_as_it_was_and_a_changed_one_replaced(tmp_path
     assert write_bytes_if_changed(target, b"longer level bytes") is True
     assert target.read_bytes() == b"longer level bytes"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["lod0.glb"]
+
+
+def test_a_run_after_one_that_ended_does_not_walk_for_temporaries(tmp_path, monkeypatch):
+    """The walk for temporaries (a city's OUT: thousands of folders) is done only when the last
+    run did not end (killed, failed, or an OUT of a version without the marker)."""
+    walked: list[str] = []
+    real = atomic.remove_stale_temporaries
+    monkeypatch.setattr(
+        atomic,
+        "remove_stale_temporaries",
+        lambda folder: walked.append(str(folder)) or real(folder),
+    )
+    leftover = atomic.temporary_name(tmp_path / "t" / "lod0.glb")
+    leftover.parent.mkdir()
+    leftover.write_bytes(b"partial")
+    assert atomic.start_writing(tmp_path) == 1 and walked  # no marker: walked, removed
+    atomic.end_writing(tmp_path)
+    walked.clear()
+    assert atomic.start_writing(tmp_path) == 0 and not walked  # ended: no walk
+    assert not (tmp_path / atomic.ENDED).exists()  # this run may be interrupted in turn
+    leftover.write_bytes(b"partial again")  # ... and is: no end_writing
+    assert atomic.start_writing(tmp_path) == 1 and walked and not leftover.exists()
