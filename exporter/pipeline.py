@@ -785,10 +785,13 @@ def export_tiles(
     def build_ahead() -> None:
         early.build_ahead(fresh_facts(list(written.values()), config.globe))
 
+    # Built ahead, the work's batches are sized on the work alone (they shrink as it ends, so the
+    # workers finish it together), not on every building of the run.
+    sized = sum(len(g) for g, r in zip(groups, reused_groups) if not r) if ahead else total
     stream = _result_stream(
         run(False),
         jobs,
-        total,
+        sized,
         folders,
         out_dir,
         scheduler,
