@@ -552,24 +552,24 @@ def _results(
                     for future in done:
                         yield from future.result()
 
-        try:
-            yield from feed(work, after_work is None)
-            if after_work is not None:
-                if batch:
-                    pending.add(pool.submit(_process_batch, batch))
-                    batch = []
-                while pending:
-                    done, pending = wait(pending, return_when=FIRST_COMPLETED)
-                    for future in done:
-                        yield from future.result()
-                after_work()
-            yield from feed(itertools.chain(deferred, idle), False)
+        def drain() -> Iterator[EntryResult]:
+            """The last batch out, then every result still pending."""
+            nonlocal batch, pending
             if batch:
                 pending.add(pool.submit(_process_batch, batch))
+                batch = []
             while pending:
                 done, pending = wait(pending, return_when=FIRST_COMPLETED)
                 for future in done:
                     yield from future.result()
+
+        try:
+            yield from feed(work, after_work is None)
+            if after_work is not None:
+                yield from drain()
+                after_work()
+            yield from feed(itertools.chain(deferred, idle), False)
+            yield from drain()
         except BaseException:
             pool.shutdown(wait=False, cancel_futures=True)
             raise
@@ -639,7 +639,8 @@ def export_tiles(
     started = time.perf_counter()
     out_dir = Path(out)
     check_optional_features(config)  # a Config made in code skipped load_config's check
-    scans = scan_folders(folders, config.readers, jobs or os.cpu_count() or 1)  # all checked first
+    jobs = max(1, jobs or os.cpu_count() or 1)
+    scans = scan_folders(folders, config.readers, jobs)  # all folders checked first
     check_crs_option(scans, config.readers)
     out_dir.mkdir(parents=True, exist_ok=True)
     start_writing(out_dir)
@@ -648,7 +649,6 @@ def export_tiles(
     from_summary: dict[TileId, set[str]] = {}
     owns = input_owner(scans)
     config_hash = config_fingerprint(config)
-    jobs = max(1, jobs or os.cpu_count() or 1)
 
     entries = [entry for scan in scans for entry in scan.entries]
     # Ids must be unique in a run (also their folders, ignoring case): they name the output folders.
@@ -678,6 +678,14 @@ def export_tiles(
             )
         return (entry, config, str(out_dir), digest, tuple(fingerprints))
 
+    def against(entry: Entry, known: dict | None) -> tuple[list[dict], str]:
+        """(input fingerprints, input hash) of ``entry``, its files' stat trusted against a
+        previous run's record or summary item ``known`` (:func:`input_fingerprints`)."""
+        fingerprints = input_fingerprints(
+            entry.inputs, {f["path"]: f for f in known["inputs"]} if known else {}
+        )
+        return fingerprints, input_hash(entry, config_hash, fingerprints)
+
     Confirm = tuple[Entry, Path, dict, TileId, list[dict], str, int | None]
 
     def checked(entry: Entry) -> tuple[tuple | EntryResult | None, Confirm | None]:
@@ -686,11 +694,7 @@ def export_tiles(
         before_path = previous.get((entry.source, entry.id))
         item = summaries.item(before_path) if before_path is not None else None
         before = read_record(before_path) if before_path and item is None else None
-        known = item or before
-        fingerprints = input_fingerprints(
-            entry.inputs, {f["path"]: f for f in known["inputs"]} if known else {}
-        )
-        digest = input_hash(entry, config_hash, fingerprints)
+        fingerprints, digest = against(entry, item or before)
         if item is not None and before_path is not None:
             tile = tile_from_name(before_path.parent.parent.name)
             if tile and summary_matches(item, digest, before_path.parent, fingerprints):
@@ -705,8 +709,7 @@ def export_tiles(
         item = first_items.get((entry.source, entry.id))
         if item is None or (entry.source, entry.id) not in previous:
             return False
-        fingerprints = input_fingerprints(entry.inputs, {f["path"]: f for f in item["inputs"]})
-        digest = input_hash(entry, config_hash, fingerprints)
+        fingerprints, digest = against(entry, item)
         folder = previous[(entry.source, entry.id)].parent
         return summary_matches(item, digest, folder, fingerprints)
 
