@@ -324,8 +324,8 @@ class LeafProxies:
             task = leaf_task(self.out_dir, tile, self.options, self.jpeg_quality)
         if task is None:
             return False
-        key = task.key
-        if not self.force and cached(folder, tile.name, key)[0]:
+        key = task.key  # a key other than the known one: its record looked up too
+        if key != known_key and not self.force and cached(folder, tile.name, key)[0]:
             return False
         self._started.append(
             (key, self.workers.submit(build_proxy_record, task, str(self.out_dir)))
