@@ -635,22 +635,31 @@ def test_the_local_pool_takes_buildings_in_batches(monkeypatch):
     assert submitted == sorted(submitted, reverse=True) and len(submitted) < 20
 
 
-def test_idle_work_is_taken_while_every_worker_is_busy(monkeypatch):
-    """A re-run's unchanged buildings (idle work: checks ending in finished results) are taken
-    while the workers make the changed ones, not after them; a task met among them waits for
-    the work to be handed out, and runs too."""
+def slow_workers(monkeypatch, seconds: float) -> None:
+    """Forked pool workers whose "export" of a task ``(n,)`` takes ``seconds`` and gives back
+    ``n`` (skips where workers are not forked: they would not see the patch)."""
     import time
 
     import exporter.pipeline as pipeline
     from exporter.job import EntryResult
 
     def slow(n):
-        time.sleep(0.05)
+        time.sleep(seconds)
         return EntryResult(tile=None, seconds={"n": n})
 
     monkeypatch.setattr(pipeline, "process_entry", slow)
     if multiprocessing.get_start_method() != "fork":
         pytest.skip("the patched process_entry reaches the workers only when they are forked")
+
+
+def test_idle_work_is_taken_while_every_worker_is_busy(monkeypatch):
+    """A re-run's unchanged buildings (idle work: checks ending in finished results) are taken
+    while the workers make the changed ones, not after them; a task met among them waits for
+    the work to be handed out, and runs too."""
+    import exporter.pipeline as pipeline
+    from exporter.job import EntryResult
+
+    slow_workers(monkeypatch, 0.05)
     pulled: list[str] = []
 
     def idle():
@@ -704,18 +713,10 @@ def test_folders_scanned_in_processes_give_the_scans_of_one_process(tmp_path):
 def test_with_after_work_idle_work_waits_for_every_result_of_the_work(monkeypatch):
     """``after_work``: the idle items are taken only once every result of the work is back (the
     buildings run alone), then ``after_work`` is called once, then the idle items run."""
-    import time
-
     import exporter.pipeline as pipeline
     from exporter.job import EntryResult
 
-    def slow(n):
-        time.sleep(0.02)
-        return EntryResult(tile=None, seconds={"n": n})
-
-    monkeypatch.setattr(pipeline, "process_entry", slow)
-    if multiprocessing.get_start_method() != "fork":
-        pytest.skip("the patched process_entry reaches the workers only when they are forked")
+    slow_workers(monkeypatch, 0.02)
     events: list[str] = []
 
     def idle():
