@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
+import gc
 import os
 import signal
 import sys
@@ -30,7 +31,12 @@ EXIT_CODE = 70  # EX_SOFTWARE: the worker's parent is gone
 
 
 def start_worker(parent_pid: int) -> None:
-    """Pool initializer: tie this worker's life to the process ``parent_pid`` (module doc)."""
+    """Pool initializer: tie this worker's life to the process ``parent_pid`` (module doc), and
+    keep its collector off what it inherited."""
+    # A forked worker inherits the exporting process's objects (entries, records: 10^5 and more).
+    # Frozen, the collector never walks them: each full collection a task's JSON parsing sets off
+    # would otherwise traverse them all and copy their pages (0.04 s of a 0.4 s proxy).
+    gc.freeze()
     if sys.platform.startswith("linux"):
         _kill_me_with_parent()
     if not parent_alive(parent_pid):  # died before the line above took effect
