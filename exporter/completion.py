@@ -213,14 +213,13 @@ class Overlap:
 
         def run() -> None:
             try:
-                early = leaves.records()
                 self._ahead_records = prebuild_proxies(
                     leaves.out_dir,
                     options.tileset,
                     options.textures.jpeg_quality,
                     fresh,
                     self.workers,
-                    early,
+                    leaves.records,  # waited for once the tree is made (its reading overlaps them)
                 )
             except Exception:  # the tileset builds what is missing, and says why
                 self._ahead_records = {}

@@ -13,6 +13,7 @@ Frames: :mod:`.frames`.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -150,22 +151,25 @@ def prebuild_proxies(
     jpeg_quality: int,
     fresh: dict[str, tuple[int, dict]] | None,
     workers: Workers,
-    early: dict[str, dict],
+    early: Callable[[], dict[str, dict]],
 ) -> dict[str, dict]:
     """Build now the proxies :func:`write_tileset` would build from ``out_dir`` as it is (tiles
     of earlier runs as they were), on ``workers``, writing nothing else and removing nothing;
-    returns their records by task key (``write_tileset``'s ``early``). A re-run builds a changed
-    tile's ancestors so while it still confirms its unchanged tiles (exporter.completion): at the
-    end they are taken by key, or built again if anything they are made from changed since."""
+    returns their records by task key (``write_tileset``'s ``early``, which ``early()`` gives
+    once the tree is made: the leaf proxies it waits for are built meanwhile). A re-run builds a
+    changed tile's ancestors so while it still confirms its unchanged tiles (exporter.completion):
+    at the end they are taken by key, or built again if anything they are made from changed
+    since."""
     out_dir = Path(out_dir)
     found = tile_summaries(out_dir, fresh, options, jpeg_quality, [])
     shown = {s.tile: s for s in found if s.buildings}
     tops = tile_tree(shown, lambda tile: [tileset_reference(shown[tile])])
     built: dict[str, dict] = {}
+    records = early()
     if options.proxies and tops:
         from .schedule import add_proxies
 
-        add_proxies(out_dir, tops, options, jpeg_quality, [], False, workers, early, built, False)
+        add_proxies(out_dir, tops, options, jpeg_quality, [], False, workers, records, built, False)
     return built
 
 
