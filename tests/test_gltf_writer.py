@@ -101,6 +101,23 @@ def test_vertex_normals_are_unit_and_isolated_vertices_point_up():
     assert np.allclose(normals[0], [0, 1, 0]) and np.allclose(normals[3], [0, 1, 0])
 
 
+def test_vertex_normals_sum_the_corners_as_add_at_does_bit_for_bit():
+    """The writer's normals are part of every level's bytes: the bincount form sums each vertex's
+    face normals in np.add.at's order (first corners, then second, then third)."""
+    from exporter.mesh.geometry import triangle_cross, unit_vectors, vertex_normals
+
+    rng = np.random.default_rng(7)
+    for vertices, faces in [(4, 0), (3, 1), (500, 2000), (20_000, 40_000)]:
+        positions = rng.normal(size=(vertices, 3)) * 1e3
+        triangles = rng.integers(0, vertices, (faces, 3))
+        summed = np.zeros((vertices, 3))
+        for k in range(3):
+            np.add.at(summed, triangles[:, k], triangle_cross(positions, triangles))
+        expected = unit_vectors(summed) if faces else np.zeros((vertices, 3))
+        found = vertex_normals(positions, triangles)
+        assert found.tobytes() == expected.tobytes()
+
+
 def test_empty_level_and_non_gltf_texture_are_refused():
     with pytest.raises(ValueError, match="no triangles"):
         glb_bytes([Part(positions=np.zeros((0, 3)), triangles=np.zeros((0, 3)))], "empty")
