@@ -55,6 +55,7 @@ from ..formats.vworld_binary import (
     serialise_dat,
     serialise_xdo,
     version_bytes,
+    xdo_image_names,
 )
 from ..geodesy import EARTH_RADIUS_M, east_up_north, sphere_ecef
 from ..mesh.geometry import cross_rows, row_norms, unit_vectors, vertex_normals
@@ -291,13 +292,13 @@ def _texture_files(folder: Path, xdo_path: Path, plain: frozenset[str]) -> list[
     """Texture files the model names (for hashing); nothing when the ``.xdo`` cannot be read yet.
     ``plain``: :func:`_plain_files` of ``folder``."""
     try:
-        xdo = parse_xdo(xdo_path.read_bytes(), str(xdo_path), None)
+        names = xdo_image_names(xdo_path.read_bytes(), str(xdo_path), None)
     except (OSError, ReadError):
         return []
     found = set()
-    for mesh in xdo.meshes:
+    for name in dict.fromkeys(names):  # meshes sharing an atlas name it once
         try:
-            found.add(_find(folder, mesh.image_name, plain))
+            found.add(_find(folder, name, plain))
         except OutsideInput:
             continue  # refused when the building is loaded (a problem)
     return sorted(p for p in found if p is not None)
