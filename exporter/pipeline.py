@@ -407,9 +407,9 @@ def input_owner(scans: Iterable[Scan]) -> Owns:
 
 def scan_folders(folders: list[str | Path], options: ReaderOptions, jobs: int) -> list[Scan]:
     """:func:`exporter.readers.scan_folder` of each folder, in order: several folders in up to
-    ``jobs`` forked processes (a scan is Python parsing every model file's header: ~0.5 s for 16
-    VWorld tiles of 300 buildings, a re-run's fixed cost). The first folder in order that cannot
-    be used raises, as when they are scanned one after the other."""
+    ``jobs`` forked processes (a scan parses every model's header or every document, a re-run's
+    fixed cost). The first folder in order that cannot be used raises, as when they are scanned
+    one after the other."""
     if jobs <= 1 or len(folders) <= 1 or "fork" not in multiprocessing.get_all_start_methods():
         return [scan_folder(folder, options) for folder in folders]
     with ProcessPoolExecutor(

@@ -228,14 +228,22 @@ def test_directory_without_permission(tmp_path, tile, capsys, monkeypatch):
     locked.mkdir()
     (locked / "a.city.json").write_text("{}")
     if IS_ROOT:  # root reads a chmod 000 folder: the denial is made where the folder is listed
-        real = Path.iterdir
+        real_iterdir, real_listdir = Path.iterdir, os.listdir
 
-        def denied(self):
-            if self == locked:
-                raise PermissionError(errno.EACCES, "Permission denied", str(self))
-            return real(self)
+        def check(folder) -> None:
+            if Path(folder) == locked:
+                raise PermissionError(errno.EACCES, "Permission denied", str(folder))
 
-        monkeypatch.setattr(Path, "iterdir", denied)
+        def iterdir(self):
+            check(self)
+            return real_iterdir(self)
+
+        def listdir(folder="."):
+            check(folder)
+            return real_listdir(folder)
+
+        monkeypatch.setattr(Path, "iterdir", iterdir)
+        monkeypatch.setattr(os, "listdir", listdir)
     else:
         locked.chmod(0)
     try:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import struct
 import tracemalloc
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -23,6 +24,7 @@ from exporter.formats.vworld_binary import (
     serialise_dat,
     serialise_xdo,
     version_bytes,
+    xdo_image_names,
     xdo_version_of,
     xml_error,
 )
@@ -244,6 +246,14 @@ class PerValueCursor(vworld_binary._Cursor):
         return count
 
 
+def cuts_and_flips(data: bytes) -> list[bytes]:
+    """Every cut of ``data`` (itself included) and ``data`` with each byte flipped in turn."""
+    cuts = [data[:end] for end in range(len(data) + 1)]
+    return cuts + [
+        data[:at] + bytes((data[at] ^ 0xA5,)) + data[at + 1 :] for at in range(len(data))
+    ]
+
+
 def outcome(parse, data: bytes, *args) -> str:
     try:
         return repr(parse(data, *args))
@@ -263,17 +273,59 @@ def test_inline_cursor_reads_and_refuses_as_the_per_value_one(monkeypatch):
             "t.dat",
         ),
     ]
-    variants = []
-    for parse, data, *args in files:
-        variants += [(parse, data[:end], args) for end in range(len(data) + 1)]
-        variants += [
-            (parse, data[:at] + bytes((data[at] ^ 0xA5,)) + data[at + 1 :], args)
-            for at in range(len(data))
-        ]
+    variants = [
+        (parse, damaged, args) for parse, data, *args in files for damaged in cuts_and_flips(data)
+    ]
     inline = [outcome(parse, data, *args) for parse, data, args in variants]
     monkeypatch.setattr(vworld_binary, "_Cursor", PerValueCursor)
     assert inline == [outcome(parse, data, *args) for parse, data, args in variants]
     assert sum(text.startswith("ReadError") for text in inline) > len(inline) // 2
+
+
+def parsed_names(data: bytes, path: str, version: int | None) -> list[bytes]:
+    return [m.image_name for m in parse_xdo(data, path, version).meshes]
+
+
+def walked_names(data: bytes, version: int | None) -> list[bytes] | None:
+    """The names walk alone (no parse_xdo fallback): None when no reading parses to the end."""
+    walk = vworld_binary._layout_image_names
+    return vworld_binary._first_reading(data, version, walk)[0]
+
+
+def name_cases() -> list[bytes]:
+    """Every .xdo of the repository, generated ones (both layouts, empty names with and without
+    a thumbnail, no meshes, an XML page, nothing), and every cut and flipped byte of three."""
+    root = Path(__file__).resolve().parents[1]
+    found = [p.read_bytes() for p in sorted(root.glob("samples/**/*.xdo"))]
+    found += [p.read_bytes() for p in sorted(root.glob("tests/data/**/*.xdo"))]
+    assert found, "the repository's sample .xdo files"
+    made = [
+        serialise_xdo(xdo(2, [mesh(14, name=b""), mesh(15)])),
+        serialise_xdo(xdo(1, [mesh(16, name=b"", thumbnail=None)])),
+        serialise_xdo(xdo(2, [mesh(17, name=b"", thumbnail=None), mesh(18, name=b"b.jpg")])),
+        serialise_xdo(xdo(2, [mesh(19, thumbnail=b"\xff\xd8jpeg\xff\xd9"), mesh(20, n=1)])),
+        serialise_xdo(xdo(1, [mesh(21, name="건물.jpg".encode("euc-kr"))])),
+        serialise_xdo(xdo(2, [])),
+        XML_PAGE,
+        b"",
+    ]
+    return found + made + [damaged for data in made[:3] for damaged in cuts_and_flips(data)]
+
+
+def test_image_names_walk_gives_parse_xdo_names():
+    """xdo_image_names gives parse_xdo's names or its very error, in every layout asked; the walk
+    alone (without the fallback) already gives the names of every file that parses."""
+    cases = name_cases()
+    parsed_some = 0
+    for data in cases:
+        for version in (None, 1, 2):
+            expected = outcome(parsed_names, data, "n.xdo", version)
+            assert outcome(xdo_image_names, data, "n.xdo", version) == expected
+            if data and xml_error(data) is None:
+                walked = walked_names(data, version)
+                assert repr(walked) == ("None" if expected.startswith("ReadError") else expected)
+                parsed_some += walked is not None
+    assert parsed_some > len(cases) // 4
 
 
 def test_huge_counts_fail_fast_before_allocating():

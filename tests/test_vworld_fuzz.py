@@ -27,6 +27,7 @@ from exporter.formats.vworld_binary import (
     serialise_dat,
     serialise_xdo,
     version_bytes,
+    xdo_image_names,
 )
 from exporter.model import Building, GeoPoint, Part, TileId
 from exporter.readers import vworld
@@ -132,6 +133,22 @@ def test_parse_xdo_only_raises_read_error_and_round_trips(data, version):
     if parsed is not None:
         assert version in (None, parsed.version)
         assert serialise_xdo(parsed) == data
+
+
+def _names_or_error(call) -> str:
+    try:
+        return repr(call())
+    except ReadError as error:
+        return f"ReadError: {error}"
+
+
+@FUZZ
+@given(data=_mutations(SEEDS_XDO), version=st.sampled_from([None, 1, 2]))
+def test_xdo_image_names_are_parse_xdo_names(data, version):
+    expected = _names_or_error(
+        lambda: [m.image_name for m in parse_xdo(data, "fuzz.xdo", version).meshes]
+    )
+    assert _names_or_error(lambda: xdo_image_names(data, "fuzz.xdo", version)) == expected
 
 
 @FUZZ

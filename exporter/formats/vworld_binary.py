@@ -388,6 +388,29 @@ def _parse_xdo_layout(
     return XdoFile(version, kind, object_id, key, bbox, altitude, meshes)
 
 
+def _first_reading(data: bytes, version: int | None, read) -> tuple:
+    """``(reading, None)``: what ``read(data, layout, thumbnail_when_empty, seen_empty)`` gives
+    for the first reading of :func:`parse_xdo`'s order that parses to the exact end, or
+    ``(None, (layout, _Malformed))`` of the reading that got furthest when none does."""
+    best: tuple[int, _Malformed] | None = None
+    for layout in [version] if version else [2, 1]:
+        for thumbnail_when_empty in (True, False):
+            seen_empty: list = []
+            try:
+                return read(data, layout, thumbnail_when_empty, seen_empty), None
+            except _Malformed as error:
+                if best is None or error.offset > best[1].offset:
+                    best = (layout, error)
+            if not seen_empty:
+                break  # no empty image_name met: the other thumbnail reading is the same reading
+    return None, best
+
+
+def _check_version(version: int | None) -> None:
+    if version is not None and version not in XDO_VERSIONS:
+        raise ValueError(f"version must be None or one of {XDO_VERSIONS}, got {version!r}")
+
+
 def parse_xdo(data: bytes, path: str, version: int | None = None) -> XdoFile:
     """Parse an ``.xdo`` building model; ``path`` only names the file in errors.
 
@@ -396,24 +419,80 @@ def parse_xdo(data: bytes, path: str, version: int | None = None) -> XdoFile:
     that parses to the exact end of the file is returned. Raises :class:`ReadError` otherwise,
     quoting the reading that got furthest.
     """
-    if version is not None and version not in XDO_VERSIONS:
-        raise ValueError(f"version must be None or one of {XDO_VERSIONS}, got {version!r}")
+    _check_version(version)
     data = _check_bytes(data, path, ".xdo model")
-    best: tuple[int, _Malformed] | None = None
-    for layout in [version] if version else [2, 1]:
-        for thumbnail_when_empty in (True, False):
-            seen_empty: list = []
-            try:
-                return _parse_xdo_layout(data, layout, thumbnail_when_empty, seen_empty)
-            except _Malformed as error:
-                if best is None or error.offset > best[1].offset:
-                    best = (layout, error)
-            if not seen_empty:
-                break  # no empty image_name met: the other thumbnail reading is the same reading
+    xdo, best = _first_reading(data, version, _parse_xdo_layout)
+    if xdo is not None:
+        return xdo
     assert best is not None  # every reading tried either returned or failed
     layout, furthest = best
     tried = f"3.0.0.{layout}" if version else f"3.0.0.1 or 3.0.0.2 (closest: 3.0.0.{layout})"
     raise ReadError(path, f"not a valid .xdo {tried}: {furthest.problem}")
+
+
+def _layout_image_names(
+    data: bytes, version: int, thumbnail_when_empty: bool, seen_empty: list
+) -> list[bytes]:
+    """The meshes' ``image_name`` in one reading, as :func:`_parse_xdo_layout` reads it: the same
+    fields and bounds checks, but the arrays and the thumbnail skipped by their byte counts. A
+    failed check raises :class:`_Malformed` with an empty problem (the caller then asks
+    :func:`parse_xdo` for its words)."""
+    end = len(data)
+    # type u8, object_id u32, key length u8; then the key, bbox 6 x f64, altitude f32
+    if end < 6:
+        raise _Malformed("", 0)
+    pos = 6 + data[5] + 48 + 4
+    mesh_count = 1
+    if version == 2:
+        if pos >= end:
+            raise _Malformed("", pos)
+        mesh_count = data[pos]
+        pos += 1
+        if mesh_count * _MESH_MIN_BYTES > end - pos:
+            raise _Malformed("", pos)
+    names = []
+    unpack = _U32.unpack_from
+    for _ in range(mesh_count):
+        if pos + 4 > end:
+            raise _Malformed("", pos)
+        pos += 4 + VERTEX_BYTES * unpack(data, pos)[0]
+        if pos + 4 > end:  # also a vertex array running past the end
+            raise _Malformed("", pos)
+        pos += 4 + 2 * unpack(data, pos)[0]
+        if pos + 6 > end:  # color 4 bytes, image_level u8, image_name length u8
+            raise _Malformed("", pos)
+        name_end = pos + 6 + data[pos + 5]
+        if name_end > end:
+            raise _Malformed("", pos)
+        name = data[pos + 6 : name_end]
+        pos = name_end
+        if not name:
+            seen_empty.append(True)
+        if name or thumbnail_when_empty:
+            if pos + 4 > end:
+                raise _Malformed("", pos)
+            pos += 4 + unpack(data, pos)[0]
+            if pos > end:
+                raise _Malformed("", pos)
+        names.append(name)
+    if pos != end:
+        raise _Malformed("", pos)
+    return names
+
+
+def xdo_image_names(data: bytes, path: str, version: int | None = None) -> list[bytes]:
+    """``[mesh.image_name for mesh in parse_xdo(data, path, version).meshes]`` (raw bytes, mesh
+    order), without building the vertex and index arrays: a scan wants only the texture names.
+
+    The readings are tried in :func:`parse_xdo`'s order with the same bounds; when none parses to
+    the end, :func:`parse_xdo` itself decides (and raises its :class:`ReadError`).
+    """
+    _check_version(version)
+    data = _check_bytes(data, path, ".xdo model")
+    names, _ = _first_reading(data, version, _layout_image_names)
+    if names is not None:
+        return names
+    return [mesh.image_name for mesh in parse_xdo(data, path, version).meshes]
 
 
 # --------------------------------------------------------------------------- writing

@@ -995,7 +995,7 @@ def is_citygml_file(path: Path) -> bool:
 
 def _candidate_files(folder: Path) -> list[Path]:
     # Names first: a tile folder of other data (hundreds of .xdo/.jpg) costs no stat or sort.
-    named = (p for p in folder.iterdir() if p.name.lower().endswith(SUFFIXES))
+    named = (folder / n for n in os.listdir(folder) if n.lower().endswith(SUFFIXES))
     return sorted(p for p in named if p.is_file() and is_citygml_file(p))
 
 

@@ -49,6 +49,7 @@ loading many buildings of one file do not re-parse it.
 from __future__ import annotations
 
 import json
+import os
 from collections import OrderedDict
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -571,7 +572,7 @@ def is_cityjson_file(path: Path) -> bool:
 
 def _candidate_files(folder: Path) -> list[Path]:
     # Names first: a tile folder of other data (hundreds of .xdo/.jpg) costs no stat or sort.
-    named = (p for p in folder.iterdir() if p.name.lower().endswith((".json", ".jsonl")))
+    named = (folder / n for n in os.listdir(folder) if n.lower().endswith((".json", ".jsonl")))
     return sorted(p for p in named if p.is_file() and is_cityjson_file(p))
 
 

@@ -55,6 +55,7 @@ from ..formats.vworld_binary import (
     serialise_dat,
     serialise_xdo,
     version_bytes,
+    xdo_image_names,
 )
 from ..geodesy import EARTH_RADIUS_M, east_up_north, sphere_ecef
 from ..mesh.geometry import cross_rows, row_norms, unit_vectors, vertex_normals
@@ -161,7 +162,9 @@ def detect(folder: str | Path) -> bool:
 
 
 def _dat_files(folder: Path) -> list[Path]:
-    return sorted(p for p in folder.iterdir() if p.suffix.lower() == ".dat" and p.is_file())
+    # Names first: a Path only for the few .dat among thousands of .xdo/.jpg.
+    named = (folder / n for n in os.listdir(folder) if n.lower().endswith(".dat"))
+    return sorted(p for p in named if p.suffix.lower() == ".dat" and p.is_file())
 
 
 def _plain_files(folder: Path) -> frozenset[str]:
@@ -190,6 +193,23 @@ def _find(folder: Path, raw_name: bytes, plain: frozenset[str] = frozenset()) ->
         if candidate.name.lower() in wanted and candidate.is_file():
             return confined(candidate.name, folder)
     return None
+
+
+def _child_prefix(folder: Path) -> str:
+    """What ``str(folder / name)`` puts before a plain file ``name``: ``str(folder)`` and a
+    slash, or nothing for ``.`` (pathlib drops it)."""
+    return str(folder / "_")[:-1]
+
+
+def _scan_find(folder: Path, raw_name: bytes, plain: frozenset[str], prefix: str) -> str | None:
+    """``str(_find(folder, raw_name, plain))``, or None: the common case, the exact bytes naming
+    a listed file, as text without a Path (a scan: thousands of names). ``prefix``:
+    :func:`_child_prefix` of ``folder``."""
+    name = os.fsdecode(raw_name)
+    if name in plain and "\\" not in name:  # a listed name is never "", ".", ".." nor has "/"
+        return prefix + name
+    found = _find(folder, raw_name, plain)
+    return None if found is None else str(found)
 
 
 def _expected(folder: Path, raw_name: bytes) -> Path:
@@ -221,7 +241,7 @@ def scan(folder: str | Path, options: ReaderOptions | None = None) -> Scan:
     single = given.is_file()
     folder, dat_files = (given.parent, [given]) if single else (given, _dat_files(given))
     used_ids: set[str] = set()
-    plain = _plain_files(folder)
+    plain, prefix = _plain_files(folder), _child_prefix(folder)
     for dat_path in dat_files:
         try:
             dat = parse_dat(_read(dat_path), str(dat_path))
@@ -240,15 +260,16 @@ def scan(folder: str | Path, options: ReaderOptions | None = None) -> Scan:
             result.notes.append(
                 f"{dat_path}: {len(dat.trailing)} bytes after the last object record ignored"
             )
+        dat_text = str(dat_path)
         for index, record in enumerate(dat.objects):
             refused = None
             try:
-                xdo_path = _find(folder, record.data_file, plain)
-                if xdo_path is None and record.key:
-                    xdo_path = _find(folder, record.key + b".xdo", plain)
+                xdo_file = _scan_find(folder, record.data_file, plain, prefix)
+                if xdo_file is None and record.key:
+                    xdo_file = _scan_find(folder, record.key + b".xdo", plain, prefix)
             except OutsideInput as error:
-                xdo_path, refused = None, f"object {index}: .xdo refused: {error}"
-            if xdo_path is None and (refused or not record.data_file):
+                xdo_file, refused = None, f"object {index}: .xdo refused: {error}"
+            if xdo_file is None and (refused or not record.data_file):
                 why = refused or f"object {index} names no .xdo file (empty data_file)"
                 result.skipped.append(
                     Skipped(
@@ -259,17 +280,18 @@ def scan(folder: str | Path, options: ReaderOptions | None = None) -> Scan:
                     )
                 )
                 continue
-            if xdo_path is None:
-                xdo_path = _expected(folder, record.data_file)
-            building_id = _unique(decode_text(record.key).strip() or xdo_path.stem, used_ids)
-            found = xdo_path.parent == folder and xdo_path.name in plain
-            inputs = [str(dat_path)] + ([str(xdo_path)] if found or xdo_path.is_file() else [])
-            inputs += [str(p) for p in _texture_files(folder, xdo_path, plain)]
+            if xdo_file is None:
+                xdo_file = str(_expected(folder, record.data_file))
+            name = decode_text(record.key).strip() or Path(xdo_file).stem
+            building_id = _unique(name, used_ids)
+            listed = xdo_file.startswith(prefix) and xdo_file[len(prefix) :] in plain
+            inputs = [dat_text] + ([xdo_file] if listed or Path(xdo_file).is_file() else [])
+            inputs += _texture_files(folder, xdo_file, plain, prefix)
             result.entries.append(
                 Entry(
                     format="vworld",
                     id=building_id,
-                    source=str(xdo_path),
+                    source=xdo_file,
                     tile=tile,
                     inputs=inputs,
                     key=(dat_path.name, index, record),
@@ -287,17 +309,19 @@ def _unique(name: str, used: set) -> str:
     return candidate
 
 
-def _texture_files(folder: Path, xdo_path: Path, plain: frozenset[str]) -> list[Path]:
-    """Texture files the model names (for hashing); nothing when the ``.xdo`` cannot be read yet.
-    ``plain``: :func:`_plain_files` of ``folder``."""
+def _texture_files(folder: Path, xdo_file: str, plain: frozenset[str], prefix: str) -> list[str]:
+    """Paths (text, sorted) of the texture files the model ``xdo_file`` names, for hashing;
+    nothing when the ``.xdo`` cannot be read yet. ``plain``, ``prefix``: :func:`_plain_files`
+    and :func:`_child_prefix` of ``folder``."""
     try:
-        xdo = parse_xdo(xdo_path.read_bytes(), str(xdo_path), None)
+        with open(xdo_file, "rb") as handle:
+            names = xdo_image_names(handle.read(), xdo_file, None)
     except (OSError, ReadError):
         return []
     found = set()
-    for mesh in xdo.meshes:
+    for name in dict.fromkeys(names):  # meshes sharing an atlas name it once
         try:
-            found.add(_find(folder, mesh.image_name, plain))
+            found.add(_scan_find(folder, name, plain, prefix))
         except OutsideInput:
             continue  # refused when the building is loaded (a problem)
     return sorted(p for p in found if p is not None)
