@@ -46,14 +46,21 @@ class Clustered:
     bound: float  # metres: symmetric Hausdorff bound between the input mesh and this one
 
 
+def column_range(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(``rows.min(axis=0)``, ``rows.max(axis=0)``) of (n, k) int ``rows``, n > 0, a column at a
+    time (numpy reduces a C-ordered array's axis 0 four times slower than a column)."""
+    columns = [rows[:, c] for c in range(rows.shape[1])]
+    return np.array([c.min() for c in columns]), np.array([c.max() for c in columns])
+
+
 def unique_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``np.unique(rows, axis=0, return_inverse=True)`` for (n, k) int64 ``rows``: the same
     (sorted rows, inverse (n,)), through one int64 key per row when the columns' ranges fit in 62
     bits (a 1-D sort instead of a row-wise one, several times faster)."""
     if len(rows) == 0:
         return rows, np.zeros(0, np.int64)
-    low = rows.min(axis=0)
-    bits = [int(v).bit_length() for v in rows.max(axis=0) - low]
+    low, high = column_range(rows)
+    bits = [int(v).bit_length() for v in high - low]
     if sum(bits) > 62:
         found, inverse = np.unique(rows, axis=0, return_inverse=True)
         return found, inverse.reshape(-1)
@@ -102,8 +109,9 @@ def spot_bins(spot: np.ndarray, uvs: np.ndarray, uv_bins: int) -> np.ndarray:
     uv_bin = np.floor(np.asarray(uvs, np.float64) * uv_bins).astype(np.int64)
     if len(uv_bin) == 0:
         return np.zeros(0, np.int64)
-    uv_bin -= uv_bin.min(axis=0)
-    span = uv_bin.max(axis=0) + 1
+    low, high = column_range(uv_bin)
+    uv_bin -= low
+    span = high - low + 1
     return (spot * span[0] + uv_bin[:, 0]) * span[1] + uv_bin[:, 1]
 
 
