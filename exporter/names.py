@@ -98,10 +98,13 @@ def unique_ids(ids: Iterable[str]) -> list[str]:
     for raw in ids:
         base = candidate = printable(raw)
         count = 0
-        while candidate in taken or safe_folder_name(candidate).casefold() in taken:
+        folder = safe_folder_name(candidate).casefold()  # once a candidate (a re-run's start)
+        while candidate in taken or folder in taken:
             count += 1
             candidate = f"{base}~{count}"
-        taken |= {candidate, safe_folder_name(candidate).casefold()}
+            folder = safe_folder_name(candidate).casefold()
+        taken.add(candidate)
+        taken.add(folder)
         out.append(candidate)
     return out
 

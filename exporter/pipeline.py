@@ -291,8 +291,9 @@ def manifest_head(tile: TileId, config: Config, skipped: list[Skipped]) -> str:
 
 def previous_records(
     out_dir: Path, keep: Iterable[tuple[str, str]] = ()
-) -> tuple[dict[tuple[str, str], Path], dict[str, str], dict[tuple[str, str], dict]]:
-    """Record files a previous run left in ``out_dir``: their paths keyed by (source, id), each
+) -> tuple[dict[tuple[str, str], str], dict[str, str], dict[tuple[str, str], dict]]:
+    """Record files a previous run left in ``out_dir``: their paths (text: a ``Path`` is made
+    when one comes up, not for every building at a re-run's start) keyed by (source, id), each
     building folder's source (to say which building of another input a run replaces), and the
     summary items of the buildings ``keep`` names (by (source, id)). A tile whose summary
     matches its manifest (:func:`exporter.records.read_summary`) names its buildings from there;
@@ -308,13 +309,15 @@ def previous_records(
         items = summary.items if summary is not None else {}
         with os.scandir(tile_dir) as names:
             folders = sorted(e.name for e in names if e.is_dir())
+        tile_text = str(tile_dir)
         for name in folders:
-            path = tile_dir / name / RECORD_NAME
-            record = items.get(name) or (read_record(path) or {}).get("record")
+            folder = os.path.join(tile_text, name)
+            path = os.path.join(folder, RECORD_NAME)
+            record = items.get(name) or (read_record(Path(path)) or {}).get("record")
             if isinstance(record, dict) and "source" in record and "id" in record:
                 key = (record["source"], record["id"])
                 found[key] = path
-                sources[os.path.join(tile_dir, name)] = str(record["source"])
+                sources[folder] = str(record["source"])
                 item = summary.item(name) if summary is not None and key in keep else None
                 if item is not None:
                     kept[key] = item
@@ -691,7 +694,8 @@ def export_tiles(
     def checked(entry: Entry) -> tuple[tuple | EntryResult | None, Confirm | None]:
         """(its task or earlier result, None), or (None, what :func:`files_intact` confirms) for
         a building its tile's summary can reuse once its files are found intact."""
-        before_path = previous.get((entry.source, entry.id))
+        known = previous.get((entry.source, entry.id))
+        before_path = Path(known) if known is not None else None
         item = summaries.item(before_path) if before_path is not None else None
         before = read_record(before_path) if before_path and item is None else None
         fingerprints, digest = against(entry, item or before)
@@ -710,7 +714,7 @@ def export_tiles(
         if item is None or (entry.source, entry.id) not in previous:
             return False
         fingerprints, digest = against(entry, item)
-        folder = previous[(entry.source, entry.id)].parent
+        folder = Path(previous[(entry.source, entry.id)]).parent
         return summary_matches(item, digest, folder, fingerprints)
 
     # Re-runs: the groups (a folder's tile) whose first building looks changed are the work; the
