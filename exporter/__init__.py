@@ -6,4 +6,4 @@ read (``readers``) -> simplify (``simplify``) -> textures (``textures``) -> plac
 one building at a time by ``job``, driven by ``pipeline`` (or ``distributed``) and ``cli``.
 """
 
-__version__ = "0.8.0"
+__version__ = "0.8.1"
